@@ -1,0 +1,46 @@
+#include "analysis/classification.h"
+
+#include <cassert>
+
+namespace servokit {
+
+SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index) {
+  if (flat) return SolverMethod::kAlgebraic;
+  switch (stability) {
+    case Stability::kUnstable:
+      return SolverMethod::kStableInversion;
+    case Stability::kCritical:
+      return SolverMethod::kNormalForm;
+    case Stability::kAsymptoticallyStable:
+    case Stability::kNone:
+      break;
+  }
+  return projected_index <= 1 ? SolverMethod::kBdf : SolverMethod::kRadau;
+}
+
+Classification Classify(const Model& model,
+                        Workspace& workspace,
+                        const ClassificationOptions& options) {
+  assert(workspace.Fits(model));
+  options.Validate(model);
+  Classification result;
+  result.operating_point = FindOperatingPoint(model, workspace, options.operating_point);
+  result.linearization = Linearize(model, workspace, result.operating_point);
+  result.decoupling = AnalyzeDecouplingMatrix(result.linearization, options);
+  result.structure = AnalyzeOutputStructure(result.linearization, options);
+  result.zero_dynamics = ComputeZeroDynamics(result.structure, options);
+  if (options.cross_check) {
+    ZeroDynamicsCrossCheck check;
+    check.invariant_zeros = InvariantZeros(result.linearization, options);
+    check.max_difference =
+        EigenvalueDistance(check.invariant_zeros, result.zero_dynamics.eigenvalues);
+    check.agrees = check.max_difference <= options.cross_check_tolerance;
+    result.cross_check = std::move(check);
+  }
+  result.flat = result.structure.internal_dynamics_order == 0;
+  result.recommended_solver = RecommendSolver(result.flat, result.zero_dynamics.stability,
+                                              result.structure.projected_index);
+  return result;
+}
+
+}  // namespace servokit

@@ -1,0 +1,49 @@
+#pragma once
+// What kind of servo-constraint problem a model is at an operating point: the answer of
+// `servokit analyze` (DESIGN.md), assembled from the analyses of this folder.
+#include <complex>
+#include <optional>
+#include <vector>
+
+#include "analysis/decoupling_matrix.h"
+#include "analysis/linearization.h"
+#include "analysis/operating_point.h"
+#include "analysis/options.h"
+#include "analysis/output_structure.h"
+#include "analysis/types.h"
+#include "analysis/zero_dynamics.h"
+#include "models/model.h"
+
+namespace servokit {
+
+/// The second route to the zero dynamics (invariant zeros by QZ) and how far it is from the first.
+struct ZeroDynamicsCrossCheck {
+  std::vector<std::complex<double>> invariant_zeros;
+  double max_difference = 0.0;  // EigenvalueDistance to ZeroDynamics::eigenvalues
+  bool agrees = false;          // max_difference <= ClassificationOptions::cross_check_tolerance
+};
+
+struct Classification {
+  OperatingPoint operating_point;
+  Linearization linearization;
+  DecouplingAnalysis decoupling;
+  OutputStructure structure;
+  ZeroDynamics zero_dynamics;
+  std::optional<ZeroDynamicsCrossCheck> cross_check;  // when options.cross_check
+  bool flat = false;                                  // no internal dynamics remain
+  SolverMethod recommended_solver = SolverMethod::kAuto;
+};
+
+/// Classifies the model at its operating point. Throws UsageError for bad options and
+/// NoSolution when there is no equilibrium or no well-posed servo-constraint problem there.
+Classification Classify(const Model& model,
+                        Workspace& workspace,
+                        const ClassificationOptions& options = {});
+
+/// The solver that fits a class (paper Sect. 5): flat -> algebraic inversion; unstable zero
+/// dynamics -> stable inversion; undamped (critical) -> the normal form with Dormand-Prince,
+/// which adds no numerical damping; asymptotically stable -> BDF when the projected DAE has
+/// index 1, Radau IIA (index up to 3) otherwise.
+SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index);
+
+}  // namespace servokit

@@ -1,0 +1,59 @@
+#include "analysis/decoupling_matrix.h"
+
+#include <string>
+
+#include "analysis/subspaces.h"
+#include "models/errors.h"
+
+namespace servokit {
+
+Eigen::MatrixXd DecouplingMatrix(const Eigen::MatrixXd& output_jacobian,
+                                 const Eigen::MatrixXd& input_accelerations) {
+  return output_jacobian * input_accelerations;
+}
+
+Eigen::MatrixXd TangentBasis(const Eigen::MatrixXd& output_jacobian, double rank_tolerance) {
+  return NullSpaceBasis(output_jacobian, rank_tolerance * output_jacobian.norm());
+}
+
+DecouplingAnalysis AnalyzeDecouplingMatrix(const Linearization& linearization,
+                                           const ClassificationOptions& options) {
+  const Eigen::MatrixXd& output_jacobian = linearization.output_jacobian;
+  const Eigen::MatrixXd& input_matrix = linearization.input_matrix;
+  const Eigen::Index outputs = output_jacobian.rows();
+
+  DecouplingAnalysis result;
+  result.tangent_basis = TangentBasis(output_jacobian, options.rank_tolerance);
+  if (result.tangent_basis.cols() != linearization.dof() - outputs) {
+    throw NoSolution("the outputs are not independent at the operating point: H = dh/dq has rank " +
+                     std::to_string(linearization.dof() - result.tangent_basis.cols()) + " < " +
+                     std::to_string(outputs));
+  }
+
+  const Eigen::MatrixXd input_accelerations = linearization.mass_inverse * input_matrix;
+  result.decoupling_matrix = DecouplingMatrix(output_jacobian, input_accelerations);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(result.decoupling_matrix);
+  result.singular_values = svd.singularValues();
+  // Scale: |H| |M^-1 B| bounds sigma_max(P); see ClassificationOptions::rank_tolerance.
+  result.rank_threshold =
+      options.rank_tolerance * output_jacobian.norm() * input_accelerations.norm();
+  result.rank = NumericalRank(result.singular_values, result.rank_threshold);
+  result.rank_deficiency = outputs - result.rank;
+
+  const double input_size = input_matrix.norm();
+  result.tangential_input_share =
+      input_size > 0.0 ? (result.tangent_basis.transpose() * input_matrix).norm() / input_size
+                       : 0.0;
+  if (result.rank == outputs) {
+    result.realization = result.tangential_input_share <= options.rank_tolerance
+                             ? Realization::kIdealOrthogonal
+                             : Realization::kNonIdealOrthogonal;
+  } else if (result.rank == 0) {
+    result.realization = Realization::kTangential;
+  } else {
+    result.realization = Realization::kMixed;
+  }
+  return result;
+}
+
+}  // namespace servokit

@@ -1,0 +1,43 @@
+#pragma once
+// The Jacobian linearization of M(q) q'' + f(q, q') = B(q) u, y = h(q) at an equilibrium:
+//   M dq'' + damping dq' + stiffness dq = B du,   dy = H dq,
+// with stiffness = df/dq - d(B u0)/dq and damping = df/dq' (M'(q) q'' vanishes at rest).
+#include <Eigen/Dense>
+
+#include "analysis/operating_point.h"
+#include "models/model.h"
+
+namespace servokit {
+
+struct Linearization {
+  Eigen::MatrixXd mass_matrix;      // M(q0), dof x dof, symmetric positive definite
+  Eigen::MatrixXd damping;          // df/dq_dot at (q0, 0), dof x dof
+  Eigen::MatrixXd stiffness;        // df/dq - sum_k dB/dq_k u0, dof x dof
+  Eigen::MatrixXd input_matrix;     // B(q0), dof x inputs
+  Eigen::MatrixXd output_jacobian;  // H(q0), outputs x dof (Eq. 4)
+  // M^-1, from its Cholesky factor, computed once: the dense analyses are small (a few dozen
+  // coordinates at most), where one inverse is cheaper than repeated blocked solves.
+  Eigen::MatrixXd mass_inverse;
+
+  Eigen::Index dof() const { return mass_matrix.rows(); }
+  Eigen::Index num_inputs() const { return input_matrix.cols(); }
+};
+
+/// Linearizes `model` at `point`. Throws NoSolution if a matrix is not finite there or M(q0)
+/// is not symmetric positive definite.
+Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point);
+
+/// The first-order form x = [dq; dq' / time_scale] of a linearization:
+/// x' = state_matrix x + input_matrix du, dy = output_matrix x. Scaling the velocities by the
+/// model's own time scale balances the blocks (positions ~ 1, accelerations ~ omega^2), so that
+/// rank decisions compare like with like; it is a similarity transform and changes no zero,
+/// no pole and no Markov parameter.
+struct StateSpace {
+  Eigen::MatrixXd state_matrix;   // 2 dof x 2 dof
+  Eigen::MatrixXd input_matrix;   // 2 dof x inputs
+  Eigen::MatrixXd output_matrix;  // outputs x 2 dof
+  double time_scale = 1.0;        // velocities are divided by this (1/s)
+};
+StateSpace ToStateSpace(const Linearization& linearization);
+
+}  // namespace servokit

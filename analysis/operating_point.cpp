@@ -1,0 +1,234 @@
+#include "analysis/operating_point.h"
+
+#include <kinsol/kinsol.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <cassert>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "analysis/sundials_support.h"
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// The equilibrium equations F(q, u) = [f(q,0) - B(q) u ; h(q) - y0] = 0 and their Jacobian.
+struct EquilibriumProblem {
+  const Model& model;
+  Workspace& workspace;
+  Eigen::VectorXd y0;
+  Eigen::VectorXd zero_velocity;
+
+  Eigen::Index dof() const { return static_cast<Eigen::Index>(model.dof()); }
+  Eigen::Index inputs() const { return static_cast<Eigen::Index>(model.num_inputs()); }
+
+  void Residual(const Eigen::VectorXd& unknowns, Eigen::Ref<Eigen::VectorXd> residual) {
+    const auto q = unknowns.head(dof());
+    const auto u = unknowns.tail(inputs());
+    Evaluate(model, workspace, q, zero_velocity,
+             Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput);
+    residual.head(dof()) = workspace.forces - workspace.input_matrix * u;
+    residual.tail(inputs()) = workspace.output - y0;
+  }
+
+  void Jacobian(const Eigen::VectorXd& unknowns, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+    const auto q = unknowns.head(dof());
+    const auto u = unknowns.tail(inputs());
+    Evaluate(model, workspace, q, zero_velocity,
+             Quantity::kForcesJacobians | Quantity::kInputMatrix |
+                 Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
+    jacobian.setZero();
+    jacobian.topLeftCorner(dof(), dof()) = workspace.forces_position_jacobian;
+    for (Eigen::Index k = 0; k < dof(); ++k) {
+      jacobian.col(k).head(dof()) -= workspace.input_matrix_derivatives[std::size_t(k)] * u;
+    }
+    jacobian.topRightCorner(dof(), inputs()) = -workspace.input_matrix;
+    jacobian.bottomLeftCorner(inputs(), dof()) = workspace.output_jacobian;
+  }
+};
+
+int KinsolResidual(N_Vector unknowns, N_Vector residual, void* user_data) {
+  auto& problem = *static_cast<EquilibriumProblem*>(user_data);
+  problem.Residual(AsEigen(unknowns), AsEigen(residual));
+  return AsEigen(residual).allFinite() ? 0 : 1;  // positive: recoverable, KINSOL backtracks
+}
+
+int KinsolJacobian(
+    N_Vector unknowns, N_Vector, SUNMatrix jacobian, void* user_data, N_Vector, N_Vector) {
+  auto& problem = *static_cast<EquilibriumProblem*>(user_data);
+  const Eigen::Index size = static_cast<Eigen::Index>(SUNDenseMatrix_Rows(jacobian));
+  Eigen::Map<Eigen::MatrixXd> view(SUNDenseMatrix_Data(jacobian), size, size);  // column-major
+  problem.Jacobian(AsEigen(unknowns), view);
+  return view.allFinite() ? 0 : -1;
+}
+
+// KINSOL prints its errors to stderr by default; keep the last one for our message instead.
+void KeepKinsolMessage(int, const char*, const char*, char* message, void* last_message) {
+  *static_cast<std::string*>(last_message) = message;
+}
+
+std::string FormatVector(const Eigen::VectorXd& values) {
+  std::ostringstream out;
+  out.precision(6);
+  out << "[";
+  for (Eigen::Index i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values(i);
+  out << "]";
+  return out.str();
+}
+
+// Scales each residual by the inverse of its Jacobian row's largest entry, so that a force
+// residual and an output residual are compared in units of q (documented in the options).
+Eigen::VectorXd ResidualScaling(const Eigen::MatrixXd& jacobian) {
+  Eigen::VectorXd scaling(jacobian.rows());
+  for (Eigen::Index i = 0; i < jacobian.rows(); ++i) {
+    const double row_size = jacobian.row(i).cwiseAbs().maxCoeff();
+    scaling(i) = row_size > 0.0 ? 1.0 / row_size : 1.0;
+  }
+  return scaling;
+}
+
+void RunKinsol(EquilibriumProblem& problem,
+               Eigen::VectorXd& unknowns,
+               const Eigen::VectorXd& scaling,
+               const OperatingPointOptions& options,
+               int& iterations) {
+  const Eigen::Index size = unknowns.size();
+  SundialsContext context;
+  NVectorPtr solution = MakeSerialVector(size, context);
+  NVectorPtr unknown_scale = MakeSerialVector(size, context);
+  NVectorPtr residual_scale = MakeSerialVector(size, context);
+  AsEigen(solution.get()) = unknowns;
+  N_VConst(1.0, unknown_scale.get());
+  AsEigen(residual_scale.get()) = scaling;
+  SUNMatrixPtr matrix(
+      SUNDenseMatrix(static_cast<sunindextype>(size), static_cast<sunindextype>(size), context));
+  CheckSundialsPointer(matrix.get(), "SUNDenseMatrix");
+  SUNLinearSolverPtr linear_solver(SUNLinSol_Dense(solution.get(), matrix.get(), context));
+  CheckSundialsPointer(linear_solver.get(), "SUNLinSol_Dense");
+
+  std::unique_ptr<void, void (*)(void*)> memory(KINCreate(context),
+                                                [](void* kinsol) { KINFree(&kinsol); });
+  CheckSundialsPointer(memory.get(), "KINCreate");
+  std::string last_message;
+  void* kinsol = memory.get();
+  const SundialsFlagNamer namer = KINGetReturnFlagName;
+  CheckSundialsCall(namer, KINSetErrHandlerFn(kinsol, KeepKinsolMessage, &last_message),
+                    "KINSetErrHandlerFn");
+  CheckSundialsCall(namer, KINInit(kinsol, KinsolResidual, solution.get()), "KINInit");
+  CheckSundialsCall(namer, KINSetUserData(kinsol, &problem), "KINSetUserData");
+  CheckSundialsCall(namer, KINSetLinearSolver(kinsol, linear_solver.get(), matrix.get()),
+                    "KINSetLinearSolver");
+  CheckSundialsCall(namer, KINSetJacFn(kinsol, KinsolJacobian), "KINSetJacFn");
+  // A fresh Jacobian every iteration: exact Newton, since these systems are tiny.
+  CheckSundialsCall(namer, KINSetMaxSetupCalls(kinsol, 1), "KINSetMaxSetupCalls");
+  CheckSundialsCall(namer, KINSetNumMaxIters(kinsol, options.max_iterations), "KINSetNumMaxIters");
+  CheckSundialsCall(namer, KINSetFuncNormTol(kinsol, options.residual_tolerance),
+                    "KINSetFuncNormTol");
+  // Let the residual test decide convergence, not a small step.
+  CheckSundialsCall(namer, KINSetScaledStepTol(kinsol, 0.0), "KINSetScaledStepTol");
+
+  const int flag =
+      KINSol(kinsol, solution.get(), KIN_LINESEARCH, unknown_scale.get(), residual_scale.get());
+  long int newton_iterations = 0;
+  KINGetNumNonlinSolvIters(kinsol, &newton_iterations);
+  iterations = static_cast<int>(newton_iterations);
+  if (flag < 0) {
+    throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
+                     ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
+                     (last_message.empty() ? "" : " (" + last_message + ")") +
+                     "; try --q0 near the equilibrium");
+  }
+  unknowns = AsEigen(solution.get());
+}
+
+}  // namespace
+
+void OperatingPointOptions::Validate(const Model& model) const {
+  if (y0 && static_cast<std::size_t>(y0->size()) != model.num_outputs()) {
+    throw UsageError("y0 has " + std::to_string(y0->size()) + " values: the model has " +
+                     std::to_string(model.num_outputs()) + " outputs");
+  }
+  if (y0 && !y0->allFinite()) throw UsageError("y0 = " + FormatVector(*y0) + ": must be finite");
+  if (q_guess && static_cast<std::size_t>(q_guess->size()) != model.dof()) {
+    throw UsageError("q0 has " + std::to_string(q_guess->size()) + " values: the model has " +
+                     std::to_string(model.dof()) + " coordinates");
+  }
+  if (q_guess && !q_guess->allFinite()) {
+    throw UsageError("q0 = " + FormatVector(*q_guess) + ": must be finite");
+  }
+  if (!(residual_tolerance > 0.0)) {
+    throw UsageError("OperatingPointOptions::residual_tolerance = " +
+                     std::to_string(residual_tolerance) + ": must be > 0");
+  }
+  if (max_iterations < 1) {
+    throw UsageError("OperatingPointOptions::max_iterations = " + std::to_string(max_iterations) +
+                     ": must be >= 1");
+  }
+}
+
+OperatingPoint FindOperatingPoint(const Model& model,
+                                  Workspace& workspace,
+                                  const OperatingPointOptions& options) {
+  assert(workspace.Fits(model));
+  options.Validate(model);
+  const auto dof = static_cast<Eigen::Index>(model.dof());
+  const auto inputs = static_cast<Eigen::Index>(model.num_inputs());
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
+
+  EquilibriumProblem problem{model, workspace, Eigen::VectorXd(), zero};
+  if (options.y0) {
+    problem.y0 = *options.y0;
+  } else {
+    Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
+    problem.y0 = workspace.output;
+    if (!problem.y0.allFinite()) {
+      throw NoSolution("the output h(0) is not finite: give y0 (--y0)");
+    }
+  }
+
+  // Start from q_guess and the inputs that best balance the forces there.
+  Eigen::VectorXd unknowns(dof + inputs);
+  unknowns.head(dof) = options.q_guess.value_or(zero);
+  Evaluate(model, workspace, unknowns.head(dof), zero, Quantity::kForces | Quantity::kInputMatrix);
+  unknowns.tail(inputs) =
+      workspace.input_matrix.completeOrthogonalDecomposition().solve(workspace.forces);
+
+  Eigen::MatrixXd jacobian(dof + inputs, dof + inputs);
+  problem.Jacobian(unknowns, jacobian);
+  if (!jacobian.allFinite()) {
+    throw NoSolution("the model is not finite at q0 = " + FormatVector(unknowns.head(dof)));
+  }
+  const Eigen::VectorXd scaling = ResidualScaling(jacobian);
+  Eigen::VectorXd residual(dof + inputs);
+  problem.Residual(unknowns, residual);
+
+  OperatingPoint point;
+  // Most operating points are the starting point itself (q = 0 and y0 = h(0)); then Newton
+  // has nothing to do, which keeps sweeps fast.
+  if (!residual.allFinite() ||
+      residual.cwiseProduct(scaling).lpNorm<Eigen::Infinity>() > options.residual_tolerance) {
+    RunKinsol(problem, unknowns, scaling, options, point.newton_iterations);
+    problem.Residual(unknowns, residual);
+    if (!unknowns.allFinite() || !residual.allFinite()) {
+      throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
+                       ": the iteration left the domain where the model is finite");
+    }
+    problem.Jacobian(unknowns, jacobian);
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(jacobian);
+  if (!lu.isInvertible()) {
+    throw NoSolution("the equilibrium at q = " + FormatVector(unknowns.head(dof)) +
+                     " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "
+                     "singular (a free coordinate the output does not fix?)");
+  }
+  point.q = unknowns.head(dof);
+  point.u = unknowns.tail(inputs);
+  Evaluate(model, workspace, point.q, zero, static_cast<unsigned>(Quantity::kOutput));
+  point.y = workspace.output;
+  return point;
+}
+
+}  // namespace servokit

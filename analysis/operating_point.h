@@ -1,0 +1,42 @@
+#pragma once
+// The equilibrium at which servokit linearizes (DESIGN.md "Operating point"):
+// q_dot = 0,  f(q, 0) = B(q) u,  h(q) = y0.
+#include <Eigen/Dense>
+#include <optional>
+
+#include "models/model.h"
+
+namespace servokit {
+
+struct OperatingPointOptions {
+  // The output value y0 to hold (size: outputs). Default: h(0), the output at q = 0.
+  std::optional<Eigen::VectorXd> y0;
+  // Newton's starting point for q (size: dof). Default: q = 0.
+  std::optional<Eigen::VectorXd> q_guess;
+  // Converged when every residual, scaled by the inverse of its Jacobian row's largest entry
+  // (so that forces and output coordinates compare in units of q), is below this. 1e-12 leaves
+  // a few digits of headroom above double round-off for well-scaled models.
+  double residual_tolerance = 1e-12;
+  // Newton iterations allowed (KINSOL with line search); equilibria of the shipped models need
+  // at most a handful, so 50 only stops a diverging iteration.
+  int max_iterations = 50;
+  // Throws UsageError naming the field, its value and the rule it breaks.
+  void Validate(const Model& model) const;
+};
+
+/// An equilibrium: generalized coordinates q (dof), inputs u (inputs) holding it, outputs y.
+struct OperatingPoint {
+  Eigen::VectorXd q;
+  Eigen::VectorXd u;
+  Eigen::VectorXd y;
+  int newton_iterations = 0;  // 0 when the starting point already was an equilibrium
+};
+
+/// Finds the equilibrium by Newton's method (SUNDIALS KINSOL) from options.q_guess.
+/// Throws UsageError for bad options and NoSolution when Newton does not converge, the
+/// equilibrium is not isolated (singular Jacobian) or the model evaluates to NaN or Inf.
+OperatingPoint FindOperatingPoint(const Model& model,
+                                  Workspace& workspace,
+                                  const OperatingPointOptions& options = {});
+
+}  // namespace servokit

@@ -1,0 +1,116 @@
+#include "analysis/output_structure.h"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "analysis/subspaces.h"
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// Per-output relative degrees and the rows C_i A^(r_i - 1) B. A row counts as zero when it is
+// at most rank_tolerance |C_i A^k| |B| (the size its factors allow).
+void FindRelativeDegrees(const StateSpace& system,
+                         double rank_tolerance,
+                         OutputStructure& structure) {
+  const Eigen::Index outputs = system.output_matrix.rows();
+  const Eigen::Index states = system.state_matrix.rows();
+  const double input_size = system.input_matrix.norm();
+  structure.relative_degree.assign(std::size_t(outputs), 0);
+  structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
+  for (Eigen::Index i = 0; i < outputs; ++i) {
+    Eigen::RowVectorXd output_row = system.output_matrix.row(i);  // C_i A^k
+    for (Eigen::Index k = 0; k < states; ++k) {
+      const Eigen::RowVectorXd markov_row = output_row * system.input_matrix;
+      if (markov_row.norm() > rank_tolerance * output_row.norm() * input_size) {
+        structure.relative_degree[std::size_t(i)] = static_cast<int>(k + 1);
+        structure.decoupling_matrix.row(i) = markov_row;
+        break;
+      }
+      output_row = output_row * system.state_matrix;
+    }
+    if (structure.relative_degree[std::size_t(i)] == 0) {
+      throw NoSolution("output y" + std::to_string(i + 1) +
+                       " is not influenced by the inputs at the operating point (infinite "
+                       "relative degree): no input can make it follow a trajectory");
+    }
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(structure.decoupling_matrix);
+  const double scale = structure.decoupling_matrix.norm();
+  structure.decoupling_matrix_regular =
+      NumericalRank(svd.singularValues(), rank_tolerance * scale) == outputs;
+}
+
+}  // namespace
+
+OutputStructure AnalyzeOutputStructure(const Linearization& linearization,
+                                       const ClassificationOptions& options) {
+  OutputStructure structure;
+  structure.state_space = ToStateSpace(linearization);
+  const StateSpace& system = structure.state_space;
+  const Eigen::MatrixXd& A = system.state_matrix;
+  const Eigen::MatrixXd& B = system.input_matrix;
+  const Eigen::MatrixXd& C = system.output_matrix;
+  const Eigen::Index states = A.rows();
+  const double tolerance = options.rank_tolerance;
+
+  FindRelativeDegrees(system, tolerance, structure);
+
+  // V* iteration; dimensions[k] = dim V_k. V_1 = ker C whatever B is, so start there.
+  const Eigen::MatrixXd output_kernel = NullSpaceBasis(C, tolerance * C.norm());
+  const Eigen::MatrixXd mapped_kernel = A * output_kernel;
+  const double mapped_size = std::max(mapped_kernel.norm(), std::numeric_limits<double>::min());
+  // B scaled to unit size, so that one relative tolerance decides the rank of [V_k, B].
+  const Eigen::MatrixXd unit_input = B / std::max(B.norm(), std::numeric_limits<double>::min());
+  std::vector<Eigen::Index> dimensions{states, output_kernel.cols()};
+  Eigen::MatrixXd subspace = output_kernel;
+  Eigen::Index sum_rank = 0;  // rank of [V*, B] at the end
+  for (Eigen::Index step = 0; step <= states; ++step) {
+    Eigen::MatrixXd subspace_and_inputs(states, subspace.cols() + B.cols());
+    subspace_and_inputs << subspace, unit_input;
+    // x in ker C with A x in V_k + im B: A x has no part in the complement of that sum.
+    const Eigen::MatrixXd complement = ComplementBasis(subspace_and_inputs, tolerance);
+    sum_rank = states - complement.cols();
+    const Eigen::MatrixXd coefficients =
+        NullSpaceBasis(complement.transpose() * mapped_kernel, tolerance * mapped_size);
+    if (coefficients.cols() == subspace.cols()) break;  // nested and equal in size: V* found
+    subspace = output_kernel * coefficients;  // orthonormal: a product of orthonormal bases
+    dimensions.push_back(subspace.cols());
+  }
+  structure.zero_dynamics_subspace = subspace;
+  structure.internal_dynamics_order = static_cast<int>(subspace.cols());
+
+  // d_k = dim V_k - dim V_{k+1} infinite zeros have order > k.
+  std::vector<int> orders;
+  for (std::size_t k = 0; k + 1 < dimensions.size(); ++k) {
+    const Eigen::Index above_k = dimensions[k] - dimensions[k + 1];
+    const Eigen::Index above_next =
+        k + 2 < dimensions.size() ? dimensions[k + 1] - dimensions[k + 2] : 0;
+    for (Eigen::Index j = 0; j < above_k - above_next; ++j) orders.push_back(int(k + 1));
+  }
+  std::sort(orders.begin(), orders.end());
+  structure.infinite_zero_orders = orders;
+  const auto outputs = static_cast<std::size_t>(C.rows());
+  if (orders.size() != outputs) {
+    throw NoSolution("the structure at infinity has " + std::to_string(orders.size()) +
+                     " infinite zeros for " + std::to_string(outputs) +
+                     " outputs: the outputs are not independent under the dynamics");
+  }
+
+  // Left invertibility: on V* the input that keeps y = 0 must be unique, i.e. [V*, B] has
+  // full column rank.
+  if (sum_rank != subspace.cols() + B.cols()) {
+    throw NoSolution(
+        "the output does not determine the inputs (the linearization is not "
+        "left-invertible): the servo-constraint problem has no unique solution");
+  }
+
+  const int highest_order = orders.empty() ? 0 : orders.back();
+  structure.differentiation_index = highest_order + 1;
+  structure.projected_index = highest_order - 1;
+  return structure;
+}
+
+}  // namespace servokit

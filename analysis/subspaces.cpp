@@ -1,0 +1,64 @@
+#include "analysis/subspaces.h"
+
+#include <algorithm>
+
+namespace servokit {
+namespace {
+
+// JacobiSVD of a non-square matrix first runs a column-pivoting QR (its "preconditioner"),
+// which for the small matrices of analysis/ costs more than the SVD itself. Padding with zero
+// rows or columns to a square matrix leaves the singular values (plus zeros) and the singular
+// vectors of interest unchanged, and lets the two-sided Jacobi sweep run on its own.
+using SquareSvd = Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner>;
+
+Eigen::MatrixXd PadToSquare(const Eigen::MatrixXd& matrix) {
+  const Eigen::Index size = std::max(matrix.rows(), matrix.cols());
+  Eigen::MatrixXd square = Eigen::MatrixXd::Zero(size, size);
+  square.topLeftCorner(matrix.rows(), matrix.cols()) = matrix;
+  return square;
+}
+
+}  // namespace
+
+Eigen::Index NumericalRank(const Eigen::VectorXd& singular_values, double threshold) {
+  Eigen::Index rank = 0;
+  while (rank < singular_values.size() && singular_values(rank) > threshold) ++rank;
+  return rank;
+}
+
+Eigen::MatrixXd ColumnSpaceBasis(const Eigen::MatrixXd& matrix, double threshold) {
+  if (matrix.cols() == 0 || matrix.rows() == 0) return Eigen::MatrixXd(matrix.rows(), 0);
+  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullU);
+  const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
+  return svd.matrixU().topLeftCorner(matrix.rows(), rank);
+}
+
+Eigen::MatrixXd ComplementBasis(const Eigen::MatrixXd& matrix, double threshold) {
+  if (matrix.cols() == 0) return Eigen::MatrixXd::Identity(matrix.rows(), matrix.rows());
+  if (matrix.rows() < matrix.cols()) {
+    // Zero rows would mix with the complement, so wide matrices keep the QR route.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(matrix, Eigen::ComputeFullU);
+    const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
+    return svd.matrixU().rightCols(matrix.rows() - rank);
+  }
+  // Zero columns only add zero singular values: U and its complement directions are unchanged.
+  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullU);
+  const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
+  return svd.matrixU().rightCols(matrix.rows() - rank);
+}
+
+Eigen::MatrixXd NullSpaceBasis(const Eigen::MatrixXd& matrix, double threshold) {
+  if (matrix.rows() == 0) return Eigen::MatrixXd::Identity(matrix.cols(), matrix.cols());
+  if (matrix.rows() > matrix.cols()) {
+    // Zero columns would mix with the null directions, so tall matrices keep the QR route.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(matrix, Eigen::ComputeFullV);
+    const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
+    return svd.matrixV().rightCols(matrix.cols() - rank);
+  }
+  // Zero rows only add zero singular values: V and its null directions are unchanged.
+  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullV);
+  const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
+  return svd.matrixV().rightCols(matrix.cols() - rank);
+}
+
+}  // namespace servokit

@@ -1,0 +1,44 @@
+#pragma once
+// The named classes of servokit's analysis and their strings. Each enum has one table that maps
+// it to the string DESIGN.md uses (JSON, CSV, Markdown and the command line all go through it).
+#include <optional>
+#include <string_view>
+
+namespace servokit {
+
+/// How the inputs act on the servo constraint (paper Sect. 2.2, Fig. 3).
+enum class Realization {
+  kIdealOrthogonal,     // rank P = m and D^T B = 0: B u is orthogonal to the constraint manifold
+  kNonIdealOrthogonal,  // rank P = m, B u also has a tangential part
+  kTangential,          // P = 0: the inputs act only through the internal coupling
+  kMixed,               // 0 < rank P < m
+};
+
+/// Stability of the linearized zero dynamics (paper Sect. 4, Lyapunov's indirect method).
+enum class Stability {
+  kAsymptoticallyStable,  // every eigenvalue in the open left half plane
+  kUnstable,              // some eigenvalue in the open right half plane
+  kCritical,              // none to the right, some on the imaginary axis: inconclusive
+  kNone,                  // no zero dynamics (flat)
+};
+
+/// Inverse-model solvers of `servokit solve --method` (paper Sect. 5).
+enum class SolverMethod {
+  kAuto,
+  kAlgebraic,        // flat: u_d and q_d from y_d and its derivatives only
+  kEuler,            // Euler backward on the projected DAE (Eqs. 61-64)
+  kRadau,            // Radau IIA on the projected DAE (index up to 3)
+  kBdf,              // BDF (SUNDIALS IDA) on the projected DAE, index 1
+  kNormalForm,       // internal dynamics (Eq. 25) with Dormand-Prince
+  kStableInversion,  // two-sided boundary value problem (Sect. 5.3)
+};
+
+std::string_view ToString(Realization realization);
+std::string_view ToString(Stability stability);
+std::string_view ToString(SolverMethod method);
+
+std::optional<Realization> RealizationFromString(std::string_view text);
+std::optional<Stability> StabilityFromString(std::string_view text);
+std::optional<SolverMethod> SolverMethodFromString(std::string_view text);
+
+}  // namespace servokit

@@ -1,0 +1,153 @@
+#include "analysis/zero_dynamics.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "models/errors.h"
+
+namespace servokit {
+
+void SortEigenvalues(std::vector<std::complex<double>>& eigenvalues) {
+  std::sort(eigenvalues.begin(), eigenvalues.end(),
+            [](const std::complex<double>& a, const std::complex<double>& b) {
+              if (a.real() != b.real()) return a.real() > b.real();
+              return a.imag() > b.imag();
+            });
+}
+
+namespace {
+
+double LargestMagnitude(const std::vector<std::complex<double>>& eigenvalues) {
+  double largest = 0.0;
+  for (const auto& eigenvalue : eigenvalues) largest = std::max(largest, std::abs(eigenvalue));
+  return largest;
+}
+
+// Round-off leaves conjugate pairs slightly unequal and real eigenvalues with a tiny imaginary
+// part; clean both so that tables and stability verdicts are reproducible.
+void CleanImaginaryParts(std::vector<std::complex<double>>& eigenvalues, double tolerance) {
+  const double threshold = tolerance * LargestMagnitude(eigenvalues);
+  for (auto& eigenvalue : eigenvalues) {
+    if (std::abs(eigenvalue.imag()) <= threshold) eigenvalue = {eigenvalue.real(), 0.0};
+  }
+}
+
+}  // namespace
+
+Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues,
+                            double imaginary_axis_tolerance) {
+  if (eigenvalues.empty()) return Stability::kNone;
+  const double threshold = imaginary_axis_tolerance * LargestMagnitude(eigenvalues);
+  bool on_axis = false;
+  for (const auto& eigenvalue : eigenvalues) {
+    if (eigenvalue.real() > threshold) return Stability::kUnstable;
+    if (eigenvalue.real() >= -threshold) on_axis = true;
+  }
+  return on_axis ? Stability::kCritical : Stability::kAsymptoticallyStable;
+}
+
+std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
+                                   double imaginary_axis_tolerance) {
+  const double threshold = imaginary_axis_tolerance * LargestMagnitude(eigenvalues);
+  std::vector<Mode> modes;
+  for (const auto& eigenvalue : eigenvalues) {
+    if (eigenvalue.imag() <= threshold) continue;
+    const double magnitude = std::abs(eigenvalue);
+    modes.push_back({magnitude / (2.0 * std::numbers::pi), -eigenvalue.real() / magnitude});
+  }
+  std::sort(modes.begin(), modes.end(),
+            [](const Mode& a, const Mode& b) { return a.frequency_hz < b.frequency_hz; });
+  return modes;
+}
+
+ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
+                                 const ClassificationOptions& options) {
+  ZeroDynamics result;
+  const Eigen::MatrixXd& subspace = structure.zero_dynamics_subspace;
+  const Eigen::MatrixXd& A = structure.state_space.state_matrix;
+  const Eigen::MatrixXd& B = structure.state_space.input_matrix;
+  const Eigen::Index order = subspace.cols();
+  if (order > 0) {
+    // On V* the input u = F x keeps the state in V*: A V = V X - B W for unique X, W
+    // (unique because [V, B] has full column rank: checked by AnalyzeOutputStructure).
+    Eigen::MatrixXd basis(A.rows(), order + B.cols());
+    basis << subspace, -B;
+    const Eigen::MatrixXd solution = basis.colPivHouseholderQr().solve(A * subspace);
+    result.state_matrix = solution.topRows(order);
+    const Eigen::EigenSolver<Eigen::MatrixXd> eigen(result.state_matrix, false);
+    if (eigen.info() != Eigen::Success) {
+      throw NoSolution("the eigenvalues of the zero dynamics did not converge");
+    }
+    for (Eigen::Index i = 0; i < order; ++i) result.eigenvalues.push_back(eigen.eigenvalues()(i));
+  } else {
+    result.state_matrix.resize(0, 0);
+  }
+  CleanImaginaryParts(result.eigenvalues, options.imaginary_axis_tolerance);
+  SortEigenvalues(result.eigenvalues);
+  result.stability = ClassifyStability(result.eigenvalues, options.imaginary_axis_tolerance);
+  result.minimum_phase =
+      result.stability == Stability::kAsymptoticallyStable || result.stability == Stability::kNone;
+  result.modes = OscillatoryModes(result.eigenvalues, options.imaginary_axis_tolerance);
+  return result;
+}
+
+std::vector<std::complex<double>> InvariantZeros(const Linearization& linearization,
+                                                 const ClassificationOptions& options) {
+  // Rosenbrock pencil in first-order form, unknowns (dq, dv, du):
+  //   [ 0  I  0 ]       [ I 0 0 ]
+  //   [-K -D  B ] - s * [ 0 M 0 ],   its finite eigenvalues are the invariant zeros.
+  //   [ H  0  0 ]       [ 0 0 0 ]
+  const Eigen::Index dof = linearization.dof();
+  const Eigen::Index inputs = linearization.num_inputs();
+  const Eigen::Index size = 2 * dof + inputs;
+  Eigen::MatrixXd pencil_a = Eigen::MatrixXd::Zero(size, size);
+  Eigen::MatrixXd pencil_e = Eigen::MatrixXd::Zero(size, size);
+  pencil_a.block(0, dof, dof, dof).setIdentity();
+  pencil_a.block(dof, 0, dof, dof) = -linearization.stiffness;
+  pencil_a.block(dof, dof, dof, dof) = -linearization.damping;
+  pencil_a.block(dof, 2 * dof, dof, inputs) = linearization.input_matrix;
+  pencil_a.block(2 * dof, 0, inputs, dof) = linearization.output_jacobian;
+  pencil_e.block(0, 0, dof, dof).setIdentity();
+  pencil_e.block(dof, dof, dof, dof) = linearization.mass_matrix;
+
+  Eigen::GeneralizedEigenSolver<Eigen::MatrixXd> qz(pencil_a, pencil_e, false);
+  if (qz.info() != Eigen::Success) throw NoSolution("QZ of the Rosenbrock pencil did not converge");
+  const double infinite_threshold = options.rank_tolerance * pencil_e.norm();
+  std::vector<std::complex<double>> zeros;
+  for (Eigen::Index i = 0; i < size; ++i) {
+    const double beta = qz.betas()(i);
+    if (std::abs(beta) <= infinite_threshold) continue;
+    zeros.push_back(qz.alphas()(i) / beta);
+  }
+  CleanImaginaryParts(zeros, options.imaginary_axis_tolerance);
+  SortEigenvalues(zeros);
+  return zeros;
+}
+
+double EigenvalueDistance(std::vector<std::complex<double>> a,
+                          std::vector<std::complex<double>> b) {
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  // Greedy matching: each member of a to the nearest unused member of b.
+  double distance = 0.0;
+  std::vector<bool> used(b.size(), false);
+  for (const auto& x : a) {
+    double best = std::numeric_limits<double>::infinity();
+    std::size_t best_index = 0;
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      if (used[j]) continue;
+      const double gap = std::abs(x - b[j]) / std::max(1.0, std::abs(x));
+      if (gap < best) {
+        best = gap;
+        best_index = j;
+      }
+    }
+    used[best_index] = true;
+    distance = std::max(distance, best);
+  }
+  return distance;
+}
+
+}  // namespace servokit

@@ -1,0 +1,61 @@
+#pragma once
+// The linearized zero dynamics (paper Sect. 4, Eq. 48): the internal dynamics while the output
+// is held at its operating value. Computed two independent ways:
+//  1. the normal form: the dynamics on V* (analysis/output_structure.h) with the unique input
+//     that keeps y constant. For rank P = m this is Eq. (25) at y_d = const, linearized, in the
+//     coordinates of an orthonormal basis of V* (q in ker H, q' in ker H); for tangential and
+//     mixed realizations it is the same construction with the output's higher derivatives.
+//  2. the invariant zeros of the linearization: the finite generalized eigenvalues of the
+//     Rosenbrock pencil [[-K - s D_d - s^2 M, B], [H, 0]] in first-order form, by QZ.
+#include <complex>
+#include <vector>
+
+#include "analysis/linearization.h"
+#include "analysis/options.h"
+#include "analysis/output_structure.h"
+#include "analysis/types.h"
+
+namespace servokit {
+
+/// One oscillatory mode: a complex pair lambda, conj(lambda).
+struct Mode {
+  double frequency_hz = 0.0;   // undamped natural frequency |lambda| / (2 pi)
+  double damping_ratio = 0.0;  // -Re(lambda) / |lambda|
+};
+
+struct ZeroDynamics {
+  // x' = state_matrix x on V*, in the orthonormal basis OutputStructure::zero_dynamics_subspace.
+  Eigen::MatrixXd state_matrix;
+  // Eigenvalues sorted by real part, then imaginary part, both descending.
+  std::vector<std::complex<double>> eigenvalues;
+  Stability stability = Stability::kNone;
+  bool minimum_phase = true;  // asymptotically stable zero dynamics, or none (Isidori 1995)
+  std::vector<Mode> modes;    // one per complex pair, ascending frequency
+};
+
+/// Zero dynamics from the normal form (route 1). `structure` comes from the same linearization.
+ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
+                                 const ClassificationOptions& options);
+
+/// Invariant zeros of the linearization by QZ (route 2), sorted as ZeroDynamics::eigenvalues.
+/// Generalized eigenvalues with |beta| <= rank_tolerance |pencil| are infinite and dropped.
+std::vector<std::complex<double>> InvariantZeros(const Linearization& linearization,
+                                                 const ClassificationOptions& options);
+
+/// Stability class of a set of eigenvalues (see ClassificationOptions::imaginary_axis_tolerance).
+Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues,
+                            double imaginary_axis_tolerance);
+
+/// The oscillatory modes of a set of eigenvalues: one per pair with Im > 0 off the real axis.
+std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
+                                   double imaginary_axis_tolerance);
+
+/// Sorts eigenvalues by real part, then imaginary part, both descending (a stable order for
+/// tables: the least stable first, the upper member of each pair before the lower).
+void SortEigenvalues(std::vector<std::complex<double>>& eigenvalues);
+
+/// The largest distance between matched members of two eigenvalue lists, relative to
+/// max(1, |lambda|); infinity if their sizes differ.
+double EigenvalueDistance(std::vector<std::complex<double>> a, std::vector<std::complex<double>> b);
+
+}  // namespace servokit

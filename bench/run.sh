@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Runs every benchmark of bench/ against the build in $1 (default: build).
+set -euo pipefail
+build=${1:-build}
+root=$(cd "$(dirname "$0")/.." && pwd)
+echo "== analysis: model load and operating-point analyses (issue #2) =="
+"$build/bench/bench_analysis" "$root/models" 1.0

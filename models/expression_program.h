@@ -1,0 +1,93 @@
+#pragma once
+// A compiled numeric evaluator for a list of GiNaC expressions (DESIGN.md, "Symbolic once,
+// numeric many times"). GiNaC is slow per call and not thread-safe, so expressions are compiled
+// once into a flat list of register instructions in which every common subexpression is computed
+// once; evaluating that list needs neither GiNaC nor memory allocation.
+#include <ginac/ginac.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace servokit {
+
+/// An immutable, thread-shareable evaluator of several expressions in the same inputs.
+///
+/// Register file layout (the caller owns it, so that one program serves many threads):
+/// [inputs | constants | one register per instruction]. Evaluate() copies the inputs and the
+/// constants in, runs the instructions in order and copies the output registers out.
+class ExpressionProgram {
+ public:
+  /// An empty program: no inputs, no outputs.
+  ExpressionProgram() = default;
+
+  /// Size of the `inputs` array Evaluate() reads.
+  std::size_t num_inputs() const { return num_inputs_; }
+  /// Size of the `outputs` array Evaluate() writes.
+  std::size_t num_outputs() const { return output_registers_.size(); }
+  /// Size of the `registers` scratch array Evaluate() needs.
+  std::size_t num_registers() const {
+    return num_inputs_ + constants_.size() + instructions_.size();
+  }
+  /// Number of instructions run per evaluation (shared subexpressions count once).
+  std::size_t num_instructions() const { return instructions_.size(); }
+
+  /// Evaluates every output. `inputs` has num_inputs() values, `registers` is scratch space of
+  /// num_registers() values (overwritten), `outputs` receives num_outputs() values. Allocates
+  /// nothing and changes nothing in the program, so threads may share one program if each
+  /// passes its own registers. Domain errors (log of a negative number) give NaN, as in <cmath>.
+  void Evaluate(const double* inputs, double* registers, double* outputs) const;
+
+ private:
+  /// The operations of the instruction list. Binary operations read registers `a` and `b`; unary
+  /// ones read `a`; kPowInt raises register `a` to the positive integer power `b`.
+  enum class OpCode : std::uint8_t {
+    kAdd,
+    kSub,
+    kMul,
+    kDiv,
+    kNeg,
+    kReciprocal,
+    kPowInt,
+    kPow,
+    kSqrt,
+    kSin,
+    kCos,
+    kTan,
+    kAsin,
+    kAcos,
+    kAtan,
+    kAtan2,
+    kExp,
+    kLog,
+    kSinh,
+    kCosh,
+    kTanh,
+    kAbs,
+  };
+
+  /// One instruction; instruction i writes register num_inputs() + constants + i.
+  struct Instruction {
+    OpCode op;
+    std::uint32_t a;
+    std::uint32_t b;
+  };
+
+  friend class ExpressionCompiler;  // expression_program.cpp builds programs
+  std::size_t num_inputs_ = 0;
+  std::vector<double> constants_;
+  std::vector<Instruction> instructions_;
+  std::vector<std::uint32_t> output_registers_;
+};
+
+/// Compiles `outputs` into one program whose inputs are `input_symbols` (GiNaC symbols, in the
+/// order Evaluate() expects them); output k of the program is outputs[k]. Supports numbers
+/// (rational or float, real and finite), the input symbols, Pi, sums, products, powers (integer,
+/// half-integer and general exponents) and the functions sin cos tan asin acos atan atan2 exp
+/// log sinh cosh tanh abs (sqrt is a power in GiNaC). Throws std::invalid_argument naming the
+/// construct for anything else, including a symbol that is not an input and a duplicate or
+/// non-symbol entry in `input_symbols`.
+ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
+                                     const std::vector<GiNaC::ex>& input_symbols);
+
+}  // namespace servokit

@@ -1,0 +1,156 @@
+#pragma once
+// A servo-constraint model  M(q) q'' + f(q, q') = B(q) u,  y = h(q)  (paper Eqs. 1, 3).
+//
+// Model is built once by LoadModel() and never changed afterwards; it is shared by all threads.
+// Workspace holds every buffer an evaluation needs; each thread owns one (as Pinocchio keeps
+// Model apart from Data). Numeric code evaluates compiled ExpressionPrograms only and never
+// calls GiNaC, which is slow per call and not thread-safe.
+#include <Eigen/Dense>
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace servokit {
+
+class SymbolicModel;      // models/symbolic_model.h: the GiNaC expressions
+class ExpressionProgram;  // models/expression_program.h: a compiled evaluator
+
+/// What Evaluate() can compute; combine with |. Matrices are evaluated column-major.
+enum class Quantity : unsigned {
+  kMassMatrix = 1u << 0,                 // M(q), dof x dof
+  kForces = 1u << 1,                     // f(q, q_dot), dof
+  kInputMatrix = 1u << 2,                // B(q), dof x inputs
+  kOutput = 1u << 3,                     // h(q), outputs
+  kOutputJacobian = 1u << 4,             // H = dh/dq, outputs x dof (Eq. 4)
+  kOutputBias = 1u << 5,                 // h_bar = H_dot q_dot, outputs (Eq. 5)
+  kForcesJacobians = 1u << 6,            // df/dq and df/dq_dot, dof x dof each
+  kMassMatrixDerivatives = 1u << 7,      // dM/dq_k, dof matrices of dof x dof
+  kInputMatrixDerivatives = 1u << 8,     // dB/dq_k, dof matrices of dof x inputs
+  kOutputJacobianDerivatives = 1u << 9,  // dH/dq_k, dof matrices of outputs x dof
+  kOutputBiasJacobians = 1u << 10,       // d h_bar/dq and d h_bar/dq_dot, outputs x dof each
+};
+constexpr unsigned operator|(Quantity a, Quantity b) {
+  return static_cast<unsigned>(a) | static_cast<unsigned>(b);
+}
+constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
+/// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
+inline constexpr std::size_t kNumQuantities = 11;
+
+/// A parameter override from the command line, "--set name=value"; value may end in "deg".
+struct ParameterOverride {
+  std::string name;
+  std::string value;
+};
+
+/// An immutable, thread-shareable model: names, nominal parameters (SI), the symbolic
+/// expressions and their compiled evaluators.
+class Model {
+ public:
+  const std::string& name() const { return name_; }
+  const std::string& description() const { return description_; }
+  /// Where the model came from (the file path as given), used in error messages.
+  const std::string& source() const { return source_; }
+  /// FNV-1a 64-bit hash of the model file's bytes, as 16 hex digits (sweep.json records it).
+  const std::string& content_hash() const { return content_hash_; }
+
+  std::size_t dof() const { return coordinates_.size(); }
+  std::size_t num_inputs() const { return inputs_.size(); }
+  std::size_t num_outputs() const { return num_outputs_; }
+  std::size_t num_parameters() const { return parameter_names_.size(); }
+
+  const std::vector<std::string>& coordinates() const { return coordinates_; }
+  const std::vector<std::string>& inputs() const { return inputs_; }
+  const std::vector<std::string>& parameter_names() const { return parameter_names_; }
+  /// Output names y1, y2, ... (DESIGN.md CSV columns).
+  std::vector<std::string> output_names() const;
+  /// Nominal parameter values in SI units, in the order of parameter_names(), after overrides.
+  const Eigen::VectorXd& parameters() const { return parameters_; }
+  /// Index of a parameter by name, or nullopt.
+  std::optional<std::size_t> FindParameter(std::string_view name) const;
+
+  /// The GiNaC expressions (for closed forms and reports; not for numeric loops).
+  const SymbolicModel& symbolic() const { return *symbolic_; }
+  /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot].
+  const ExpressionProgram& program(Quantity quantity) const;
+
+ private:
+  friend class ModelBuilder;  // models/model_loader.cpp fills a Model
+  std::string name_, description_, source_, content_hash_;
+  std::vector<std::string> coordinates_, inputs_, parameter_names_;
+  std::size_t num_outputs_ = 0;
+  Eigen::VectorXd parameters_;
+  std::shared_ptr<const SymbolicModel> symbolic_;
+  std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
+};
+
+/// Reads a model file (YAML, DESIGN.md "The model file"), checks it, derives H, h_bar and the
+/// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
+/// for a bad file and UsageError for a bad override (unknown name, bad value). Uses GiNaC, which
+/// is not thread-safe: load models from one thread, then share them.
+Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
+
+/// As LoadModel, from YAML text; `source` names it in error messages.
+Model LoadModelFromString(const std::string& yaml_text,
+                          const std::string& source,
+                          const std::vector<ParameterOverride>& overrides = {});
+
+/// Per-thread buffers and results of Evaluate(). Build one per thread from the model it serves.
+class Workspace {
+ public:
+  explicit Workspace(const Model& model);
+
+  /// Parameter values Evaluate() uses; starts as model.parameters(). Sweeps change it per point.
+  Eigen::VectorXd parameters;
+
+  // Results of the last Evaluate(); only the quantities asked for are up to date.
+  Eigen::MatrixXd mass_matrix;                               // dof x dof
+  Eigen::VectorXd forces;                                    // dof
+  Eigen::MatrixXd input_matrix;                              // dof x inputs
+  Eigen::VectorXd output;                                    // outputs
+  Eigen::MatrixXd output_jacobian;                           // outputs x dof
+  Eigen::VectorXd output_bias;                               // outputs
+  Eigen::MatrixXd forces_position_jacobian;                  // dof x dof, df/dq
+  Eigen::MatrixXd forces_velocity_jacobian;                  // dof x dof, df/dq_dot
+  std::vector<Eigen::MatrixXd> mass_matrix_derivatives;      // dof of dof x dof
+  std::vector<Eigen::MatrixXd> input_matrix_derivatives;     // dof of dof x inputs
+  std::vector<Eigen::MatrixXd> output_jacobian_derivatives;  // dof of outputs x dof
+  Eigen::MatrixXd output_bias_position_jacobian;             // outputs x dof
+  Eigen::MatrixXd output_bias_velocity_jacobian;             // outputs x dof
+
+  /// True if this workspace was built for a model of the same shape.
+  bool Fits(const Model& model) const;
+
+ private:
+  friend void Evaluate(const Model&,
+                       Workspace&,
+                       const Eigen::Ref<const Eigen::VectorXd>&,
+                       const Eigen::Ref<const Eigen::VectorXd>&,
+                       unsigned);
+  std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0, num_parameters_ = 0;
+  std::vector<double> program_inputs_;  // [parameters, q, q_dot]
+  std::vector<double> registers_;       // scratch for the largest program
+  std::vector<double> outputs_;         // scratch for programs with several result blocks
+};
+
+/// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with
+/// workspace.parameters. q and q_dot have size model.dof(). Does not check for NaN: callers that
+/// hand numbers to users do. `workspace` must be built from `model` (asserted).
+void Evaluate(const Model& model,
+              Workspace& workspace,
+              const Eigen::Ref<const Eigen::VectorXd>& q,
+              const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+              unsigned quantities);
+
+/// Evaluate() for one quantity, so that a single Quantity needs no cast.
+inline void Evaluate(const Model& model,
+                     Workspace& workspace,
+                     const Eigen::Ref<const Eigen::VectorXd>& q,
+                     const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+                     Quantity quantity) {
+  Evaluate(model, workspace, q, q_dot, static_cast<unsigned>(quantity));
+}
+
+}  // namespace servokit

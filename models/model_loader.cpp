@@ -1,0 +1,714 @@
+// LoadModel: model file (DESIGN.md, "The model file") -> checked SymbolicModel -> compiled
+// programs. Every problem with the file is one ModelError "file: key[entry]: problem", raised
+// where it is found, so that a user sees the first mistake with its place.
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "models/errors.h"
+#include "models/expression_program.h"
+#include "models/model.h"
+#include "models/symbolic_model.h"
+#include "models/units.h"
+
+namespace servokit {
+namespace {
+
+constexpr std::array<std::string_view, 8> kRequiredKeys = {
+    "name",        "parameters", "coordinates",  "inputs",
+    "mass_matrix", "forces",     "input_matrix", "outputs"};
+constexpr std::string_view kDescriptionKey = "description";
+
+// DESIGN.md, "The model file": the functions an expression may call.
+constexpr std::array<std::string_view, 14> kFunctions = {"sin",  "cos",   "tan",  "asin", "acos",
+                                                         "atan", "atan2", "exp",  "log",  "sqrt",
+                                                         "sinh", "cosh",  "tanh", "abs"};
+// The name of the constant pi in expressions.
+constexpr std::string_view kPiName = "pi";
+// GiNaC's parser reads these as its own constants before it looks at the symbol table, so a
+// parameter with one of these names would silently be replaced.
+constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler", "Catalan"};
+// The velocity of coordinate c is the symbol c_dot.
+constexpr std::string_view kVelocitySuffix = "_dot";
+constexpr std::string_view kQuantityHint = "(use e.g. 5 or \"5 deg\")";
+
+// Symmetry of M is decided symbolically when expand() or normal() shows M_ij - M_ji = 0;
+// otherwise (trigonometric identities, say) by evaluating both at random points near the
+// nominal parameters and in q in [-1, 1] rad or m. A fixed seed keeps the verdict reproducible.
+constexpr int kSymmetryCheckPoints = 5;
+constexpr unsigned kSymmetryCheckSeed = 20130101u;
+// Relative spread of the parameters around their nominal values at those points.
+constexpr double kSymmetryParameterSpread = 0.1;
+// Two different forms of the same expression differ by round-off only: a few hundred ulps at
+// most for mass-matrix entries, far below this relative tolerance.
+constexpr double kSymmetryTolerance = 1e-10;
+
+// FNV-1a, 64 bit (offset basis and prime from the FNV reference).
+constexpr std::uint64_t kFnvOffsetBasis = 14695981039346656037ull;
+constexpr std::uint64_t kFnvPrime = 1099511628211ull;
+
+std::string ContentHash(std::string_view bytes) {
+  std::uint64_t hash = kFnvOffsetBasis;
+  for (const char byte : bytes) {
+    hash ^= static_cast<unsigned char>(byte);
+    hash *= kFnvPrime;
+  }
+  std::ostringstream hex;
+  hex.fill('0');
+  hex.width(16);
+  hex << std::hex << hash;
+  return hex.str();
+}
+
+template <typename Strings>
+std::string Join(const Strings& strings) {
+  std::string joined;
+  for (const auto& text : strings) {
+    if (!joined.empty()) {
+      joined += ", ";
+    }
+    joined += text;
+  }
+  return joined;
+}
+
+template <typename Strings>
+bool Contains(const Strings& strings, std::string_view text) {
+  return std::find(strings.begin(), strings.end(), text) != strings.end();
+}
+
+bool IsIdentifierStart(char c) { return std::isalpha(static_cast<unsigned char>(c)) != 0; }
+bool IsIdentifierChar(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
+}
+bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
+
+// Names GiNaC's parser reads as one identifier: a letter, then letters, digits and '_'.
+bool IsIdentifier(std::string_view name) {
+  return !name.empty() && IsIdentifierStart(name.front()) &&
+         std::all_of(name.begin(), name.end(), IsIdentifierChar);
+}
+
+// "1 row", "2 rows": counts in messages.
+std::string Count(std::size_t count, const std::string& singular, const std::string& plural) {
+  return std::to_string(count) + " " + (count == 1 ? singular : plural);
+}
+
+std::string Indexed(std::string_view key, std::size_t i) {
+  return std::string(key) + "[" + std::to_string(i) + "]";
+}
+std::string Indexed(std::string_view key, std::size_t i, std::size_t j) {
+  return Indexed(key, i) + "[" + std::to_string(j) + "]";
+}
+
+std::string Text(const GiNaC::ex& expression) {
+  std::ostringstream stream;
+  stream << expression;
+  return stream.str();
+}
+
+// GiNaC's parse_error text is "GiNaC: parse error at line 0, column 0: <what>\n[<function>...]";
+// the position is always 0 for a string, so only <what> helps a user.
+std::string ParseErrorMessage(const std::exception& error) {
+  std::string message = error.what();
+  const std::size_t column = message.find("column ");
+  if (column != std::string::npos) {
+    const std::size_t colon = message.find(": ", column);
+    if (colon != std::string::npos) {
+      message.erase(0, colon + 2);
+    }
+  }
+  return message.substr(0, message.find('\n'));
+}
+
+// The first construct a model expression may not contain, or nullopt. The parser only builds
+// what DESIGN.md allows from the names it is given, but GiNaC evaluates while it parses:
+// sqrt(-1) becomes I and 1e400 a float no double holds.
+std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
+  if (GiNaC::is_a<GiNaC::numeric>(expression)) {
+    const auto& number = GiNaC::ex_to<GiNaC::numeric>(expression);
+    if (!number.is_real()) {
+      return "complex number " + Text(expression);
+    }
+    if (!std::isfinite(number.to_double())) {
+      return "number out of range " + Text(expression);
+    }
+    return std::nullopt;
+  }
+  if (GiNaC::is_a<GiNaC::constant>(expression) && !expression.is_equal(GiNaC::Pi)) {
+    return "unsupported constant " + Text(expression);
+  }
+  if (GiNaC::is_a<GiNaC::function>(expression) &&
+      !Contains(kFunctions, GiNaC::ex_to<GiNaC::function>(expression).get_name())) {
+    return "unsupported function " + GiNaC::ex_to<GiNaC::function>(expression).get_name();
+  }
+  if (!GiNaC::is_a<GiNaC::symbol>(expression) && !GiNaC::is_a<GiNaC::constant>(expression) &&
+      !GiNaC::is_a<GiNaC::add>(expression) && !GiNaC::is_a<GiNaC::mul>(expression) &&
+      !GiNaC::is_a<GiNaC::power>(expression) && !GiNaC::is_a<GiNaC::function>(expression)) {
+    return "unsupported expression " + Text(expression);
+  }
+  for (std::size_t i = 0; i < expression.nops(); ++i) {
+    if (auto problem = FindUnsupported(expression.op(i))) {
+      return problem;
+    }
+  }
+  return std::nullopt;
+}
+
+// Column-major entries of each matrix, one after the other: the layout Evaluate() copies into
+// Eigen storage.
+std::vector<GiNaC::ex> ColumnMajor(const std::vector<GiNaC::matrix>& blocks) {
+  std::vector<GiNaC::ex> entries;
+  for (const GiNaC::matrix& block : blocks) {
+    for (unsigned j = 0; j < block.cols(); ++j) {
+      for (unsigned i = 0; i < block.rows(); ++i) {
+        entries.push_back(block(i, j));
+      }
+    }
+  }
+  return entries;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) {
+    throw ModelError(path + ": cannot open the model file (" + std::strerror(errno) + ")");
+  }
+  std::string text;
+  std::array<char, 4096> chunk;
+  while (file.read(chunk.data(), chunk.size()) || file.gcount() > 0) {
+    text.append(chunk.data(), static_cast<std::size_t>(file.gcount()));
+  }
+  if (file.bad()) {
+    throw ModelError(path + ": cannot read the model file (" + std::strerror(errno) + ")");
+  }
+  return text;
+}
+
+}  // namespace
+
+// Fills a Model from YAML text, one checked step at a time (Model names it as its friend).
+class ModelBuilder {
+ public:
+  ModelBuilder(const std::string& yaml_text, std::string source) {
+    model_.source_ = std::move(source);
+    model_.content_hash_ = ContentHash(yaml_text);
+    root_ = ParseYaml(yaml_text);
+  }
+
+  Model Build(const std::vector<ParameterOverride>& overrides) && {
+    CheckTopLevelKeys();
+    ReadName();
+    ReadParameters();
+    ApplyOverrides(overrides);
+    model_.coordinates_ = ReadNameList("coordinates");
+    model_.inputs_ = ReadNameList("inputs");
+    CheckCounts();
+    CheckNames();
+    MakeSymbols();
+
+    const std::size_t dof = model_.dof();
+    const std::size_t num_inputs = model_.num_inputs();
+    GiNaC::matrix mass_matrix = ReadMatrix("mass_matrix", dof, dof, "coordinate");
+    CheckNoVelocities(mass_matrix, "mass_matrix", "M(q)");
+    CheckSymmetric(mass_matrix);
+    GiNaC::matrix forces = ReadVector("forces", dof, "one per coordinate");
+    GiNaC::matrix input_matrix = ReadMatrix("input_matrix", dof, num_inputs, "input");
+    CheckNoVelocities(input_matrix, "input_matrix", "B(q)");
+    GiNaC::matrix output = ReadOutputs();
+    model_.num_outputs_ = num_inputs;
+
+    auto symbolic = std::make_shared<const SymbolicModel>(
+        parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
+        std::move(forces), std::move(input_matrix), std::move(output));
+    Compile(*symbolic);
+    model_.symbolic_ = std::move(symbolic);
+    return std::move(model_);
+  }
+
+ private:
+  // Read-only lookup: the non-const operator[] of yaml-cpp may add the key it looks up.
+  YAML::Node Entry(const std::string& key) const { return std::as_const(root_)[key]; }
+
+  [[noreturn]] void Fail(const std::string& where, const std::string& problem) const {
+    throw ModelError(model_.source_ + ": " + where + ": " + problem);
+  }
+
+  YAML::Node ParseYaml(const std::string& yaml_text) const {
+    try {
+      return YAML::Load(yaml_text);
+    } catch (const YAML::ParserException& error) {
+      // yaml-cpp counts lines and columns from 0; editors count from 1.
+      throw ModelError(model_.source_ + ":" + std::to_string(error.mark.line + 1) + ":" +
+                       std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
+    }
+  }
+
+  void CheckTopLevelKeys() const {
+    if (!root_.IsMap()) {
+      Fail("top level", "expected a map with the keys " + Join(kRequiredKeys) + " and " +
+                            std::string(kDescriptionKey) + " (optional)");
+    }
+    std::vector<std::string> seen;
+    for (const auto& entry : root_) {
+      if (!entry.first.IsScalar()) {
+        Fail("top level", "keys must be plain names");
+      }
+      const std::string& key = entry.first.Scalar();
+      if (!Contains(kRequiredKeys, key) && key != kDescriptionKey) {
+        Fail(key, "unknown key (expected " + Join(kRequiredKeys) + " or " +
+                      std::string(kDescriptionKey) + ")");
+      }
+      if (Contains(seen, key)) {
+        Fail(key, "duplicate key");
+      }
+      seen.push_back(key);
+    }
+    for (const std::string_view key : kRequiredKeys) {
+      if (!Contains(seen, key)) {
+        Fail(std::string(key), "missing required key");
+      }
+    }
+  }
+
+  void ReadName() {
+    const YAML::Node name = Entry("name");
+    if (!name.IsScalar() || name.Scalar().empty()) {
+      Fail("name", "expected a non-empty string");
+    }
+    model_.name_ = name.Scalar();
+    if (const YAML::Node description = Entry(std::string(kDescriptionKey))) {
+      if (!description.IsScalar()) {
+        Fail(std::string(kDescriptionKey), "expected a string");
+      }
+      model_.description_ = description.Scalar();
+    }
+  }
+
+  void ReadParameters() {
+    const YAML::Node parameters = Entry("parameters");
+    if (!parameters.IsMap()) {
+      Fail("parameters", "expected a map of name: value (use {} for none)");
+    }
+    std::vector<double> values;
+    for (const auto& entry : parameters) {
+      if (!entry.first.IsScalar()) {
+        Fail("parameters", "parameter names must be plain names");
+      }
+      const std::string& name = entry.first.Scalar();
+      const std::optional<double> value =
+          entry.second.IsScalar() ? ParseQuantity(entry.second.Scalar()) : std::nullopt;
+      if (!value) {
+        Fail("parameters." + name, "not a number " + std::string(kQuantityHint));
+      }
+      model_.parameter_names_.push_back(name);
+      values.push_back(*value);
+    }
+    model_.parameters_ =
+        Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  }
+
+  void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
+    for (const ParameterOverride& override_ : overrides) {
+      const std::string option = "--set " + override_.name + "=" + override_.value;
+      const std::optional<std::size_t> index = model_.FindParameter(override_.name);
+      if (!index) {
+        throw UsageError(option + ": unknown parameter '" + override_.name + "' (" +
+                         (model_.parameter_names_.empty()
+                              ? std::string("the model has no parameters")
+                              : "known: " + Join(model_.parameter_names_)) +
+                         ")");
+      }
+      const std::optional<double> value = ParseQuantity(override_.value);
+      if (!value) {
+        throw UsageError(option + ": not a number " + std::string(kQuantityHint));
+      }
+      model_.parameters_[static_cast<Eigen::Index>(*index)] = *value;
+    }
+  }
+
+  std::vector<std::string> ReadNameList(const std::string& key) const {
+    const YAML::Node list = Entry(key);
+    if (!list.IsSequence()) {
+      Fail(key, "expected a list of names, e.g. [x, s]");
+    }
+    if (list.size() == 0) {
+      Fail(key, "expected at least one name");
+    }
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].IsScalar()) {
+        Fail(Indexed(key, i), "expected a name");
+      }
+      names.push_back(list[i].Scalar());
+    }
+    return names;
+  }
+
+  void CheckCounts() const {
+    if (model_.num_inputs() > model_.dof()) {
+      Fail("inputs", Count(model_.num_inputs(), "input", "inputs") + " for " +
+                         Count(model_.dof(), "coordinate", "coordinates") +
+                         "; a system has at most as many inputs as coordinates");
+    }
+  }
+
+  // Parameters, coordinates and inputs share one name space (they become CSV columns), and a
+  // name must not read as something else in an expression.
+  void CheckNames() const {
+    std::map<std::string, std::string> owners;  // name -> where it was defined
+    const auto check = [&](const std::string& name, const std::string& where) {
+      if (!IsIdentifier(name)) {
+        Fail(where,
+             "invalid name '" + name + "' (use letters, digits and _, starting with a letter)");
+      }
+      if (Contains(kFunctions, name)) {
+        Fail(where, "name '" + name + "' clashes with the function " + name + "()");
+      }
+      if (name == kPiName || Contains(kParserLiterals, name)) {
+        Fail(where, "name '" + name + "' is reserved for a constant");
+      }
+      for (const std::string& coordinate : model_.coordinates_) {
+        if (name == coordinate + std::string(kVelocitySuffix)) {
+          Fail(where,
+               "name '" + name + "' clashes with the velocity of coordinate '" + coordinate + "'");
+        }
+      }
+      if (const auto [owner, inserted] = owners.emplace(name, where); !inserted) {
+        Fail(where, "duplicate name '" + name + "' (also " + owner->second + ")");
+      }
+    };
+    for (const std::string& name : model_.parameter_names_) {
+      check(name, "parameters." + name);
+    }
+    for (std::size_t i = 0; i < model_.coordinates_.size(); ++i) {
+      check(model_.coordinates_[i], Indexed("coordinates", i));
+    }
+    for (std::size_t i = 0; i < model_.inputs_.size(); ++i) {
+      check(model_.inputs_[i], Indexed("inputs", i));
+    }
+  }
+
+  void MakeSymbols() {
+    const auto add = [&](const std::string& name, std::vector<GiNaC::realsymbol>& symbols) {
+      symbols.emplace_back(name);
+      symbol_table_[name] = symbols.back();
+    };
+    for (const std::string& name : model_.parameter_names_) {
+      add(name, parameter_symbols_);
+    }
+    for (const std::string& name : model_.coordinates_) {
+      add(name, coordinate_symbols_);
+      add(name + std::string(kVelocitySuffix), velocity_symbols_);
+    }
+    symbol_table_[std::string(kPiName)] = GiNaC::Pi;
+  }
+
+  // Names in `text` that the parser would reject with a less helpful message, or read as
+  // something else; also catches "2x" and characters that are no operator.
+  std::optional<std::string> FindLexicalProblem(const std::string& text) const {
+    std::size_t i = 0;
+    while (i < text.size()) {
+      const char c = text[i];
+      if (std::isspace(static_cast<unsigned char>(c)) != 0) {
+        ++i;
+      } else if (IsDigit(c) || c == '.') {
+        const std::size_t start = i;
+        i = SkipNumber(text, i);
+        if (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) {
+          while (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) {
+            ++i;
+          }
+          return "malformed number '" + text.substr(start, i - start) + "'";
+        }
+      } else if (IsIdentifierStart(c) || c == '_') {
+        const std::size_t start = i;
+        while (i < text.size() && IsIdentifierChar(text[i])) {
+          ++i;
+        }
+        const std::string name = text.substr(start, i - start);
+        const std::size_t next = text.find_first_not_of(" \t", i);
+        const bool called = next != std::string::npos && text[next] == '(';
+        if (auto problem = NameProblem(name, called)) {
+          return problem;
+        }
+      } else if (std::string_view("+-*/^(),").find(c) == std::string_view::npos) {
+        return std::string("unexpected character '") + c + "'";
+      } else {
+        ++i;
+      }
+    }
+    return std::nullopt;
+  }
+
+  // Digits, an optional fraction and an optional exponent, starting at `i`.
+  static std::size_t SkipNumber(const std::string& text, std::size_t i) {
+    while (i < text.size() && (IsDigit(text[i]) || text[i] == '.')) {
+      ++i;
+    }
+    if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
+      std::size_t exponent = i + 1;
+      if (exponent < text.size() && (text[exponent] == '+' || text[exponent] == '-')) {
+        ++exponent;
+      }
+      if (exponent < text.size() && IsDigit(text[exponent])) {
+        i = exponent;
+        while (i < text.size() && IsDigit(text[i])) {
+          ++i;
+        }
+      }
+    }
+    return i;
+  }
+
+  std::optional<std::string> NameProblem(const std::string& name, bool called) const {
+    if (called) {
+      if (!Contains(kFunctions, name)) {
+        return "unsupported function '" + name + "' (supported: " + Join(kFunctions) + ")";
+      }
+      return std::nullopt;
+    }
+    if (symbol_table_.count(name) != 0) {
+      return std::nullopt;
+    }
+    if (Contains(kFunctions, name)) {
+      return "function '" + name + "' needs its argument in parentheses";
+    }
+    if (Contains(model_.inputs_, name)) {
+      return "'" + name + "' is an input; expressions may use parameters, coordinates and " +
+             "velocities only";
+    }
+    return "unknown symbol '" + name + "'";
+  }
+
+  GiNaC::ex ParseExpression(const YAML::Node& node, const std::string& where) const {
+    if (node.IsNull()) {
+      Fail(where, "empty expression");
+    }
+    if (!node.IsScalar()) {
+      Fail(where, "expected an expression, found a list or map");
+    }
+    const std::string& text = node.Scalar();
+    if (auto problem = FindLexicalProblem(text)) {
+      Fail(where, *problem);
+    }
+    GiNaC::ex expression;
+    try {
+      GiNaC::parser reader(symbol_table_, /*strict=*/true);
+      expression = reader(text);
+    } catch (const GiNaC::parse_error& error) {
+      Fail(where, "syntax error in \"" + text + "\": " + ParseErrorMessage(error));
+    } catch (const std::exception& error) {
+      // GiNaC evaluates while it parses: 1/0 or log(0) throw here.
+      Fail(where, "invalid expression \"" + text + "\": " + error.what());
+    }
+    if (auto problem = FindUnsupported(expression)) {
+      Fail(where, *problem + " in \"" + text + "\"");
+    }
+    return expression;
+  }
+
+  GiNaC::matrix ReadMatrix(const std::string& key,
+                           std::size_t rows,
+                           std::size_t cols,
+                           const std::string& column_meaning) const {
+    const YAML::Node node = Entry(key);
+    if (!node.IsSequence()) {
+      Fail(key, "expected a list of rows");
+    }
+    if (node.size() != rows) {
+      Fail(key, "expected " + Count(rows, "row", "rows") + " (one per coordinate), found " +
+                    std::to_string(node.size()));
+    }
+    GiNaC::matrix matrix(static_cast<unsigned>(rows), static_cast<unsigned>(cols));
+    for (std::size_t i = 0; i < rows; ++i) {
+      const YAML::Node row = node[i];
+      if (!row.IsSequence() || row.size() != cols) {
+        Fail(Indexed(key, i),
+             "expected a row of " + Count(cols, "entry", "entries") + " (one per " +
+                 column_meaning + "), found " +
+                 (row.IsSequence() ? std::to_string(row.size()) : std::string("no list")));
+      }
+      for (std::size_t j = 0; j < cols; ++j) {
+        matrix(static_cast<unsigned>(i), static_cast<unsigned>(j)) =
+            ParseExpression(row[j], Indexed(key, i, j));
+      }
+    }
+    return matrix;
+  }
+
+  GiNaC::matrix ReadVector(const std::string& key,
+                           std::size_t size,
+                           const std::string& size_meaning) const {
+    const YAML::Node node = Entry(key);
+    if (!node.IsSequence()) {
+      Fail(key, "expected a list of expressions");
+    }
+    if (node.size() != size) {
+      Fail(key, "expected " + Count(size, "entry", "entries") + " (" + size_meaning + "), found " +
+                    std::to_string(node.size()));
+    }
+    GiNaC::matrix vector(static_cast<unsigned>(size), 1);
+    for (std::size_t i = 0; i < size; ++i) {
+      vector(static_cast<unsigned>(i), 0) = ParseExpression(node[i], Indexed(key, i));
+    }
+    return vector;
+  }
+
+  GiNaC::matrix ReadOutputs() const {
+    const YAML::Node node = Entry("outputs");
+    // A non-list is reported by ReadVector. Paper Sect. 2: there are as many servo-constraints
+    // (outputs) as inputs.
+    if (node.IsSequence() && node.size() != model_.num_inputs()) {
+      Fail("outputs", Count(node.size(), "output", "outputs") + " for " +
+                          Count(model_.num_inputs(), "input", "inputs") +
+                          "; servo-constraint problems need as many outputs as inputs");
+    }
+    GiNaC::matrix output = ReadVector("outputs", model_.num_inputs(), "one per input");
+    CheckNoVelocities(output, "outputs", "y = h(q)", /*listed=*/true);
+    return output;
+  }
+
+  // M(q), B(q) and h(q) are functions of the coordinates only (paper Eqs. 1, 3). `listed`: the
+  // file writes `matrix` as a plain list (outputs), so entries are named key[i], not key[i][j].
+  void CheckNoVelocities(const GiNaC::matrix& matrix,
+                         const std::string& key,
+                         const std::string& quantity,
+                         bool listed = false) const {
+    for (unsigned i = 0; i < matrix.rows(); ++i) {
+      for (unsigned j = 0; j < matrix.cols(); ++j) {
+        for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+          if (matrix(i, j).has(velocity)) {
+            Fail(listed ? Indexed(key, i) : Indexed(key, i, j),
+                 "depends on the velocity '" + velocity.get_name() + "'; " + quantity +
+                     " may depend on parameters and coordinates only");
+          }
+        }
+      }
+    }
+  }
+
+  void CheckSymmetric(const GiNaC::matrix& mass_matrix) const {
+    for (unsigned i = 0; i < mass_matrix.rows(); ++i) {
+      for (unsigned j = i + 1; j < mass_matrix.cols(); ++j) {
+        const GiNaC::ex difference = mass_matrix(i, j) - mass_matrix(j, i);
+        if (difference.expand().is_zero() || GiNaC::normal(difference).is_zero() ||
+            AgreeNumerically(mass_matrix(i, j), mass_matrix(j, i))) {
+          continue;
+        }
+        Fail(Indexed("mass_matrix", i, j),
+             "differs from " + Indexed("mass_matrix", j, i) + " (" + Text(mass_matrix(i, j)) +
+                 " vs " + Text(mass_matrix(j, i)) + "); the mass matrix must be symmetric");
+      }
+    }
+  }
+
+  bool AgreeNumerically(const GiNaC::ex& first, const GiNaC::ex& second) const {
+    std::mt19937 random(kSymmetryCheckSeed);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    for (int point = 0; point < kSymmetryCheckPoints; ++point) {
+      GiNaC::exmap values;
+      for (std::size_t k = 0; k < parameter_symbols_.size(); ++k) {
+        const double nominal = model_.parameters_[static_cast<Eigen::Index>(k)];
+        values[parameter_symbols_[k]] = nominal * (1.0 + kSymmetryParameterSpread * unit(random));
+      }
+      for (const GiNaC::realsymbol& coordinate : coordinate_symbols_) {
+        values[coordinate] = unit(random);
+      }
+      const std::optional<double> a = EvaluateAt(first, values);
+      const std::optional<double> b = EvaluateAt(second, values);
+      // A point where an entry is undefined (a pole, a complex value) tells nothing.
+      if (a && b && std::abs(*a - *b) > kSymmetryTolerance * std::max(std::abs(*a), std::abs(*b))) {
+        return false;
+      }
+    }
+    return true;
+  }
+
+  static std::optional<double> EvaluateAt(const GiNaC::ex& expression, const GiNaC::exmap& values) {
+    try {
+      const GiNaC::ex value = expression.subs(values).evalf();
+      if (GiNaC::is_a<GiNaC::numeric>(value) && GiNaC::ex_to<GiNaC::numeric>(value).is_real()) {
+        return GiNaC::ex_to<GiNaC::numeric>(value).to_double();
+      }
+    } catch (const std::exception&) {
+      // GiNaC throws on poles such as 1/0; treated as undefined at this point.
+    }
+    return std::nullopt;
+  }
+
+  // One program per Quantity, at the Quantity's bit position (model.h).
+  void Compile(const SymbolicModel& symbolic) {
+    const std::vector<GiNaC::ex> inputs = symbolic.ProgramInputs();
+    struct Derived {
+      Quantity quantity;
+      std::string_view name;  // for the error message only
+      std::vector<GiNaC::matrix> blocks;
+    };
+    const std::vector<Derived> quantities = {
+        {Quantity::kMassMatrix, "mass matrix", {symbolic.mass_matrix()}},
+        {Quantity::kForces, "forces", {symbolic.forces()}},
+        {Quantity::kInputMatrix, "input matrix", {symbolic.input_matrix()}},
+        {Quantity::kOutput, "outputs", {symbolic.output()}},
+        {Quantity::kOutputJacobian, "output Jacobian H", {symbolic.output_jacobian()}},
+        {Quantity::kOutputBias, "output bias h_bar", {symbolic.output_bias()}},
+        {Quantity::kForcesJacobians,
+         "Jacobians of f",
+         {symbolic.forces_position_jacobian(), symbolic.forces_velocity_jacobian()}},
+        {Quantity::kMassMatrixDerivatives, "dM/dq", symbolic.mass_matrix_derivatives()},
+        {Quantity::kInputMatrixDerivatives, "dB/dq", symbolic.input_matrix_derivatives()},
+        {Quantity::kOutputJacobianDerivatives, "dH/dq", symbolic.output_jacobian_derivatives()},
+        {Quantity::kOutputBiasJacobians,
+         "Jacobians of h_bar",
+         {symbolic.output_bias_position_jacobian(), symbolic.output_bias_velocity_jacobian()}},
+    };
+    static_assert(kNumQuantities == 11, "compile every Quantity");
+    model_.programs_.assign(kNumQuantities, nullptr);
+    for (const Derived& derived : quantities) {
+      const auto index =
+          static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(derived.quantity)));
+      try {
+        model_.programs_[index] = std::make_shared<const ExpressionProgram>(
+            CompileExpressions(ColumnMajor(derived.blocks), inputs));
+      } catch (const std::invalid_argument& error) {
+        // Every entry passed FindUnsupported, so this is a derivative GiNaC wrote in a form
+        // the compiler does not know; it still comes from the file, so report it as such.
+        Fail("derived " + std::string(derived.name), error.what());
+      }
+    }
+  }
+
+  Model model_;
+  YAML::Node root_;
+  GiNaC::symtab symbol_table_;
+  std::vector<GiNaC::realsymbol> parameter_symbols_, coordinate_symbols_, velocity_symbols_;
+};
+
+Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides) {
+  return LoadModelFromString(ReadFile(path), path, overrides);
+}
+
+Model LoadModelFromString(const std::string& yaml_text,
+                          const std::string& source,
+                          const std::vector<ParameterOverride>& overrides) {
+  return ModelBuilder(yaml_text, source).Build(overrides);
+}
+
+}  // namespace servokit

@@ -1,0 +1,99 @@
+#pragma once
+// The symbolic view of a model (DESIGN.md, "Symbolic once, numeric many times"): the GiNaC
+// expressions of M, f, B, h as read from the model file, and everything derived from them once
+// at load time. Numeric code uses the compiled programs instead (models/model.h); this view is
+// for closed forms (characteristic polynomials, normal forms) and for reports. GiNaC is not
+// thread-safe: use a SymbolicModel from one thread at a time.
+#include <ginac/ginac.h>
+
+#include <Eigen/Dense>
+#include <cstddef>
+#include <vector>
+
+namespace servokit {
+
+/// M(q) q'' + f(q, q') = B(q) u, y = h(q) (paper Eqs. 1, 3) with the derived H, h_bar and the
+/// Jacobians. Vectors are GiNaC matrices with one column. Symbols are GiNaC::realsymbol, so that
+/// abs() differentiates to x/abs(x) and conjugate() is the identity.
+class SymbolicModel {
+ public:
+  /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
+  /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`.
+  SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
+                std::vector<GiNaC::realsymbol> coordinates,
+                std::vector<GiNaC::realsymbol> velocities,
+                GiNaC::matrix mass_matrix,
+                GiNaC::matrix forces,
+                GiNaC::matrix input_matrix,
+                GiNaC::matrix output);
+
+  /// Number of coordinates q.
+  std::size_t dof() const { return coordinates_.size(); }
+  /// Number of inputs u (columns of B).
+  std::size_t num_inputs() const { return input_matrix_.cols(); }
+  /// Number of outputs y (rows of h).
+  std::size_t num_outputs() const { return output_.rows(); }
+
+  /// The parameter symbols, in the order of Model::parameter_names().
+  const std::vector<GiNaC::realsymbol>& parameters() const { return parameters_; }
+  /// q, in the order of Model::coordinates().
+  const std::vector<GiNaC::realsymbol>& coordinates() const { return coordinates_; }
+  /// q_dot; the symbol of coordinate c is named c_dot.
+  const std::vector<GiNaC::realsymbol>& velocities() const { return velocities_; }
+  /// The inputs of every compiled program: [parameters, q, q_dot].
+  std::vector<GiNaC::ex> ProgramInputs() const;
+
+  /// M(q), dof x dof (paper Eq. 1).
+  const GiNaC::matrix& mass_matrix() const { return mass_matrix_; }
+  /// f(q, q_dot), dof x 1 (paper Eq. 1).
+  const GiNaC::matrix& forces() const { return forces_; }
+  /// B(q), dof x inputs (paper Eq. 1).
+  const GiNaC::matrix& input_matrix() const { return input_matrix_; }
+  /// h(q), outputs x 1 (paper Eq. 3).
+  const GiNaC::matrix& output() const { return output_; }
+  /// H = dh/dq, outputs x dof (paper Eq. 4).
+  const GiNaC::matrix& output_jacobian() const { return output_jacobian_; }
+  /// h_bar = H_dot q_dot = sum_jk d2h/dq_j dq_k q_dot_j q_dot_k, outputs x 1 (paper Eq. 5).
+  const GiNaC::matrix& output_bias() const { return output_bias_; }
+  /// df/dq, dof x dof.
+  const GiNaC::matrix& forces_position_jacobian() const { return forces_position_jacobian_; }
+  /// df/dq_dot, dof x dof.
+  const GiNaC::matrix& forces_velocity_jacobian() const { return forces_velocity_jacobian_; }
+  /// dM/dq_k for k = 0..dof-1, each dof x dof.
+  const std::vector<GiNaC::matrix>& mass_matrix_derivatives() const {
+    return mass_matrix_derivatives_;
+  }
+  /// dB/dq_k for k = 0..dof-1, each dof x inputs.
+  const std::vector<GiNaC::matrix>& input_matrix_derivatives() const {
+    return input_matrix_derivatives_;
+  }
+  /// dH/dq_k for k = 0..dof-1, each outputs x dof.
+  const std::vector<GiNaC::matrix>& output_jacobian_derivatives() const {
+    return output_jacobian_derivatives_;
+  }
+  /// d h_bar/dq, outputs x dof.
+  const GiNaC::matrix& output_bias_position_jacobian() const {
+    return output_bias_position_jacobian_;
+  }
+  /// d h_bar/dq_dot, outputs x dof.
+  const GiNaC::matrix& output_bias_velocity_jacobian() const {
+    return output_bias_velocity_jacobian_;
+  }
+
+  /// The substitution parameter symbol -> value, for GiNaC's subs(). `values` has
+  /// parameters().size() entries in SI units (e.g. Model::parameters()).
+  GiNaC::exmap ParameterValues(const Eigen::VectorXd& values) const;
+  /// `expression` with every parameter replaced by its value in `values` (as ParameterValues).
+  GiNaC::ex SubstituteParameters(const GiNaC::ex& expression, const Eigen::VectorXd& values) const;
+
+ private:
+  std::vector<GiNaC::realsymbol> parameters_, coordinates_, velocities_;
+  GiNaC::matrix mass_matrix_, forces_, input_matrix_, output_;
+  GiNaC::matrix output_jacobian_, output_bias_;
+  GiNaC::matrix forces_position_jacobian_, forces_velocity_jacobian_;
+  std::vector<GiNaC::matrix> mass_matrix_derivatives_, input_matrix_derivatives_,
+      output_jacobian_derivatives_;
+  GiNaC::matrix output_bias_position_jacobian_, output_bias_velocity_jacobian_;
+};
+
+}  // namespace servokit

@@ -1,0 +1,241 @@
+#include "reports/classification_report.h"
+
+#include <sstream>
+
+#include "reports/number_format.h"
+
+namespace servokit {
+namespace {
+
+nlohmann::json VectorToJson(const Eigen::VectorXd& values) {
+  nlohmann::json array = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < values.size(); ++i) array.push_back(values(i));
+  return array;
+}
+
+nlohmann::json MatrixToJson(const Eigen::MatrixXd& matrix) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) rows.push_back(VectorToJson(matrix.row(i)));
+  return rows;
+}
+
+nlohmann::json EigenvaluesToJson(const std::vector<std::complex<double>>& eigenvalues) {
+  nlohmann::json array = nlohmann::json::array();
+  for (const auto& eigenvalue : eigenvalues) {
+    array.push_back({{"re", eigenvalue.real()}, {"im", eigenvalue.imag()}});
+  }
+  return array;
+}
+
+template <typename Container>
+std::string Join(const Container& items, const std::string& separator) {
+  std::ostringstream out;
+  bool first = true;
+  for (const auto& item : items) {
+    out << (first ? "" : separator) << item;
+    first = false;
+  }
+  return out.str();
+}
+
+std::string VectorToText(const Eigen::VectorXd& values) {
+  std::vector<std::string> parts;
+  for (Eigen::Index i = 0; i < values.size(); ++i) parts.push_back(FormatShort(values(i)));
+  return "[" + Join(parts, ", ") + "]";
+}
+
+std::string MatrixToText(const Eigen::MatrixXd& matrix) {
+  std::vector<std::string> rows;
+  for (Eigen::Index i = 0; i < matrix.rows(); ++i) rows.push_back(VectorToText(matrix.row(i)));
+  return "[" + Join(rows, ", ") + "]";
+}
+
+std::string EigenvaluesToText(const std::vector<std::complex<double>>& eigenvalues) {
+  if (eigenvalues.empty()) return "none";
+  std::vector<std::string> parts;
+  for (const auto& eigenvalue : eigenvalues) parts.push_back(FormatComplex(eigenvalue));
+  return Join(parts, ", ");
+}
+
+std::string ModesToText(const std::vector<Mode>& modes) {
+  if (modes.empty()) return "none (no complex pair)";
+  std::vector<std::string> parts;
+  for (const Mode& mode : modes) {
+    parts.push_back(FormatShort(mode.frequency_hz) + " Hz, damping ratio " +
+                    FormatShort(mode.damping_ratio));
+  }
+  return Join(parts, "; ");
+}
+
+std::string ParametersToText(const Model& model) {
+  std::vector<std::string> parts;
+  for (std::size_t i = 0; i < model.num_parameters(); ++i) {
+    parts.push_back(model.parameter_names()[i] + " = " +
+                    FormatShort(model.parameters()(Eigen::Index(i))));
+  }
+  return Join(parts, ", ");
+}
+
+std::string IntsToText(const std::vector<int>& values) { return "[" + Join(values, ", ") + "]"; }
+
+// The rows shared by the text and Markdown forms: (label, value).
+std::vector<std::pair<std::string, std::string>> SummaryRows(const Model& model,
+                                                             const Classification& c) {
+  const auto& structure = c.structure;
+  std::string relative_degree = IntsToText(structure.relative_degree);
+  if (!structure.decoupling_matrix_regular) {
+    relative_degree +=
+        " (decoupling matrix singular: no vector relative degree; orders of the "
+        "infinite zeros " +
+        IntsToText(structure.infinite_zero_orders) + ")";
+  }
+  std::vector<std::pair<std::string, std::string>> rows = {
+      {"parameters", ParametersToText(model)},
+      {"operating point", "q = " + VectorToText(c.operating_point.q) +
+                              ", u = " + VectorToText(c.operating_point.u) +
+                              ", y = " + VectorToText(c.operating_point.y)},
+      {"P = H M^-1 B", MatrixToText(c.decoupling.decoupling_matrix)},
+      {"singular values of P", VectorToText(c.decoupling.singular_values) + " (zero below " +
+                                   FormatShort(c.decoupling.rank_threshold) + ")"},
+      {"rank P", std::to_string(c.decoupling.rank) + " of " +
+                     std::to_string(c.decoupling.decoupling_matrix.rows()) + ", deficiency " +
+                     std::to_string(c.decoupling.rank_deficiency)},
+      {"realization", std::string(ToString(c.decoupling.realization))},
+      {"relative degree", relative_degree},
+      {"differentiation index",
+       std::to_string(structure.differentiation_index) +
+           " (projected DAE: " + std::to_string(structure.projected_index) + ")"},
+      {"internal dynamics",
+       "order " + std::to_string(structure.internal_dynamics_order) + (c.flat ? " (flat)" : "")},
+      {"zero dynamics", EigenvaluesToText(c.zero_dynamics.eigenvalues)},
+      {"stability",
+       std::string(ToString(c.zero_dynamics.stability)) +
+           (c.zero_dynamics.minimum_phase ? ", minimum phase" : ", non-minimum phase")},
+      {"oscillatory modes", ModesToText(c.zero_dynamics.modes)},
+      {"recommended solver", std::string(ToString(c.recommended_solver))},
+  };
+  if (c.cross_check) {
+    rows.push_back({"cross-check (QZ)",
+                    std::string(c.cross_check->agrees ? "agrees" : "DISAGREES") +
+                        ": invariant zeros " + EigenvaluesToText(c.cross_check->invariant_zeros) +
+                        ", largest difference " + FormatShort(c.cross_check->max_difference)});
+  }
+  return rows;
+}
+
+constexpr std::pair<ReportFormat, std::string_view> kReportFormatNames[] = {
+    {ReportFormat::kText, "text"},
+    {ReportFormat::kJson, "json"},
+    {ReportFormat::kMarkdown, "md"},
+};
+
+}  // namespace
+
+std::string_view ToString(ReportFormat format) {
+  for (const auto& [key, name] : kReportFormatNames) {
+    if (key == format) return name;
+  }
+  return "text";
+}
+
+std::optional<ReportFormat> ReportFormatFromString(std::string_view text) {
+  for (const auto& [key, name] : kReportFormatNames) {
+    if (name == text) return key;
+  }
+  return std::nullopt;
+}
+
+nlohmann::json ClassificationToJson(const Model& model,
+                                    const Classification& c,
+                                    const ClassificationOptions& options) {
+  nlohmann::json parameters = nlohmann::json::object();
+  for (std::size_t i = 0; i < model.num_parameters(); ++i) {
+    parameters[model.parameter_names()[i]] = model.parameters()(Eigen::Index(i));
+  }
+  nlohmann::json modes = nlohmann::json::array();
+  for (const Mode& mode : c.zero_dynamics.modes) {
+    modes.push_back({{"frequency_hz", mode.frequency_hz}, {"damping_ratio", mode.damping_ratio}});
+  }
+  nlohmann::json zero_dynamics = {
+      {"eigenvalues", EigenvaluesToJson(c.zero_dynamics.eigenvalues)},
+      {"stability", ToString(c.zero_dynamics.stability)},
+      {"minimum_phase", c.zero_dynamics.minimum_phase},
+      {"modes", modes},
+  };
+  if (c.cross_check) {
+    zero_dynamics["cross_check"] = {
+        {"method", "invariant zeros of the linearization (QZ of the Rosenbrock pencil)"},
+        {"invariant_zeros", EigenvaluesToJson(c.cross_check->invariant_zeros)},
+        {"max_difference", c.cross_check->max_difference},
+        {"agrees", c.cross_check->agrees},
+    };
+  }
+  return {
+      {"model", model.name()},
+      {"parameters", parameters},
+      {"dof", model.dof()},
+      {"coordinates", model.coordinates()},
+      {"inputs", model.inputs()},
+      {"outputs", model.output_names()},
+      {"operating_point",
+       {{"q", VectorToJson(c.operating_point.q)},
+        {"u", VectorToJson(c.operating_point.u)},
+        {"y", VectorToJson(c.operating_point.y)}}},
+      {"P", MatrixToJson(c.decoupling.decoupling_matrix)},
+      {"P_singular_values", VectorToJson(c.decoupling.singular_values)},
+      {"P_rank_threshold", c.decoupling.rank_threshold},
+      {"P_rank", c.decoupling.rank},
+      {"P_rank_deficiency", c.decoupling.rank_deficiency},
+      {"realization", ToString(c.decoupling.realization)},
+      {"relative_degree", c.structure.relative_degree},
+      {"decoupling_matrix_regular", c.structure.decoupling_matrix_regular},
+      {"infinite_zero_orders", c.structure.infinite_zero_orders},
+      {"differentiation_index", c.structure.differentiation_index},
+      {"projected_index", c.structure.projected_index},
+      {"internal_dynamics_order", c.structure.internal_dynamics_order},
+      {"flat", c.flat},
+      {"zero_dynamics", zero_dynamics},
+      {"recommended_solver", ToString(c.recommended_solver)},
+      {"tolerances",
+       {{"rank_tolerance", options.rank_tolerance},
+        {"imaginary_axis_tolerance", options.imaginary_axis_tolerance}}},
+  };
+}
+
+std::string ClassificationToText(const Model& model, const Classification& c) {
+  std::ostringstream out;
+  out << model.name() << " (" << model.source() << ")\n";
+  for (const auto& [label, value] : SummaryRows(model, c)) {
+    out << "  " << label << std::string(label.size() < 24 ? 24 - label.size() : 1, ' ') << value
+        << "\n";
+  }
+  return out.str();
+}
+
+std::string ClassificationToMarkdown(const Model& model, const Classification& c) {
+  std::ostringstream out;
+  out << "## " << model.name() << "\n\n";
+  if (!model.description().empty()) out << model.description() << "\n\n";
+  out << "| property | value |\n| --- | --- |\n";
+  for (const auto& [label, value] : SummaryRows(model, c)) {
+    out << "| " << label << " | " << value << " |\n";
+  }
+  return out.str();
+}
+
+std::string FormatClassification(const Model& model,
+                                 const Classification& classification,
+                                 const ClassificationOptions& options,
+                                 ReportFormat format) {
+  switch (format) {
+    case ReportFormat::kJson:
+      return ClassificationToJson(model, classification, options).dump(2) + "\n";
+    case ReportFormat::kMarkdown:
+      return ClassificationToMarkdown(model, classification);
+    case ReportFormat::kText:
+      break;
+  }
+  return ClassificationToText(model, classification);
+}
+
+}  // namespace servokit

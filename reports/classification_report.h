@@ -1,0 +1,36 @@
+#pragma once
+// `servokit analyze` output: the JSON object of DESIGN.md, and text and Markdown for people.
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "analysis/classification.h"
+#include "models/model.h"
+
+namespace servokit {
+
+enum class ReportFormat { kText, kJson, kMarkdown };
+std::string_view ToString(ReportFormat format);  // "text", "json", "md"
+std::optional<ReportFormat> ReportFormatFromString(std::string_view text);
+
+/// The analyze object (DESIGN.md "analyze --format json"), plus explanatory extras:
+/// coordinates, infinite_zero_orders, decoupling_matrix_regular, P_rank_threshold,
+/// zero_dynamics.cross_check and the tolerances used.
+nlohmann::json ClassificationToJson(const Model& model,
+                                    const Classification& classification,
+                                    const ClassificationOptions& options);
+
+/// The same content for a terminal.
+std::string ClassificationToText(const Model& model, const Classification& classification);
+
+/// The same content as a Markdown section.
+std::string ClassificationToMarkdown(const Model& model, const Classification& classification);
+
+/// One of the three, by format.
+std::string FormatClassification(const Model& model,
+                                 const Classification& classification,
+                                 const ClassificationOptions& options,
+                                 ReportFormat format);
+
+}  // namespace servokit

@@ -1,0 +1,19 @@
+#pragma once
+// How numbers are written: one helper for machine-read files (CSV), exact on read-back, and one
+// for people (text and Markdown reports).
+#include <complex>
+#include <string>
+
+namespace servokit {
+
+/// "%.17g": reads back to the same double. NaN and Inf are written as "nan" / "inf"; callers
+/// that may produce them say so next to the number.
+std::string FormatExact(double value);
+
+/// A short form for people: 6 significant digits, and "0" for |value| < 1e-300.
+std::string FormatShort(double value);
+
+/// "a + bi" / "a - bi" / "a" with FormatShort parts.
+std::string FormatComplex(std::complex<double> value);
+
+}  // namespace servokit

@@ -1,0 +1,291 @@
+// Every malformed model file gives one ModelError that names the file, the key and the entry
+// (DESIGN.md, "The model file"). Each case edits one line of a valid model (the mass on a car).
+#include <catch2/catch.hpp>
+#include <string>
+
+#include "models/errors.h"
+#include "models/model.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::TestDataPath;
+
+const std::string kSource = "models/bad.yaml";
+
+const std::string kValidModel = R"(name: test
+parameters:
+  m1: 1.0
+  m2: 2.0
+  k: 5.0
+  d: 1.0
+  alpha: 5 deg
+coordinates: [x, s]
+inputs: [F]
+mass_matrix:
+  - [m1 + m2, m2*cos(alpha)]
+  - [m2*cos(alpha), m2]
+forces:
+  - 0
+  - k*s + d*s_dot
+input_matrix:
+  - [1]
+  - [0]
+outputs:
+  - x + s*cos(alpha)
+)";
+
+// kValidModel with the one occurrence of `from` replaced by `to`.
+std::string Edit(const std::string& from, const std::string& to) {
+  const std::size_t at = kValidModel.find(from);
+  REQUIRE(at != std::string::npos);
+  REQUIRE(kValidModel.find(from, at + 1) == std::string::npos);
+  std::string text = kValidModel;
+  return text.replace(at, from.size(), to);
+}
+
+// The message of the ModelError that `load` throws; any other outcome fails the test.
+template <typename Load>
+std::string ModelErrorMessage(const Load& load) {
+  try {
+    load();
+  } catch (const ModelError& error) {
+    return error.what();
+  }
+  FAIL("no ModelError was thrown");
+  return {};
+}
+
+std::string ErrorOf(const std::string& text) {
+  return ModelErrorMessage([&] { LoadModelFromString(text, kSource); });
+}
+
+void RequireError(const std::string& text, const std::string& message) {
+  CHECK(ErrorOf(text) == kSource + ": " + message);
+}
+
+TEST_CASE("the unedited model is valid", "[models]") {
+  CHECK_NOTHROW(LoadModelFromString(kValidModel, kSource));
+}
+
+TEST_CASE("a missing file is reported with its path", "[models]") {
+  REQUIRE_THROWS_MATCHES(
+      LoadModel("/nonexistent/model.yaml"), ModelError,
+      Catch::Message(
+          "/nonexistent/model.yaml: cannot open the model file (No such file or directory)"));
+}
+
+TEST_CASE("a directory is not a model file", "[models]") {
+  CHECK_THAT(ModelErrorMessage([] { LoadModel(TestDataPath("")); }),
+             Catch::Contains(": cannot read the model file"));
+}
+
+TEST_CASE("bad YAML is reported with line and column", "[models]") {
+  // The unclosed "[x, s" of line 4 is noticed where yaml-cpp expected its end, at line 5.
+  const std::string path = TestDataPath("models_bad_yaml.yaml");
+  REQUIRE_THROWS_MATCHES(LoadModel(path), ModelError,
+                         Catch::Message(path + ":5:7: bad YAML: end of sequence flow not found"));
+}
+
+TEST_CASE("the top level must be a map", "[models]") {
+  CHECK_THAT(ErrorOf("- name\n- test\n"),
+             Catch::StartsWith(kSource + ": top level: expected a map with the keys name, "
+                                         "parameters,"));
+  CHECK_THAT(ErrorOf(""), Catch::StartsWith(kSource + ": top level: expected a map"));
+}
+
+TEST_CASE("a missing required key is named", "[models]") {
+  RequireError(Edit("forces:\n  - 0\n  - k*s + d*s_dot\n", ""), "forces: missing required key");
+  RequireError(Edit("name: test\n", ""), "name: missing required key");
+}
+
+TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models]") {
+  RequireError(Edit("mass_matrix:", "mass_matrx:"),
+               "mass_matrx: unknown key (expected name, parameters, coordinates, inputs, "
+               "mass_matrix, forces, input_matrix, outputs or description)");
+}
+
+TEST_CASE("a duplicate top-level key is an error", "[models]") {
+  RequireError(kValidModel + "name: again\n", "name: duplicate key");
+}
+
+TEST_CASE("the name must be a string", "[models]") {
+  RequireError(Edit("name: test", "name: [a, b]"), "name: expected a non-empty string");
+}
+
+TEST_CASE("the description is optional but must be a string", "[models]") {
+  CHECK(LoadModelFromString(kValidModel + "description: a car\n", kSource).description() ==
+        "a car");
+  RequireError(kValidModel + "description: [a]\n", "description: expected a string");
+}
+
+TEST_CASE("a parameter value must be a number or a number of degrees", "[models]") {
+  RequireError(Edit("k: 5.0", "k: abc"), "parameters.k: not a number (use e.g. 5 or \"5 deg\")");
+  RequireError(Edit("alpha: 5 deg", "alpha: 5 rad"),
+               "parameters.alpha: not a number (use e.g. 5 or \"5 deg\")");
+  RequireError(Edit("k: 5.0", "k: [5]"), "parameters.k: not a number (use e.g. 5 or \"5 deg\")");
+}
+
+TEST_CASE("parameters must be a map", "[models]") {
+  RequireError(Edit("parameters:\n  m1: 1.0\n  m2: 2.0\n  k: 5.0\n  d: 1.0\n  alpha: 5 deg\n",
+                    "parameters: [m1, m2]\n"),
+               "parameters: expected a map of name: value (use {} for none)");
+}
+
+TEST_CASE("a name used twice is an error naming both places", "[models]") {
+  RequireError(Edit("d: 1.0", "x: 1.0"), "coordinates[0]: duplicate name 'x' (also parameters.x)");
+  RequireError(Edit("d: 1.0", "k: 1.0"), "parameters.k: duplicate name 'k' (also parameters.k)");
+  RequireError(Edit("inputs: [F]", "inputs: [s]"),
+               "inputs[0]: duplicate name 's' (also coordinates[1])");
+}
+
+TEST_CASE("a name may not clash with a function", "[models]") {
+  RequireError(Edit("d: 1.0", "sin: 1.0"),
+               "parameters.sin: name 'sin' clashes with the function sin()");
+}
+
+TEST_CASE("a name may not clash with pi or the parser's constants", "[models]") {
+  RequireError(Edit("d: 1.0", "pi: 1.0"), "parameters.pi: name 'pi' is reserved for a constant");
+  RequireError(Edit("coordinates: [x, s]", "coordinates: [x, I]"),
+               "coordinates[1]: name 'I' is reserved for a constant");
+}
+
+TEST_CASE("a name may not clash with the velocity of a coordinate", "[models]") {
+  RequireError(Edit("d: 1.0", "s_dot: 1.0"),
+               "parameters.s_dot: name 's_dot' clashes with the velocity of coordinate 's'");
+}
+
+TEST_CASE("a name must be an identifier", "[models]") {
+  RequireError(Edit("coordinates: [x, s]", "coordinates: [x, 2s]"),
+               "coordinates[1]: invalid name '2s' (use letters, digits and _, starting with a "
+               "letter)");
+  RequireError(Edit("inputs: [F]", "inputs: [F G]"),
+               "inputs[0]: invalid name 'F G' (use letters, digits and _, starting with a "
+               "letter)");
+}
+
+TEST_CASE("coordinates and inputs must not be empty", "[models]") {
+  RequireError(Edit("coordinates: [x, s]", "coordinates: []"),
+               "coordinates: expected at least one name");
+  RequireError(Edit("inputs: [F]", "inputs: []"), "inputs: expected at least one name");
+  RequireError(Edit("inputs: [F]", "inputs: F"), "inputs: expected a list of names, e.g. [x, s]");
+}
+
+TEST_CASE("more inputs than coordinates is an error", "[models]") {
+  RequireError(Edit("inputs: [F]", "inputs: [F, G, T]"),
+               "inputs: 3 inputs for 2 coordinates; a system has at most as many inputs as "
+               "coordinates");
+}
+
+TEST_CASE("an expression with a syntax error is named with its text", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "k*s +"),
+               "forces[1]: syntax error in \"k*s +\": unexpected token, got: EOF");
+  RequireError(Edit("k*s + d*s_dot", "cos(s, s)"),
+               "forces[1]: syntax error in \"cos(s, s)\": no function \"cos\" with 2 arguments");
+}
+
+TEST_CASE("an unknown symbol is named", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "kk*s + d*s_dot"), "forces[1]: unknown symbol 'kk'");
+  RequireError(Edit("k*s + d*s_dot", "k*s + d*x_ddot"), "forces[1]: unknown symbol 'x_ddot'");
+}
+
+TEST_CASE("an input may not appear in an expression", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "k*s + F"),
+               "forces[1]: 'F' is an input; expressions may use parameters, coordinates and "
+               "velocities only");
+}
+
+TEST_CASE("an unsupported function is named with the supported ones", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "k*gamma(s)"),
+               "forces[1]: unsupported function 'gamma' (supported: sin, cos, tan, asin, acos, "
+               "atan, atan2, exp, log, sqrt, sinh, cosh, tanh, abs)");
+  RequireError(Edit("k*s + d*s_dot", "k*sin s"),
+               "forces[1]: function 'sin' needs its argument in parentheses");
+}
+
+TEST_CASE("characters and numbers that are not part of the expression language", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "k*s; d"), "forces[1]: unexpected character ';'");
+  RequireError(Edit("k*s + d*s_dot", "2s"), "forces[1]: malformed number '2s'");
+  RequireError(Edit("k*s + d*s_dot", "k*s**2"),
+               "forces[1]: syntax error in \"k*s**2\": unexpected token, got: \"*\"");
+}
+
+TEST_CASE("expressions GiNaC evaluates to something unusable are named", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "sqrt(-1)*s"),
+               "forces[1]: complex number I in \"sqrt(-1)*s\"");
+  RequireError(Edit("k*s + d*s_dot", "1e400*s"),
+               "forces[1]: number out of range 1.0E400 in \"1e400*s\"");
+  CHECK_THAT(ErrorOf(Edit("k*s + d*s_dot", "k/0")),
+             Catch::StartsWith(kSource + ": forces[1]: invalid expression \"k/0\": "));
+}
+
+TEST_CASE("an empty or structured entry is not an expression", "[models]") {
+  RequireError(Edit("  - 0\n", "  -\n"), "forces[0]: empty expression");
+  RequireError(Edit("  - 0\n", "  - [0]\n"),
+               "forces[0]: expected an expression, found a list or map");
+}
+
+TEST_CASE("the mass matrix must have dof rows of dof entries", "[models]") {
+  RequireError(Edit("  - [m2*cos(alpha), m2]\n", "  - [m2*cos(alpha), m2]\n  - [0, 0]\n"),
+               "mass_matrix: expected 2 rows (one per coordinate), found 3");
+  RequireError(Edit("[m2*cos(alpha), m2]", "[m2]"),
+               "mass_matrix[1]: expected a row of 2 entries (one per coordinate), found 1");
+  RequireError(Edit("[m2*cos(alpha), m2]", "m2"),
+               "mass_matrix[1]: expected a row of 2 entries (one per coordinate), found no list");
+}
+
+TEST_CASE("the input matrix must have dof rows of one entry per input", "[models]") {
+  RequireError(Edit("  - [1]\n", "  - [1, 0]\n"),
+               "input_matrix[0]: expected a row of 1 entry (one per input), found 2");
+  RequireError(Edit("  - [1]\n  - [0]\n", "  - [1]\n"),
+               "input_matrix: expected 2 rows (one per coordinate), found 1");
+}
+
+TEST_CASE("forces must have one entry per coordinate", "[models]") {
+  RequireError(Edit("  - 0\n", ""), "forces: expected 2 entries (one per coordinate), found 1");
+  RequireError(Edit("forces:\n  - 0\n  - k*s + d*s_dot\n", "forces: 0\n"),
+               "forces: expected a list of expressions");
+}
+
+TEST_CASE("the mass matrix must be symmetric", "[models]") {
+  // GiNaC prints products in its own order (cos(alpha)*m2), so only the frame is compared.
+  const std::string message = ErrorOf(Edit("  - [m2*cos(alpha), m2]", "  - [m2, m2]"));
+  CHECK_THAT(message, Catch::StartsWith(kSource + ": mass_matrix[0][1]: differs from "
+                                                  "mass_matrix[1][0] ("));
+  CHECK_THAT(message, Catch::EndsWith(" vs m2); the mass matrix must be symmetric"));
+}
+
+TEST_CASE("a mass matrix symmetric only by a trigonometric identity is accepted", "[models]") {
+  // sin^2 + cos^2 = 1 is invisible to expand() and normal(): the random-point check decides.
+  CHECK_NOTHROW(LoadModelFromString(
+      Edit("  - [m2*cos(alpha), m2]", "  - [m2*cos(alpha)*(sin(s)^2 + cos(s)^2), m2]"), kSource));
+  // The same check sees a difference far below what expand() would show as a "simple" term.
+  CHECK_THAT(ErrorOf(Edit("  - [m2*cos(alpha), m2]",
+                          "  - [m2*cos(alpha)*(sin(s)^2 + cos(s)^2 + 1/1000000), m2]")),
+             Catch::StartsWith(kSource + ": mass_matrix[0][1]: differs from mass_matrix[1][0]"));
+}
+
+TEST_CASE("a mass matrix or input matrix that depends on velocities is an error", "[models]") {
+  RequireError(Edit("[m2*cos(alpha), m2]", "[m2*cos(alpha), m2 + s_dot^2]"),
+               "mass_matrix[1][1]: depends on the velocity 's_dot'; M(q) may depend on parameters "
+               "and coordinates only");
+  RequireError(Edit("  - [0]\n", "  - [x_dot]\n"),
+               "input_matrix[1][0]: depends on the velocity 'x_dot'; B(q) may depend on "
+               "parameters and coordinates only");
+}
+
+TEST_CASE("as many outputs as inputs are needed", "[models]") {
+  RequireError(Edit("  - x + s*cos(alpha)\n", "  - x\n  - s\n"),
+               "outputs: 2 outputs for 1 input; servo-constraint problems need as many outputs as "
+               "inputs");
+}
+
+TEST_CASE("an output that depends on a velocity names it", "[models]") {
+  RequireError(Edit("x + s*cos(alpha)", "x + s_dot"),
+               "outputs[0]: depends on the velocity 's_dot'; y = h(q) may depend on parameters "
+               "and coordinates only");
+}
+
+}  // namespace
+}  // namespace servokit

@@ -1,0 +1,119 @@
+// `servokit analyze` from the command line: the JSON contract of DESIGN.md, the formats, and the
+// documented exit statuses with their one-line messages.
+#include "reports/command_line.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::TestDataPath;
+
+struct Run {
+  int status = -1;
+  std::string out, err;
+};
+
+Run RunServokit(std::vector<std::string> arguments) {
+  arguments.insert(arguments.begin(), "servokit");
+  std::vector<const char*> argv;
+  for (const auto& argument : arguments) argv.push_back(argument.c_str());
+  std::ostringstream out, err;
+  Run run;
+  run.status = RunCommandLine(int(argv.size()), argv.data(), out, err);
+  run.out = out.str();
+  run.err = err.str();
+  return run;
+}
+
+TEST_CASE("analyze --format json prints one object with every key of DESIGN.md", "[reports]") {
+  const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "json"});
+  REQUIRE(run.status == 0);
+  const auto object = nlohmann::json::parse(run.out);
+  for (const char* key :
+       {"model", "parameters", "dof", "inputs", "outputs", "operating_point", "P",
+        "P_singular_values", "P_rank", "P_rank_deficiency", "realization", "relative_degree",
+        "differentiation_index", "projected_index", "internal_dynamics_order", "flat",
+        "zero_dynamics", "recommended_solver"}) {
+    INFO(key);
+    CHECK(object.contains(key));
+  }
+  for (const char* key : {"eigenvalues", "stability", "minimum_phase", "modes"}) {
+    INFO(key);
+    CHECK(object["zero_dynamics"].contains(key));
+  }
+  for (const char* key : {"q", "u", "y"}) CHECK(object["operating_point"].contains(key));
+  CHECK(object["realization"] == "non-ideal-orthogonal");
+  CHECK(object["parameters"]["alpha"].get<double>() == Approx(5 * 3.14159265358979 / 180));
+  CHECK(run.err.empty());
+}
+
+TEST_CASE("--set with deg, and the case-4 verdict in JSON", "[reports]") {
+  const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--set", "alpha=0 deg",
+                               "--set", "d=0", "--format", "json"});
+  REQUIRE(run.status == 0);
+  const auto object = nlohmann::json::parse(run.out);
+  CHECK(object["realization"] == "tangential");
+  CHECK(object["differentiation_index"] == 5);
+  CHECK(object["flat"] == true);
+  CHECK(object["zero_dynamics"]["stability"] == "none");
+  CHECK(object["recommended_solver"] == "algebraic");
+}
+
+TEST_CASE("text and Markdown formats name the realization and the stability", "[reports]") {
+  const Run text = RunServokit({"analyze", ModelPath("rotational_arm.yaml")});
+  REQUIRE(text.status == 0);
+  CHECK_THAT(text.out, Catch::Contains("non-ideal-orthogonal") && Catch::Contains("unstable"));
+  const Run markdown = RunServokit({"analyze", ModelPath("rotational_arm.yaml"), "--format", "md"});
+  REQUIRE(markdown.status == 0);
+  CHECK_THAT(markdown.out, Catch::Contains("| realization | non-ideal-orthogonal |"));
+}
+
+TEST_CASE("bad usage exits 2 with one line naming the problem", "[reports]") {
+  const Run unknown_option = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--colour"});
+  CHECK(unknown_option.status == 2);
+  CHECK_THAT(unknown_option.err,
+             Catch::StartsWith("servokit: error: ") && Catch::Contains("--colour"));
+  const Run bad_format =
+      RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "yaml"});
+  CHECK(bad_format.status == 2);
+  CHECK_THAT(bad_format.err, Catch::Contains("--format yaml"));
+  const Run bad_set = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--set", "alpha"});
+  CHECK(bad_set.status == 2);
+  CHECK_THAT(bad_set.err, Catch::Contains("--set alpha: expected name=value"));
+  const Run no_command = RunServokit({});
+  CHECK(no_command.status == 2);
+}
+
+TEST_CASE("a missing model file exits 2 naming the file", "[reports]") {
+  const Run run = RunServokit({"analyze", "no/such/model.yaml"});
+  CHECK(run.status == 2);
+  CHECK_THAT(run.err,
+             Catch::StartsWith("servokit: error: ") && Catch::Contains("no/such/model.yaml"));
+  CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
+}
+
+TEST_CASE("no equilibrium exits 3", "[reports]") {
+  const Run run = RunServokit({"analyze", TestDataPath("no_equilibrium.yaml")});
+  CHECK(run.status == 3);
+  CHECK_THAT(run.err, Catch::StartsWith("servokit: error: no equilibrium found"));
+}
+
+TEST_CASE("--version and --help exit 0", "[reports]") {
+  const Run version = RunServokit({"--version"});
+  CHECK(version.status == 0);
+  CHECK_THAT(version.out, Catch::StartsWith("servokit "));
+  const Run help = RunServokit({"analyze", "--help"});
+  CHECK(help.status == 0);
+  CHECK_THAT(help.out, Catch::Contains("Example"));
+}
+
+}  // namespace
+}  // namespace servokit
