@@ -7,22 +7,23 @@
 namespace servokit {
 namespace {
 
-nlohmann::json VectorToJson(const Eigen::VectorXd& values) {
-  nlohmann::json array = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < values.size(); ++i) array.push_back(values(i));
+nlohmann::ordered_json VectorToJson(const Eigen::VectorXd& values) {
+  nlohmann::ordered_json array = nlohmann::ordered_json::array();
+  for (Eigen::Index i = 0; i < values.size(); ++i) array.push_back(WithoutNegativeZero(values(i)));
   return array;
 }
 
-nlohmann::json MatrixToJson(const Eigen::MatrixXd& matrix) {
-  nlohmann::json rows = nlohmann::json::array();
+nlohmann::ordered_json MatrixToJson(const Eigen::MatrixXd& matrix) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
   for (Eigen::Index i = 0; i < matrix.rows(); ++i) rows.push_back(VectorToJson(matrix.row(i)));
   return rows;
 }
 
-nlohmann::json EigenvaluesToJson(const std::vector<std::complex<double>>& eigenvalues) {
-  nlohmann::json array = nlohmann::json::array();
+nlohmann::ordered_json EigenvaluesToJson(const std::vector<std::complex<double>>& eigenvalues) {
+  nlohmann::ordered_json array = nlohmann::ordered_json::array();
   for (const auto& eigenvalue : eigenvalues) {
-    array.push_back({{"re", eigenvalue.real()}, {"im", eigenvalue.imag()}});
+    array.push_back({{"re", WithoutNegativeZero(eigenvalue.real())},
+                     {"im", WithoutNegativeZero(eigenvalue.imag())}});
   }
   return array;
 }
@@ -145,18 +146,18 @@ std::optional<ReportFormat> ReportFormatFromString(std::string_view text) {
   return std::nullopt;
 }
 
-nlohmann::json ClassificationToJson(const Model& model,
-                                    const Classification& c,
-                                    const ClassificationOptions& options) {
-  nlohmann::json parameters = nlohmann::json::object();
+nlohmann::ordered_json ClassificationToJson(const Model& model,
+                                            const Classification& c,
+                                            const ClassificationOptions& options) {
+  nlohmann::ordered_json parameters = nlohmann::ordered_json::object();
   for (std::size_t i = 0; i < model.num_parameters(); ++i) {
     parameters[model.parameter_names()[i]] = model.parameters()(Eigen::Index(i));
   }
-  nlohmann::json modes = nlohmann::json::array();
+  nlohmann::ordered_json modes = nlohmann::ordered_json::array();
   for (const Mode& mode : c.zero_dynamics.modes) {
     modes.push_back({{"frequency_hz", mode.frequency_hz}, {"damping_ratio", mode.damping_ratio}});
   }
-  nlohmann::json zero_dynamics = {
+  nlohmann::ordered_json zero_dynamics = {
       {"eigenvalues", EigenvaluesToJson(c.zero_dynamics.eigenvalues)},
       {"stability", ToString(c.zero_dynamics.stability)},
       {"minimum_phase", c.zero_dynamics.minimum_phase},

@@ -17,9 +17,9 @@ std::optional<ReportFormat> ReportFormatFromString(std::string_view text);
 /// The analyze object (DESIGN.md "analyze --format json"), plus explanatory extras:
 /// coordinates, infinite_zero_orders, decoupling_matrix_regular, P_rank_threshold,
 /// zero_dynamics.cross_check and the tolerances used.
-nlohmann::json ClassificationToJson(const Model& model,
-                                    const Classification& classification,
-                                    const ClassificationOptions& options);
+nlohmann::ordered_json ClassificationToJson(const Model& model,
+                                            const Classification& classification,
+                                            const ClassificationOptions& options);
 
 /// The same content for a terminal.
 std::string ClassificationToText(const Model& model, const Classification& classification);

@@ -14,7 +14,7 @@ std::string Printf(const char* format, double value) {
 
 }  // namespace
 
-std::string FormatExact(double value) { return Printf("%.17g", value); }
+std::string FormatExact(double value) { return Printf("%.17g", WithoutNegativeZero(value)); }
 
 std::string FormatShort(double value) {
   // Below this the value is round-off of an exact zero; printing "-1.2e-317" helps no one.

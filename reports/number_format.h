@@ -6,6 +6,9 @@
 
 namespace servokit {
 
+/// -0.0 becomes 0.0 (a held force of "-0" reads as a sign error to people); others unchanged.
+inline double WithoutNegativeZero(double value) { return value + 0.0; }
+
 /// "%.17g": reads back to the same double. NaN and Inf are written as "nan" / "inf"; callers
 /// that may produce them say so next to the number.
 std::string FormatExact(double value);
