@@ -5,8 +5,14 @@
 BUILD_DIR   ?= build
 BUILD_TYPE  ?= Release
 JOBS        ?= $(shell nproc 2>/dev/null || echo 2)
-SERVOKIT_WERROR ?= OFF
 SERVOKIT    := $(BUILD_DIR)/reports/servokit
+# Warnings as errors only when asked (CI exports SERVOKIT_WERROR=ON); otherwise the cached
+# choice stays, so that `make demo` after `make test` does not rebuild everything.
+CMAKE_FLAGS := -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)
+ifdef SERVOKIT_WERROR
+CMAKE_FLAGS += -DSERVOKIT_WERROR=$(SERVOKIT_WERROR)
+endif
+MAKEFLAGS   += --no-print-directory
 
 # Build and run dependencies (DESIGN.md, "Dependencies").
 PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-dev libgsl-dev \
@@ -25,7 +31,7 @@ bench-deps:
 	@./scripts/install-deps.sh $(PACKAGES) $(BENCH_PACKAGES)
 
 configure: deps
-	@cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DSERVOKIT_WERROR=$(SERVOKIT_WERROR) >/dev/null
+	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) >/dev/null
 
 build: configure
 	@cmake --build $(BUILD_DIR) -j $(JOBS)
