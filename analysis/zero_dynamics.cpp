@@ -49,14 +49,19 @@ Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues
   return on_axis ? Stability::kCritical : Stability::kAsymptoticallyStable;
 }
 
+Mode ModeOf(std::complex<double> eigenvalue) {
+  const double magnitude = std::abs(eigenvalue);
+  if (magnitude == 0.0) return {0.0, 1.0};
+  return {magnitude / (2.0 * std::numbers::pi), -eigenvalue.real() / magnitude};
+}
+
 std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
                                    double imaginary_axis_tolerance) {
   const double threshold = imaginary_axis_tolerance * LargestMagnitude(eigenvalues);
   std::vector<Mode> modes;
   for (const auto& eigenvalue : eigenvalues) {
     if (eigenvalue.imag() <= threshold) continue;
-    const double magnitude = std::abs(eigenvalue);
-    modes.push_back({magnitude / (2.0 * std::numbers::pi), -eigenvalue.real() / magnitude});
+    modes.push_back(ModeOf(eigenvalue));
   }
   std::sort(modes.begin(), modes.end(),
             [](const Mode& a, const Mode& b) { return a.frequency_hz < b.frequency_hz; });

@@ -33,6 +33,11 @@ struct ZeroDynamics {
   std::vector<Mode> modes;    // one per complex pair, ascending frequency
 };
 
+/// The frequency |lambda| / (2 pi) and damping ratio -Re(lambda) / |lambda| of an eigenvalue:
+/// the one place this formula is written (modes, eigenvalue tables). A zero eigenvalue has
+/// frequency 0 and damping ratio 1 by convention (a pure integrator does not oscillate).
+Mode ModeOf(std::complex<double> eigenvalue);
+
 /// Zero dynamics from the normal form (route 1). `structure` comes from the same linearization.
 ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
                                  const ClassificationOptions& options);
