@@ -7,7 +7,8 @@
 
 namespace servokit {
 
-SweepPoint AnalyzeSweepPoint(const Model& model, Workspace& workspace,
+SweepPoint AnalyzeSweepPoint(const Model& model,
+                             Workspace& workspace,
                              const ClassificationOptions& options) {
   ClassificationOptions point_options = options;
   point_options.cross_check = false;
