@@ -193,8 +193,15 @@ OperatingPoint FindOperatingPoint(const Model& model,
   Eigen::VectorXd unknowns(dof + inputs);
   unknowns.head(dof) = options.q_guess.value_or(zero);
   Evaluate(model, workspace, unknowns.head(dof), zero, Quantity::kForces | Quantity::kInputMatrix);
+  // Least squares u = (B^T B)^-1 B^T f; B has full column rank in any sensible model, and the
+  // complete orthogonal decomposition handles one that has not.
+  const Eigen::LLT<Eigen::MatrixXd> normal(workspace.input_matrix.transpose() *
+                                           workspace.input_matrix);
   unknowns.tail(inputs) =
-      workspace.input_matrix.completeOrthogonalDecomposition().solve(workspace.forces);
+      normal.info() == Eigen::Success
+          ? Eigen::VectorXd(normal.solve(workspace.input_matrix.transpose() * workspace.forces))
+          : Eigen::VectorXd(
+                workspace.input_matrix.completeOrthogonalDecomposition().solve(workspace.forces));
 
   Eigen::MatrixXd jacobian(dof + inputs, dof + inputs);
   problem.Jacobian(unknowns, jacobian);

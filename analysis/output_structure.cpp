@@ -58,6 +58,26 @@ OutputStructure AnalyzeOutputStructure(const Linearization& linearization,
 
   FindRelativeDegrees(system, tolerance, structure);
 
+  // Orthogonal realization (every output has relative degree 2, C A B = P regular): V* is
+  // {dq in ker H, dq' in ker H} and every infinite zero has order 2 (paper Eq. 25: the internal
+  // dynamics are the f - m second-order equations on the constraint manifold). No iteration.
+  const bool orthogonal =
+      structure.decoupling_matrix_regular &&
+      std::all_of(structure.relative_degree.begin(), structure.relative_degree.end(),
+                  [](int degree) { return degree == 2; });
+  if (orthogonal) {
+    const Eigen::Index dof = states / 2;
+    const Eigen::MatrixXd tangent = NullSpaceBasis(C.leftCols(dof), tolerance * C.norm());
+    structure.zero_dynamics_subspace = Eigen::MatrixXd::Zero(states, 2 * tangent.cols());
+    structure.zero_dynamics_subspace.topLeftCorner(dof, tangent.cols()) = tangent;
+    structure.zero_dynamics_subspace.bottomRightCorner(dof, tangent.cols()) = tangent;
+    structure.internal_dynamics_order = static_cast<int>(2 * tangent.cols());
+    structure.infinite_zero_orders.assign(std::size_t(C.rows()), 2);
+    structure.differentiation_index = 3;
+    structure.projected_index = 1;
+    return structure;
+  }
+
   // V* iteration; dimensions[k] = dim V_k. V_1 = ker C whatever B is, so start there.
   const Eigen::MatrixXd output_kernel = NullSpaceBasis(C, tolerance * C.norm());
   const Eigen::MatrixXd mapped_kernel = A * output_kernel;

@@ -13,6 +13,8 @@
 // sigma_max + 1 (Campbell 1995; paper Sect. 3: 3, 3, 4, 5 for the four mass-on-car cases), and
 // the projected DAE (15)-(18), which carries the constraint at acceleration level, has index
 // sigma_max - 1 (paper Sect. 2.3: "index reduction by two").
+// With every relative degree 2 and P regular (orthogonal realizations) V* is known without
+// iterating: {dq in ker H, dq' in ker H}, every infinite zero of order 2 (paper Eq. 25).
 #include <Eigen/Dense>
 #include <vector>
 

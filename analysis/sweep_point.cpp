@@ -1,15 +1,145 @@
 #include "analysis/sweep_point.h"
 
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_poly.h>
+
+#include <cmath>
 #include <limits>
+#include <memory>
+#include <optional>
 
 #include "analysis/classification.h"
+#include "analysis/gsl_support.h"
+#include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 
 namespace servokit {
+namespace {
 
-SweepPoint AnalyzeSweepPoint(const Model& model,
-                             Workspace& workspace,
-                             const ClassificationOptions& options) {
+// Roots of a_0 + a_1 x + ... + a_n x^n (a_n != 0): closed forms up to degree 2 (the quadratic
+// in its cancellation-free form), GSL's companion-matrix QR beyond.
+std::optional<std::vector<std::complex<double>>> PolynomialRoots(const double* a, int degree) {
+  std::vector<std::complex<double>> roots;
+  if (degree == 1) {
+    roots.push_back(-a[0] / a[1]);
+  } else if (degree == 2) {
+    const double discriminant = a[1] * a[1] - 4 * a[2] * a[0];
+    if (discriminant >= 0) {
+      const double q = -0.5 * (a[1] + std::copysign(std::sqrt(discriminant), a[1]));
+      roots.push_back(q / a[2]);
+      roots.push_back(q != 0.0 ? a[0] / q : 0.0);
+    } else {
+      const double real = -a[1] / (2 * a[2]);
+      const double imaginary = std::sqrt(-discriminant) / (2 * std::abs(a[2]));
+      roots.push_back({real, imaginary});
+      roots.push_back({real, -imaginary});
+    }
+  } else if (degree > 2) {
+    UseGslStatusCodes();
+    std::unique_ptr<gsl_poly_complex_workspace, void (*)(gsl_poly_complex_workspace*)> workspace(
+        gsl_poly_complex_workspace_alloc(std::size_t(degree + 1)), gsl_poly_complex_workspace_free);
+    std::vector<double> packed(2 * std::size_t(degree));
+    if (!workspace || gsl_poly_complex_solve(a, std::size_t(degree + 1), workspace.get(),
+                                             packed.data()) != GSL_SUCCESS) {
+      return std::nullopt;  // QR did not converge: let the general path decide
+    }
+    for (int k = 0; k < degree; ++k) roots.push_back({packed[2 * k], packed[2 * k + 1]});
+  }
+  return roots;
+}
+
+// The fast path of a sweep point for single-output models whose zero-dynamics polynomial was
+// derived at load (models/symbolic_model.h), at the default operating point q = 0. One compiled
+// program gives the polynomial; its roots are the zero-dynamics eigenvalues (the invariant
+// zeros, as in the QZ route of zero_dynamics.h), its degree the order of the internal dynamics,
+// and 2 dof minus the degree the relative degree. P, its rank and the realization are decided
+// exactly as in AnalyzeDecouplingMatrix. Returns nullopt whenever the general path must decide:
+// the equilibrium is not at rest at q = 0, B u0 varies with q, the equilibrium is not isolated
+// (a_0 = 0), or the two rank decisions disagree (inside the tolerance band of a singular point).
+std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
+                                                Workspace& workspace,
+                                                const ClassificationOptions& options) {
+  if (!model.has_zero_dynamics_polynomial() || model.num_outputs() != 1 ||
+      options.operating_point.y0 || options.operating_point.q_guess) {
+    return std::nullopt;
+  }
+  const auto dof = static_cast<Eigen::Index>(model.dof());
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
+  Evaluate(model, workspace, zero, zero,
+           Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix |
+               Quantity::kOutputJacobian | Quantity::kZeroDynamicsPolynomial);
+  const Eigen::VectorXd input = workspace.input_matrix.col(0);
+  const double input_size = input.squaredNorm();
+  if (!(input_size > 0.0)) return std::nullopt;
+  // Equilibrium at q = 0: f(0, 0) = B u0 exactly (to round-off of f's own size).
+  const double held_input = input.dot(workspace.forces) / input_size;
+  if (!std::isfinite(held_input) ||
+      (workspace.forces - input * held_input).lpNorm<Eigen::Infinity>() >
+          options.operating_point.residual_tolerance *
+              std::max(1.0, workspace.forces.lpNorm<Eigen::Infinity>())) {
+    return std::nullopt;
+  }
+  if (held_input != 0.0) {
+    Evaluate(model, workspace, zero, zero,
+             static_cast<unsigned>(Quantity::kInputMatrixDerivatives));
+    for (const Eigen::MatrixXd& derivative : workspace.input_matrix_derivatives) {
+      if (!derivative.isZero(0.0)) return std::nullopt;  // K would miss -d(B u0)/dq
+    }
+  }
+  const Eigen::VectorXd& coefficients = workspace.zero_dynamics_polynomial;
+  const Eigen::VectorXd& scales = workspace.zero_dynamics_polynomial_scale;
+  if (!coefficients.allFinite() || !workspace.mass_matrix.allFinite() ||
+      !workspace.output_jacobian.allFinite()) {
+    return std::nullopt;
+  }
+  const double tolerance = options.rank_tolerance;
+  auto nonzero = [&](Eigen::Index k) { return std::abs(coefficients(k)) > tolerance * scales(k); };
+  if (!nonzero(0)) return std::nullopt;  // not an isolated equilibrium: the general path says so
+
+  // P = H M^-1 B and its rank, as AnalyzeDecouplingMatrix decides it.
+  const Eigen::LLT<Eigen::MatrixXd> mass(workspace.mass_matrix);
+  if (mass.info() != Eigen::Success) return std::nullopt;
+  const Eigen::VectorXd input_acceleration = mass.solve(input);
+  const Eigen::RowVectorXd output_row = workspace.output_jacobian.row(0);
+  const double decoupling = output_row.dot(input_acceleration);
+  const bool full_rank =
+      std::abs(decoupling) > tolerance * output_row.norm() * input_acceleration.norm();
+
+  // The degree: 2 dof - 2 for rank P = 1 (relative degree 2); below that otherwise.
+  int degree = full_rank ? int(2 * dof - 2) : int(2 * dof - 3);
+  if (full_rank != nonzero(2 * dof - 2)) return std::nullopt;
+  while (degree > 0 && !nonzero(degree)) --degree;
+
+  SweepPoint point;
+  point.ok = true;
+  point.rank = full_rank ? 1 : 0;
+  if (full_rank) {
+    // |D^T B| / |B| with D the orthonormal complement of H: the part of B off H's direction.
+    const double along = output_row.dot(input) / output_row.norm();
+    const double share = std::sqrt(std::max(0.0, input_size - along * along) / input_size);
+    point.realization =
+        share <= tolerance ? Realization::kIdealOrthogonal : Realization::kNonIdealOrthogonal;
+  } else {
+    point.realization = Realization::kTangential;
+  }
+  const int relative_degree = int(2 * dof) - degree;
+  point.relative_degree = {relative_degree};
+  point.differentiation_index = relative_degree + 1;
+  point.internal_dynamics_order = degree;
+  auto roots = PolynomialRoots(coefficients.data(), degree);
+  if (!roots) return std::nullopt;
+  point.eigenvalues = std::move(*roots);
+  CleanRoundOff(point.eigenvalues, options.imaginary_axis_tolerance);
+  SortEigenvalues(point.eigenvalues);
+  point.stability = ClassifyStability(point.eigenvalues, options.imaginary_axis_tolerance);
+  point.max_real_part = point.eigenvalues.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                                  : point.eigenvalues.front().real();
+  return point;
+}
+
+SweepPoint AnalyzeGenerally(const Model& model,
+                            Workspace& workspace,
+                            const ClassificationOptions& options) {
   ClassificationOptions point_options = options;
   point_options.cross_check = false;
   SweepPoint point;
@@ -30,6 +160,18 @@ SweepPoint AnalyzeSweepPoint(const Model& model,
     point.error = error.what();
   }
   return point;
+}
+
+}  // namespace
+
+SweepPoint AnalyzeSweepPoint(const Model& model,
+                             Workspace& workspace,
+                             const ClassificationOptions& options,
+                             SweepPath path) {
+  if (path == SweepPath::kFast) {
+    if (auto point = AnalyzeFromPolynomial(model, workspace, options)) return *std::move(point);
+  }
+  return AnalyzeGenerally(model, workspace, options);
 }
 
 }  // namespace servokit

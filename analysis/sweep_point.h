@@ -27,10 +27,18 @@ struct SweepPoint {
   std::vector<std::complex<double>> eigenvalues;  // sorted as SortEigenvalues
 };
 
+/// Which way a sweep point is computed. kFast (the default) takes the compiled zero-dynamics
+/// polynomial where it applies (one output, small model, operating point at rest at q = 0)
+/// and the general path elsewhere; kGeneral always classifies in full (Classify). The two
+/// agree on every class and on the eigenvalues to round-off (tests/analysis/sweep_point_test.cpp),
+/// except inside the tolerance band of a singular point, where the fast path defers.
+enum class SweepPath { kFast, kGeneral };
+
 /// Classifies at workspace.parameters. Options are validated by the caller once per sweep;
 /// the QZ cross-check is not run (it is for single analyses and tests).
 SweepPoint AnalyzeSweepPoint(const Model& model,
                              Workspace& workspace,
-                             const ClassificationOptions& options);
+                             const ClassificationOptions& options,
+                             SweepPath path = SweepPath::kFast);
 
 }  // namespace servokit

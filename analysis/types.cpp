@@ -33,6 +33,12 @@ constexpr NameTable<SolverMethod, 7> kSolverMethodNames{{
     {SolverMethod::kStableInversion, "stable-inversion"},
 }};
 
+constexpr NameTable<ThresholdEvent, 3> kThresholdEventNames{{
+    {ThresholdEvent::kStability, "stability"},
+    {ThresholdEvent::kOscillation, "oscillation"},
+    {ThresholdEvent::kRealization, "realization"},
+}};
+
 template <typename Enum, std::size_t N>
 std::string_view Lookup(const NameTable<Enum, N>& table, Enum value) {
   for (const auto& [key, name] : table) {
@@ -56,6 +62,7 @@ std::string_view ToString(Realization realization) {
 }
 std::string_view ToString(Stability stability) { return Lookup(kStabilityNames, stability); }
 std::string_view ToString(SolverMethod method) { return Lookup(kSolverMethodNames, method); }
+std::string_view ToString(ThresholdEvent event) { return Lookup(kThresholdEventNames, event); }
 
 std::optional<Realization> RealizationFromString(std::string_view text) {
   return ReverseLookup(kRealizationNames, text);
@@ -65,6 +72,9 @@ std::optional<Stability> StabilityFromString(std::string_view text) {
 }
 std::optional<SolverMethod> SolverMethodFromString(std::string_view text) {
   return ReverseLookup(kSolverMethodNames, text);
+}
+std::optional<ThresholdEvent> ThresholdEventFromString(std::string_view text) {
+  return ReverseLookup(kThresholdEventNames, text);
 }
 
 }  // namespace servokit

@@ -33,12 +33,21 @@ enum class SolverMethod {
   kStableInversion,  // two-sided boundary value problem (Sect. 5.3)
 };
 
+/// What `servokit threshold --event` looks for along a parameter.
+enum class ThresholdEvent {
+  kStability,    // the stability class or the number of eigenvalues in the right half plane
+  kOscillation,  // the number of complex eigenvalue pairs (over-damping)
+  kRealization,  // the realization class, the rank of P, or the sign of det P (P through zero)
+};
+
 std::string_view ToString(Realization realization);
 std::string_view ToString(Stability stability);
 std::string_view ToString(SolverMethod method);
+std::string_view ToString(ThresholdEvent event);
 
 std::optional<Realization> RealizationFromString(std::string_view text);
 std::optional<Stability> StabilityFromString(std::string_view text);
 std::optional<SolverMethod> SolverMethodFromString(std::string_view text);
+std::optional<ThresholdEvent> ThresholdEventFromString(std::string_view text);
 
 }  // namespace servokit

@@ -26,16 +26,15 @@ double LargestMagnitude(const std::vector<std::complex<double>>& eigenvalues) {
   return largest;
 }
 
-// Round-off leaves conjugate pairs slightly unequal and real eigenvalues with a tiny imaginary
-// part; clean both so that tables and stability verdicts are reproducible.
-void CleanImaginaryParts(std::vector<std::complex<double>>& eigenvalues, double tolerance) {
+}  // namespace
+
+void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance) {
   const double threshold = tolerance * LargestMagnitude(eigenvalues);
   for (auto& eigenvalue : eigenvalues) {
     if (std::abs(eigenvalue.imag()) <= threshold) eigenvalue = {eigenvalue.real(), 0.0};
+    if (std::abs(eigenvalue.real()) <= threshold) eigenvalue = {0.0, eigenvalue.imag()};
   }
 }
-
-}  // namespace
 
 Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues,
                             double imaginary_axis_tolerance) {
@@ -52,7 +51,8 @@ Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues
 Mode ModeOf(std::complex<double> eigenvalue) {
   const double magnitude = std::abs(eigenvalue);
   if (magnitude == 0.0) return {0.0, 1.0};
-  return {magnitude / (2.0 * std::numbers::pi), -eigenvalue.real() / magnitude};
+  // + 0.0: an undamped mode has damping ratio 0, not -0.
+  return {magnitude / (2.0 * std::numbers::pi), -eigenvalue.real() / magnitude + 0.0};
 }
 
 std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
@@ -80,7 +80,8 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
     // (unique because [V, B] has full column rank: checked by AnalyzeOutputStructure).
     Eigen::MatrixXd basis(A.rows(), order + B.cols());
     basis << subspace, -B;
-    const Eigen::MatrixXd solution = basis.colPivHouseholderQr().solve(A * subspace);
+    // Householder QR without pivoting suffices: [V, B] has full column rank (checked).
+    const Eigen::MatrixXd solution = basis.householderQr().solve(A * subspace);
     result.state_matrix = solution.topRows(order);
     const Eigen::EigenSolver<Eigen::MatrixXd> eigen(result.state_matrix, false);
     if (eigen.info() != Eigen::Success) {
@@ -90,7 +91,7 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
   } else {
     result.state_matrix.resize(0, 0);
   }
-  CleanImaginaryParts(result.eigenvalues, options.imaginary_axis_tolerance);
+  CleanRoundOff(result.eigenvalues, options.imaginary_axis_tolerance);
   SortEigenvalues(result.eigenvalues);
   result.stability = ClassifyStability(result.eigenvalues, options.imaginary_axis_tolerance);
   result.minimum_phase =
@@ -127,7 +128,7 @@ std::vector<std::complex<double>> InvariantZeros(const Linearization& linearizat
     if (std::abs(beta) <= infinite_threshold) continue;
     zeros.push_back(qz.alphas()(i) / beta);
   }
-  CleanImaginaryParts(zeros, options.imaginary_axis_tolerance);
+  CleanRoundOff(zeros, options.imaginary_axis_tolerance);
   SortEigenvalues(zeros);
   return zeros;
 }

@@ -55,6 +55,12 @@ Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues
 std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
                                    double imaginary_axis_tolerance);
 
+/// Round-off leaves real eigenvalues with a tiny imaginary part and undamped ones with a tiny
+/// real part: a part at most `tolerance` times the largest magnitude becomes exactly 0, so
+/// that verdicts, orderings and tables are reproducible (the stability class counts such an
+/// eigenvalue as on the axis anyway).
+void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance);
+
 /// Sorts eigenvalues by real part, then imaginary part, both descending (a stable order for
 /// tables: the least stable first, the upper member of each pair before the lower).
 void SortEigenvalues(std::vector<std::complex<double>>& eigenvalues);

@@ -23,7 +23,8 @@ bool Wants(unsigned quantities, Quantity quantity) {
 Eigen::Index ToIndex(std::size_t size) { return static_cast<Eigen::Index>(size); }
 
 // Copies consecutive column-major blocks of blocks[k].rows() x blocks[k].cols() values.
-const double* CopyBlock(const double* source, Eigen::MatrixXd& block) {
+template <typename Block>
+const double* CopyBlock(const double* source, Block& block) {
   std::copy_n(source, block.size(), block.data());
   return source + block.size();
 }
@@ -78,6 +79,8 @@ Workspace::Workspace(const Model& model)
   output_jacobian_derivatives.assign(dof_, Eigen::MatrixXd::Zero(outputs, dof));
   output_bias_position_jacobian.setZero(outputs, dof);
   output_bias_velocity_jacobian.setZero(outputs, dof);
+  zero_dynamics_polynomial.setZero(2 * dof + 1);
+  zero_dynamics_polynomial_scale.setZero(2 * dof + 1);
 
   program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
   std::size_t max_registers = 0, max_outputs = 0;
@@ -170,6 +173,11 @@ void Evaluate(const Model& model,
     run(Quantity::kOutputBiasJacobians, workspace.outputs_.data());
     CopyBlock(CopyBlock(blocks, workspace.output_bias_position_jacobian),
               workspace.output_bias_velocity_jacobian);
+  }
+  if (Wants(quantities, Quantity::kZeroDynamicsPolynomial)) {
+    run(Quantity::kZeroDynamicsPolynomial, workspace.outputs_.data());
+    CopyBlock(CopyBlock(blocks, workspace.zero_dynamics_polynomial),
+              workspace.zero_dynamics_polynomial_scale);
   }
 }
 

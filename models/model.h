@@ -31,13 +31,17 @@ enum class Quantity : unsigned {
   kInputMatrixDerivatives = 1u << 8,     // dB/dq_k, dof matrices of dof x inputs
   kOutputJacobianDerivatives = 1u << 9,  // dH/dq_k, dof matrices of outputs x dof
   kOutputBiasJacobians = 1u << 10,       // d h_bar/dq and d h_bar/dq_dot, outputs x dof each
+  // Coefficients a_0..a_(2 dof) of SymbolicModel::zero_dynamics_polynomial() at q (q_dot is
+  // ignored), then their scales; all zero when the model is too large for it (check with
+  // Model::has_zero_dynamics_polynomial()).
+  kZeroDynamicsPolynomial = 1u << 11,
 };
 constexpr unsigned operator|(Quantity a, Quantity b) {
   return static_cast<unsigned>(a) | static_cast<unsigned>(b);
 }
 constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
-inline constexpr std::size_t kNumQuantities = 11;
+inline constexpr std::size_t kNumQuantities = 12;
 
 /// A parameter override from the command line, "--set name=value"; value may end in "deg".
 struct ParameterOverride {
@@ -75,12 +79,16 @@ class Model {
   const SymbolicModel& symbolic() const { return *symbolic_; }
   /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot].
   const ExpressionProgram& program(Quantity quantity) const;
+  /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
+  /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
+  bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
 
  private:
   friend class ModelBuilder;  // models/model_loader.cpp fills a Model
   std::string name_, description_, source_, content_hash_;
   std::vector<std::string> coordinates_, inputs_, parameter_names_;
   std::size_t num_outputs_ = 0;
+  bool has_zero_dynamics_polynomial_ = false;
   Eigen::VectorXd parameters_;
   std::shared_ptr<const SymbolicModel> symbolic_;
   std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
@@ -119,6 +127,8 @@ class Workspace {
   std::vector<Eigen::MatrixXd> output_jacobian_derivatives;  // dof of outputs x dof
   Eigen::MatrixXd output_bias_position_jacobian;             // outputs x dof
   Eigen::MatrixXd output_bias_velocity_jacobian;             // outputs x dof
+  Eigen::VectorXd zero_dynamics_polynomial;                  // a_0 .. a_(2 dof)
+  Eigen::VectorXd zero_dynamics_polynomial_scale;            // sum of |terms| of each a_k
 
   /// True if this workspace was built for a model of the same shape.
   bool Fits(const Model& model) const;

@@ -654,6 +654,14 @@ class ModelBuilder {
     return std::nullopt;
   }
 
+  // A column of 2 dof + 1 coefficients; zeros when the polynomial was not derived.
+  static GiNaC::matrix PolynomialBlock(const std::vector<GiNaC::ex>& coefficients,
+                                       std::size_t dof) {
+    GiNaC::matrix column(unsigned(2 * dof + 1), 1);
+    for (std::size_t k = 0; k < coefficients.size(); ++k) column(unsigned(k), 0) = coefficients[k];
+    return column;
+  }
+
   // One program per Quantity, at the Quantity's bit position (model.h).
   void Compile(const SymbolicModel& symbolic) {
     const std::vector<GiNaC::ex> inputs = symbolic.ProgramInputs();
@@ -678,8 +686,13 @@ class ModelBuilder {
         {Quantity::kOutputBiasJacobians,
          "Jacobians of h_bar",
          {symbolic.output_bias_position_jacobian(), symbolic.output_bias_velocity_jacobian()}},
+        {Quantity::kZeroDynamicsPolynomial,
+         "zero-dynamics polynomial",
+         {PolynomialBlock(symbolic.zero_dynamics_polynomial(), symbolic.dof()),
+          PolynomialBlock(symbolic.zero_dynamics_polynomial_scale(), symbolic.dof())}},
     };
-    static_assert(kNumQuantities == 11, "compile every Quantity");
+    static_assert(kNumQuantities == 12, "compile every Quantity");
+    model_.has_zero_dynamics_polynomial_ = !symbolic.zero_dynamics_polynomial().empty();
     model_.programs_.assign(kNumQuantities, nullptr);
     for (const Derived& derived : quantities) {
       const auto index =

@@ -52,6 +52,14 @@ GiNaC::matrix OutputBias(const std::vector<GiNaC::matrix>& output_jacobian_deriv
   return bias;
 }
 
+// Sum of |terms| of an expanded expression: what its value is compared with to call it zero.
+GiNaC::ex SumOfAbsoluteTerms(const GiNaC::ex& expanded) {
+  if (!GiNaC::is_a<GiNaC::add>(expanded)) return GiNaC::abs(expanded);
+  GiNaC::ex sum = 0;
+  for (const GiNaC::ex& term : expanded) sum += GiNaC::abs(term);
+  return sum;
+}
+
 }  // namespace
 
 SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
@@ -82,6 +90,37 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   input_matrix_derivatives_ = Derivatives(input_matrix_, coordinates_);
   output_bias_position_jacobian_ = Jacobian(output_bias_, coordinates_);
   output_bias_velocity_jacobian_ = Jacobian(output_bias_, velocities_);
+  if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs()) {
+    GiNaC::exmap at_rest;
+    for (const GiNaC::realsymbol& velocity : velocities_) at_rest[velocity] = 0;
+    const GiNaC::realsymbol lambda("lambda");
+    const GiNaC::ex polynomial =
+        GiNaC::numer(GiNaC::normal(RosenbrockDeterminant(lambda, at_rest))).expand();
+    for (int k = 0; k <= int(2 * dof()); ++k) {
+      const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
+      zero_dynamics_polynomial_.push_back(coefficient);
+      zero_dynamics_polynomial_scale_.push_back(SumOfAbsoluteTerms(coefficient));
+    }
+  }
+}
+
+GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,
+                                               const GiNaC::exmap& at) const {
+  const unsigned n = unsigned(dof()), m = unsigned(num_inputs());
+  GiNaC::matrix rosenbrock(n + m, n + m);
+  for (unsigned i = 0; i < n; ++i) {
+    for (unsigned j = 0; j < n; ++j) {
+      rosenbrock(i, j) =
+          (mass_matrix_(i, j) * GiNaC::pow(lambda, 2) + forces_velocity_jacobian_(i, j) * lambda +
+           forces_position_jacobian_(i, j))
+              .subs(at);
+    }
+    for (unsigned k = 0; k < m; ++k) rosenbrock(i, n + k) = -input_matrix_(i, k).subs(at);
+  }
+  for (unsigned r = 0; r < output_.rows(); ++r) {
+    for (unsigned j = 0; j < n; ++j) rosenbrock(n + r, j) = output_jacobian_(r, j).subs(at);
+  }
+  return rosenbrock.determinant();
 }
 
 std::vector<GiNaC::ex> SymbolicModel::ProgramInputs() const {

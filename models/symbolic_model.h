@@ -80,6 +80,28 @@ class SymbolicModel {
     return output_bias_velocity_jacobian_;
   }
 
+  /// det [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]] with `at` substituted (e.g.
+  /// q_dot -> 0): the characteristic polynomial of the linearized zero dynamics at an
+  /// equilibrium where B u0 does not vary with q (u0 = 0 or B constant); its roots are the
+  /// invariant zeros. The one place this determinant is formed.
+  GiNaC::ex RosenbrockDeterminant(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
+
+  /// Its coefficients a_0 .. a_(2 dof) in lambda at q_dot = 0, as functions of the parameters
+  /// and q, derived at load for models with dof + inputs <= kMaxPolynomialSize (empty for
+  /// larger ones: a symbolic determinant costs like n!). Denominators are cleared, which
+  /// scales every coefficient alike and keeps the roots.
+  const std::vector<GiNaC::ex>& zero_dynamics_polynomial() const {
+    return zero_dynamics_polynomial_;
+  }
+  /// For each coefficient, the sum of the absolute values of its terms: the size against which
+  /// "this coefficient is zero" is decided (cancellation down to round-off).
+  const std::vector<GiNaC::ex>& zero_dynamics_polynomial_scale() const {
+    return zero_dynamics_polynomial_scale_;
+  }
+  /// Rows of the Rosenbrock matrix (dof + inputs) up to which zero_dynamics_polynomial() is
+  /// derived at load; keeps loading well under the 100 ms goal.
+  static constexpr std::size_t kMaxPolynomialSize = 4;
+
   /// The substitution parameter symbol -> value, for GiNaC's subs(). `values` has
   /// parameters().size() entries in SI units (e.g. Model::parameters()).
   GiNaC::exmap ParameterValues(const Eigen::VectorXd& values) const;
@@ -94,6 +116,7 @@ class SymbolicModel {
   std::vector<GiNaC::matrix> mass_matrix_derivatives_, input_matrix_derivatives_,
       output_jacobian_derivatives_;
   GiNaC::matrix output_bias_position_jacobian_, output_bias_velocity_jacobian_;
+  std::vector<GiNaC::ex> zero_dynamics_polynomial_, zero_dynamics_polynomial_scale_;
 };
 
 }  // namespace servokit

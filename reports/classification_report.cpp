@@ -79,9 +79,10 @@ std::string ParametersToText(const Model& model) {
 
 std::string IntsToText(const std::vector<int>& values) { return "[" + Join(values, ", ") + "]"; }
 
-// The rows shared by the text and Markdown forms: (label, value).
-std::vector<std::pair<std::string, std::string>> SummaryRows(const Model& model,
-                                                             const Classification& c) {
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Model& model,
+                                                                       const Classification& c) {
   const auto& structure = c.structure;
   std::string relative_degree = IntsToText(structure.relative_degree);
   if (!structure.decoupling_matrix_regular) {
@@ -123,6 +124,8 @@ std::vector<std::pair<std::string, std::string>> SummaryRows(const Model& model,
   }
   return rows;
 }
+
+namespace {
 
 constexpr std::pair<ReportFormat, std::string_view> kReportFormatNames[] = {
     {ReportFormat::kText, "text"},
@@ -206,7 +209,7 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
 std::string ClassificationToText(const Model& model, const Classification& c) {
   std::ostringstream out;
   out << model.name() << " (" << model.source() << ")\n";
-  for (const auto& [label, value] : SummaryRows(model, c)) {
+  for (const auto& [label, value] : ClassificationSummary(model, c)) {
     out << "  " << label << std::string(label.size() < 24 ? 24 - label.size() : 1, ' ') << value
         << "\n";
   }
@@ -218,7 +221,7 @@ std::string ClassificationToMarkdown(const Model& model, const Classification& c
   out << "## " << model.name() << "\n\n";
   if (!model.description().empty()) out << model.description() << "\n\n";
   out << "| property | value |\n| --- | --- |\n";
-  for (const auto& [label, value] : SummaryRows(model, c)) {
+  for (const auto& [label, value] : ClassificationSummary(model, c)) {
     out << "| " << label << " | " << value << " |\n";
   }
   return out.str();

@@ -4,6 +4,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "analysis/classification.h"
 #include "models/model.h"
@@ -20,6 +22,10 @@ std::optional<ReportFormat> ReportFormatFromString(std::string_view text);
 nlohmann::ordered_json ClassificationToJson(const Model& model,
                                             const Classification& classification,
                                             const ClassificationOptions& options);
+
+/// (label, value) rows of a classification, shared by the text, Markdown and report forms.
+std::vector<std::pair<std::string, std::string>> ClassificationSummary(
+    const Model& model, const Classification& classification);
 
 /// The same content for a terminal.
 std::string ClassificationToText(const Model& model, const Classification& classification);

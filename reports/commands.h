@@ -22,6 +22,9 @@ struct Command {
 };
 
 Command AddAnalyzeCommand(CLI::App& app);
+Command AddThresholdCommand(CLI::App& app);
+Command AddReportCommand(CLI::App& app);
+Command AddSweepCommand(CLI::App& app);
 
 /// "--set name=value" texts into overrides; throws UsageError naming a malformed one.
 std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts);

@@ -1,5 +1,6 @@
 #include "reports/number_format.h"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 
@@ -14,7 +15,14 @@ std::string Printf(const char* format, double value) {
 
 }  // namespace
 
-std::string FormatExact(double value) { return Printf("%.17g", WithoutNegativeZero(value)); }
+std::string FormatExact(double value) {
+  // The shortest text that reads back to the same double (std::to_chars without a precision):
+  // exact like "%.17g", without its noise digits, and several times faster, which matters for
+  // sweeps that write tens of millions of numbers.
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, WithoutNegativeZero(value));
+  return std::string(buffer, result.ptr);
+}
 
 std::string FormatShort(double value) {
   // Below this the value is round-off of an exact zero; printing "-1.2e-317" helps no one.
@@ -22,6 +30,8 @@ std::string FormatShort(double value) {
   if (std::abs(value) < kPrintedAsZero) return "0";
   return Printf("%.6g", value);
 }
+
+std::string FormatPrecise(double value) { return Printf("%.12g", WithoutNegativeZero(value)); }
 
 std::string FormatComplex(std::complex<double> value) {
   if (value.imag() == 0.0) return FormatShort(value.real());

@@ -23,3 +23,7 @@ section "Rotational arm, end effector s = l: unstable zero dynamics (non-minimum
 "$servokit" analyze "$models/rotational_arm.yaml" --set s=1
 section "Rotational arm, exact tip angle (atan2 of Eq. 51)"
 "$servokit" analyze "$models/rotational_arm_tip.yaml"
+
+section "The paper's report: table of cases, Figs. 6 and 8, located thresholds, closed forms"
+"$servokit" report paper --out "$root/demo/paper-report" --models "$models"
+echo "open $root/demo/paper-report/report.html (or report.md) to read it"

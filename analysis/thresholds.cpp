@@ -1,0 +1,275 @@
+#include "analysis/thresholds.h"
+
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_roots.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+
+#include "analysis/classification.h"
+#include "analysis/gsl_support.h"
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// The state an event watches at one parameter value: `key` decides equality, `label` is what
+// the user reads.
+struct State {
+  std::string key;
+  std::string label;
+};
+
+State StabilityState(const Classification& c, double axis_tolerance) {
+  double largest = 0.0;
+  for (const auto& eigenvalue : c.zero_dynamics.eigenvalues) {
+    largest = std::max(largest, std::abs(eigenvalue));
+  }
+  int right_half_plane = 0;
+  for (const auto& eigenvalue : c.zero_dynamics.eigenvalues) {
+    if (eigenvalue.real() > axis_tolerance * largest) ++right_half_plane;
+  }
+  std::string label(ToString(c.zero_dynamics.stability));
+  if (right_half_plane > 1) label += " (" + std::to_string(right_half_plane) + " unstable)";
+  return {label, label};
+}
+
+State OscillationState(const Classification& c) {
+  const std::size_t pairs = c.zero_dynamics.modes.size();
+  const std::string label = pairs == 0   ? "non-oscillatory"
+                            : pairs == 1 ? "oscillatory (1 mode)"
+                                         : "oscillatory (" + std::to_string(pairs) + " modes)";
+  return {label, label};
+}
+
+State RealizationState(const Classification& c) {
+  std::string label(ToString(c.decoupling.realization));
+  std::string key = label + " rank " + std::to_string(c.decoupling.rank);
+  if (c.decoupling.rank == c.decoupling.decoupling_matrix.rows()) {
+    // The sign of det P tells the two sides of a place where P passes through zero apart.
+    key += c.decoupling.decoupling_matrix.determinant() > 0 ? " +" : " -";
+  } else if (c.decoupling.rank > 0) {
+    label += " (rank " + std::to_string(c.decoupling.rank) + ")";
+  }
+  return {key, label};
+}
+
+class StateProbe {
+ public:
+  StateProbe(const Model& model,
+             std::size_t parameter,
+             ThresholdEvent event,
+             const ThresholdOptions& options)
+      : model_(model), workspace_(model), parameter_(parameter), event_(event), options_(options) {
+    options_.classification.cross_check = false;
+  }
+
+  State At(double value) {
+    ++classifications_;
+    workspace_.parameters(Eigen::Index(parameter_)) = value;
+    try {
+      const Classification c = Classify(model_, workspace_, options_.classification);
+      switch (event_) {
+        case ThresholdEvent::kStability:
+          return StabilityState(c, options_.classification.imaginary_axis_tolerance);
+        case ThresholdEvent::kOscillation:
+          return OscillationState(c);
+        case ThresholdEvent::kRealization:
+          return RealizationState(c);
+      }
+    } catch (const NoSolution&) {
+      // A point without a solution is a state of its own (e.g. no equilibrium).
+    }
+    return {"no-solution", "no-solution"};
+  }
+
+  // det P at `value`, or NaN where there is no solution.
+  double DecouplingDeterminant(double value) {
+    ++classifications_;
+    workspace_.parameters(Eigen::Index(parameter_)) = value;
+    try {
+      return Classify(model_, workspace_, options_.classification)
+          .decoupling.decoupling_matrix.determinant();
+    } catch (const NoSolution&) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+
+  int classifications() const { return classifications_; }
+
+ private:
+  const Model& model_;
+  Workspace workspace_;
+  std::size_t parameter_;
+  ThresholdEvent event_;
+  ThresholdOptions options_;
+  int classifications_ = 0;
+};
+
+// The boundary in [left, right] where the state stops being `left_state`, by GSL's bisection
+// solver on the sign function "-1 while the state is left_state, +1 after". Returns the final
+// bracket.
+std::pair<double, double> Bisect(StateProbe& probe,
+                                 double left,
+                                 double right,
+                                 const State& left_state,
+                                 double relative_tolerance) {
+  using Side = std::function<double(double)>;
+  Side side = [&](double x) { return probe.At(x).key == left_state.key ? -1.0 : 1.0; };
+  gsl_function function{[](double x, void* data) { return (*static_cast<Side*>(data))(x); }, &side};
+  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
+      gsl_root_fsolver_alloc(gsl_root_fsolver_bisection), gsl_root_fsolver_free);
+  if (!solver) throw std::runtime_error("gsl_root_fsolver_alloc failed");
+  if (gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) {
+    throw std::runtime_error("gsl_root_fsolver_set: the bracket does not change sign");
+  }
+  // Each iteration halves the bracket; 200 halvings reach any double-precision width.
+  constexpr int kMaxHalvings = 200;
+  for (int i = 0; i < kMaxHalvings; ++i) {
+    gsl_root_fsolver_iterate(solver.get());
+    const double lower = gsl_root_fsolver_x_lower(solver.get());
+    const double upper = gsl_root_fsolver_x_upper(solver.get());
+    if (gsl_root_test_interval(lower, upper, 0.0, relative_tolerance) == GSL_SUCCESS) break;
+    if (upper - lower <= 4 * std::numeric_limits<double>::epsilon() * std::abs(upper)) break;
+  }
+  return {gsl_root_fsolver_x_lower(solver.get()), gsl_root_fsolver_x_upper(solver.get())};
+}
+
+// Every change of state between `left` and `right`, whose states differ.
+void LocateChanges(StateProbe& probe,
+                   double left,
+                   double right,
+                   State left_state,
+                   const State& right_state,
+                   double relative_tolerance,
+                   std::vector<ThresholdCrossing>& events) {
+  while (left_state.key != right_state.key) {
+    const auto [lower, upper] = Bisect(probe, left, right, left_state, relative_tolerance);
+    const State after = probe.At(upper);
+    events.push_back({0.5 * (lower + upper), upper - lower, left_state.label, after.label, ""});
+    left = upper;
+    left_state = after;
+  }
+}
+
+// Events closer than `merge_tolerance` become one that passes through the states between.
+std::vector<ThresholdCrossing> MergeClose(const std::vector<ThresholdCrossing>& events,
+                                          double merge_tolerance) {
+  std::vector<ThresholdCrossing> merged;
+  for (const ThresholdCrossing& event : events) {
+    if (!merged.empty()) {
+      ThresholdCrossing& last = merged.back();
+      const double first_value = last.value - 0.5 * last.bracket_width;
+      if (event.value - first_value <= merge_tolerance * std::max(1.0, std::abs(event.value))) {
+        last.via += (last.via.empty() ? "" : ", ") + event.from;
+        last.to = event.to;
+        const double end = event.value + 0.5 * event.bracket_width;
+        last.value = 0.5 * (first_value + end);
+        last.bracket_width = end - first_value;
+        continue;
+      }
+    }
+    merged.push_back(event);
+  }
+  return merged;
+}
+
+// An event located by bisection on the state is only as sharp as the classification's rank
+// band (P counts as zero within rank_tolerance of its scale). Where det P changes sign across
+// the event, the exact place is the zero of det P: a realization change through P = 0, or a
+// zero-dynamics eigenvalue leaving through infinity (the rotational arm at s/l = 2/3, where
+// the leading coefficient of Eq. (56) vanishes with P). GSL's Brent solver finds it.
+void RefineThroughSingularDecoupling(StateProbe& probe,
+                                     double relative_tolerance,
+                                     double search_width,
+                                     ThresholdCrossing& event) {
+  const double width =
+      std::max(event.bracket_width, search_width * std::max(1.0, std::abs(event.value)));
+  const double left = event.value - width, right = event.value + width;
+  const double at_left = probe.DecouplingDeterminant(left);
+  const double at_right = probe.DecouplingDeterminant(right);
+  if (!(std::isfinite(at_left) && std::isfinite(at_right)) || at_left * at_right >= 0.0) return;
+  gsl_function function{
+      [](double x, void* p) { return static_cast<StateProbe*>(p)->DecouplingDeterminant(x); },
+      &probe};
+  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
+      gsl_root_fsolver_alloc(gsl_root_fsolver_brent), gsl_root_fsolver_free);
+  if (!solver || gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) return;
+  // Brent converges superlinearly on the smooth det P; 100 iterations is far more than needed.
+  constexpr int kMaxIterations = 100;
+  for (int i = 0; i < kMaxIterations; ++i) {
+    if (gsl_root_fsolver_iterate(solver.get()) != GSL_SUCCESS) return;
+    const double lower = gsl_root_fsolver_x_lower(solver.get());
+    const double upper = gsl_root_fsolver_x_upper(solver.get());
+    if (gsl_root_test_interval(lower, upper, 0.0, relative_tolerance) == GSL_SUCCESS) {
+      event.value = gsl_root_fsolver_root(solver.get());
+      event.bracket_width = upper - lower;
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+void ThresholdOptions::Validate(const Model& model) const {
+  classification.Validate(model);
+  if (scan_intervals < 1) {
+    throw UsageError("ThresholdOptions::scan_intervals = " + std::to_string(scan_intervals) +
+                     ": must be >= 1");
+  }
+  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0)) {
+    throw UsageError("ThresholdOptions::relative_tolerance = " +
+                     std::to_string(relative_tolerance) + ": must be > 0 and < 1");
+  }
+  if (!(merge_tolerance >= 0.0)) {
+    throw UsageError("ThresholdOptions::merge_tolerance = " + std::to_string(merge_tolerance) +
+                     ": must be >= 0");
+  }
+}
+
+ThresholdSearch FindThresholds(const Model& model,
+                               std::size_t parameter,
+                               double low,
+                               double high,
+                               ThresholdEvent event,
+                               const ThresholdOptions& options) {
+  options.Validate(model);
+  if (parameter >= model.num_parameters()) throw UsageError("no such parameter index");
+  if (!(std::isfinite(low) && std::isfinite(high) && low < high)) {
+    throw UsageError("the range " + std::to_string(low) + ":" + std::to_string(high) + " of " +
+                     model.parameter_names()[parameter] + " must be finite with low < high");
+  }
+  UseGslStatusCodes();
+
+  ThresholdSearch search;
+  search.parameter = model.parameter_names()[parameter];
+  search.event = event;
+  search.low = low;
+  search.high = high;
+  StateProbe probe(model, parameter, event, options);
+  std::vector<ThresholdCrossing> events;
+  double left = low;
+  State left_state = probe.At(low);
+  for (int i = 1; i <= options.scan_intervals; ++i) {
+    const double right = i == options.scan_intervals
+                             ? high
+                             : low + (high - low) * double(i) / double(options.scan_intervals);
+    const State right_state = probe.At(right);
+    LocateChanges(probe, left, right, left_state, right_state, options.relative_tolerance, events);
+    left = right;
+    left_state = right_state;
+  }
+  search.events = MergeClose(events, options.merge_tolerance);
+  if (event != ThresholdEvent::kOscillation) {
+    for (ThresholdCrossing& crossing : search.events) {
+      RefineThroughSingularDecoupling(probe, options.relative_tolerance, options.merge_tolerance,
+                                      crossing);
+    }
+  }
+  search.classifications = probe.classifications();
+  return search;
+}
+
+}  // namespace servokit

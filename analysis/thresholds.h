@@ -1,0 +1,59 @@
+#pragma once
+// Where along one parameter the servo-constraint problem changes: stability, oscillation
+// (over-damping) or realization. A scan finds brackets where the state differs at the two
+// ends; GSL's bisection solver then narrows each bracket to the requested relative width.
+// Bisection on the state itself (not on a continuous indicator) handles both ways an
+// eigenvalue can leave the left half plane: across the imaginary axis, and through infinity
+// as the leading coefficient of the characteristic polynomial changes sign (the rotational arm
+// at s/l = 2/3, paper Eq. 56).
+#include <string>
+#include <vector>
+
+#include "analysis/options.h"
+#include "analysis/types.h"
+#include "models/model.h"
+
+namespace servokit {
+
+struct ThresholdOptions {
+  ClassificationOptions classification;
+  // Scan intervals before bisection. Two events closer than (high - low) / scan_intervals can
+  // hide each other; 400 resolves every event of the paper's studies with room to spare.
+  int scan_intervals = 400;
+  // Each event is located until its bracket is narrower than this, relative to max(1, |value|)
+  // (issue #3 asks for 1e-10; bisection costs one classification per halving).
+  double relative_tolerance = 1e-12;
+  // Events closer than this (relative) are reported as one passing through a thin state: P
+  // passing through zero makes the realization tangential only within the rank-tolerance band.
+  double merge_tolerance = 1e-8;
+  // Throws UsageError naming the field, its value and the rule it breaks.
+  void Validate(const Model& model) const;
+};
+
+/// One located event: the state changes from `from` to `to` at `value` (SI units).
+struct ThresholdCrossing {
+  double value = 0.0;
+  double bracket_width = 0.0;  // the final bracket (for merged events: their span)
+  std::string from;
+  std::string to;
+  std::string via;  // for merged events, the thin state passed through ("tangential")
+};
+
+struct ThresholdSearch {
+  std::string parameter;
+  ThresholdEvent event = ThresholdEvent::kStability;
+  double low = 0.0, high = 0.0;
+  std::vector<ThresholdCrossing> events;  // ascending in value
+  int classifications = 0;                // work done
+};
+
+/// Finds every `event` of `parameter` (an index into model.parameter_names()) in [low, high],
+/// the other parameters at their nominal values. Throws UsageError for bad options or range.
+ThresholdSearch FindThresholds(const Model& model,
+                               std::size_t parameter,
+                               double low,
+                               double high,
+                               ThresholdEvent event,
+                               const ThresholdOptions& options = {});
+
+}  // namespace servokit

@@ -1,0 +1,135 @@
+#include "reports/document.h"
+
+#include <sstream>
+
+namespace servokit {
+namespace {
+
+std::string EscapeHtml(const std::string& text) {
+  std::string escaped;
+  for (const char c : text) {
+    switch (c) {
+      case '&':
+        escaped += "&amp;";
+        break;
+      case '<':
+        escaped += "&lt;";
+        break;
+      case '>':
+        escaped += "&gt;";
+        break;
+      case '"':
+        escaped += "&quot;";
+        break;
+      default:
+        escaped += c;
+    }
+  }
+  return escaped;
+}
+
+// `code` spans become <code>; everything else is escaped.
+std::string InlineHtml(const std::string& text) {
+  std::string html;
+  bool in_code = false;
+  std::string span;
+  for (const char c : text) {
+    if (c == '`') {
+      html += in_code ? "<code>" + EscapeHtml(span) + "</code>" : EscapeHtml(span);
+      span.clear();
+      in_code = !in_code;
+    } else {
+      span += c;
+    }
+  }
+  html += EscapeHtml(span);
+  return html;
+}
+
+std::string EscapeTableCell(const std::string& text) {
+  std::string escaped;
+  for (const char c : text) escaped += c == '|' ? std::string("\\|") : std::string(1, c);
+  return escaped;
+}
+
+struct MarkdownRenderer {
+  std::ostringstream& out;
+  void operator()(const Heading& heading) const {
+    out << std::string(std::size_t(heading.level), '#') << " " << heading.text << "\n\n";
+  }
+  void operator()(const Paragraph& paragraph) const { out << paragraph.text << "\n\n"; }
+  void operator()(const Table& table) const {
+    out << "|";
+    for (const auto& cell : table.header) out << " " << EscapeTableCell(cell) << " |";
+    out << "\n|";
+    for (std::size_t i = 0; i < table.header.size(); ++i) out << " --- |";
+    out << "\n";
+    for (const auto& row : table.rows) {
+      out << "|";
+      for (const auto& cell : row) out << " " << EscapeTableCell(cell) << " |";
+      out << "\n";
+    }
+    out << "\n";
+  }
+  void operator()(const Figure& figure) const {
+    out << "![" << figure.caption << "](" << figure.png << ")\n\n*" << figure.caption << "* ([SVG]("
+        << figure.svg << "))\n\n";
+  }
+  void operator()(const CodeBlock& code) const { out << "```\n" << code.text << "\n```\n\n"; }
+};
+
+struct HtmlRenderer {
+  std::ostringstream& out;
+  void operator()(const Heading& heading) const {
+    out << "<h" << heading.level << ">" << InlineHtml(heading.text) << "</h" << heading.level
+        << ">\n";
+  }
+  void operator()(const Paragraph& paragraph) const {
+    out << "<p>" << InlineHtml(paragraph.text) << "</p>\n";
+  }
+  void operator()(const Table& table) const {
+    out << "<table>\n<tr>";
+    for (const auto& cell : table.header) out << "<th>" << InlineHtml(cell) << "</th>";
+    out << "</tr>\n";
+    for (const auto& row : table.rows) {
+      out << "<tr>";
+      for (const auto& cell : row) out << "<td>" << InlineHtml(cell) << "</td>";
+      out << "</tr>\n";
+    }
+    out << "</table>\n";
+  }
+  void operator()(const Figure& figure) const {
+    out << "<figure><img src=\"" << EscapeHtml(figure.svg) << "\" alt=\""
+        << EscapeHtml(figure.caption) << "\"><figcaption>" << InlineHtml(figure.caption)
+        << "</figcaption></figure>\n";
+  }
+  void operator()(const CodeBlock& code) const {
+    out << "<pre>" << EscapeHtml(code.text) << "</pre>\n";
+  }
+};
+
+}  // namespace
+
+std::string RenderMarkdown(const Document& document) {
+  std::ostringstream out;
+  out << "# " << document.title << "\n\n";
+  for (const Block& block : document.blocks) std::visit(MarkdownRenderer{out}, block);
+  return out.str();
+}
+
+std::string RenderHtml(const Document& document) {
+  std::ostringstream out;
+  out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>"
+      << EscapeHtml(document.title) << "</title>\n<style>\n"
+      << "body { font-family: sans-serif; max-width: 60em; margin: 2em auto; line-height: 1.4; }\n"
+      << "table { border-collapse: collapse; margin: 1em 0; }\n"
+      << "th, td { border: 1px solid #999; padding: 0.25em 0.6em; text-align: left; }\n"
+      << "figure img { max-width: 100%; }\n"
+      << "code, pre { background: #f4f4f4; }\n</style>\n</head>\n<body>\n<h1>"
+      << InlineHtml(document.title) << "</h1>\n";
+  for (const Block& block : document.blocks) std::visit(HtmlRenderer{out}, block);
+  out << "</body>\n</html>\n";
+  return out.str();
+}
+
+}  // namespace servokit

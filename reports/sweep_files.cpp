@@ -1,0 +1,517 @@
+#include "reports/sweep_files.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+#include "analysis/types.h"
+#include "analysis/zero_dynamics.h"
+#include "models/errors.h"
+#include "reports/number_format.h"
+
+#ifndef SERVOKIT_VERSION
+#error "SERVOKIT_VERSION must be defined by the build"
+#endif
+
+namespace servokit {
+namespace {
+
+constexpr const char* kCheckpointMagic = "servokit-sweep-checkpoint 1";
+
+// ---- CSV -------------------------------------------------------------------------------------
+
+std::string ParameterColumns(const ParameterGrid& grid) {
+  std::string columns;
+  for (const GridAxis& axis : grid.axes()) columns += axis.name + ",";
+  return columns;
+}
+
+std::string JoinRelativeDegrees(const std::vector<int>& relative_degree) {
+  std::string joined;
+  for (std::size_t i = 0; i < relative_degree.size(); ++i) {
+    if (i > 0) joined += ';';
+    joined += std::to_string(relative_degree[i]);
+  }
+  return joined;
+}
+
+void AppendPointRow(const std::string& values, const SweepPoint& point, std::string& csv) {
+  csv += values;
+  if (!point.ok) {
+    csv += ",,,,,,,";  // the seven class columns are empty
+    csv += CsvQuote(point.error);
+    csv += '\n';
+    return;
+  }
+  csv += ToString(point.realization);
+  csv += ',';
+  csv += std::to_string(point.rank);
+  csv += ',';
+  csv += JoinRelativeDegrees(point.relative_degree);
+  csv += ',';
+  csv += std::to_string(point.differentiation_index);
+  csv += ',';
+  csv += std::to_string(point.internal_dynamics_order);
+  csv += ',';
+  csv += ToString(point.stability);
+  csv += ',';
+  // NaN means no eigenvalues (SweepPoint): an empty field, not "nan".
+  if (!std::isnan(point.max_real_part)) csv += FormatExact(point.max_real_part);
+  csv += ",\n";  // empty error
+}
+
+void AppendEigenvalueRows(const std::string& values, const SweepPoint& point, std::string& csv) {
+  for (std::size_t k = 0; k < point.eigenvalues.size(); ++k) {
+    const std::complex<double> eigenvalue = point.eigenvalues[k];
+    const Mode mode = ModeOf(eigenvalue);
+    csv += values;
+    csv += std::to_string(k);
+    for (const double number :
+         {eigenvalue.real(), eigenvalue.imag(), mode.frequency_hz, mode.damping_ratio}) {
+      csv += ',';
+      csv += FormatExact(number);
+    }
+    csv += '\n';
+  }
+}
+
+// ---- files -----------------------------------------------------------------------------------
+
+Error IoError(const std::filesystem::path& path, const std::string& what) {
+  return Error(path.string() + ": " + what + ": " + std::strerror(errno));
+}
+
+int OpenFile(const std::filesystem::path& path, int flags) {
+  const int fd = ::open(path.c_str(), flags | O_CLOEXEC, 0644);
+  if (fd < 0) throw IoError(path, "cannot open");
+  return fd;
+}
+
+void CloseFile(int& fd) {
+  if (fd >= 0) ::close(fd);
+  fd = -1;
+}
+
+void WriteAll(int fd, const std::string& text, const std::filesystem::path& path) {
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw IoError(path, "write failed");
+    written += static_cast<std::size_t>(n);
+  }
+}
+
+void SyncFile(int fd, const std::filesystem::path& path) {
+  if (::fsync(fd) != 0) throw IoError(path, "fsync failed");
+}
+
+std::string ReadFile(const std::filesystem::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw IoError(path, "cannot read");
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// ---- checkpoint ------------------------------------------------------------------------------
+
+struct CheckpointRecord {
+  std::string fingerprint;
+  std::size_t points_done = 0;
+  std::size_t points_without_solution = 0;
+  std::uintmax_t points_bytes = 0;
+  std::uintmax_t eigenvalues_bytes = 0;
+};
+
+std::string FormatCheckpoint(const CheckpointRecord& record) {
+  return std::string(kCheckpointMagic) + "\nfingerprint=" + record.fingerprint +
+         "\npoints_done=" + std::to_string(record.points_done) +
+         "\npoints_without_solution=" + std::to_string(record.points_without_solution) +
+         "\npoints_bytes=" + std::to_string(record.points_bytes) +
+         "\neigenvalues_bytes=" + std::to_string(record.eigenvalues_bytes) + "\n";
+}
+
+CheckpointRecord ReadCheckpoint(const std::filesystem::path& path) {
+  std::istringstream text(ReadFile(path));
+  std::string line;
+  std::map<std::string, std::string> fields;
+  const bool has_magic = std::getline(text, line) && line == kCheckpointMagic;
+  while (std::getline(text, line)) {
+    const std::size_t equals = line.find('=');
+    if (equals != std::string::npos) fields[line.substr(0, equals)] = line.substr(equals + 1);
+  }
+  const auto number = [&](const std::string& key) -> std::uintmax_t {
+    const std::string& value = fields[key];
+    std::uintmax_t parsed = 0;
+    const char* end = value.data() + value.size();
+    const auto [stop, error] = std::from_chars(value.data(), end, parsed);
+    if (value.empty() || error != std::errc() || stop != end) {
+      throw Error(path.string() + ": unreadable checkpoint (" + key + "); delete the directory " +
+                  "to start the sweep again");
+    }
+    return parsed;
+  };
+  if (!has_magic || !fields.contains("fingerprint")) {
+    throw Error(path.string() +
+                ": not a servokit sweep checkpoint; delete the directory to start the sweep again");
+  }
+  return {fields["fingerprint"], static_cast<std::size_t>(number("points_done")),
+          static_cast<std::size_t>(number("points_without_solution")), number("points_bytes"),
+          number("eigenvalues_bytes")};
+}
+
+UsageError AnotherSweep(const std::filesystem::path& directory) {
+  return UsageError("--out " + directory.string() +
+                    " holds another sweep (a different model, grid or options); use another " +
+                    "--out or delete that directory");
+}
+
+// ---- sweep.json ------------------------------------------------------------------------------
+
+nlohmann::ordered_json GridToJson(const ParameterGrid& grid) {
+  nlohmann::ordered_json axes = nlohmann::ordered_json::array();
+  for (const GridAxis& axis : grid.axes()) {
+    nlohmann::ordered_json entry = {{"name", axis.name}};
+    if (const auto* range = std::get_if<ValueRange>(&axis.values)) {
+      entry["a"] = range->first;
+      entry["b"] = range->last;
+      entry["n"] = range->count;
+    } else {
+      entry["values"] = std::get<std::vector<double>>(axis.values);
+    }
+    axes.push_back(std::move(entry));
+  }
+  return axes;
+}
+
+nlohmann::ordered_json OptionalVectorToJson(const std::optional<Eigen::VectorXd>& values) {
+  if (!values) return nullptr;
+  return std::vector<double>(values->begin(), values->end());
+}
+
+// ---- fingerprint -----------------------------------------------------------------------------
+
+std::string JoinExact(const std::vector<double>& values) {
+  std::string joined;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (i > 0) joined += ',';
+    joined += FormatExact(values[i]);
+  }
+  return joined;
+}
+
+std::string OptionalVectorText(const std::optional<Eigen::VectorXd>& values) {
+  if (!values) return "default";
+  return "[" + JoinExact(std::vector<double>(values->begin(), values->end())) + "]";
+}
+
+}  // namespace
+
+std::string PointsCsvHeader(const ParameterGrid& grid) {
+  return ParameterColumns(grid) +
+         "realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,"
+         "stability,max_real_part,error\n";
+}
+
+std::string EigenvaluesCsvHeader(const ParameterGrid& grid) {
+  return ParameterColumns(grid) + "k,re,im,frequency_hz,damping_ratio\n";
+}
+
+void AppendCsvRows(const ParameterGrid& grid,
+                   std::size_t first,
+                   std::span<const SweepPoint> points,
+                   std::string& points_csv,
+                   std::string& eigenvalues_csv) {
+  std::vector<double> values(grid.axes().size());
+  std::string value_columns;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    grid.PointValues(first + i, values);
+    value_columns.clear();
+    for (const double value : values) {
+      value_columns += FormatExact(value);
+      value_columns += ',';
+    }
+    AppendPointRow(value_columns, points[i], points_csv);
+    AppendEigenvalueRows(value_columns, points[i], eigenvalues_csv);
+  }
+}
+
+std::string CsvQuote(const std::string& text) {
+  std::string quoted = "\"";
+  for (const char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+std::string SweepFingerprint(const Model& model,
+                             const ParameterGrid& grid,
+                             const ClassificationOptions& options) {
+  std::string text = std::string("servokit ") + SERVOKIT_VERSION + "; model " +
+                     model.content_hash() + "; parameters";
+  for (std::size_t i = 0; i < model.num_parameters(); ++i) {
+    text += (i == 0 ? " " : ",") + model.parameter_names()[i] + "=" +
+            FormatExact(model.parameters()[static_cast<Eigen::Index>(i)]);
+  }
+  text += "; vary";
+  for (const GridAxis& axis : grid.axes()) {
+    text += " " + axis.name + "=";
+    if (const auto* range = std::get_if<ValueRange>(&axis.values)) {
+      text += FormatExact(range->first) + ":" + FormatExact(range->last) + ":" +
+              std::to_string(range->count);
+    } else {
+      text += "[" + JoinExact(std::get<std::vector<double>>(axis.values)) + "]";
+    }
+  }
+  const OperatingPointOptions& point = options.operating_point;
+  return text + "; rank_tolerance=" + FormatExact(options.rank_tolerance) +
+         " imaginary_axis_tolerance=" + FormatExact(options.imaginary_axis_tolerance) +
+         " residual_tolerance=" + FormatExact(point.residual_tolerance) +
+         " max_iterations=" + std::to_string(point.max_iterations) +
+         " y0=" + OptionalVectorText(point.y0) + " q0=" + OptionalVectorText(point.q_guess);
+}
+
+SweepOutput::SweepOutput(const std::filesystem::path& directory,
+                         const Model& model,
+                         const ParameterGrid& grid,
+                         const ClassificationOptions& options,
+                         std::vector<std::string> command_line,
+                         int threads)
+    : directory_(directory),
+      paths_{directory / "points.csv",  directory / "points.csv.partial",
+             directory / "eigenvalues.csv", directory / "eigenvalues.csv.partial",
+             directory / "sweep.json",  directory / ".sweep-checkpoint"},
+      model_(model),
+      grid_(grid),
+      options_(options),
+      command_line_(std::move(command_line)),
+      fingerprint_(SweepFingerprint(model, grid, options)),
+      points_slices_(static_cast<std::size_t>(std::max(threads, 1))),
+      eigenvalues_slices_(points_slices_.size()) {
+  Lock();
+  try {
+    if (std::filesystem::exists(paths_.checkpoint)) {
+      const CheckpointRecord checkpoint = ReadCheckpoint(paths_.checkpoint);
+      if (checkpoint.fingerprint != fingerprint_) throw AnotherSweep(directory_);
+      points_done_ = checkpoint.points_done;
+      points_without_solution_ = checkpoint.points_without_solution;
+      Resume({checkpoint.points_bytes, checkpoint.eigenvalues_bytes});
+      return;
+    }
+    if (std::filesystem::exists(paths_.record)) {
+      nlohmann::json record = nlohmann::json::parse(ReadFile(paths_.record), nullptr, false);
+      if (!record.is_object() || !record.contains("fingerprint")) {
+        throw UsageError("--out " + directory_.string() + ": " + paths_.record.string() +
+                         " is not a servokit sweep record; use another --out or delete it");
+      }
+      if (record["fingerprint"] != fingerprint_) throw AnotherSweep(directory_);
+      already_complete_ = record.value("completed", false) &&
+                          std::filesystem::exists(paths_.points) &&
+                          std::filesystem::exists(paths_.eigenvalues);
+      if (already_complete_) {
+        points_done_ = grid_.num_points();
+        points_without_solution_ = record.value("points_without_solution", std::size_t{0});
+        return;
+      }
+    }
+    StartAfresh();
+  } catch (...) {
+    CloseTables();
+    CloseFile(directory_fd_);
+    throw;
+  }
+}
+
+SweepOutput::~SweepOutput() {
+  CloseTables();
+  CloseFile(directory_fd_);  // releases the lock
+}
+
+void SweepOutput::Lock() {
+  std::error_code error;
+  std::filesystem::create_directories(directory_, error);
+  if (error) {
+    throw Error(directory_.string() + ": cannot create the directory: " + error.message());
+  }
+  directory_fd_ = OpenFile(directory_, O_RDONLY | O_DIRECTORY);
+  if (::flock(directory_fd_, LOCK_EX | LOCK_NB) != 0) {
+    CloseFile(directory_fd_);
+    throw UsageError("--out " + directory_.string() +
+                     ": another servokit sweep is writing this directory");
+  }
+}
+
+void SweepOutput::StartAfresh() {
+  // The record first: a run killed before its first checkpoint is then recognised as this
+  // sweep (and started again) rather than refused as another.
+  WriteRecord(false);
+  constexpr int kCreate = O_WRONLY | O_CREAT | O_TRUNC | O_APPEND;
+  points_fd_ = OpenFile(paths_.points_partial, kCreate);
+  eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, kCreate);
+  const std::string points_header = PointsCsvHeader(grid_);
+  const std::string eigenvalues_header = EigenvaluesCsvHeader(grid_);
+  WriteAll(points_fd_, points_header, paths_.points_partial);
+  WriteAll(eigenvalues_fd_, eigenvalues_header, paths_.eigenvalues_partial);
+  sizes_ = {points_header.size(), eigenvalues_header.size()};
+  Checkpoint();
+}
+
+void SweepOutput::Resume(const FileSizes& sizes) {
+  sizes_ = sizes;
+  if (points_done_ == grid_.num_points()) return;  // Finish() may have renamed them already
+  for (const auto& [path, size] : {std::pair{paths_.points_partial, sizes.points},
+                                   std::pair{paths_.eigenvalues_partial, sizes.eigenvalues}}) {
+    std::error_code error;
+    const std::uintmax_t actual = std::filesystem::file_size(path, error);
+    if (error || actual < size) {
+      throw Error(path.string() + ": missing or shorter than the checkpoint records (" +
+                  std::to_string(size) + " bytes); delete " + directory_.string() +
+                  " to start the sweep again");
+    }
+    // Rows written after the checkpoint may be incomplete; they are computed again.
+    std::filesystem::resize_file(path, size);
+  }
+  points_fd_ = OpenFile(paths_.points_partial, O_WRONLY | O_APPEND);
+  eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, O_WRONLY | O_APPEND);
+  last_checkpoint_ = std::chrono::steady_clock::now();
+}
+
+void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) {
+  assert(first == points_done_ && points_fd_ >= 0);
+  // Formatting numbers costs about a tenth of a small model's analysis: done on one thread it
+  // would cap the speed-up of many cores, so each thread formats one contiguous slice and the
+  // slices are written in order (the bytes do not depend on the number of slices).
+  const std::size_t slices = points_slices_.size();
+  ParallelFor(slices, static_cast<int>(slices), 1, [&](std::size_t slice, int) {
+    const std::size_t begin = points.size() * slice / slices;
+    const std::size_t end = points.size() * (slice + 1) / slices;
+    // Appended to as locals: the slices' string objects sit side by side, and a size field
+    // written by two threads at once would bounce its cache line between them.
+    std::string points_csv = std::move(points_slices_[slice]);
+    std::string eigenvalues_csv = std::move(eigenvalues_slices_[slice]);
+    points_csv.clear();
+    eigenvalues_csv.clear();
+    AppendCsvRows(grid_, first + begin, points.subspan(begin, end - begin), points_csv,
+                  eigenvalues_csv);
+    points_slices_[slice] = std::move(points_csv);
+    eigenvalues_slices_[slice] = std::move(eigenvalues_csv);
+  });
+  for (std::size_t slice = 0; slice < slices; ++slice) {
+    WriteAll(points_fd_, points_slices_[slice], paths_.points_partial);
+    WriteAll(eigenvalues_fd_, eigenvalues_slices_[slice], paths_.eigenvalues_partial);
+    sizes_.points += points_slices_[slice].size();
+    sizes_.eigenvalues += eigenvalues_slices_[slice].size();
+  }
+  points_done_ += points.size();
+  for (const SweepPoint& point : points) points_without_solution_ += point.ok ? 0 : 1;
+  if (std::chrono::steady_clock::now() - last_checkpoint_ >= kSweepCheckpointInterval) {
+    Checkpoint();
+  }
+}
+
+void SweepOutput::Checkpoint() {
+  if (points_fd_ >= 0) SyncFile(points_fd_, paths_.points_partial);
+  if (eigenvalues_fd_ >= 0) SyncFile(eigenvalues_fd_, paths_.eigenvalues_partial);
+  WriteDurably(paths_.checkpoint, FormatCheckpoint({fingerprint_, points_done_,
+                                                    points_without_solution_, sizes_.points,
+                                                    sizes_.eigenvalues}));
+  last_checkpoint_ = std::chrono::steady_clock::now();
+}
+
+void SweepOutput::Finish() {
+  assert(points_done_ == grid_.num_points());
+  if (already_complete_) return;
+  // The checkpoint must say "all done" before the first rename: a crash between the renames
+  // then resumes here instead of missing a partial file.
+  if (points_fd_ >= 0) Checkpoint();
+  CloseTables();
+  for (const auto& [partial, final_path] : {std::pair{paths_.points_partial, paths_.points},
+                                            std::pair{paths_.eigenvalues_partial,
+                                                      paths_.eigenvalues}}) {
+    if (std::filesystem::exists(partial)) {
+      std::filesystem::rename(partial, final_path);
+    } else if (!std::filesystem::exists(final_path)) {
+      throw Error(partial.string() + ": missing; delete " + directory_.string() +
+                  " to start the sweep again");
+    }
+  }
+  SyncDirectory();
+  WriteRecord(true);
+  std::filesystem::remove(paths_.checkpoint);
+  SyncDirectory();
+  already_complete_ = true;
+}
+
+void SweepOutput::WriteRecord(bool completed) const {
+  nlohmann::ordered_json fixed = nlohmann::ordered_json::object();
+  for (std::size_t i = 0; i < model_.num_parameters(); ++i) {
+    bool varied = false;
+    for (const GridAxis& axis : grid_.axes()) varied = varied || axis.parameter == i;
+    if (!varied) {
+      fixed[model_.parameter_names()[i]] = model_.parameters()[static_cast<Eigen::Index>(i)];
+    }
+  }
+  const OperatingPointOptions& point = options_.operating_point;
+  nlohmann::ordered_json record = {
+      {"model", model_.name()},
+      {"model_path", model_.source()},
+      {"content_hash", model_.content_hash()},
+      {"command_line", command_line_},
+      {"fixed_parameters", fixed},
+      {"grid", GridToJson(grid_)},
+      {"order", "row-major: the first varied parameter varies slowest, the last fastest"},
+      {"points", grid_.num_points()},
+      {"options",
+       {{"rank_tolerance", options_.rank_tolerance},
+        {"imaginary_axis_tolerance", options_.imaginary_axis_tolerance},
+        {"residual_tolerance", point.residual_tolerance},
+        {"max_iterations", point.max_iterations},
+        {"y0", OptionalVectorToJson(point.y0)},
+        {"q0", OptionalVectorToJson(point.q_guess)}}},
+      {"servokit_version", SERVOKIT_VERSION},
+      {"fingerprint", fingerprint_},
+      {"completed", completed}};
+  if (completed) record["points_without_solution"] = points_without_solution_;
+  WriteDurably(paths_.record, record.dump(2) + "\n");
+}
+
+void SweepOutput::WriteDurably(const std::filesystem::path& path,
+                               const std::string& contents) const {
+  std::filesystem::path temporary = path;
+  temporary += ".tmp";
+  int fd = OpenFile(temporary, O_WRONLY | O_CREAT | O_TRUNC);
+  try {
+    WriteAll(fd, contents, temporary);
+    SyncFile(fd, temporary);
+  } catch (...) {
+    CloseFile(fd);
+    throw;
+  }
+  CloseFile(fd);
+  std::filesystem::rename(temporary, path);
+  SyncDirectory();
+}
+
+void SweepOutput::SyncDirectory() const { SyncFile(directory_fd_, directory_); }
+
+void SweepOutput::CloseTables() {
+  CloseFile(points_fd_);
+  CloseFile(eigenvalues_fd_);
+}
+
+}  // namespace servokit

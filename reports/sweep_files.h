@@ -1,0 +1,141 @@
+#pragma once
+// The files of `servokit sweep --out DIR` (DESIGN.md "Command line", README "servokit sweep"):
+//
+//   points.csv          one row per grid point: the varied parameters (SI), the class columns
+//                       and `error` (empty, or why the point has no solution)
+//   eigenvalues.csv     one row per zero-dynamics eigenvalue of each point
+//   sweep.json          what was swept (model, grid, options, command line) and `completed`
+//
+// Written so that a sweep stopped at any moment (Ctrl-C, SIGKILL, power loss) leaves no corrupt
+// file and the same command resumes it: while it runs, the tables grow as `*.partial` files,
+// and `.sweep-checkpoint` records, atomically (temp file, fsync, rename), how many points are
+// done and how many bytes of each partial file hold them. On restart, bytes past those sizes are
+// cut off and the sweep goes on from the recorded point, so the finished tables are the same,
+// byte for byte, as those of an uninterrupted run. The checkpoint carries a fingerprint of
+// everything that decides the results (servokit version, model file hash, parameters, grid,
+// options); a directory holding another sweep is refused rather than mixed.
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analysis/options.h"
+#include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
+#include "analysis/sweep_point.h"
+#include "models/model.h"
+
+namespace servokit {
+
+/// How often the partial files are made durable (fsync) and the checkpoint is updated. An fsync
+/// per block would cost more than the points of a small model; a crash loses at most this much
+/// work, and an interrupt (SIGINT/SIGTERM) checkpoints at once.
+inline constexpr std::chrono::milliseconds kSweepCheckpointInterval{1000};
+
+/// The header line of points.csv (with its newline): the varied parameters, then
+/// realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,stability,
+/// max_real_part,error.
+std::string PointsCsvHeader(const ParameterGrid& grid);
+
+/// The header line of eigenvalues.csv: the varied parameters, then
+/// k,re,im,frequency_hz,damping_ratio.
+std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
+
+/// Appends the rows of points first, first + 1, ... to `points_csv` and `eigenvalues_csv`.
+/// Numbers are FormatExact (they read back to the same double). A point without a solution has
+/// empty class columns, its message CSV-quoted in `error`, and no eigenvalue rows;
+/// relative_degree of several outputs is joined with ';'; max_real_part is empty when there are
+/// no eigenvalues; k numbers a point's eigenvalues from 0 in SweepPoint order.
+void AppendCsvRows(const ParameterGrid& grid,
+                   std::size_t first,
+                   std::span<const SweepPoint> points,
+                   std::string& points_csv,
+                   std::string& eigenvalues_csv);
+
+/// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
+std::string CsvQuote(const std::string& text);
+
+/// One line naming everything that decides a sweep's files: servokit version, model file hash,
+/// every parameter value, the grid and the classification options. Two sweeps with the same
+/// fingerprint write the same bytes; the number of threads is not part of it.
+std::string SweepFingerprint(const Model& model,
+                             const ParameterGrid& grid,
+                             const ClassificationOptions& options);
+
+/// The output directory of one sweep, from opening (new, resumed or already complete) to the
+/// final rename. `model` and `grid` must outlive it. Holds an exclusive lock (flock) on the
+/// directory, so that two servokit processes never write the same sweep.
+class SweepOutput {
+ public:
+  /// Creates `directory` if needed and finds what it holds: nothing of this sweep (start
+  /// afresh: writes sweep.json with completed false and the headers), an unfinished run of it
+  /// (resume: cuts the partial files to the checkpoint's sizes), or all of it (already_complete).
+  /// `threads` format the rows of a block in parallel (SweepThreads). Throws UsageError when
+  /// the directory holds another sweep or another process writes it, and Error for I/O
+  /// failures and unreadable files.
+  SweepOutput(const std::filesystem::path& directory,
+              const Model& model,
+              const ParameterGrid& grid,
+              const ClassificationOptions& options,
+              std::vector<std::string> command_line,
+              int threads);
+  ~SweepOutput();
+  SweepOutput(const SweepOutput&) = delete;
+  SweepOutput& operator=(const SweepOutput&) = delete;
+
+  /// The directory already holds this sweep, finished: there is nothing to compute.
+  bool already_complete() const { return already_complete_; }
+  /// Points written so far (also the first point still to compute).
+  std::size_t points_done() const { return points_done_; }
+  /// Points written so far whose row holds an error (no solution), counting resumed runs.
+  std::size_t points_without_solution() const { return points_without_solution_; }
+
+  /// Appends points first..first + points.size() - 1; first must be points_done(). Checkpoints
+  /// when the last checkpoint is older than kSweepCheckpointInterval.
+  void Append(std::size_t first, std::span<const SweepPoint> points);
+  /// Makes everything appended so far durable and records it in the checkpoint.
+  void Checkpoint();
+  /// After the last point: renames the partial files to points.csv and eigenvalues.csv, writes
+  /// sweep.json with completed true and removes the checkpoint. Safe to repeat after a crash in
+  /// the middle of it (the constructor resumes at the last point, and Finish completes it).
+  void Finish();
+
+ private:
+  struct Paths {
+    std::filesystem::path points, points_partial, eigenvalues, eigenvalues_partial, record,
+        checkpoint;
+  };
+  struct FileSizes {
+    std::uintmax_t points = 0, eigenvalues = 0;
+  };
+
+  void Lock();
+  void StartAfresh();
+  void Resume(const FileSizes& sizes);
+  void WriteRecord(bool completed) const;
+  void WriteDurably(const std::filesystem::path& path, const std::string& contents) const;
+  void SyncDirectory() const;
+  void CloseTables();
+
+  std::filesystem::path directory_;
+  Paths paths_;
+  const Model& model_;
+  const ParameterGrid& grid_;
+  ClassificationOptions options_;
+  std::vector<std::string> command_line_;
+  std::string fingerprint_;
+
+  int directory_fd_ = -1;  // held open for the lock and to fsync renames
+  int points_fd_ = -1, eigenvalues_fd_ = -1;
+  bool already_complete_ = false;
+  std::size_t points_done_ = 0, points_without_solution_ = 0;
+  FileSizes sizes_;
+  std::chrono::steady_clock::time_point last_checkpoint_;
+  // One block's rows, in one slice per formatting thread; reused from block to block.
+  std::vector<std::string> points_slices_, eigenvalues_slices_;
+};
+
+}  // namespace servokit
