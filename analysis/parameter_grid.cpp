@@ -50,8 +50,8 @@ std::string KnownParameters(const Model& model) {
 double ParseValue(std::string_view text, std::string_view item) {
   const std::optional<double> value = ParseQuantity(item);
   if (!value) {
-    throw VaryError(text, "'" + std::string(Trim(item)) +
-                              "' is not a number (use e.g. 0.5 or \"5 deg\")");
+    throw VaryError(
+        text, "'" + std::string(Trim(item)) + "' is not a number (use e.g. 0.5 or \"5 deg\")");
   }
   return *value;
 }

@@ -16,7 +16,7 @@ namespace {
 
 // Points a thread takes from the block at a time. Dynamic scheduling, because a point where
 // Newton struggles (or fails after its 50 iterations) costs many times an easy one; 16 points
-// (about 0.1 ms for a small model) make the cost of taking a chunk negligible.
+// (microseconds even for the mass on car) make taking a chunk, one atomic increment, cheap.
 constexpr std::size_t kPointsPerChunk = 16;
 
 void ValidateOptions(const Model& model, const SweepOptions& options) {
@@ -46,8 +46,8 @@ class FirstException {
 
 // One workspace per thread, each built by the thread that uses it: its buffers then come from
 // that thread's heap arena. Built on one thread, the small buffers of different workspaces share
-// cache lines, and two threads writing them slow each other down (measured: two threads no
-// faster than one on the mass on car).
+// cache lines, and threads writing them slow each other down (measured on the mass on car: two
+// threads 1.2 times as fast as one that way, 1.55 times this way).
 std::vector<std::unique_ptr<Workspace>> BuildWorkspaces(const Model& model, int threads) {
   std::vector<std::unique_ptr<Workspace>> workspaces(static_cast<std::size_t>(threads));
   FirstException failure;

@@ -18,8 +18,9 @@
 namespace servokit {
 
 /// Points per block. Large enough that the threads stay busy between the consumer's calls
-/// (4096 points of a small model take about 25 ms on two cores), small enough that a block in
-/// memory is a few MB and an interrupted sweep stops within a fraction of a second.
+/// (4096 points take 4 ms for the mass on car, 0.15 s for the six-mass chain, on two cores),
+/// small enough that a block in memory is a few MB and an interrupted sweep stops within a
+/// fraction of a second.
 inline constexpr std::size_t kSweepBlockSize = 4096;
 
 struct SweepOptions {

@@ -40,13 +40,12 @@ Collected Sweep(const Model& model,
                 const SweepOptions& options = {},
                 std::size_t first_point = 0) {
   Collected collected;
-  const std::size_t end = RunSweep(model, grid, options, first_point,
-                                   [&](std::size_t first, std::span<const SweepPoint> block) {
-                                     collected.firsts.push_back(first);
-                                     collected.points.insert(collected.points.end(),
-                                                             block.begin(), block.end());
-                                     return true;
-                                   });
+  const std::size_t end = RunSweep(
+      model, grid, options, first_point, [&](std::size_t first, std::span<const SweepPoint> block) {
+        collected.firsts.push_back(first);
+        collected.points.insert(collected.points.end(), block.begin(), block.end());
+        return true;
+      });
   CHECK(end == grid.num_points());
   return collected;
 }
@@ -54,8 +53,8 @@ Collected Sweep(const Model& model,
 bool SamePoint(const SweepPoint& a, const SweepPoint& b) {
   const bool same_max_real_part = (std::isnan(a.max_real_part) && std::isnan(b.max_real_part)) ||
                                   a.max_real_part == b.max_real_part;
-  return a.ok == b.ok && a.error == b.error && a.realization == b.realization &&
-         a.rank == b.rank && a.relative_degree == b.relative_degree &&
+  return a.ok == b.ok && a.error == b.error && a.realization == b.realization && a.rank == b.rank &&
+         a.relative_degree == b.relative_degree &&
          a.differentiation_index == b.differentiation_index &&
          a.internal_dynamics_order == b.internal_dynamics_order && a.stability == b.stability &&
          same_max_real_part && a.eigenvalues == b.eigenvalues;
@@ -106,8 +105,9 @@ TEST_CASE("a sweep of the mass on car over alpha and d agrees with the closed fo
       CHECK(point.rank == 0);
       CHECK(point.relative_degree == std::vector<int>{d != 0.0 ? 3 : 4});
     } else {
-      CHECK(point.realization == (alpha == std::numbers::pi / 2 ? Realization::kIdealOrthogonal
-                                                                 : Realization::kNonIdealOrthogonal));
+      CHECK(point.realization == (alpha == std::numbers::pi / 2
+                                      ? Realization::kIdealOrthogonal
+                                      : Realization::kNonIdealOrthogonal));
       CHECK(point.rank == 1);
       CHECK(point.relative_degree == std::vector<int>{2});
     }
@@ -116,8 +116,7 @@ TEST_CASE("a sweep of the mass on car over alpha and d agrees with the closed fo
       CHECK(point.stability == Stability::kNone);
       CHECK(std::isnan(point.max_real_part));
     } else {
-      CHECK(point.stability ==
-            (d > 0.0 ? Stability::kAsymptoticallyStable : Stability::kCritical));
+      CHECK(point.stability == (d > 0.0 ? Stability::kAsymptoticallyStable : Stability::kCritical));
       CHECK(point.max_real_part == point.eigenvalues.front().real());
     }
   }
@@ -146,7 +145,8 @@ TEST_CASE("blocks come in index order and a sweep started at point K is the tail
   CHECK(full.firsts == std::vector<std::size_t>{0, 4, 8, 12, 16, 20, 24, 28});
   const Collected tail = Sweep(model, grid, options, 13);
   CHECK(tail.firsts == std::vector<std::size_t>{13, 17, 21, 25, 29});
-  CheckSamePoints(tail.points, std::vector<SweepPoint>(full.points.begin() + 13, full.points.end()));
+  CheckSamePoints(tail.points,
+                  std::vector<SweepPoint>(full.points.begin() + 13, full.points.end()));
 }
 
 TEST_CASE("a consumer that returns false stops the sweep after its block", "[analysis]") {
@@ -156,9 +156,8 @@ TEST_CASE("a consumer that returns false stops the sweep after its block", "[ana
   options.block_size = 8;
   int calls = 0;
   const std::size_t end =
-      RunSweep(model, grid, options, 0, [&](std::size_t, std::span<const SweepPoint>) {
-        return ++calls < 2;
-      });
+      RunSweep(model, grid, options, 0,
+               [&](std::size_t, std::span<const SweepPoint>) { return ++calls < 2; });
   CHECK(calls == 2);
   CHECK(end == 16);
 }
@@ -204,12 +203,11 @@ TEST_CASE("bad sweep options are refused before any point is evaluated", "[analy
 TEST_CASE("an exception from the consumer or a loop body reaches the caller", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
   const ParameterGrid grid = ParseParameterGrid(model, {"d=0:1:3"});
-  CHECK_THROWS_MATCHES(
-      RunSweep(model, grid, {}, 0,
-               [](std::size_t, std::span<const SweepPoint>) -> bool {
-                 throw std::runtime_error("disk full");
-               }),
-      std::runtime_error, Catch::Message("disk full"));
+  CHECK_THROWS_MATCHES(RunSweep(model, grid, {}, 0,
+                                [](std::size_t, std::span<const SweepPoint>) -> bool {
+                                  throw std::runtime_error("disk full");
+                                }),
+                       std::runtime_error, Catch::Message("disk full"));
   CHECK_THROWS_MATCHES(ParallelFor(100, 2, 4,
                                    [](std::size_t i, int) {
                                      if (i == 42) throw std::runtime_error("point 42");
