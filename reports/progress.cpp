@@ -9,17 +9,17 @@
 namespace servokit {
 namespace {
 
-// Characters of the bar itself; with the counts, rate and time the line stays within 80
-// columns up to 10^9 points.
-constexpr std::size_t kBarWidth = 20;
+// Characters of the bar itself: with the counts, rate and time the line stays within 80
+// columns up to 10^9 points at 10^7 points/s (a longer line wraps, and "\r" then redraws only
+// its last part).
+constexpr std::size_t kBarWidth = 12;
 // Erases from the cursor to the end of the line (ANSI/VT100 "EL").
 constexpr const char* kEraseLine = "\r\033[K";
 
 std::string FormatDuration(double seconds) {
   const auto total = static_cast<long long>(std::ceil(seconds));
   char text[32];
-  std::snprintf(text, sizeof text, "%lld:%02lld:%02lld", total / 3600, total / 60 % 60,
-                total % 60);
+  std::snprintf(text, sizeof text, "%lld:%02lld:%02lld", total / 3600, total / 60 % 60, total % 60);
   return text;
 }
 
@@ -30,13 +30,11 @@ bool IsTerminalStderr(const std::ostream& stream) {
 }
 
 std::string FormatProgress(std::size_t done, std::size_t total, double points_per_second) {
-  const double fraction =
-      total == 0 ? 1.0 : static_cast<double>(done) / static_cast<double>(total);
+  const double fraction = total == 0 ? 1.0 : static_cast<double>(done) / static_cast<double>(total);
   const auto filled = static_cast<std::size_t>(fraction * static_cast<double>(kBarWidth));
   std::string line = "[" + std::string(filled, '#') + std::string(kBarWidth - filled, '.') + "]";
   char numbers[96];
-  std::snprintf(numbers, sizeof numbers, " %5.1f%%  %zu/%zu points  ", 100.0 * fraction, done,
-                total);
+  std::snprintf(numbers, sizeof numbers, " %5.1f%%  %zu/%zu  ", 100.0 * fraction, done, total);
   line += numbers;
   if (points_per_second <= 0.0) return line + "-- points/s";
   std::snprintf(numbers, sizeof numbers, "%.0f points/s  ", points_per_second);

@@ -18,7 +18,7 @@ inline constexpr std::chrono::milliseconds kProgressRedrawInterval{200};
 bool IsTerminalStderr(const std::ostream& stream);
 
 /// The bar's text, without carriage return, e.g.
-/// "[#######.............]  35.0%  350000/1000000 points  151234 points/s  0:00:04 left".
+/// "[####........]  35.0%  350000/1000000  151234 points/s  0:00:04 left".
 /// `points_per_second` <= 0 means not yet known (shown as "--").
 std::string FormatProgress(std::size_t done, std::size_t total, double points_per_second);
 
