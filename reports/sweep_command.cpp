@@ -2,6 +2,7 @@
 //                [--set p=v]... [--y0 v]... [--q0 v]... [--rank-tolerance r] [--axis-tolerance a]
 #include <signal.h>
 
+#include <chrono>
 #include <csignal>
 #include <memory>
 #include <ostream>
@@ -13,6 +14,7 @@
 #include "models/errors.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
+#include "reports/number_format.h"
 #include "reports/progress.h"
 #include "reports/sweep_files.h"
 
@@ -31,6 +33,8 @@ struct SweepArguments {
   std::vector<std::string> overrides;  // "name=value"
   std::vector<std::string> y0, q0;     // each may hold several values separated by commas
   ClassificationOptions options;
+  // Seconds between checkpoints.
+  double checkpoint_interval = kSweepCheckpointInterval.count();
 };
 
 // The signal that asked the sweep to stop, 0 if none. A signal handler may only touch a
@@ -131,8 +135,14 @@ int RunSweepCommand(const SweepArguments& arguments,
   const ParameterGrid grid = ParseParameterGrid(model, arguments.vary);
   RejectSetAndVary(overrides, grid);
   const SweepOptions options = MakeSweepOptions(arguments, sweep, model);
+  if (!(arguments.checkpoint_interval > 0.0)) {
+    throw UsageError("--checkpoint-interval " + FormatShort(arguments.checkpoint_interval) +
+                     ": must be > 0 seconds");
+  }
+  const SweepOutputOptions output_options = {
+      SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
   SweepOutput output(arguments.out, model, grid, options.classification, CommandLine(sweep),
-                     SweepThreads(options));
+                     output_options);
   const std::size_t total = grid.num_points();
   if (output.already_complete()) {
     err << "servokit: " << arguments.out << " already holds this sweep, complete (" << total
@@ -186,6 +196,10 @@ Command AddSweepCommand(CLI::App& app) {
       ->required();
   sweep->add_option("--out", arguments->out, "Output directory")->required();
   sweep->add_option("--threads", arguments->threads, "Threads (default: all cores)");
+  sweep
+      ->add_option("--checkpoint-interval", arguments->checkpoint_interval,
+                   "Seconds between checkpoints (fsync): the most work a crash can lose")
+      ->capture_default_str();
   sweep->add_option("--set", arguments->overrides,
                     "Override a fixed parameter: name=value (value may end in deg)");
   sweep->add_option("--y0", arguments->y0,

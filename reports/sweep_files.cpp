@@ -100,6 +100,7 @@ int OpenFile(const std::filesystem::path& path, int flags) {
   return fd;
 }
 
+// close() is not checked: every file whose bytes matter has been fsync'ed, and checked, first.
 void CloseFile(int& fd) {
   if (fd >= 0) ::close(fd);
   fd = -1;
@@ -291,17 +292,18 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
                          const ParameterGrid& grid,
                          const ClassificationOptions& options,
                          std::vector<std::string> command_line,
-                         int threads)
+                         const SweepOutputOptions& output_options)
     : directory_(directory),
-      paths_{directory / "points.csv",  directory / "points.csv.partial",
+      paths_{directory / "points.csv",      directory / "points.csv.partial",
              directory / "eigenvalues.csv", directory / "eigenvalues.csv.partial",
-             directory / "sweep.json",  directory / ".sweep-checkpoint"},
+             directory / "sweep.json",      directory / ".sweep-checkpoint"},
       model_(model),
       grid_(grid),
       options_(options),
       command_line_(std::move(command_line)),
       fingerprint_(SweepFingerprint(model, grid, options)),
-      points_slices_(static_cast<std::size_t>(std::max(threads, 1))),
+      checkpoint_interval_(output_options.checkpoint_interval),
+      points_slices_(static_cast<std::size_t>(std::max(output_options.threads, 1))),
       eigenvalues_slices_(points_slices_.size()) {
   Lock();
   try {
@@ -419,7 +421,7 @@ void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) 
   }
   points_done_ += points.size();
   for (const SweepPoint& point : points) points_without_solution_ += point.ok ? 0 : 1;
-  if (std::chrono::steady_clock::now() - last_checkpoint_ >= kSweepCheckpointInterval) {
+  if (std::chrono::steady_clock::now() - last_checkpoint_ >= checkpoint_interval_) {
     Checkpoint();
   }
 }
@@ -427,9 +429,9 @@ void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) 
 void SweepOutput::Checkpoint() {
   if (points_fd_ >= 0) SyncFile(points_fd_, paths_.points_partial);
   if (eigenvalues_fd_ >= 0) SyncFile(eigenvalues_fd_, paths_.eigenvalues_partial);
-  WriteDurably(paths_.checkpoint, FormatCheckpoint({fingerprint_, points_done_,
-                                                    points_without_solution_, sizes_.points,
-                                                    sizes_.eigenvalues}));
+  WriteDurably(paths_.checkpoint,
+               FormatCheckpoint({fingerprint_, points_done_, points_without_solution_,
+                                 sizes_.points, sizes_.eigenvalues}));
   last_checkpoint_ = std::chrono::steady_clock::now();
 }
 
@@ -440,9 +442,9 @@ void SweepOutput::Finish() {
   // then resumes here instead of missing a partial file.
   if (points_fd_ >= 0) Checkpoint();
   CloseTables();
-  for (const auto& [partial, final_path] : {std::pair{paths_.points_partial, paths_.points},
-                                            std::pair{paths_.eigenvalues_partial,
-                                                      paths_.eigenvalues}}) {
+  for (const auto& [partial, final_path] :
+       {std::pair{paths_.points_partial, paths_.points},
+        std::pair{paths_.eigenvalues_partial, paths_.eigenvalues}}) {
     if (std::filesystem::exists(partial)) {
       std::filesystem::rename(partial, final_path);
     } else if (!std::filesystem::exists(final_path)) {

@@ -30,10 +30,18 @@
 
 namespace servokit {
 
-/// How often the partial files are made durable (fsync) and the checkpoint is updated. An fsync
-/// per block would cost more than the points of a small model; a crash loses at most this much
-/// work, and an interrupt (SIGINT/SIGTERM) checkpoints at once.
-inline constexpr std::chrono::milliseconds kSweepCheckpointInterval{1000};
+/// The default of SweepOutputOptions::checkpoint_interval: an fsync per block would cost more
+/// than the points of a small model, and a crash loses at most a second of work (an interrupt,
+/// SIGINT or SIGTERM, checkpoints at once).
+inline constexpr std::chrono::duration<double> kSweepCheckpointInterval{1.0};
+
+/// How SweepOutput writes; neither changes the bytes of the files.
+struct SweepOutputOptions {
+  // Threads that format the rows of a block in parallel (SweepThreads).
+  int threads = 1;
+  // How often the partial files are made durable (fsync) and the checkpoint is updated.
+  std::chrono::duration<double> checkpoint_interval = kSweepCheckpointInterval;
+};
 
 /// The header line of points.csv (with its newline): the varied parameters, then
 /// realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,stability,
@@ -73,15 +81,14 @@ class SweepOutput {
   /// Creates `directory` if needed and finds what it holds: nothing of this sweep (start
   /// afresh: writes sweep.json with completed false and the headers), an unfinished run of it
   /// (resume: cuts the partial files to the checkpoint's sizes), or all of it (already_complete).
-  /// `threads` format the rows of a block in parallel (SweepThreads). Throws UsageError when
-  /// the directory holds another sweep or another process writes it, and Error for I/O
-  /// failures and unreadable files.
+  /// Throws UsageError when the directory holds another sweep or another process writes it,
+  /// and Error for I/O failures and unreadable files.
   SweepOutput(const std::filesystem::path& directory,
               const Model& model,
               const ParameterGrid& grid,
               const ClassificationOptions& options,
               std::vector<std::string> command_line,
-              int threads);
+              const SweepOutputOptions& output_options = {});
   ~SweepOutput();
   SweepOutput(const SweepOutput&) = delete;
   SweepOutput& operator=(const SweepOutput&) = delete;
@@ -94,7 +101,7 @@ class SweepOutput {
   std::size_t points_without_solution() const { return points_without_solution_; }
 
   /// Appends points first..first + points.size() - 1; first must be points_done(). Checkpoints
-  /// when the last checkpoint is older than kSweepCheckpointInterval.
+  /// when the last checkpoint is older than the checkpoint interval.
   void Append(std::size_t first, std::span<const SweepPoint> points);
   /// Makes everything appended so far durable and records it in the checkpoint.
   void Checkpoint();
@@ -127,6 +134,7 @@ class SweepOutput {
   ClassificationOptions options_;
   std::vector<std::string> command_line_;
   std::string fingerprint_;
+  std::chrono::duration<double> checkpoint_interval_;
 
   int directory_fd_ = -1;  // held open for the lock and to fsync renames
   int points_fd_ = -1, eigenvalues_fd_ = -1;

@@ -58,8 +58,8 @@ class TemporaryDirectory {
  public:
   TemporaryDirectory() {
     static int counter = 0;
-    path_ = fs::temp_directory_path() / ("servokit-sweep-test-" + std::to_string(::getpid()) +
-                                         "-" + std::to_string(counter++));
+    path_ = fs::temp_directory_path() /
+            ("servokit-sweep-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
@@ -118,11 +118,11 @@ void CheckOnlyFinalFiles(const fs::path& directory) {
 // ---- the real binary -------------------------------------------------------------------------
 
 // The kill tests' sweep: 60 000 points of the six-mass chain observed at its third mass (six
-// zero-dynamics eigenvalues a point), over a second on two cores, so that a run can be stopped
-// before, between and after its checkpoints (one a second).
+// zero-dynamics eigenvalues a point), over a second on two cores, with a checkpoint every 0.1 s,
+// so that a run can be stopped before, between and after its checkpoints.
 std::vector<std::string> LongSweep(const fs::path& out) {
   return Sweep(TestDataPath("chain_output_x3.yaml"), {"m=0.5:2:200", "k=50:150:300"}, out,
-               {"--threads", "2"});
+               {"--threads", "2", "--checkpoint-interval", "0.1"});
 }
 constexpr std::size_t kLongSweepPoints = 60000;
 
@@ -147,8 +147,7 @@ pid_t Spawn(const std::vector<std::string>& arguments, const fs::path& stderr_pa
   argv.push_back(nullptr);
   posix_spawn_file_actions_t actions;
   REQUIRE(posix_spawn_file_actions_init(&actions) == 0);
-  REQUIRE(posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0) ==
-          0);
+  REQUIRE(posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0) == 0);
   REQUIRE(posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, stderr_path.c_str(),
                                            O_WRONLY | O_CREAT | O_TRUNC, 0644) == 0);
   pid_t child = 0;
@@ -173,8 +172,10 @@ std::optional<std::size_t> CheckpointPointsDone(const fs::path& directory) {
 
 /// Waits until the checkpoint in `directory` records more than `points_done` points, or the
 /// child exits (then returns its wait status).
-std::optional<int> WaitForProgress(pid_t child, const fs::path& directory, std::size_t points_done) {
-  // A generous bound: a checkpoint is due every second, even on a loaded machine.
+std::optional<int> WaitForProgress(pid_t child,
+                                   const fs::path& directory,
+                                   std::size_t points_done) {
+  // A generous bound: a checkpoint is due every 0.1 s, even on a loaded machine.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (std::chrono::steady_clock::now() < deadline) {
     int status = 0;
@@ -206,7 +207,8 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
         "internal_dynamics_order,stability,max_real_part,error");
   CHECK(points[1] == "0,0,tangential,0,4,5,0,none,,");  // paper case 4: flat
   CHECK_THAT(points[2], Catch::StartsWith("0,1,tangential,0,3,4,1,asymptotically-stable,-"));
-  CHECK_THAT(points[3], Catch::StartsWith("1.5707963267948966,0,ideal-orthogonal,1,2,3,2,critical,"));
+  CHECK_THAT(points[3],
+             Catch::StartsWith("1.5707963267948966,0,ideal-orthogonal,1,2,3,2,critical,"));
   const std::vector<std::string> eigenvalues = Lines(ReadFile(work / "out" / "eigenvalues.csv"));
   REQUIRE(eigenvalues.size() == 6);  // one root at (0, 1), a pair at each alpha = 90 deg point
   CHECK(eigenvalues[0] == "alpha,d,k,re,im,frequency_hz,damping_ratio");
@@ -271,7 +273,8 @@ TEST_CASE("sweep.json records the model, command line, grid, points, version and
   command_line.insert(command_line.end(), arguments.begin(), arguments.end());
   CHECK(record["command_line"] == command_line);
   CHECK(record["fixed_parameters"] == nlohmann::json({{"m1", 1.0}, {"m2", 2.0}, {"k", 6.0}}));
-  CHECK(record["grid"] == nlohmann::json::parse(R"([{"name": "alpha", "a": 0, "b": 1.5707963267948966,
+  CHECK(record["grid"] ==
+        nlohmann::json::parse(R"([{"name": "alpha", "a": 0, "b": 1.5707963267948966,
       "n": 3}, {"name": "d", "values": [0, 2]}])"));
   CHECK(record["grid"][0]["b"].get<double>() == std::numbers::pi / 2);  // reads back exactly
   CHECK(record["points"] == 6);
@@ -306,6 +309,8 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
        "--vary alpha: the parameter is varied twice (give all its values in one --vary)"},
       {Sweep(model, {"alpha=0:1:2"}, out, {"--threads", "0"}),
        "--threads 0: must be at least 1 (default: all cores)"},
+      {Sweep(model, {"alpha=0:1:2"}, out, {"--checkpoint-interval", "0"}),
+       "--checkpoint-interval 0: must be > 0 seconds"},
       {Sweep(model, {"alpha=0:1:2"}, out, {"--set", "alpha=1"}),
        "--vary alpha: the parameter is also given by --set; drop one of them"},
       {{"sweep", model, "--vary", "alpha=0:1:2"}, "--out is required"},
@@ -319,8 +324,7 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
   }
 }
 
-TEST_CASE("a finished sweep run again is reported complete and not computed again",
-          "[reports]") {
+TEST_CASE("a finished sweep run again is reported complete and not computed again", "[reports]") {
   const TemporaryDirectory work;
   const std::vector<std::string> arguments =
       Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out");
@@ -366,7 +370,7 @@ TEST_CASE("a sweep killed with SIGKILL at random moments resumes to the same byt
   const TemporaryDirectory work;
   const fs::path out = work / "out";
   std::mt19937 random(std::random_device{}());
-  std::uniform_int_distribution<int> delay_ms(10, 300);
+  std::uniform_int_distribution<int> delay_ms(10, 200);
   int kills = 0, kills_after_progress = 0;
   bool finished = false;
   // Even rounds: a kill soon after start (before the first checkpoint, or while resuming).
@@ -423,9 +427,9 @@ TEST_CASE("SIGINT stops a sweep with status 130 at a checkpoint; the same comman
   CHECK(nlohmann::json::parse(ReadFile(out / "sweep.json"))["completed"] == false);
   // The interrupt checkpoints at once: nothing past the recorded sizes.
   const std::string checkpoint = ReadFile(out / ".sweep-checkpoint");
-  CHECK_THAT(checkpoint, Catch::Contains("\npoints_bytes=" +
-                                         std::to_string(fs::file_size(out / "points.csv.partial")) +
-                                         "\n"));
+  CHECK_THAT(checkpoint,
+             Catch::Contains("\npoints_bytes=" +
+                             std::to_string(fs::file_size(out / "points.csv.partial")) + "\n"));
   const Run resumed = RunServokit(LongSweep(out));
   REQUIRE(resumed.status == 0);
   CHECK(resumed.err == "servokit: resuming at point " + std::to_string(done) + " of " +
