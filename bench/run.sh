@@ -5,3 +5,6 @@ build=${1:-build}
 root=$(cd "$(dirname "$0")/.." && pwd)
 echo "== analysis: model load and operating-point analyses (issue #2) =="
 "$build/bench/bench_analysis" "$root/models" 1.0
+echo
+echo "== sweep throughput against the SciPy pipeline (issue #3) =="
+"$root/bench/compare_sweep.sh" "$build"

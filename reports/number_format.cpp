@@ -15,13 +15,19 @@ std::string Printf(const char* format, double value) {
 
 }  // namespace
 
-std::string FormatExact(double value) {
+void AppendExact(std::string& out, double value) {
   // The shortest text that reads back to the same double (std::to_chars without a precision):
   // exact like "%.17g", without its noise digits, and several times faster, which matters for
   // sweeps that write tens of millions of numbers.
   char buffer[32];
   const auto result = std::to_chars(buffer, buffer + sizeof buffer, WithoutNegativeZero(value));
-  return std::string(buffer, result.ptr);
+  out.append(buffer, result.ptr);
+}
+
+std::string FormatExact(double value) {
+  std::string text;
+  AppendExact(text, value);
+  return text;
 }
 
 std::string FormatShort(double value) {

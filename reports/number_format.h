@@ -13,6 +13,9 @@ inline double WithoutNegativeZero(double value) { return value + 0.0; }
 /// written as "nan" / "inf"; callers that may produce them say so next to the number.
 std::string FormatExact(double value);
 
+/// FormatExact appended to `out` in place: no temporary string, for writers of many numbers.
+void AppendExact(std::string& out, double value);
+
 /// A short form for people: 6 significant digits, and "0" for |value| < 1e-300.
 std::string FormatShort(double value);
 

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/reports/run_servokit.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -16,22 +17,8 @@ namespace {
 using testing::ModelPath;
 using testing::TestDataPath;
 
-struct Run {
-  int status = -1;
-  std::string out, err;
-};
-
-Run RunServokit(std::vector<std::string> arguments) {
-  arguments.insert(arguments.begin(), "servokit");
-  std::vector<const char*> argv;
-  for (const auto& argument : arguments) argv.push_back(argument.c_str());
-  std::ostringstream out, err;
-  Run run;
-  run.status = RunCommandLine(int(argv.size()), argv.data(), out, err);
-  run.out = out.str();
-  run.err = err.str();
-  return run;
-}
+using testing::Run;
+using testing::RunServokit;
 
 TEST_CASE("analyze --format json prints one object with every key of DESIGN.md", "[reports]") {
   const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "json"});

@@ -25,6 +25,7 @@
 #include "reports/command_line.h"
 #include "reports/progress.h"
 #include "reports/sweep_files.h"
+#include "tests/reports/run_servokit.h"
 #include "tests/test_paths.h"
 
 extern char** environ;
@@ -36,22 +37,8 @@ namespace fs = std::filesystem;
 using testing::ModelPath;
 using testing::TestDataPath;
 
-struct Run {
-  int status = -1;
-  std::string out, err;
-};
-
-Run RunServokit(std::vector<std::string> arguments) {
-  arguments.insert(arguments.begin(), "servokit");
-  std::vector<const char*> argv;
-  for (const auto& argument : arguments) argv.push_back(argument.c_str());
-  std::ostringstream out, err;
-  Run run;
-  run.status = RunCommandLine(int(argv.size()), argv.data(), out, err);
-  run.out = out.str();
-  run.err = err.str();
-  return run;
-}
+using testing::Run;
+using testing::RunServokit;
 
 /// A fresh directory under the system's temporary directory, removed with everything in it.
 class TemporaryDirectory {
