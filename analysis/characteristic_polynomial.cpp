@@ -1,10 +1,14 @@
 #include "analysis/characteristic_polynomial.h"
 
 #include <ginac/ginac.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_roots.h>
 
 #include <cmath>
+#include <memory>
 #include <sstream>
 
+#include "analysis/gsl_support.h"
 #include "analysis/operating_point.h"
 #include "models/errors.h"
 #include "models/symbolic_model.h"
@@ -53,7 +57,40 @@ double EvaluateAt(const ex& expression, const GiNaC::realsymbol& parameter, doub
   return number.to_double();
 }
 
-// Where `expression` changes sign in [low, high]: a scan, then bisection in each bracket.
+// The root of `expression` in [left, right], where its sign differs at the ends: GSL's Brent
+// solver (the conditions are smooth in the parameter).
+double LocateRoot(const ex& expression,
+                  const GiNaC::realsymbol& parameter,
+                  double left,
+                  double right) {
+  struct Data {
+    const ex* expression;
+    const GiNaC::realsymbol* parameter;
+  } data{&expression, &parameter};
+  gsl_function function{[](double x, void* p) {
+                          const auto* d = static_cast<const Data*>(p);
+                          return EvaluateAt(*d->expression, *d->parameter, x);
+                        },
+                        &data};
+  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
+      gsl_root_fsolver_alloc(gsl_root_fsolver_brent), gsl_root_fsolver_free);
+  if (!solver || gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) {
+    return 0.5 * (left + right);
+  }
+  // Brent converges superlinearly; the cap only guards against a misbehaving expression.
+  constexpr int kMaxIterations = 200;
+  for (int i = 0; i < kMaxIterations; ++i) {
+    if (gsl_root_fsolver_iterate(solver.get()) != GSL_SUCCESS) break;
+    if (gsl_root_test_interval(gsl_root_fsolver_x_lower(solver.get()),
+                               gsl_root_fsolver_x_upper(solver.get()), 0.0,
+                               kSignChangeRelativeTolerance) == GSL_SUCCESS) {
+      break;
+    }
+  }
+  return gsl_root_fsolver_root(solver.get());
+}
+
+// Where `expression` changes sign in [low, high]: a scan, then a root in each bracket.
 std::vector<double> SignChanges(const ex& expression,
                                 const GiNaC::realsymbol& parameter,
                                 double low,
@@ -64,20 +101,12 @@ std::vector<double> SignChanges(const ex& expression,
   for (int i = 1; i <= kSignScanPoints; ++i) {
     const double x = low + (high - low) * i / kSignScanPoints;
     const double value = EvaluateAt(expression, parameter, x);
-    if (std::isfinite(previous) && std::isfinite(value) && previous != 0.0 &&
-        (value == 0.0 || (value > 0) != (previous > 0))) {
-      double left = previous_x, right = x;
-      const bool left_positive = previous > 0;
-      while (right - left > kSignChangeRelativeTolerance * std::max(1.0, std::abs(right))) {
-        const double middle = 0.5 * (left + right);
-        const double at_middle = EvaluateAt(expression, parameter, middle);
-        if (at_middle != 0.0 && (at_middle > 0) == left_positive) {
-          left = middle;
-        } else {
-          right = middle;
-        }
+    if (std::isfinite(previous) && std::isfinite(value) && previous != 0.0) {
+      if (value == 0.0) {
+        changes.push_back(x);
+      } else if ((value > 0) != (previous > 0)) {
+        changes.push_back(LocateRoot(expression, parameter, previous_x, x));
       }
-      changes.push_back(0.5 * (left + right));
     }
     if (value != 0.0 || !std::isfinite(previous)) {
       previous = value;
@@ -117,6 +146,7 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
   const SymbolicModel& symbolic = model.symbolic();
   const std::size_t dof = symbolic.dof(), inputs = symbolic.num_inputs();
   if (dof + inputs > kMaxClosedFormSize) return std::nullopt;
+  UseGslStatusCodes();
 
   // The closed form is taken at q = 0, u = 0: check that this is the operating point at the
   // nominal values and at both ends of the range.

@@ -42,7 +42,7 @@ struct CharacteristicPolynomial {
 /// closed form does not apply: the operating point is not q = 0, u = 0 (then M, K, D would
 /// depend on where the equilibrium moves), or the model is too large for a symbolic
 /// determinant (more than kMaxClosedFormSize rows). Sign changes are located to relative 1e-12
-/// by bisection on the expression evaluated numerically.
+/// by GSL's Brent solver on the expression evaluated numerically.
 std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Model& model,
                                                                        std::size_t parameter,
                                                                        double low,
