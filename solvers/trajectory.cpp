@@ -1,0 +1,83 @@
+#include "solvers/trajectory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// The paper's Eq. (65) is p_4.
+constexpr int kPaperContinuousDerivatives = 4;
+
+double Binomial(int n, int k) {
+  double value = 1.0;
+  for (int i = 1; i <= k; ++i) value = value * double(n - k + i) / double(i);
+  return value;
+}
+
+}  // namespace
+
+std::vector<double> RestToRestCoefficients(int continuous_derivatives) {
+  const int k = continuous_derivatives;
+  std::vector<double> coefficients(std::size_t(2 * k + 2), 0.0);
+  // tau^(k+1) C(k+j, j) (1 - tau)^j, with (1 - tau)^j = sum_i C(j, i) (-tau)^i.
+  for (int j = 0; j <= k; ++j) {
+    for (int i = 0; i <= j; ++i) {
+      coefficients[std::size_t(k + 1 + i)] +=
+          Binomial(k + j, j) * Binomial(j, i) * (i % 2 == 0 ? 1.0 : -1.0);
+    }
+  }
+  return coefficients;
+}
+
+int RestToRestOrderFor(int needed_derivatives) {
+  return std::max(kPaperContinuousDerivatives, needed_derivatives);
+}
+
+RestToRestTrajectory::RestToRestTrajectory(
+    Eigen::VectorXd y0, Eigen::VectorXd yf, double t0, double tf, int continuous_derivatives)
+    : y0_(std::move(y0)),
+      yf_(std::move(yf)),
+      t0_(t0),
+      tf_(tf),
+      continuous_derivatives_(continuous_derivatives) {
+  if (y0_.size() != yf_.size() || y0_.size() == 0) {
+    throw UsageError("rest-to-rest: y0 has " + std::to_string(y0_.size()) + " values, yf " +
+                     std::to_string(yf_.size()) + ": one each per output");
+  }
+  if (!y0_.allFinite() || !yf_.allFinite() || !std::isfinite(t0) || !std::isfinite(tf)) {
+    throw UsageError("rest-to-rest: y0, yf, t0 and tf must be finite");
+  }
+  if (!(t0 < tf)) {
+    throw UsageError("rest-to-rest: t0 = " + std::to_string(t0) + ", tf = " + std::to_string(tf) +
+                     ": needs t0 < tf");
+  }
+  if (continuous_derivatives < 1) {
+    throw UsageError("rest-to-rest: continuous derivatives = " +
+                     std::to_string(continuous_derivatives) + ": must be >= 1");
+  }
+  coefficients_ = RestToRestCoefficients(continuous_derivatives);
+}
+
+Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {
+  const double duration = tf_ - t0_;
+  const double tau = std::clamp((t - t0_) / duration, 0.0, 1.0);
+  // At rest outside the motion. At t0 and tf themselves the polynomial decides: its first k
+  // derivatives vanish there, a higher one is the value from inside the motion.
+  if (order > 0 && (t < t0_ || t > tf_)) return Eigen::VectorXd::Zero(y0_.size());
+  // d^order/dtau^order of sum c_i tau^i, by Horner on the differentiated coefficients.
+  double value = 0.0;
+  for (int i = int(coefficients_.size()) - 1; i >= order; --i) {
+    double falling = 1.0;  // i (i-1) ... (i-order+1)
+    for (int j = 0; j < order; ++j) falling *= double(i - j);
+    value = value * tau + coefficients_[std::size_t(i)] * falling;
+  }
+  const double scale = std::pow(duration, -order);
+  if (order == 0) return y0_ + (yf_ - y0_) * value;
+  return (yf_ - y0_) * (value * scale);
+}
+
+}  // namespace servokit

@@ -1,0 +1,44 @@
+#pragma once
+// Desired output trajectories y_d(t) with exact derivatives of any order (paper Eq. 65).
+//
+// Rest to rest: y_d = y0 + (yf - y0) p(tau), tau = (t - t0)/(tf - t0) clamped to [0, 1], where
+// p is the polynomial of degree 2k + 1 with p(0) = 0, p(1) = 1 and its first k derivatives zero
+// at both ends:  p_k(tau) = tau^(k+1) sum_{j=0..k} C(k+j, j) (1 - tau)^j.
+// k = 4 is the paper's Eq. (65): 126 tau^5 - 420 tau^6 + 540 tau^7 - 315 tau^8 + 70 tau^9.
+// y_d is then k times continuously differentiable; a problem whose inverse needs y_d^(r)
+// continuous (r = the highest infinite-zero order, or more for the DAE solvers) needs k >= r,
+// and RestToRestOrderFor() raises k when Eq. (65) is not enough.
+#include <Eigen/Dense>
+#include <vector>
+
+namespace servokit {
+
+/// Coefficients c_0 .. c_(2k+1) of p_k in powers of tau (exact integers held as doubles).
+std::vector<double> RestToRestCoefficients(int continuous_derivatives);
+
+/// The paper's Eq. (65) has 4 continuous derivatives; returns max(4, needed).
+int RestToRestOrderFor(int needed_derivatives);
+
+/// y_d(t) from y0 (at rest before t0) to yf (at rest after tf), for any number of outputs.
+class RestToRestTrajectory {
+ public:
+  /// Throws UsageError unless t0 < tf, the sizes of y0 and yf agree and everything is finite.
+  RestToRestTrajectory(
+      Eigen::VectorXd y0, Eigen::VectorXd yf, double t0, double tf, int continuous_derivatives = 4);
+
+  /// d^order y_d / dt^order at t (order 0 is y_d itself), size outputs. Exact: the polynomial's
+  /// derivative, scaled by (tf - t0)^-order; zero outside [t0, tf] for order >= 1; at t0 and
+  /// tf, orders above continuous_derivatives() take the value from inside the motion.
+  Eigen::VectorXd Derivative(double t, int order) const;
+
+  int continuous_derivatives() const { return continuous_derivatives_; }
+  Eigen::Index outputs() const { return y0_.size(); }
+
+ private:
+  Eigen::VectorXd y0_, yf_;
+  double t0_, tf_;
+  int continuous_derivatives_;
+  std::vector<double> coefficients_;
+};
+
+}  // namespace servokit

@@ -1,0 +1,81 @@
+// Rest-to-rest trajectories (paper Eq. 65), against the paper's printed coefficients and
+// against independent numerical checks.
+#include "solvers/trajectory.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+TEST_CASE("the order-4 rest-to-rest polynomial is the paper's Eq. (65)", "[solvers][paper]") {
+  // 126 tau^5 - 420 tau^6 + 540 tau^7 - 315 tau^8 + 70 tau^9.
+  const std::vector<double> expected = {0, 0, 0, 0, 0, 126, -420, 540, -315, 70};
+  CHECK(RestToRestCoefficients(4) == expected);
+}
+
+TEST_CASE("rest-to-rest polynomials of other orders: the quintic and the cubic", "[solvers]") {
+  // k = 1: 3 tau^2 - 2 tau^3; k = 2: 10 tau^3 - 15 tau^4 + 6 tau^5 (the classic smoothsteps).
+  CHECK(RestToRestCoefficients(1) == std::vector<double>{0, 0, 3, -2});
+  CHECK(RestToRestCoefficients(2) == std::vector<double>{0, 0, 0, 10, -15, 6});
+}
+
+TEST_CASE("p_k reaches 1 and its first k derivatives vanish at both ends", "[solvers]") {
+  for (const int k : {3, 4, 6, 8}) {
+    const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.0),
+                                          Eigen::VectorXd::Constant(1, 1.0), 0.0, 1.0, k);
+    CHECK(trajectory.Derivative(1.0, 0)(0) == Approx(1.0).epsilon(1e-12));
+    for (int order = 1; order <= k; ++order) {
+      INFO("k = " << k << ", order " << order);
+      CHECK(trajectory.Derivative(0.0, order)(0) == Approx(0.0).margin(1e-9));
+      CHECK(trajectory.Derivative(1.0, order)(0) == Approx(0.0).margin(1e-9));
+    }
+    CHECK(std::abs(trajectory.Derivative(0.0, k + 1)(0)) > 1.0);  // first non-vanishing one
+  }
+}
+
+TEST_CASE("derivatives of the paper's trajectory match finite differences", "[solvers][paper]") {
+  // y from 0.5 m to 2.5 m between 0 and 6 s (paper Sect. 5.1, Fig. 9).
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.5),
+                                        Eigen::VectorXd::Constant(1, 2.5), 0.0, 6.0);
+  for (const double t : {0.7, 2.0, 3.0, 4.4, 5.9}) {
+    for (int order = 1; order <= 5; ++order) {
+      // Central difference of the derivative one order lower: O(h^2) error, h = 1e-4.
+      const double h = 1e-4;
+      const double numeric = (trajectory.Derivative(t + h, order - 1)(0) -
+                              trajectory.Derivative(t - h, order - 1)(0)) /
+                             (2 * h);
+      INFO("t = " << t << ", order " << order);
+      CHECK(trajectory.Derivative(t, order)(0) == Approx(numeric).epsilon(1e-6).margin(1e-8));
+    }
+  }
+  CHECK(trajectory.Derivative(3.0, 0)(0) == Approx(1.5));  // half way by symmetry
+  CHECK(trajectory.Derivative(8.0, 0)(0) == Approx(2.5));  // at rest after tf
+  CHECK(trajectory.Derivative(8.0, 2)(0) == 0.0);
+}
+
+TEST_CASE("the order is raised when the problem needs more derivatives", "[solvers]") {
+  CHECK(RestToRestOrderFor(2) == 4);
+  CHECK(RestToRestOrderFor(4) == 4);
+  CHECK(RestToRestOrderFor(6) == 6);
+}
+
+TEST_CASE("several outputs move together, each from its own y0 to yf", "[solvers]") {
+  const RestToRestTrajectory trajectory(Eigen::Vector2d(0.0, 2.0), Eigen::Vector2d(1.0, 0.0), 1.0,
+                                        3.0);
+  const Eigen::VectorXd middle = trajectory.Derivative(2.0, 0);
+  CHECK(middle(0) == Approx(0.5));
+  CHECK(middle(1) == Approx(1.0));
+}
+
+TEST_CASE("a trajectory with tf <= t0 or mismatched ends is a usage error", "[solvers]") {
+  CHECK_THROWS_AS(RestToRestTrajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 2, 1),
+                  UsageError);
+  CHECK_THROWS_WITH(RestToRestTrajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(2), 0, 1),
+                    Catch::Contains("y0 has 1 values, yf 2"));
+}
+
+}  // namespace
+}  // namespace servokit
