@@ -1,12 +1,15 @@
 #include "analysis/thresholds.h"
 
 #include <gsl/gsl_errno.h>
+#include <gsl/gsl_min.h>
 #include <gsl/gsl_roots.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 
 #include "analysis/classification.h"
 #include "analysis/gsl_support.h"
@@ -84,6 +87,23 @@ class StateProbe {
     }
     return {"no-solution", "no-solution"};
   }
+
+  // sigma_min(P) / (|H| |M^-1 B|) at `value`: how far P is from losing rank, in the units of
+  // ClassificationOptions::rank_tolerance; NaN where there is no solution.
+  double RelativeSmallestSingularValue(double value) {
+    ++classifications_;
+    workspace_.parameters(Eigen::Index(parameter_)) = value;
+    try {
+      const DecouplingAnalysis decoupling =
+          Classify(model_, workspace_, options_.classification).decoupling;
+      const double scale = decoupling.rank_threshold / options_.classification.rank_tolerance;
+      return scale > 0.0 ? decoupling.singular_values.tail(1)(0) / scale : 0.0;
+    } catch (const NoSolution&) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+
+  double rank_tolerance() const { return options_.classification.rank_tolerance; }
 
   // det P at `value`, or NaN where there is no solution.
   double DecouplingDeterminant(double value) {
@@ -211,6 +231,49 @@ void RefineThroughSingularDecoupling(StateProbe& probe,
   }
 }
 
+// P can touch zero without changing sign (the mass on car at alpha = 0: P ~ sin^2(alpha)); the
+// realization is then tangential at one point only, which a scan finds only by luck. A local
+// minimum of the relative sigma_min(P) between scan points of one state is refined by GSL's
+// Brent minimizer; if the minimum is within the rank tolerance, P touches zero there.
+// (A minimizer locates a double root to about sqrt(epsilon) relative, not 1e-12.)
+std::optional<ThresholdCrossing> FindTouch(
+    StateProbe& probe, double left, double middle, double right, const State& state) {
+  gsl_function function{[](double x, void* p) {
+                          return static_cast<StateProbe*>(p)->RelativeSmallestSingularValue(x);
+                        },
+                        &probe};
+  std::unique_ptr<gsl_min_fminimizer, void (*)(gsl_min_fminimizer*)> minimizer(
+      gsl_min_fminimizer_alloc(gsl_min_fminimizer_brent), gsl_min_fminimizer_free);
+  if (!minimizer ||
+      gsl_min_fminimizer_set(minimizer.get(), &function, middle, left, right) != GSL_SUCCESS) {
+    return std::nullopt;
+  }
+  constexpr int kMaxIterations = 100;
+  // sqrt(epsilon): the best a minimizer can locate a minimum to.
+  constexpr double kMinimizerTolerance = 1.5e-8;
+  for (int i = 0; i < kMaxIterations; ++i) {
+    if (gsl_min_fminimizer_iterate(minimizer.get()) != GSL_SUCCESS) break;
+    if (gsl_min_test_interval(gsl_min_fminimizer_x_lower(minimizer.get()),
+                              gsl_min_fminimizer_x_upper(minimizer.get()), kMinimizerTolerance,
+                              0.0) == GSL_SUCCESS) {
+      break;
+    }
+  }
+  if (!(gsl_min_fminimizer_f_minimum(minimizer.get()) <= probe.rank_tolerance())) {
+    return std::nullopt;
+  }
+  const double value = gsl_min_fminimizer_x_minimum(minimizer.get());
+  const State touched = probe.At(value);
+  ThresholdCrossing crossing;
+  crossing.value = value;
+  crossing.bracket_width =
+      gsl_min_fminimizer_x_upper(minimizer.get()) - gsl_min_fminimizer_x_lower(minimizer.get());
+  crossing.from = state.label;
+  crossing.to = state.label;
+  crossing.via = touched.key == state.key ? "P = 0" : touched.label;
+  return crossing;
+}
+
 }  // namespace
 
 void ThresholdOptions::Validate(const Model& model) const {
@@ -252,15 +315,36 @@ ThresholdSearch FindThresholds(const Model& model,
   std::vector<ThresholdCrossing> events;
   double left = low;
   State left_state = probe.At(low);
+  // For touches of P = 0: the scan's last two points and their relative sigma_min(P).
+  const bool watch_touches = event == ThresholdEvent::kRealization;
+  double before = low, before_sigma = std::numeric_limits<double>::quiet_NaN();
+  State before_state = left_state;
+  double left_sigma = watch_touches ? probe.RelativeSmallestSingularValue(low) : 0.0;
   for (int i = 1; i <= options.scan_intervals; ++i) {
     const double right = i == options.scan_intervals
                              ? high
                              : low + (high - low) * double(i) / double(options.scan_intervals);
     const State right_state = probe.At(right);
     LocateChanges(probe, left, right, left_state, right_state, options.relative_tolerance, events);
+    if (watch_touches) {
+      const double right_sigma = probe.RelativeSmallestSingularValue(right);
+      if (left_sigma < before_sigma && left_sigma < right_sigma &&
+          before_state.key == left_state.key && left_state.key == right_state.key) {
+        if (auto touch = FindTouch(probe, before, left, right, left_state)) {
+          events.push_back(*touch);
+        }
+      }
+      before = left;
+      before_sigma = left_sigma;
+      left_sigma = right_sigma;
+    }
+    before_state = left_state;
     left = right;
     left_state = right_state;
   }
+  std::sort(
+      events.begin(), events.end(),
+      [](const ThresholdCrossing& a, const ThresholdCrossing& b) { return a.value < b.value; });
   search.events = MergeClose(events, options.merge_tolerance);
   if (event != ThresholdEvent::kOscillation) {
     for (ThresholdCrossing& crossing : search.events) {

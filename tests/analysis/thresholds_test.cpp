@@ -78,6 +78,19 @@ TEST_CASE("P of the arm passes through zero at s = 2l/3: a realization event", "
   CHECK(search.events[0].via == "tangential");
 }
 
+TEST_CASE("P of the mass on car touches zero at alpha = 0 without changing sign", "[analysis]") {
+  // P = sin^2(alpha) / (m1 + m2 sin^2(alpha)) >= 0 (Eq. 30): tangential at alpha = 0 only. The
+  // range is chosen so that no scan point lands on 0; the minimizer of sigma_min(P) finds it.
+  const double degree = std::numbers::pi / 180;
+  const ThresholdSearch search = Search("mass_on_car.yaml", "alpha", -10 * degree, 13 * degree,
+                                        ThresholdEvent::kRealization, {{"d", "1"}});
+  REQUIRE(search.events.size() == 1);
+  CHECK(search.events[0].value == Approx(0.0).margin(1e-7));
+  CHECK(search.events[0].from == "non-ideal-orthogonal");
+  CHECK(search.events[0].to == "non-ideal-orthogonal");
+  CHECK(search.events[0].via == "tangential");
+}
+
 TEST_CASE("collocated output only at s = 0: ideal turns non-ideal right after", "[analysis]") {
   const ThresholdSearch search =
       Search("rotational_arm.yaml", "s", 0.0, 0.5, ThresholdEvent::kRealization);
