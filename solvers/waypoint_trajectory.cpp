@@ -1,0 +1,121 @@
+#include "solvers/waypoint_trajectory.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include "models/errors.h"
+#include "models/units.h"
+
+namespace servokit {
+
+WaypointTrajectory::WaypointTrajectory(std::vector<double> times,
+                                       std::vector<Eigen::VectorXd> outputs,
+                                       int continuous_derivatives)
+    : times_(std::move(times)) {
+  if (times_.size() < 2 || times_.size() != outputs.size()) {
+    throw UsageError("a trajectory needs at least two waypoints, each with a time and outputs");
+  }
+  for (std::size_t i = 0; i + 1 < times_.size(); ++i) {
+    segments_.emplace_back(outputs[i], outputs[i + 1], times_[i], times_[i + 1],
+                           continuous_derivatives);
+  }
+}
+
+Eigen::VectorXd WaypointTrajectory::Derivative(double t, int order) const {
+  // The segment whose interval holds t: the last one starting at or before t, clamped to the
+  // first and last segments, which are at rest outside the waypoints.
+  const auto after = std::upper_bound(times_.begin(), times_.end(), t);
+  const auto index = std::clamp<std::ptrdiff_t>(after - times_.begin() - 1, 0,
+                                                std::ptrdiff_t(segments_.size()) - 1);
+  return segments_[std::size_t(index)].Derivative(t, order);
+}
+
+namespace {
+
+[[noreturn]] void Fail(const std::string& source,
+                       const std::string& key,
+                       const std::string& problem) {
+  throw ModelError(source + ": " + key + ": " + problem);
+}
+
+double ReadNumber(const YAML::Node& node, const std::string& source, const std::string& key) {
+  const std::optional<double> value = node.IsScalar() ? ParseQuantity(node.Scalar()) : std::nullopt;
+  if (!value) Fail(source, key, "not a number (use e.g. 0.5 or \"90 deg\")");
+  return *value;
+}
+
+}  // namespace
+
+WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text,
+                                                    const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& error) {
+    throw ModelError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
+                     std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
+  }
+  if (!root.IsMap()) Fail(source, "(top level)", "expected a map with the key 'waypoints'");
+  for (const auto& entry : root) {
+    const std::string key = entry.first.as<std::string>();
+    if (key != "waypoints" && key != "continuous_derivatives") {
+      Fail(source, key, "unknown key (expected waypoints, continuous_derivatives)");
+    }
+  }
+  int continuous_derivatives = 4;
+  if (const YAML::Node node = root["continuous_derivatives"]) {
+    const double value = ReadNumber(node, source, "continuous_derivatives");
+    if (value < 1 || value != double(int(value))) {
+      Fail(source, "continuous_derivatives", "must be a whole number >= 1");
+    }
+    continuous_derivatives = int(value);
+  }
+  const YAML::Node waypoints = root["waypoints"];
+  if (!waypoints) Fail(source, "waypoints", "missing");
+  if (!waypoints.IsSequence() || waypoints.size() < 2) {
+    Fail(source, "waypoints", "expected a list of at least two {t: ..., y: [...]}");
+  }
+  std::vector<double> times;
+  std::vector<Eigen::VectorXd> outputs;
+  for (std::size_t i = 0; i < waypoints.size(); ++i) {
+    const std::string key = "waypoints[" + std::to_string(i) + "]";
+    const YAML::Node waypoint = waypoints[i];
+    if (!waypoint.IsMap() || !waypoint["t"] || !waypoint["y"]) {
+      Fail(source, key, "expected {t: time, y: [value, ...]}");
+    }
+    const double t = ReadNumber(waypoint["t"], source, key + ".t");
+    if (!times.empty() && !(t > times.back())) {
+      std::ostringstream problem;
+      problem << t << " is not after waypoints[" << i - 1 << "].t = " << times.back();
+      Fail(source, key + ".t", problem.str());
+    }
+    const YAML::Node values = waypoint["y"];
+    if (!values.IsSequence() || values.size() == 0) Fail(source, key + ".y", "expected a list");
+    Eigen::VectorXd y(Eigen::Index(values.size()));
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      y(Eigen::Index(k)) = ReadNumber(values[k], source, key + ".y[" + std::to_string(k) + "]");
+    }
+    if (!outputs.empty() && y.size() != outputs.front().size()) {
+      Fail(source, key + ".y",
+           std::to_string(y.size()) + " values, but waypoints[0].y has " +
+               std::to_string(outputs.front().size()));
+    }
+    times.push_back(t);
+    outputs.push_back(y);
+  }
+  return WaypointTrajectory(std::move(times), std::move(outputs), continuous_derivatives);
+}
+
+WaypointTrajectory LoadWaypointTrajectory(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw ModelError(path + ": cannot read the trajectory file");
+  std::stringstream text;
+  text << file.rdbuf();
+  return LoadWaypointTrajectoryFromString(text.str(), path);
+}
+
+}  // namespace servokit
