@@ -1,11 +1,8 @@
 #include "analysis/characteristic_polynomial.h"
 
 #include <ginac/ginac.h>
-#include <gsl/gsl_errno.h>
-#include <gsl/gsl_roots.h>
 
 #include <cmath>
-#include <memory>
 #include <sstream>
 
 #include "analysis/gsl_support.h"
@@ -63,31 +60,10 @@ double LocateRoot(const ex& expression,
                   const GiNaC::realsymbol& parameter,
                   double left,
                   double right) {
-  struct Data {
-    const ex* expression;
-    const GiNaC::realsymbol* parameter;
-  } data{&expression, &parameter};
-  gsl_function function{[](double x, void* p) {
-                          const auto* d = static_cast<const Data*>(p);
-                          return EvaluateAt(*d->expression, *d->parameter, x);
-                        },
-                        &data};
-  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
-      gsl_root_fsolver_alloc(gsl_root_fsolver_brent), gsl_root_fsolver_free);
-  if (!solver || gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) {
-    return 0.5 * (left + right);
-  }
-  // Brent converges superlinearly; the cap only guards against a misbehaving expression.
-  constexpr int kMaxIterations = 200;
-  for (int i = 0; i < kMaxIterations; ++i) {
-    if (gsl_root_fsolver_iterate(solver.get()) != GSL_SUCCESS) break;
-    if (gsl_root_test_interval(gsl_root_fsolver_x_lower(solver.get()),
-                               gsl_root_fsolver_x_upper(solver.get()), 0.0,
-                               kSignChangeRelativeTolerance) == GSL_SUCCESS) {
-      break;
-    }
-  }
-  return gsl_root_fsolver_root(solver.get());
+  const auto bracket = NarrowBracket(
+      gsl_root_fsolver_brent, [&](double x) { return EvaluateAt(expression, parameter, x); }, left,
+      right, kSignChangeRelativeTolerance);
+  return bracket ? bracket->root : 0.5 * (left + right);
 }
 
 // Where `expression` changes sign in [low, high]: a scan, then a root in each bracket.
@@ -146,7 +122,6 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
   const SymbolicModel& symbolic = model.symbolic();
   const std::size_t dof = symbolic.dof(), inputs = symbolic.num_inputs();
   if (dof + inputs > kMaxClosedFormSize) return std::nullopt;
-  UseGslStatusCodes();
 
   // The closed form is taken at q = 0, u = 0: check that this is the operating point at the
   // nominal values and at both ends of the range.

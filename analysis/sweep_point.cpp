@@ -16,6 +16,13 @@
 namespace servokit {
 namespace {
 
+// The largest real part of eigenvalues sorted by SortEigenvalues; NaN (an empty CSV field)
+// when there are none.
+double MaxRealPart(const std::vector<std::complex<double>>& eigenvalues) {
+  return eigenvalues.empty() ? std::numeric_limits<double>::quiet_NaN()
+                             : eigenvalues.front().real();
+}
+
 // Roots of a_0 + a_1 x + ... + a_n x^n (a_n != 0): closed forms up to degree 2 (the quadratic
 // in its cancellation-free form), GSL's companion-matrix QR beyond.
 std::optional<std::vector<std::complex<double>>> PolynomialRoots(const double* a, int degree) {
@@ -132,8 +139,7 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   CleanRoundOff(point.eigenvalues, options.imaginary_axis_tolerance);
   SortEigenvalues(point.eigenvalues);
   point.stability = ClassifyStability(point.eigenvalues, options.imaginary_axis_tolerance);
-  point.max_real_part = point.eigenvalues.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                                  : point.eigenvalues.front().real();
+  point.max_real_part = MaxRealPart(point.eigenvalues);
   return point;
 }
 
@@ -153,8 +159,7 @@ SweepPoint AnalyzeGenerally(const Model& model,
     point.internal_dynamics_order = c.structure.internal_dynamics_order;
     point.stability = c.zero_dynamics.stability;
     point.eigenvalues = c.zero_dynamics.eigenvalues;
-    point.max_real_part = point.eigenvalues.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                                    : point.eigenvalues.front().real();
+    point.max_real_part = MaxRealPart(point.eigenvalues);
   } catch (const NoSolution& error) {
     point.ok = false;
     point.error = error.what();

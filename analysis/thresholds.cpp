@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -70,56 +69,52 @@ class StateProbe {
   }
 
   State At(double value) {
-    ++classifications_;
-    workspace_.parameters(Eigen::Index(parameter_)) = value;
-    try {
-      const Classification c = Classify(model_, workspace_, options_.classification);
-      switch (event_) {
-        case ThresholdEvent::kStability:
-          return StabilityState(c, options_.classification.imaginary_axis_tolerance);
-        case ThresholdEvent::kOscillation:
-          return OscillationState(c);
-        case ThresholdEvent::kRealization:
-          return RealizationState(c);
-      }
-    } catch (const NoSolution&) {
-      // A point without a solution is a state of its own (e.g. no equilibrium).
+    const std::optional<Classification> c = ClassifyAt(value);
+    // A point without a solution is a state of its own (e.g. no equilibrium).
+    if (!c) return {"no-solution", "no-solution"};
+    switch (event_) {
+      case ThresholdEvent::kStability:
+        return StabilityState(*c, options_.classification.imaginary_axis_tolerance);
+      case ThresholdEvent::kOscillation:
+        return OscillationState(*c);
+      case ThresholdEvent::kRealization:
+        break;
     }
-    return {"no-solution", "no-solution"};
+    return RealizationState(*c);
   }
 
   // sigma_min(P) / (|H| |M^-1 B|) at `value`: how far P is from losing rank, in the units of
   // ClassificationOptions::rank_tolerance; NaN where there is no solution.
   double RelativeSmallestSingularValue(double value) {
-    ++classifications_;
-    workspace_.parameters(Eigen::Index(parameter_)) = value;
-    try {
-      const DecouplingAnalysis decoupling =
-          Classify(model_, workspace_, options_.classification).decoupling;
-      const double scale = decoupling.rank_threshold / options_.classification.rank_tolerance;
-      return scale > 0.0 ? decoupling.singular_values.tail(1)(0) / scale : 0.0;
-    } catch (const NoSolution&) {
-      return std::numeric_limits<double>::quiet_NaN();
-    }
+    const std::optional<Classification> c = ClassifyAt(value);
+    if (!c) return std::numeric_limits<double>::quiet_NaN();
+    const double scale = c->decoupling.rank_threshold / options_.classification.rank_tolerance;
+    return scale > 0.0 ? c->decoupling.singular_values.tail(1)(0) / scale : 0.0;
   }
 
   double rank_tolerance() const { return options_.classification.rank_tolerance; }
 
   // det P at `value`, or NaN where there is no solution.
   double DecouplingDeterminant(double value) {
-    ++classifications_;
-    workspace_.parameters(Eigen::Index(parameter_)) = value;
-    try {
-      return Classify(model_, workspace_, options_.classification)
-          .decoupling.decoupling_matrix.determinant();
-    } catch (const NoSolution&) {
-      return std::numeric_limits<double>::quiet_NaN();
-    }
+    const std::optional<Classification> c = ClassifyAt(value);
+    return c ? c->decoupling.decoupling_matrix.determinant()
+             : std::numeric_limits<double>::quiet_NaN();
   }
 
   int classifications() const { return classifications_; }
 
  private:
+  // The classification at `value` of the parameter, or nullopt where it has no solution.
+  std::optional<Classification> ClassifyAt(double value) {
+    ++classifications_;
+    workspace_.parameters(Eigen::Index(parameter_)) = value;
+    try {
+      return Classify(model_, workspace_, options_.classification);
+    } catch (const NoSolution&) {
+      return std::nullopt;
+    }
+  }
+
   const Model& model_;
   Workspace workspace_;
   std::size_t parameter_;
@@ -136,25 +131,12 @@ std::pair<double, double> Bisect(StateProbe& probe,
                                  double right,
                                  const State& left_state,
                                  double relative_tolerance) {
-  using Side = std::function<double(double)>;
-  Side side = [&](double x) { return probe.At(x).key == left_state.key ? -1.0 : 1.0; };
-  gsl_function function{[](double x, void* data) { return (*static_cast<Side*>(data))(x); }, &side};
-  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
-      gsl_root_fsolver_alloc(gsl_root_fsolver_bisection), gsl_root_fsolver_free);
-  if (!solver) throw std::runtime_error("gsl_root_fsolver_alloc failed");
-  if (gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) {
-    throw std::runtime_error("gsl_root_fsolver_set: the bracket does not change sign");
-  }
-  // Each iteration halves the bracket; 200 halvings reach any double-precision width.
-  constexpr int kMaxHalvings = 200;
-  for (int i = 0; i < kMaxHalvings; ++i) {
-    gsl_root_fsolver_iterate(solver.get());
-    const double lower = gsl_root_fsolver_x_lower(solver.get());
-    const double upper = gsl_root_fsolver_x_upper(solver.get());
-    if (gsl_root_test_interval(lower, upper, 0.0, relative_tolerance) == GSL_SUCCESS) break;
-    if (upper - lower <= 4 * std::numeric_limits<double>::epsilon() * std::abs(upper)) break;
-  }
-  return {gsl_root_fsolver_x_lower(solver.get()), gsl_root_fsolver_x_upper(solver.get())};
+  const auto bracket = NarrowBracket(
+      gsl_root_fsolver_bisection,
+      [&](double x) { return probe.At(x).key == left_state.key ? -1.0 : 1.0; }, left, right,
+      relative_tolerance);
+  if (!bracket) throw std::runtime_error("bisection: the states at the bracket's ends agree");
+  return {bracket->lower, bracket->upper};
 }
 
 // Every change of state between `left` and `right`, whose states differ.
@@ -211,23 +193,12 @@ void RefineThroughSingularDecoupling(StateProbe& probe,
   const double at_left = probe.DecouplingDeterminant(left);
   const double at_right = probe.DecouplingDeterminant(right);
   if (!(std::isfinite(at_left) && std::isfinite(at_right)) || at_left * at_right >= 0.0) return;
-  gsl_function function{
-      [](double x, void* p) { return static_cast<StateProbe*>(p)->DecouplingDeterminant(x); },
-      &probe};
-  std::unique_ptr<gsl_root_fsolver, void (*)(gsl_root_fsolver*)> solver(
-      gsl_root_fsolver_alloc(gsl_root_fsolver_brent), gsl_root_fsolver_free);
-  if (!solver || gsl_root_fsolver_set(solver.get(), &function, left, right) != GSL_SUCCESS) return;
-  // Brent converges superlinearly on the smooth det P; 100 iterations is far more than needed.
-  constexpr int kMaxIterations = 100;
-  for (int i = 0; i < kMaxIterations; ++i) {
-    if (gsl_root_fsolver_iterate(solver.get()) != GSL_SUCCESS) return;
-    const double lower = gsl_root_fsolver_x_lower(solver.get());
-    const double upper = gsl_root_fsolver_x_upper(solver.get());
-    if (gsl_root_test_interval(lower, upper, 0.0, relative_tolerance) == GSL_SUCCESS) {
-      event.value = gsl_root_fsolver_root(solver.get());
-      event.bracket_width = upper - lower;
-      return;
-    }
+  const auto bracket = NarrowBracket(
+      gsl_root_fsolver_brent, [&](double x) { return probe.DecouplingDeterminant(x); }, left, right,
+      relative_tolerance);
+  if (bracket && bracket->converged) {
+    event.value = bracket->root;
+    event.bracket_width = bracket->upper - bracket->lower;
   }
 }
 
@@ -304,7 +275,7 @@ ThresholdSearch FindThresholds(const Model& model,
     throw UsageError("the range " + std::to_string(low) + ":" + std::to_string(high) + " of " +
                      model.parameter_names()[parameter] + " must be finite with low < high");
   }
-  UseGslStatusCodes();
+  UseGslStatusCodes();  // for the minimizer of FindTouch
 
   ThresholdSearch search;
   search.parameter = model.parameter_names()[parameter];
