@@ -22,6 +22,9 @@ namespace {
 struct State {
   std::string key;
   std::string label;
+  // sigma_min(P) / (|H| |M^-1 B|), from the same classification: the scan watches it for
+  // places where P touches zero (FindTouch). NaN where there is no solution.
+  double relative_sigma_min = std::numeric_limits<double>::quiet_NaN();
 };
 
 State StabilityState(const Classification& c, double axis_tolerance) {
@@ -72,25 +75,24 @@ class StateProbe {
     const std::optional<Classification> c = ClassifyAt(value);
     // A point without a solution is a state of its own (e.g. no equilibrium).
     if (!c) return {"no-solution", "no-solution"};
+    State state;
     switch (event_) {
       case ThresholdEvent::kStability:
-        return StabilityState(*c, options_.classification.imaginary_axis_tolerance);
+        state = StabilityState(*c, options_.classification.imaginary_axis_tolerance);
+        break;
       case ThresholdEvent::kOscillation:
-        return OscillationState(*c);
+        state = OscillationState(*c);
+        break;
       case ThresholdEvent::kRealization:
+        state = RealizationState(*c);
         break;
     }
-    return RealizationState(*c);
+    state.relative_sigma_min = RelativeSigmaMin(*c);
+    return state;
   }
 
-  // sigma_min(P) / (|H| |M^-1 B|) at `value`: how far P is from losing rank, in the units of
-  // ClassificationOptions::rank_tolerance; NaN where there is no solution.
-  double RelativeSmallestSingularValue(double value) {
-    const std::optional<Classification> c = ClassifyAt(value);
-    if (!c) return std::numeric_limits<double>::quiet_NaN();
-    const double scale = c->decoupling.rank_threshold / options_.classification.rank_tolerance;
-    return scale > 0.0 ? c->decoupling.singular_values.tail(1)(0) / scale : 0.0;
-  }
+  // sigma_min(P) / (|H| |M^-1 B|) at `value` (State::relative_sigma_min), for the minimizer.
+  double RelativeSmallestSingularValue(double value) { return At(value).relative_sigma_min; }
 
   double rank_tolerance() const { return options_.classification.rank_tolerance; }
 
@@ -104,6 +106,11 @@ class StateProbe {
   int classifications() const { return classifications_; }
 
  private:
+  double RelativeSigmaMin(const Classification& c) const {
+    const double scale = c.decoupling.rank_threshold / options_.classification.rank_tolerance;
+    return scale > 0.0 ? c.decoupling.singular_values.tail(1)(0) / scale : 0.0;
+  }
+
   // The classification at `value` of the parameter, or nullopt where it has no solution.
   std::optional<Classification> ClassifyAt(double value) {
     ++classifications_;
@@ -290,7 +297,7 @@ ThresholdSearch FindThresholds(const Model& model,
   const bool watch_touches = event == ThresholdEvent::kRealization;
   double before = low, before_sigma = std::numeric_limits<double>::quiet_NaN();
   State before_state = left_state;
-  double left_sigma = watch_touches ? probe.RelativeSmallestSingularValue(low) : 0.0;
+  double left_sigma = left_state.relative_sigma_min;
   for (int i = 1; i <= options.scan_intervals; ++i) {
     const double right = i == options.scan_intervals
                              ? high
@@ -298,7 +305,7 @@ ThresholdSearch FindThresholds(const Model& model,
     const State right_state = probe.At(right);
     LocateChanges(probe, left, right, left_state, right_state, options.relative_tolerance, events);
     if (watch_touches) {
-      const double right_sigma = probe.RelativeSmallestSingularValue(right);
+      const double right_sigma = right_state.relative_sigma_min;
       if (left_sigma < before_sigma && left_sigma < right_sigma &&
           before_state.key == left_state.key && left_state.key == right_state.key) {
         if (auto touch = FindTouch(probe, before, left, right, left_state)) {
