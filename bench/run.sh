@@ -8,3 +8,6 @@ echo "== analysis: model load and operating-point analyses (issue #2) =="
 echo
 echo "== sweep throughput against the SciPy pipeline (issue #3) =="
 "$root/bench/compare_sweep.sh" "$build"
+echo
+echo "== inverse-model solves against SciPy solve_ivp (issue #4) =="
+"$root/bench/compare_solve.sh" "$build"

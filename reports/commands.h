@@ -24,6 +24,7 @@ struct Command {
 Command AddAnalyzeCommand(CLI::App& app);
 Command AddThresholdCommand(CLI::App& app);
 Command AddReportCommand(CLI::App& app);
+Command AddSolveCommand(CLI::App& app);
 Command AddSweepCommand(CLI::App& app);
 
 /// "--set name=value" texts into overrides; throws UsageError naming a malformed one.

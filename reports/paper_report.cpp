@@ -10,6 +10,7 @@
 #include "reports/classification_report.h"
 #include "reports/number_format.h"
 #include "reports/report_support.h"
+#include "solvers/inverse_model.h"
 
 namespace servokit {
 namespace {
@@ -229,6 +230,194 @@ void AddFigure8(Document& document,
       "s* = 2l/(3 cos(beta)), and Eq. (56) are as printed."});
 }
 
+// Sect. 5.1-5.2: the inverse model of the mass on car along the trajectory of Fig. 9.
+constexpr double kPaperTf = 6.0, kPaperTEnd = 10.0;
+
+struct PaperSolve {
+  Model model;
+  Classification classification;
+};
+
+PaperSolve LoadPaperCase(const std::string& path, const char* alpha, const char* damping) {
+  PaperSolve result{LoadModel(path, {{"alpha", alpha}, {"d", damping}}), {}};
+  Workspace workspace(result.model);
+  result.classification = Classify(result.model, workspace);
+  return result;
+}
+
+FeedforwardSolution SolvePaperCase(const PaperSolve& problem,
+                                   const OutputTrajectory& trajectory,
+                                   SolverMethod method,
+                                   double step = 1e-3) {
+  InverseModelOptions options;
+  options.method = method;
+  options.t_end = kPaperTEnd;
+  options.step = step;
+  FeedforwardSolution solution =
+      SolveInverseModel(problem.model, trajectory, problem.classification, options);
+  if (!solution.summary.IsUsable()) {
+    throw NoSolution("paper report: " + std::string(ToString(method)) + ": " +
+                     solution.summary.message);
+  }
+  return solution;
+}
+
+// (t, value) of one column of [q, q_dot, u], at most one point per `stride` seconds.
+std::vector<std::pair<double, double>> Series(const FeedforwardSolution& solution,
+                                              int component,
+                                              double stride = 0.0) {
+  std::vector<std::pair<double, double>> points;
+  const auto dof = int(solution.q.front().size());
+  double last = -INFINITY;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    if (solution.times[i] - last < stride) continue;
+    last = solution.times[i];
+    const double value = component < dof       ? solution.q[i](component)
+                         : component < 2 * dof ? solution.q_dot[i](component - dof)
+                                               : solution.u[i](component - 2 * dof);
+    points.emplace_back(solution.times[i], value);
+  }
+  return points;
+}
+
+// Half the range of s over [from, to]: the amplitude of the mass's vibration on its slope.
+double Amplitude(const FeedforwardSolution& solution, double from, double to) {
+  double low = INFINITY, high = -INFINITY;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    if (solution.times[i] < from || solution.times[i] > to) continue;
+    low = std::min(low, solution.q[i](1));
+    high = std::max(high, solution.q[i](1));
+  }
+  return (high - low) / 2;
+}
+
+void AddFlatCaseFigures(Document& document,
+                        const std::filesystem::path& directory,
+                        const std::string& path,
+                        const RestToRestTrajectory& trajectory) {
+  document.Add(Heading{2, "Figs. 9-11: the flat case 4 (Sect. 5.1)"});
+  document.Add(Paragraph{
+      "Mass on car with alpha = 0, d = 0: y from 0.5 m to 2.5 m in 0-6 s by Eq. (65), 10 s in "
+      "all. The reference is Eq. (47), F = (m1 + m2) y'' + (m1 m2 / k) y''''. Euler backward's "
+      "error is one step of delay in the car's inertia term m1 x''."});
+  PlotSpec output{"fig9_trajectory", "Fig. 9: desired output y_d (Eq. 65)", "t [s]", "y_d [m]",
+                  "[0:10]", "", {}, {}};
+  std::vector<std::pair<double, double>> desired;
+  for (int n = 0; n <= 500; ++n) desired.emplace_back(0.02 * n, trajectory.Derivative(0.02 * n, 0)(0));
+  output.series.push_back({"y_d", desired, "lines linewidth 2"});
+  DrawPlot(directory.string(), output);
+  document.Add(FigureOf(output.name, "Fig. 9: desired output trajectory"));
+
+  const PaperSolve flat = LoadPaperCase(path, "0", "0");
+  const Eigen::VectorXd& parameters = flat.model.parameters();
+  const double m1 = parameters(Eigen::Index(*flat.model.FindParameter("m1")));
+  const double m2 = parameters(Eigen::Index(*flat.model.FindParameter("m2")));
+  const double k = parameters(Eigen::Index(*flat.model.FindParameter("k")));
+  auto paper_force = [&](double t) {  // Eq. (47)
+    return (m1 + m2) * trajectory.Derivative(t, 2)(0) + m1 * m2 / k * trajectory.Derivative(t, 4)(0);
+  };
+  PlotSpec inputs{"fig10_case4_input", "Fig. 10: case 4, control input u_d", "t [s]", "F [N]",
+                  "[0:10]", "", {}, {}};
+  Table accuracy;
+  accuracy.header = {"method", "steps", "max abs(F - Eq. 47) / max abs(F)", "paper"};
+  struct Run {
+    SolverMethod method;
+    double step;
+    const char* label;
+    const char* paper;
+  };
+  for (const Run& run : {Run{SolverMethod::kAlgebraic, 1e-2, "algebraic inversion", "Eq. (47)"},
+                         Run{SolverMethod::kRadau, 1e-3, "Radau IIA, rtol 1e-8", "56 points"},
+                         Run{SolverMethod::kEuler, 1e-3, "Euler backward, 1 ms", "nearly identical"},
+                         Run{SolverMethod::kEuler, 1e-2, "Euler backward, 10 ms", "nearly identical"},
+                         Run{SolverMethod::kEuler, 1e-1, "Euler backward, 100 ms", "time delay"}}) {
+    const FeedforwardSolution solution = SolvePaperCase(flat, trajectory, run.method, run.step);
+    double error = 0.0, scale = 0.0;
+    for (std::size_t i = 0; i < solution.times.size(); ++i) {
+      error = std::max(error, std::abs(solution.u[i](0) - paper_force(solution.times[i])));
+      scale = std::max(scale, std::abs(paper_force(solution.times[i])));
+    }
+    accuracy.rows.push_back({run.label, std::to_string(solution.summary.steps),
+                             FormatShort(error / scale), run.paper});
+    if (run.method == SolverMethod::kEuler && run.step == 1e-3) continue;  // drawn as 10 ms
+    inputs.series.push_back({run.label, Series(solution, 4, 0.02),
+                             run.method == SolverMethod::kAlgebraic ? "lines linewidth 2"
+                                                                    : "points pointsize 0.6"});
+    if (run.method == SolverMethod::kAlgebraic) {
+      PlotSpec states{"fig11_case4_states", "Fig. 11: case 4, states q_d and q_d'", "t [s]",
+                      "x, s [m];  x', s' [m/s]", "[0:10]", "", {}, {}};
+      const char* names[] = {"x", "s", "x'", "s'"};
+      for (int component = 0; component < 4; ++component) {
+        states.series.push_back({names[component], Series(solution, component), "lines linewidth 2"});
+      }
+      DrawPlot(directory.string(), states);
+      document.Add(FigureOf(states.name, "Fig. 11: case 4, states from the algebraic inverse"));
+    }
+  }
+  DrawPlot(directory.string(), inputs);
+  document.Add(FigureOf(inputs.name, "Fig. 10: case 4, control input by each method"));
+  document.Add(accuracy);
+}
+
+void AddStableCaseFigures(Document& document,
+                          const std::filesystem::path& directory,
+                          const std::string& path,
+                          const RestToRestTrajectory& trajectory) {
+  document.Add(Heading{2, "Figs. 12-13: stable internal dynamics, case 2 (Sect. 5.2)"});
+  document.Add(Paragraph{
+      "alpha = 5 deg. BDF (SUNDIALS IDA) on the projected DAE in index-1 form and the normal form "
+      "(Eqs. 24-25) with Dormand-Prince agree; Euler backward damps the undamped 2.887 Hz "
+      "internal vibration by the factor (1 + (omega h)^2)^(-1/2) per step, omega = sqrt(k / (m2 "
+      "sin^2 alpha)) from Eq. (36)."});
+  Table comparison;
+  comparison.header = {"d [N s/m]", "max abs(F_BDF - F_normal form) / max abs(F)",
+                       "amplitude ratio of s, t in 9-10 s over 6-7 s: normal form",
+                       "Euler backward, 10 ms", "Euler predicted"};
+  for (const char* damping : {"1", "0"}) {
+    const PaperSolve stable = LoadPaperCase(path, "5 deg", damping);
+    const FeedforwardSolution bdf = SolvePaperCase(stable, trajectory, SolverMethod::kBdf);
+    const FeedforwardSolution normal_form =
+        SolvePaperCase(stable, trajectory, SolverMethod::kNormalForm);
+    const FeedforwardSolution euler = SolvePaperCase(stable, trajectory, SolverMethod::kEuler, 1e-2);
+    double difference = 0.0, scale = 0.0;
+    for (int n = 0; n <= 2000; ++n) {
+      const double t = kPaperTEnd * n / 2000.0;
+      difference =
+          std::max(difference, std::abs(bdf.feedforward(t)(0) - normal_form.feedforward(t)(0)));
+      scale = std::max(scale, std::abs(normal_form.feedforward(t)(0)));
+    }
+    const bool undamped = std::string(damping) == "0";
+    const Eigen::VectorXd& parameters = stable.model.parameters();
+    const double m2 = parameters(Eigen::Index(*stable.model.FindParameter("m2")));
+    const double k = parameters(Eigen::Index(*stable.model.FindParameter("k")));
+    const double sine = std::sin(5 * kDegree);
+    const double omega_h = std::sqrt(k / (m2 * sine * sine)) * 1e-2;
+    const double predicted = std::pow(1.0 + omega_h * omega_h, -0.5 * 300.0);  // 3 s of 10 ms
+    comparison.rows.push_back(
+        {damping, FormatShort(difference / scale),
+         undamped ? FormatShort(Amplitude(normal_form, 9, 10) / Amplitude(normal_form, 6, 7)) : "-",
+         undamped ? FormatShort(Amplitude(euler, 9, 10) / Amplitude(euler, 6, 7)) : "-",
+         undamped ? FormatShort(predicted) : "-"});
+    PlotSpec force{std::string("fig12_case2_input_d") + damping,
+                   std::string("Fig. 12: case 2, control input, d = ") + damping + " N s/m",
+                   "t [s]", "F [N]", "[0:10]", "", {}, {}};
+    force.series.push_back({"normal form (Dormand-Prince)", Series(normal_form, 4), "lines linewidth 2"});
+    force.series.push_back({"BDF (IDA)", Series(bdf, 4, 0.02), "points pointsize 0.5"});
+    force.series.push_back({"Euler backward, 10 ms", Series(euler, 4), "lines dashtype 2"});
+    DrawPlot(directory.string(), force);
+    document.Add(FigureOf(force.name, std::string("Fig. 12: case 2, d = ") + damping));
+    PlotSpec velocity{std::string("fig13_case2_velocities_d") + damping,
+                      std::string("Fig. 13: case 2, velocities, d = ") + damping + " N s/m",
+                      "t [s]", "velocity [m/s]", "[0:10]", "", {}, {}};
+    velocity.series.push_back({"x'", Series(normal_form, 2), "lines linewidth 2"});
+    velocity.series.push_back({"s'", Series(normal_form, 3), "lines linewidth 2"});
+    DrawPlot(directory.string(), velocity);
+    document.Add(FigureOf(velocity.name, std::string("Fig. 13: case 2, d = ") + damping +
+                                             ", from the normal form"));
+  }
+  document.Add(comparison);
+}
+
 }  // namespace
 
 void WritePaperReport(const std::string& directory, const std::string& models_directory) {
@@ -244,6 +433,10 @@ void WritePaperReport(const std::string& directory, const std::string& models_di
   AddMassOnCarTable(document, models_directory + "/mass_on_car.yaml");
   AddFigure6(document, out, models_directory + "/mass_on_car.yaml");
   AddFigure8(document, out, models_directory + "/rotational_arm.yaml");
+  const RestToRestTrajectory paper_trajectory(Eigen::VectorXd::Constant(1, 0.5),
+                                              Eigen::VectorXd::Constant(1, 2.5), 0.0, kPaperTf);
+  AddFlatCaseFigures(document, out, models_directory + "/mass_on_car.yaml", paper_trajectory);
+  AddStableCaseFigures(document, out, models_directory + "/mass_on_car.yaml", paper_trajectory);
   WriteDocument(out, document);
 }
 

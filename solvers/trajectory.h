@@ -13,6 +13,21 @@
 
 namespace servokit {
 
+/// A desired output trajectory y_d(t) with exact derivatives: what every inverse-model solver
+/// reads. Implemented by RestToRestTrajectory and WaypointTrajectory.
+class OutputTrajectory {
+ public:
+  virtual ~OutputTrajectory() = default;
+  /// d^order y_d / dt^order at t (order 0 is y_d itself), size outputs().
+  virtual Eigen::VectorXd Derivative(double t, int order) const = 0;
+  virtual Eigen::Index outputs() const = 0;
+  /// Derivatives of y_d that are continuous everywhere (4 for the paper's Eq. 65).
+  virtual int continuous_derivatives() const = 0;
+  /// Times at which a derivative above continuous_derivatives() jumps (segment ends), in
+  /// increasing order: integrators step onto them exactly instead of across.
+  virtual std::vector<double> breakpoints() const = 0;
+};
+
 /// Coefficients c_0 .. c_(2k+1) of p_k in powers of tau (exact integers held as doubles).
 std::vector<double> RestToRestCoefficients(int continuous_derivatives);
 
@@ -20,7 +35,7 @@ std::vector<double> RestToRestCoefficients(int continuous_derivatives);
 int RestToRestOrderFor(int needed_derivatives);
 
 /// y_d(t) from y0 (at rest before t0) to yf (at rest after tf), for any number of outputs.
-class RestToRestTrajectory {
+class RestToRestTrajectory final : public OutputTrajectory {
  public:
   /// Throws UsageError unless t0 < tf, the sizes of y0 and yf agree and everything is finite.
   RestToRestTrajectory(
@@ -29,10 +44,11 @@ class RestToRestTrajectory {
   /// d^order y_d / dt^order at t (order 0 is y_d itself), size outputs. Exact: the polynomial's
   /// derivative, scaled by (tf - t0)^-order; zero outside [t0, tf] for order >= 1; at t0 and
   /// tf, orders above continuous_derivatives() take the value from inside the motion.
-  Eigen::VectorXd Derivative(double t, int order) const;
+  Eigen::VectorXd Derivative(double t, int order) const override;
 
-  int continuous_derivatives() const { return continuous_derivatives_; }
-  Eigen::Index outputs() const { return y0_.size(); }
+  int continuous_derivatives() const override { return continuous_derivatives_; }
+  Eigen::Index outputs() const override { return y0_.size(); }
+  std::vector<double> breakpoints() const override { return {t0_, tf_}; }
 
  private:
   Eigen::VectorXd y0_, yf_;

@@ -15,7 +15,7 @@ namespace servokit {
 WaypointTrajectory::WaypointTrajectory(std::vector<double> times,
                                        std::vector<Eigen::VectorXd> outputs,
                                        int continuous_derivatives)
-    : times_(std::move(times)) {
+    : times_(std::move(times)), outputs_(outputs) {
   if (times_.size() < 2 || times_.size() != outputs.size()) {
     throw UsageError("a trajectory needs at least two waypoints, each with a time and outputs");
   }

@@ -15,7 +15,7 @@
 
 namespace servokit {
 
-class WaypointTrajectory {
+class WaypointTrajectory final : public OutputTrajectory {
  public:
   /// Throws UsageError unless there are at least two waypoints with increasing times and
   /// equally many finite output values.
@@ -25,14 +25,24 @@ class WaypointTrajectory {
 
   /// d^order y_d / dt^order at t, size outputs (see RestToRestTrajectory::Derivative); at a
   /// waypoint between two segments the later segment answers.
-  Eigen::VectorXd Derivative(double t, int order) const;
+  Eigen::VectorXd Derivative(double t, int order) const override;
 
-  Eigen::Index outputs() const { return segments_.front().outputs(); }
+  Eigen::Index outputs() const override { return segments_.front().outputs(); }
+  int continuous_derivatives() const override {
+    return segments_.front().continuous_derivatives();
+  }
+  std::vector<double> breakpoints() const override { return times_; }
   double start_time() const { return times_.front(); }
+  /// The same waypoints joined by segments with `continuous_derivatives` continuous derivatives
+  /// (used when the problem needs more than the file asked for).
+  WaypointTrajectory WithContinuousDerivatives(int continuous_derivatives) const {
+    return WaypointTrajectory(times_, outputs_, continuous_derivatives);
+  }
   double end_time() const { return times_.back(); }
 
  private:
   std::vector<double> times_;
+  std::vector<Eigen::VectorXd> outputs_;
   std::vector<RestToRestTrajectory> segments_;  // segment i runs from times_[i] to times_[i+1]
 };
 

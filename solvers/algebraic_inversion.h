@@ -1,0 +1,87 @@
+#pragma once
+// Algebraic inversion of a flat servo-constraint problem (paper Sect. 5.1): u_d and q_d from the
+// desired output and its derivatives alone, without integrating anything.
+//
+// Derived symbolically once (GiNaC): each output y_i = h_i(q) is differentiated along the
+// motion, q'' = M^-1 (B u - f), until the inputs appear. The derivatives before that are
+// constraints on the state (q, q') alone:  c_ik(q, q', Y) = 0  for k < r_i, where Y holds the
+// desired y_d^(k) as symbols; the derivative of order r_i is affine in u. A problem is flat in
+// this sense when the r_i add up to 2 dof (the constraints fix the whole state) and the matrix
+// of u-coefficients at the orders r_i is invertible. At each time the state follows from the
+// 2 dof constraints by Newton's method (one step when they are linear, e.g. for linear
+// models) and u from the order-r_i equations. For the mass on car, case 4 (alpha = 0, d = 0),
+// this gives Eq. (47) without being told it.
+//
+// The structure is decided for the model's parameter values (after overrides): parameters
+// that are 0 are substituted exactly before differentiating (alpha = 0 makes sin(alpha)
+// vanish identically), and a u-coefficient counts as zero only when it vanishes, up to
+// round-off, at q = 0, q' = 0 and at generic states too. A coefficient that vanishes at rest
+// only (the gantry crane's y1'' has one proportional to sin(theta)) still puts u into that
+// derivative, which then cannot serve as a state constraint. The relative degrees are
+// therefore those of the nonlinear model, which can be lower than those of its linearization
+// at rest: the crane's are (2, 2) with a singular u-coefficient matrix, not (4, 2), and it is
+// refused (it is flat only through a dynamic extension, which this class does not do).
+#include <ginac/ginac.h>
+
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "models/model.h"
+
+namespace servokit {
+
+class ExpressionProgram;
+
+class AlgebraicInverse {
+ public:
+  /// Derives the inverse from model.symbolic() (GiNaC: call from one thread). Throws NoSolution
+  /// naming the reason when the problem is not flat in the sense above (internal dynamics
+  /// remain, an output never depends on the inputs within 2 dof derivatives, or the
+  /// u-coefficient matrix or the constraint Jacobian is singular at the model's nominal
+  /// q = 0, q' = 0), or when the symbolic derivation fails.
+  explicit AlgebraicInverse(const Model& model);
+  ~AlgebraicInverse();
+  AlgebraicInverse(AlgebraicInverse&&) noexcept;
+  AlgebraicInverse& operator=(AlgebraicInverse&&) noexcept;
+
+  /// r_i: the derivative of output i at which the inputs appear (its relative degree).
+  const std::vector<int>& output_derivative_orders() const { return orders_; }
+  /// max r_i: how many derivatives of y_d the inverse reads (4 for mass on car case 4).
+  int highest_output_derivative() const;
+
+  /// q, q' and u at one instant. `output_derivatives` is outputs x (r + 1), column k holding
+  /// y_d^(k) (r = highest_output_derivative(); output i reads columns 0..r_i); `parameters`
+  /// as Workspace::parameters. q and q_dot (size dof) hold Newton's starting point on entry
+  /// (the previous instant's answer) and the answer on return; u is resized to the inputs.
+  /// Returns false, sets `why` and leaves q, q_dot, u unchanged when Newton does not converge
+  /// within 20 iterations or the constraint Jacobian or the u-coefficient matrix is singular
+  /// there. Throws UsageError when a size is wrong or when a parameter the structure depends
+  /// on (one that was 0 at construction, or one in a u-coefficient that vanished there)
+  /// differs from its value at construction. Thread-safe (const, no GiNaC, local scratch).
+  bool Evaluate(const Eigen::MatrixXd& output_derivatives,
+                const Eigen::VectorXd& parameters,
+                Eigen::VectorXd& q,
+                Eigen::VectorXd& q_dot,
+                Eigen::VectorXd& u,
+                std::string& why) const;
+
+  /// u_d as closed forms in the parameters and the symbols of y_d^(k) when the state
+  /// constraints are linear in (q, q'), one per input; empty otherwise. For mass on car case 4:
+  /// (m1 + m2) y1_d'' + m1 m2 / k y1_d'''' (Eq. 47). Parameters that were 0 at construction
+  /// are already substituted.
+  const std::vector<GiNaC::ex>& input_formulas() const { return input_formulas_; }
+  /// The symbol standing for d^order y_i / dt^order in input_formulas(), named
+  /// "y<i+1>_d" followed by `order` primes; order 0..r_i. Throws std::out_of_range otherwise.
+  const GiNaC::realsymbol& output_derivative_symbol(std::size_t output, int order) const;
+
+ private:
+  struct Programs;  // the compiled constraints, their Jacobian and the u-equations
+  std::vector<int> orders_;
+  std::vector<std::vector<GiNaC::realsymbol>> derivative_symbols_;  // [output][order]
+  std::vector<GiNaC::ex> input_formulas_;
+  std::unique_ptr<const Programs> programs_;
+};
+
+}  // namespace servokit

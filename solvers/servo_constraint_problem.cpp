@@ -1,0 +1,278 @@
+#include "solvers/servo_constraint_problem.h"
+
+#include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "analysis/decoupling_matrix.h"
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+constexpr unsigned kDynamics = Quantity::kMassMatrix | Quantity::kForces |
+                               Quantity::kInputMatrix | Quantity::kOutput |
+                               Quantity::kOutputJacobian | Quantity::kOutputBias;
+constexpr unsigned kOutputGeometry = Quantity::kOutput | Quantity::kOutputJacobian;
+
+// [H; C^T] counts as invertible for choosing C = q_u when its reciprocal condition number is
+// above this; below it, the unactuated coordinates are a poor chart of the constraint manifold
+// (H_a nearly singular, paper Sect. 2.4) and the tangent basis D_0 is used instead.
+constexpr double kMinChartReciprocalCondition = 1e-8;
+
+// Numbers in messages: three significant digits say enough about a condition number.
+std::string Short(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", value);
+  return buffer;
+}
+
+}  // namespace
+
+void ServoProblemOptions::Validate() const {
+  auto require_positive = [](double value, const char* field) {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      throw UsageError(std::string("ServoProblemOptions::") + field + " = " + Short(value) +
+                       ": must be a finite number > 0");
+    }
+  };
+  require_positive(min_mass_reciprocal_condition, "min_mass_reciprocal_condition");
+  require_positive(rank_tolerance, "rank_tolerance");
+  require_positive(coordinate_tolerance, "coordinate_tolerance");
+  if (max_coordinate_iterations < 1) {
+    throw UsageError("ServoProblemOptions::max_coordinate_iterations = " +
+                     std::to_string(max_coordinate_iterations) + ": must be >= 1");
+  }
+}
+
+ServoConstraintProblem::ServoConstraintProblem(const Model& model,
+                                               const OutputTrajectory& trajectory,
+                                               const Eigen::VectorXd& reference_q,
+                                               const ServoProblemOptions& options)
+    : model_(model), trajectory_(trajectory), options_(options), workspace_(model) {
+  options_.Validate();
+  if (trajectory.outputs() != num_outputs()) {
+    throw UsageError("the trajectory has " + std::to_string(trajectory.outputs()) +
+                     " outputs, the model " + std::to_string(num_outputs()));
+  }
+  if (reference_q.size() != dof()) {
+    throw UsageError("reference q has " + std::to_string(reference_q.size()) +
+                     " entries, the model has " + std::to_string(dof()) + " coordinates");
+  }
+  const Eigen::VectorXd zero_velocity = Eigen::VectorXd::Zero(dof());
+  Evaluate(model_, workspace_, reference_q, zero_velocity, kDynamics);
+  const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
+  reference_tangent_basis_ = TangentBasis(output_jacobian, options_.rank_tolerance);
+  if (reference_tangent_basis_.cols() != dof() - num_outputs()) {
+    throw NoSolution("the outputs are not independent at the reference point: H = dh/dq has "
+                     "rank < " + std::to_string(num_outputs()));
+  }
+
+  // The paper's chart (Eq. 19): z = q_u, the coordinates no input acts on directly.
+  const Eigen::MatrixXd& input_matrix = workspace_.input_matrix;
+  std::vector<Eigen::Index> unactuated;
+  for (Eigen::Index row = 0; row < dof(); ++row) {
+    if (input_matrix.row(row).isZero(0.0)) unactuated.push_back(row);
+  }
+  internal_directions_ = reference_tangent_basis_;
+  if (Eigen::Index(unactuated.size()) == dof() - num_outputs()) {
+    Eigen::MatrixXd selection = Eigen::MatrixXd::Zero(dof(), Eigen::Index(unactuated.size()));
+    for (std::size_t k = 0; k < unactuated.size(); ++k) selection(unactuated[k], Eigen::Index(k)) = 1.0;
+    Eigen::MatrixXd chart(dof(), dof());
+    chart << output_jacobian, selection.transpose();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(chart);
+    const Eigen::VectorXd& singular_values = svd.singularValues();
+    if (singular_values(singular_values.size() - 1) >
+        kMinChartReciprocalCondition * singular_values(0)) {
+      internal_directions_ = selection;
+      internal_are_unactuated_ = true;
+    }
+  }
+}
+
+bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                              const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+                                              std::string& why) {
+  Evaluate(model_, workspace_, q, q_dot, kDynamics);
+  if (!workspace_.mass_matrix.allFinite() || !workspace_.forces.allFinite() ||
+      !workspace_.input_matrix.allFinite() || !workspace_.output.allFinite() ||
+      !workspace_.output_jacobian.allFinite() || !workspace_.output_bias.allFinite()) {
+    why = "the model evaluates to NaN or Inf";
+    return false;
+  }
+  mass_factor_.compute(workspace_.mass_matrix);
+  if (mass_factor_.info() != Eigen::Success) {
+    why = "M(q) is not positive definite";
+    return false;
+  }
+  const double reciprocal_condition = mass_factor_.rcond();
+  if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
+    why = "M(q) is singular (reciprocal condition number " + Short(reciprocal_condition) + ")";
+    return false;
+  }
+  return true;
+}
+
+bool ServoConstraintProblem::StateFromInternal(double t,
+                                               const Eigen::VectorXd& z,
+                                               const Eigen::VectorXd& z_dot,
+                                               Eigen::VectorXd& q,
+                                               Eigen::VectorXd& q_dot,
+                                               std::string& why) {
+  // A few Newton steps on a square system whose Jacobian [H; C^T] the model already gives;
+  // exact in one step when h is linear. (KINSOL would cost more per call than the whole
+  // right-hand side of the normal form, which calls this at every stage.)
+  const Eigen::VectorXd y_desired = trajectory_.Derivative(t, 0);
+  const Eigen::VectorXd zero_velocity = Eigen::VectorXd::Zero(dof());
+  Eigen::MatrixXd chart(dof(), dof());
+  Eigen::VectorXd residual(dof());
+  Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor;
+  for (int iteration = 0;; ++iteration) {
+    Evaluate(model_, workspace_, q, zero_velocity, kOutputGeometry);
+    chart << workspace_.output_jacobian, internal_directions_.transpose();
+    residual << workspace_.output - y_desired, internal_directions_.transpose() * q - z;
+    chart_factor.compute(chart);
+    if (!(chart_factor.rcond() > kMinChartReciprocalCondition * 1e-4)) {
+      why = "y and the internal coordinates no longer determine q ([H; C^T] is singular)";
+      return false;
+    }
+    const Eigen::VectorXd correction = chart_factor.solve(residual);
+    q -= correction;
+    if (!q.allFinite()) {
+      why = "the coordinates became NaN or Inf";
+      return false;
+    }
+    if (correction.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
+    if (iteration + 1 >= options_.max_coordinate_iterations) {
+      why = "Newton's method for q from y_d and the internal coordinates does not converge";
+      return false;
+    }
+  }
+  Evaluate(model_, workspace_, q, zero_velocity, Quantity::kOutputJacobian);
+  chart << workspace_.output_jacobian, internal_directions_.transpose();
+  Eigen::VectorXd velocity_targets(dof());
+  velocity_targets << trajectory_.Derivative(t, 1), z_dot;
+  q_dot = chart.partialPivLu().solve(velocity_targets);
+  return true;
+}
+
+bool ServoConstraintProblem::NormalForm(double t,
+                                        const Eigen::VectorXd& q,
+                                        const Eigen::VectorXd& q_dot,
+                                        Eigen::VectorXd& u,
+                                        Eigen::VectorXd& q_ddot,
+                                        std::string& why) {
+  if (!EvaluateDynamics(q, q_dot, why)) return false;
+  const Eigen::MatrixXd input_accelerations = mass_factor_.solve(workspace_.input_matrix);
+  const Eigen::VectorXd force_accelerations = mass_factor_.solve(workspace_.forces);
+  const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
+  const Eigen::MatrixXd decoupling = DecouplingMatrix(output_jacobian, input_accelerations);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(decoupling, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const double scale = output_jacobian.norm() * input_accelerations.norm();
+  const double smallest = svd.singularValues()(svd.singularValues().size() - 1);
+  if (!(smallest > options_.rank_tolerance * scale)) {
+    why = "P = H M^-1 B is singular (sigma_min / (|H| |M^-1 B|) = " + Short(smallest / scale) +
+          ")";
+    return false;
+  }
+  // Eq. (24): u = P^-1 (H M^-1 f - h_bar + y_d'').
+  u = svd.solve(output_jacobian * force_accelerations - workspace_.output_bias +
+                trajectory_.Derivative(t, 2));
+  // Eq. (1) solved for q''; its C^T-part is Eq. (25).
+  q_ddot = input_accelerations * u - force_accelerations;
+  return true;
+}
+
+Eigen::MatrixXd ServoConstraintProblem::TangentBasisAt(const Eigen::MatrixXd& output_jacobian) const {
+  const Eigen::MatrixXd gram = output_jacobian * output_jacobian.transpose();
+  return reference_tangent_basis_ -
+         output_jacobian.transpose() *
+             gram.ldlt().solve(output_jacobian * reference_tangent_basis_);
+}
+
+bool ServoConstraintProblem::ProjectedEquations(double t,
+                                                const Eigen::VectorXd& x,
+                                                Eigen::MatrixXd& mass,
+                                                Eigen::VectorXd& rhs,
+                                                std::string& why) {
+  const Eigen::Index f = dof();
+  const Eigen::Index m = num_outputs();
+  const Eigen::Index n = 2 * f + num_inputs();
+  assert(x.size() == n);
+  const auto q = x.head(f);
+  const auto v = x.segment(f, f);
+  const auto u = x.tail(num_inputs());
+  if (!EvaluateDynamics(q, v, why)) return false;
+  const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
+  const Eigen::MatrixXd tangent_basis = TangentBasisAt(output_jacobian);
+  const Eigen::VectorXd applied = workspace_.input_matrix * u - workspace_.forces;  // B u - f
+
+  mass.setZero(n, n);
+  rhs.resize(n);
+  // Eq. (15): q' = v.
+  mass.topLeftCorner(f, f).setIdentity();
+  rhs.head(f) = v;
+  // Eq. (16): D^T M v' = D^T (B u - f).
+  mass.block(f, f, f - m, f) = tangent_basis.transpose() * workspace_.mass_matrix;
+  rhs.segment(f, f - m) = tangent_basis.transpose() * applied;
+  // Eq. (17): 0 = P u - H M^-1 f + h_bar - y_d'' = H M^-1 (B u - f) + h_bar - y_d''.
+  rhs.segment(2 * f - m, m) = output_jacobian * mass_factor_.solve(applied) +
+                              workspace_.output_bias - trajectory_.Derivative(t, 2);
+  // Eq. (18): 0 = h(q) - y_d.
+  rhs.tail(m) = workspace_.output - trajectory_.Derivative(t, 0);
+  return true;
+}
+
+bool ServoConstraintProblem::IndexOneResidual(double t,
+                                              const Eigen::VectorXd& x,
+                                              const Eigen::VectorXd& x_dot,
+                                              Eigen::VectorXd& residual,
+                                              std::string& why) {
+  const Eigen::Index f = dof();
+  const Eigen::Index m = num_outputs();
+  const Eigen::Index internal = f - m;
+  const auto q = x.head(f);
+  const auto v = x.segment(f, f);
+  const auto u = x.tail(num_inputs());
+  if (!EvaluateDynamics(q, v, why)) return false;
+  const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
+  const Eigen::MatrixXd tangent_basis = TangentBasisAt(output_jacobian);
+  const Eigen::VectorXd applied = workspace_.input_matrix * u - workspace_.forces;
+
+  residual.resize(x.size());
+  residual.head(internal) = internal_directions_.transpose() * (x_dot.head(f) - v);
+  residual.segment(internal, m) = workspace_.output - trajectory_.Derivative(t, 0);
+  residual.segment(f, internal) =
+      tangent_basis.transpose() * (workspace_.mass_matrix * x_dot.segment(f, f) - applied);
+  residual.segment(f + internal, m) = output_jacobian * v - trajectory_.Derivative(t, 1);
+  residual.tail(m) = output_jacobian * mass_factor_.solve(applied) + workspace_.output_bias -
+                     trajectory_.Derivative(t, 2);
+  return true;
+}
+
+double ServoConstraintProblem::ServoResidual(double t, const Eigen::VectorXd& q) {
+  Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(dof()), Quantity::kOutput);
+  return (workspace_.output - trajectory_.Derivative(t, 0)).cwiseAbs().maxCoeff();
+}
+
+double ServoConstraintProblem::DecouplingMargin(const Eigen::VectorXd& q) {
+  std::string why;
+  if (!EvaluateDynamics(q, Eigen::VectorXd::Zero(dof()), why)) return 0.0;
+  const Eigen::MatrixXd input_accelerations = mass_factor_.solve(workspace_.input_matrix);
+  const Eigen::MatrixXd decoupling =
+      DecouplingMatrix(workspace_.output_jacobian, input_accelerations);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(decoupling);
+  const double scale = workspace_.output_jacobian.norm() * input_accelerations.norm();
+  return scale > 0.0 ? svd.singularValues()(svd.singularValues().size() - 1) / scale : 0.0;
+}
+
+std::vector<int> ProjectedDae::ComponentIndices() const {
+  const Eigen::Index f = problem_.dof();
+  std::vector<int> indices(std::size_t(size()), 1);
+  for (Eigen::Index i = f; i < 2 * f; ++i) indices[std::size_t(i)] = 2;
+  for (Eigen::Index i = 2 * f; i < size(); ++i) indices[std::size_t(i)] = decoupling_regular_ ? 2 : 3;
+  return indices;
+}
+
+}  // namespace servokit
