@@ -346,9 +346,20 @@ void SolveNormalForm(ServoConstraintProblem& problem,
   internal_start << directions.transpose() * start.q, directions.transpose() * start.q_dot;
   // The last q found: Newton's starting point for the next one (the motion is smooth).
   Eigen::VectorXd q = start.q, q_dot = start.q_dot, u, q_ddot;
+  // Where q, q_dot and u were last computed: Dormand-Prince evaluates its last stage at the
+  // step's end (FSAL), so the observer finds them there without a second evaluation.
+  double evaluated_t = std::numeric_limits<double>::quiet_NaN();
+  Eigen::VectorXd evaluated_y;
   auto state_at = [&](double t, const Eigen::VectorXd& y, std::string& why) {
-    return problem.StateFromInternal(t, y.head(internal), y.tail(internal), q, q_dot, why) &&
-           problem.NormalForm(t, q, q_dot, u, q_ddot, why);
+    if (t == evaluated_t && y == evaluated_y) return true;
+    evaluated_t = std::numeric_limits<double>::quiet_NaN();
+    if (!problem.StateFromInternal(t, y.head(internal), y.tail(internal), q, q_dot, why) ||
+        !problem.NormalForm(t, q, q_dot, u, q_ddot, why)) {
+      return false;
+    }
+    evaluated_t = t;
+    evaluated_y = y;
+    return true;
   };
   IntegratorOptions integrator;
   const MethodDefaults defaults = DefaultTolerances(SolverMethod::kNormalForm);
@@ -358,7 +369,8 @@ void SolveNormalForm(ServoConstraintProblem& problem,
       [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& why) {
         if (!state_at(t, y, why)) return false;
         y_dot.resize(2 * internal);
-        y_dot << y.tail(internal), directions.transpose() * q_ddot;  // Eq. (25)
+        y_dot.head(internal) = y.tail(internal);
+        y_dot.tail(internal).noalias() = directions.transpose() * q_ddot;  // Eq. (25)
         return true;
       },
       options.t_start, internal_start, options.t_end, problem.trajectory().breakpoints(),

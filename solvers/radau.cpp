@@ -32,10 +32,12 @@ constexpr double kRoundoff = std::numeric_limits<double>::epsilon();
 // (RADAU5 demands rtol > 10 eps for the same reason).
 constexpr double kMinRelativeTolerance = 1e-14;
 
-// Step-size control of RADAU5: the new step is h / quotient with quotient = err^(1/4) / safety,
-// kept within [1 / kMaxStepGrowth, kMaxStepShrink]. Growth is capped so that one lucky error
+// Step-size control of RADAU5: the new step is h / quotient with quotient = err^(1/4) / safety
+// (the estimate is O(h^4), hence kErrorExponent), kept within [1 / kMaxStepGrowth,
+// kMaxStepShrink]. Growth is capped so that one lucky error
 // estimate cannot throw the step far beyond where the Newton matrix was good; the safety
 // factor is lowered further when Newton needed many iterations (see StepQuotient).
+constexpr double kErrorExponent = 0.25;
 constexpr double kSafety = 0.9;
 constexpr double kMaxStepGrowth = 8.0;
 constexpr double kMaxStepShrink = 5.0;
@@ -72,8 +74,8 @@ constexpr double kJacobianReuseContraction = 1e-3;
 // max(eta, eps)^0.8 (RADAU5's FACCON): a little more cautious than the last rate.
 constexpr double kNewtonRateMemoryExponent = 0.8;
 // When Newton would need more iterations than allowed, RADAU5 shrinks the step by
-// 0.8 * excess^(-1 / (4 + remaining iterations)), with the predicted excess clamped to
-// [1e-4, 20] so that the cut is neither negligible nor drastic.
+// 0.8 * excess^(-1 / (3 + iterations left)), with the predicted excess clamped to [1e-4, 20]
+// so that the cut is neither negligible nor drastic.
 constexpr double kSlowNewtonSafety = 0.8;
 constexpr double kSlowNewtonMinExcess = 1e-4;
 constexpr double kSlowNewtonMaxExcess = 20.0;
@@ -195,7 +197,7 @@ const RadauTableau& Tableau() {
   return tableau;
 }
 
-// Hairer & Wanner's stopping rule for Newton's method (IV.8, "Stopping criterion"): from the
+// Hairer & Wanner's stopping rule for the simplified Newton iteration (IV.8): from the
 // contraction rate theta of successive increments, the error left after an increment of norm
 // |dZ| is about eta |dZ| with eta = theta / (1 - theta); stop when that is below the tolerance,
 // give up when theta >= 1 or when the predicted error after the remaining iterations is still
@@ -618,7 +620,7 @@ bool RadauIIARun::ComputeStageResiduals(double h) {
 }
 
 // Solves ((1/h) A_b^-1 (x) A - I (x) J) dZ = residuals in the eigenbasis of A_b^-1, where it is
-// one real and one complex n x n system (Hairer & Wanner IV.8, Eq. 8.16-8.18).
+// one real and one complex n x n system (Hairer & Wanner IV.8).
 void RadauIIARun::SolveNewtonSystems() {
   transformed_.noalias() = residuals_ * tableau_.to_eigenbasis.transpose();
   increments_.col(0) = real_lu_.solve(transformed_.col(0));
@@ -653,7 +655,7 @@ bool RadauIIARun::SolveStages(double h, NewtonMonitor& monitor) {
 // F = (d_1 Z_1 + d_2 Z_2 + d_3 Z_3) / h and E1 = gamma / h A - J; the solve with E1 damps the
 // estimate of stiff components, which would otherwise be grossly overestimated. On the first
 // step and after a rejection a large estimate is refined once with phi at x_n + err in place
-// of phi(t_n, x_n) (Hairer & Wanner IV.8, Eq. 8.20-8.21). `error` is the scaled RMS norm.
+// of phi(t_n, x_n) (Hairer & Wanner IV.8). `error` is the scaled RMS norm.
 bool RadauIIARun::EstimateError(double h, bool refine, double& error) {
   weighted_stages_.noalias() = stages_ * tableau_.error_weights;
   weighted_stages_ /= h;
@@ -680,7 +682,7 @@ double RadauIIARun::StepQuotient(double error, int newton_iterations) const {
   const int max_iterations = options_.max_newton_iterations;
   const double safety = std::min(
       kSafety, kSafety * (2.0 * max_iterations + 1.0) / (2.0 * max_iterations + newton_iterations));
-  return std::clamp(std::pow(error, 0.25) / safety, 1.0 / kMaxStepGrowth, kMaxStepShrink);
+  return std::clamp(std::pow(error, kErrorExponent) / safety, 1.0 / kMaxStepGrowth, kMaxStepShrink);
 }
 
 // Shortens step_ to max_step and so that it ends exactly on `stop`; true when it does.
@@ -715,12 +717,12 @@ void RadauIIARun::Reject(double step_factor) {
 }
 
 // The step after an accepted one: h / quotient, with Gustafsson's predictive controller
-// (Hairer & Wanner IV.8, Eq. 8.25) shrinking it further when the error grows from step to
-// step, and no growth right after a rejection.
+// (Hairer & Wanner IV.8) shrinking it further when the error grows from step to step, and no
+// growth right after a rejection.
 double RadauIIARun::ProposeNextStep(double error, double quotient) {
   if (have_previous_step_) {
-    const double predictive =
-        previous_step_ / step_ * std::pow(error * error / previous_error_, 0.25) / kSafety;
+    const double predictive = previous_step_ / step_ *
+                              std::pow(error * error / previous_error_, kErrorExponent) / kSafety;
     quotient = std::max(quotient, std::clamp(predictive, 1.0 / kMaxStepGrowth, kMaxStepShrink));
   }
   previous_step_ = step_;

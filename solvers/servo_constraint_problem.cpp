@@ -7,6 +7,7 @@
 
 #include "analysis/decoupling_matrix.h"
 #include "models/errors.h"
+#include "models/symbolic_model.h"
 
 namespace servokit {
 namespace {
@@ -60,8 +61,11 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
     throw UsageError("reference q has " + std::to_string(reference_q.size()) +
                      " entries, the model has " + std::to_string(dof()) + " coordinates");
   }
-  const Eigen::VectorXd zero_velocity = Eigen::VectorXd::Zero(dof());
-  Evaluate(model_, workspace_, reference_q, zero_velocity, kDynamics);
+  zero_velocity_ = Eigen::VectorXd::Zero(dof());
+  chart_.resize(dof(), dof());
+  chart_residual_.resize(dof());
+  velocity_targets_.resize(dof());
+  Evaluate(model_, workspace_, reference_q, zero_velocity_, kDynamics);
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
   reference_tangent_basis_ = TangentBasis(output_jacobian, options_.rank_tolerance);
   if (reference_tangent_basis_.cols() != dof() - num_outputs()) {
@@ -89,6 +93,20 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
       internal_are_unactuated_ = true;
     }
   }
+
+  output_is_linear_ = true;
+  const GiNaC::matrix& symbolic_jacobian = model.symbolic().output_jacobian();
+  for (unsigned row = 0; row < symbolic_jacobian.rows(); ++row) {
+    for (unsigned column = 0; column < symbolic_jacobian.cols(); ++column) {
+      for (const GiNaC::realsymbol& coordinate : model.symbolic().coordinates()) {
+        if (symbolic_jacobian(row, column).has(coordinate)) output_is_linear_ = false;
+      }
+    }
+  }
+  if (output_is_linear_) {
+    chart_ << output_jacobian, internal_directions_.transpose();
+    constant_chart_factor_.compute(chart_);
+  }
 }
 
 bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -106,7 +124,10 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
     why = "M(q) is not positive definite";
     return false;
   }
-  const double reciprocal_condition = mass_factor_.rcond();
+  // (min L_ii / max L_ii)^2 estimates 1/cond(M) from the factor at no extra cost (Eigen's
+  // rcond() runs triangular solves and dominated the normal form's right-hand side).
+  const auto diagonal = mass_factor_.matrixLLT().diagonal();
+  const double reciprocal_condition = std::pow(diagonal.minCoeff() / diagonal.maxCoeff(), 2);
   if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
     why = "M(q) is singular (reciprocal condition number " + Short(reciprocal_condition) + ")";
     return false;
@@ -123,37 +144,57 @@ bool ServoConstraintProblem::StateFromInternal(double t,
   // A few Newton steps on a square system whose Jacobian [H; C^T] the model already gives;
   // exact in one step when h is linear. (KINSOL would cost more per call than the whole
   // right-hand side of the normal form, which calls this at every stage.)
-  const Eigen::VectorXd y_desired = trajectory_.Derivative(t, 0);
-  const Eigen::VectorXd zero_velocity = Eigen::VectorXd::Zero(dof());
-  Eigen::MatrixXd chart(dof(), dof());
-  Eigen::VectorXd residual(dof());
-  Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor;
+  const Eigen::Index m = num_outputs();
+  DesiredAt(t);
+  if (output_is_linear_) {
+    // h(q) = H q + h(0): Eq. (19) is linear, solved exactly with the factor from the start.
+    Evaluate(model_, workspace_, q, zero_velocity_, Quantity::kOutput);
+    chart_residual_.head(m) = workspace_.output - desired_.col(0);
+    chart_residual_.tail(num_internal()).noalias() = internal_directions_.transpose() * q;
+    chart_residual_.tail(num_internal()) -= z;
+    correction_ = constant_chart_factor_.solve(chart_residual_);
+    q -= correction_;
+    velocity_targets_ << desired_.col(1), z_dot;
+    q_dot = constant_chart_factor_.solve(velocity_targets_);
+    if (!q.allFinite() || !q_dot.allFinite()) {
+      why = "the coordinates became NaN or Inf";
+      return false;
+    }
+    return true;
+  }
   for (int iteration = 0;; ++iteration) {
-    Evaluate(model_, workspace_, q, zero_velocity, kOutputGeometry);
-    chart << workspace_.output_jacobian, internal_directions_.transpose();
-    residual << workspace_.output - y_desired, internal_directions_.transpose() * q - z;
-    chart_factor.compute(chart);
-    if (!(chart_factor.rcond() > kMinChartReciprocalCondition * 1e-4)) {
+    Evaluate(model_, workspace_, q, zero_velocity_, kOutputGeometry);
+    chart_.topRows(m) = workspace_.output_jacobian;
+    chart_.bottomRows(num_internal()) = internal_directions_.transpose();
+    chart_residual_.head(m) = workspace_.output - desired_.col(0);
+    chart_residual_.tail(num_internal()).noalias() = internal_directions_.transpose() * q;
+    chart_residual_.tail(num_internal()) -= z;
+    chart_factor_.compute(chart_);
+    // The pivots' spread bounds the condition number from below, at no extra cost.
+    const auto pivots = chart_factor_.matrixLU().diagonal().cwiseAbs();
+    if (!(pivots.minCoeff() > kMinChartReciprocalCondition * 1e-4 * pivots.maxCoeff())) {
       why = "y and the internal coordinates no longer determine q ([H; C^T] is singular)";
       return false;
     }
-    const Eigen::VectorXd correction = chart_factor.solve(residual);
-    q -= correction;
+    correction_ = chart_factor_.solve(chart_residual_);
+    q -= correction_;
     if (!q.allFinite()) {
       why = "the coordinates became NaN or Inf";
       return false;
     }
-    if (correction.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
+    if (correction_.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
     if (iteration + 1 >= options_.max_coordinate_iterations) {
       why = "Newton's method for q from y_d and the internal coordinates does not converge";
       return false;
     }
   }
-  Evaluate(model_, workspace_, q, zero_velocity, Quantity::kOutputJacobian);
-  chart << workspace_.output_jacobian, internal_directions_.transpose();
-  Eigen::VectorXd velocity_targets(dof());
-  velocity_targets << trajectory_.Derivative(t, 1), z_dot;
-  q_dot = chart.partialPivLu().solve(velocity_targets);
+  // Eq. (20) at the converged q; the last factorization was taken one correction earlier, at
+  // a q within coordinate_tolerance, so [H; C^T] is factored anew only when h is not linear.
+  Evaluate(model_, workspace_, q, zero_velocity_, Quantity::kOutputJacobian);
+  chart_.topRows(m) = workspace_.output_jacobian;
+  chart_factor_.compute(chart_);
+  velocity_targets_ << desired_.col(1), z_dot;
+  q_dot = chart_factor_.solve(velocity_targets_);
   return true;
 }
 
@@ -164,23 +205,28 @@ bool ServoConstraintProblem::NormalForm(double t,
                                         Eigen::VectorXd& q_ddot,
                                         std::string& why) {
   if (!EvaluateDynamics(q, q_dot, why)) return false;
-  const Eigen::MatrixXd input_accelerations = mass_factor_.solve(workspace_.input_matrix);
-  const Eigen::VectorXd force_accelerations = mass_factor_.solve(workspace_.forces);
+  DesiredAt(t);
+  input_accelerations_ = mass_factor_.solve(workspace_.input_matrix);
+  force_accelerations_ = mass_factor_.solve(workspace_.forces);
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
-  const Eigen::MatrixXd decoupling = DecouplingMatrix(output_jacobian, input_accelerations);
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(decoupling, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const double scale = output_jacobian.norm() * input_accelerations.norm();
-  const double smallest = svd.singularValues()(svd.singularValues().size() - 1);
+  decoupling_.noalias() = DecouplingMatrix(output_jacobian, input_accelerations_);
+  // Full pivoting reveals the rank: its smallest pivot is within a small factor of sigma_min
+  // (exactly it for one output), and costs far less than an SVD in this inner loop.
+  decoupling_factor_.compute(decoupling_);
+  const double scale = output_jacobian.norm() * input_accelerations_.norm();
+  const double smallest = decoupling_factor_.matrixLU().diagonal().cwiseAbs().minCoeff();
   if (!(smallest > options_.rank_tolerance * scale)) {
-    why = "P = H M^-1 B is singular (sigma_min / (|H| |M^-1 B|) = " + Short(smallest / scale) +
-          ")";
+    why = "P = H M^-1 B is singular (smallest pivot / (|H| |M^-1 B|) = " +
+          Short(smallest / scale) + ")";
     return false;
   }
   // Eq. (24): u = P^-1 (H M^-1 f - h_bar + y_d'').
-  u = svd.solve(output_jacobian * force_accelerations - workspace_.output_bias +
-                trajectory_.Derivative(t, 2));
+  decoupling_rhs_.noalias() = output_jacobian * force_accelerations_;
+  decoupling_rhs_ += desired_.col(2) - workspace_.output_bias;
+  u = decoupling_factor_.solve(decoupling_rhs_);
   // Eq. (1) solved for q''; its C^T-part is Eq. (25).
-  q_ddot = input_accelerations * u - force_accelerations;
+  q_ddot.noalias() = input_accelerations_ * u;
+  q_ddot -= force_accelerations_;
   return true;
 }
 
@@ -217,10 +263,11 @@ bool ServoConstraintProblem::ProjectedEquations(double t,
   mass.block(f, f, f - m, f) = tangent_basis.transpose() * workspace_.mass_matrix;
   rhs.segment(f, f - m) = tangent_basis.transpose() * applied;
   // Eq. (17): 0 = P u - H M^-1 f + h_bar - y_d'' = H M^-1 (B u - f) + h_bar - y_d''.
+  DesiredAt(t);
   rhs.segment(2 * f - m, m) = output_jacobian * mass_factor_.solve(applied) +
-                              workspace_.output_bias - trajectory_.Derivative(t, 2);
+                              workspace_.output_bias - desired_.col(2);
   // Eq. (18): 0 = h(q) - y_d.
-  rhs.tail(m) = workspace_.output - trajectory_.Derivative(t, 0);
+  rhs.tail(m) = workspace_.output - desired_.col(0);
   return true;
 }
 
@@ -240,14 +287,15 @@ bool ServoConstraintProblem::IndexOneResidual(double t,
   const Eigen::MatrixXd tangent_basis = TangentBasisAt(output_jacobian);
   const Eigen::VectorXd applied = workspace_.input_matrix * u - workspace_.forces;
 
+  DesiredAt(t);
   residual.resize(x.size());
   residual.head(internal) = internal_directions_.transpose() * (x_dot.head(f) - v);
-  residual.segment(internal, m) = workspace_.output - trajectory_.Derivative(t, 0);
+  residual.segment(internal, m) = workspace_.output - desired_.col(0);
   residual.segment(f, internal) =
       tangent_basis.transpose() * (workspace_.mass_matrix * x_dot.segment(f, f) - applied);
-  residual.segment(f + internal, m) = output_jacobian * v - trajectory_.Derivative(t, 1);
+  residual.segment(f + internal, m) = output_jacobian * v - desired_.col(1);
   residual.tail(m) = output_jacobian * mass_factor_.solve(applied) + workspace_.output_bias -
-                     trajectory_.Derivative(t, 2);
+                     desired_.col(2);
   return true;
 }
 

@@ -113,14 +113,32 @@ class ServoConstraintProblem {
                         const Eigen::Ref<const Eigen::VectorXd>& q_dot,
                         std::string& why);
 
+  // y_d, y_d', y_d'' at t into desired_ (outputs x 3).
+  void DesiredAt(double t) { trajectory_.Derivatives(t, 2, desired_); }
+
   const Model& model_;
   const OutputTrajectory& trajectory_;
   ServoProblemOptions options_;
   Workspace workspace_;
   Eigen::LLT<Eigen::MatrixXd> mass_factor_;
+  // Buffers of the right-hand sides, kept so that an integrator's inner loop allocates little.
+  Eigen::VectorXd zero_velocity_;
+  Eigen::MatrixXd desired_;
+  Eigen::MatrixXd chart_;  // [H; C^T]
+  Eigen::VectorXd chart_residual_, correction_, velocity_targets_;
+  Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor_;
+  Eigen::MatrixXd input_accelerations_;  // M^-1 B
+  Eigen::VectorXd force_accelerations_;  // M^-1 f
+  Eigen::MatrixXd decoupling_;           // P
+  Eigen::FullPivLU<Eigen::MatrixXd> decoupling_factor_;
+  Eigen::VectorXd decoupling_rhs_;       // H M^-1 f - h_bar + y_d'' (Eq. 24)
   Eigen::MatrixXd reference_tangent_basis_;  // D_0
   Eigen::MatrixXd internal_directions_;      // C
   bool internal_are_unactuated_ = false;
+  // h is linear in q (H constant, as for the mass on car): [H; C^T] is factored once and
+  // StateFromInternal() needs no Newton iteration.
+  bool output_is_linear_ = false;
+  Eigen::PartialPivLU<Eigen::MatrixXd> constant_chart_factor_;
 };
 
 /// The projected DAE (Eqs. 15-18) as Radau IIA and Euler backward see it. Component indices:

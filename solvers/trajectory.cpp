@@ -60,14 +60,12 @@ RestToRestTrajectory::RestToRestTrajectory(
                      std::to_string(continuous_derivatives) + ": must be >= 1");
   }
   coefficients_ = RestToRestCoefficients(continuous_derivatives);
+  // The time scales of the orders right-hand sides read most (y_d, y_d', y_d''), so that
+  // Derivatives() calls no pow().
+  for (int order = 0; order <= 4; ++order) time_scales_.push_back(std::pow(tf_ - t0_, -order));
 }
 
-Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {
-  const double duration = tf_ - t0_;
-  const double tau = std::clamp((t - t0_) / duration, 0.0, 1.0);
-  // At rest outside the motion. At t0 and tf themselves the polynomial decides: its first k
-  // derivatives vanish there, a higher one is the value from inside the motion.
-  if (order > 0 && (t < t0_ || t > tf_)) return Eigen::VectorXd::Zero(y0_.size());
+double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) const {
   // d^order/dtau^order of sum c_i tau^i, by Horner on the differentiated coefficients.
   double value = 0.0;
   for (int i = int(coefficients_.size()) - 1; i >= order; --i) {
@@ -75,9 +73,38 @@ Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {
     for (int j = 0; j < order; ++j) falling *= double(i - j);
     value = value * tau + coefficients_[std::size_t(i)] * falling;
   }
-  const double scale = std::pow(duration, -order);
-  if (order == 0) return y0_ + (yf_ - y0_) * value;
-  return (yf_ - y0_) * (value * scale);
+  if (std::size_t(order) < time_scales_.size()) return value * time_scales_[std::size_t(order)];
+  return value * std::pow(tf_ - t0_, -order);
+}
+
+Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {
+  Eigen::MatrixXd derivative(y0_.size(), 1);
+  if (order == 0) {
+    Derivatives(t, 0, derivative);
+    return derivative.col(0);
+  }
+  // At rest outside the motion. At t0 and tf themselves the polynomial decides: its first k
+  // derivatives vanish there, a higher one is the value from inside the motion.
+  if (t < t0_ || t > tf_) return Eigen::VectorXd::Zero(y0_.size());
+  const double tau = std::clamp((t - t0_) / (tf_ - t0_), 0.0, 1.0);
+  return (yf_ - y0_) * ScaledPolynomialDerivative(tau, order);
+}
+
+void RestToRestTrajectory::Derivatives(double t, int highest, Eigen::MatrixXd& derivatives) const {
+  if (derivatives.rows() != y0_.size() || derivatives.cols() != highest + 1) {
+    derivatives.resize(y0_.size(), highest + 1);
+  }
+  const double tau = std::clamp((t - t0_) / (tf_ - t0_), 0.0, 1.0);
+  const bool moving = t >= t0_ && t <= tf_;
+  for (int order = 0; order <= highest; ++order) {
+    if (order == 0) {
+      derivatives.col(0) = y0_ + (yf_ - y0_) * ScaledPolynomialDerivative(tau, 0);
+    } else if (moving) {
+      derivatives.col(order) = (yf_ - y0_) * ScaledPolynomialDerivative(tau, order);
+    } else {
+      derivatives.col(order).setZero();
+    }
+  }
 }
 
 }  // namespace servokit

@@ -20,6 +20,12 @@ class OutputTrajectory {
   virtual ~OutputTrajectory() = default;
   /// d^order y_d / dt^order at t (order 0 is y_d itself), size outputs().
   virtual Eigen::VectorXd Derivative(double t, int order) const = 0;
+  /// Orders 0..highest at once into `derivatives` (outputs x (highest + 1), resized only when
+  /// its size differs): for integrators' right-hand sides, without allocating.
+  virtual void Derivatives(double t, int highest, Eigen::MatrixXd& derivatives) const {
+    derivatives.resize(outputs(), highest + 1);
+    for (int order = 0; order <= highest; ++order) derivatives.col(order) = Derivative(t, order);
+  }
   virtual Eigen::Index outputs() const = 0;
   /// Derivatives of y_d that are continuous everywhere (4 for the paper's Eq. 65).
   virtual int continuous_derivatives() const = 0;
@@ -45,6 +51,7 @@ class RestToRestTrajectory final : public OutputTrajectory {
   /// derivative, scaled by (tf - t0)^-order; zero outside [t0, tf] for order >= 1; at t0 and
   /// tf, orders above continuous_derivatives() take the value from inside the motion.
   Eigen::VectorXd Derivative(double t, int order) const override;
+  void Derivatives(double t, int highest, Eigen::MatrixXd& derivatives) const override;
 
   int continuous_derivatives() const override { return continuous_derivatives_; }
   Eigen::Index outputs() const override { return y0_.size(); }
@@ -55,6 +62,9 @@ class RestToRestTrajectory final : public OutputTrajectory {
   double t0_, tf_;
   int continuous_derivatives_;
   std::vector<double> coefficients_;
+  std::vector<double> time_scales_;  // (tf - t0)^-order for the orders Derivatives() was asked
+  // d^order p / dtau^order at tau, scaled by (tf - t0)^-order; the one place this is evaluated.
+  double ScaledPolynomialDerivative(double tau, int order) const;
 };
 
 }  // namespace servokit

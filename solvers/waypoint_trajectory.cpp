@@ -25,13 +25,16 @@ WaypointTrajectory::WaypointTrajectory(std::vector<double> times,
   }
 }
 
-Eigen::VectorXd WaypointTrajectory::Derivative(double t, int order) const {
-  // The segment whose interval holds t: the last one starting at or before t, clamped to the
-  // first and last segments, which are at rest outside the waypoints.
+std::size_t WaypointTrajectory::SegmentAt(double t) const {
+  // The last segment starting at or before t, clamped to the first and last segments, which
+  // are at rest outside the waypoints.
   const auto after = std::upper_bound(times_.begin(), times_.end(), t);
-  const auto index = std::clamp<std::ptrdiff_t>(after - times_.begin() - 1, 0,
-                                                std::ptrdiff_t(segments_.size()) - 1);
-  return segments_[std::size_t(index)].Derivative(t, order);
+  return std::size_t(std::clamp<std::ptrdiff_t>(after - times_.begin() - 1, 0,
+                                                std::ptrdiff_t(segments_.size()) - 1));
+}
+
+Eigen::VectorXd WaypointTrajectory::Derivative(double t, int order) const {
+  return segments_[SegmentAt(t)].Derivative(t, order);
 }
 
 namespace {

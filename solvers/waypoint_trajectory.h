@@ -26,6 +26,9 @@ class WaypointTrajectory final : public OutputTrajectory {
   /// d^order y_d / dt^order at t, size outputs (see RestToRestTrajectory::Derivative); at a
   /// waypoint between two segments the later segment answers.
   Eigen::VectorXd Derivative(double t, int order) const override;
+  void Derivatives(double t, int highest, Eigen::MatrixXd& derivatives) const override {
+    segments_[SegmentAt(t)].Derivatives(t, highest, derivatives);
+  }
 
   Eigen::Index outputs() const override { return segments_.front().outputs(); }
   int continuous_derivatives() const override {
@@ -41,6 +44,8 @@ class WaypointTrajectory final : public OutputTrajectory {
   double end_time() const { return times_.back(); }
 
  private:
+  // The segment whose interval holds t (see Derivative()).
+  std::size_t SegmentAt(double t) const;
   std::vector<double> times_;
   std::vector<Eigen::VectorXd> outputs_;
   std::vector<RestToRestTrajectory> segments_;  // segment i runs from times_[i] to times_[i+1]

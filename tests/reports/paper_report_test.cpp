@@ -1,8 +1,10 @@
 // The golden report (STYLE.md, "answer files"): `servokit report paper` against the reviewed
 // copy tests/data/paper_report.md. The copy's numbers were checked against the paper and the
 // closed forms (the table of the four cases: Eqs. 30, 34, 36, 40, 47; the quoted 0.25 Hz,
-// 2.88 Hz and 9.1 deg; s/l = 2/3 and the discriminant of Eq. 56). Update it only after
-// checking new numbers the same way.
+// 2.88 Hz and 9.1 deg; s/l = 2/3 and the discriminant of Eq. 56) and, for the solver figures
+// of Sect. 5, against Eq. (47), the exact one-step-delay form of Euler backward's error and
+// the closed-form numerical damping (1 + (omega h)^2)^(-1/2) per step (see
+// tests/solvers/inverse_model_test.cpp). Update it only after checking new numbers the same way.
 //
 // Numbers are compared within a relative 1e-6 (the report prints 6 to 12 digits); words
 // exactly; `backquoted` spans are not compared, since GiNaC's printed term order depends on

@@ -1,0 +1,144 @@
+// `servokit solve` (DESIGN.md "solve"): the CSV columns and the JSON keys of the contract, the
+// forward check, the refusal of unstable internal dynamics, and one clear error per bad input.
+// The numbers themselves are tested against the paper in tests/solvers/inverse_model_test.cpp;
+// here the case-4 force is checked once more against Eq. (47) through the files a user reads.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "solvers/trajectory.h"
+#include "tests/reports/run_servokit.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::RunServokit;
+
+std::filesystem::path TemporaryFile(const std::string& name) {
+  return std::filesystem::temp_directory_path() / ("servokit_solve_test_" + name);
+}
+
+std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
+  std::ifstream file(path);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(file, line);) {
+    std::vector<std::string> cells;
+    std::stringstream stream(line);
+    for (std::string cell; std::getline(stream, cell, ',');) cells.push_back(cell);
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+const std::vector<std::string> kCase4 = {
+    "solve", ModelPath("mass_on_car.yaml"), "--set", "alpha=0", "--set", "d=0",
+    "--trajectory", "rest-to-rest", "--y0", "0.5", "--yf", "2.5", "--t0", "0", "--tf", "6",
+    "--t-end", "10"};
+
+std::vector<std::string> With(std::vector<std::string> arguments,
+                              const std::vector<std::string>& more) {
+  arguments.insert(arguments.end(), more.begin(), more.end());
+  return arguments;
+}
+
+TEST_CASE("solve writes the CSV columns and JSON keys of DESIGN.md", "[reports]") {
+  const auto csv = TemporaryFile("case4.csv");
+  const auto run = RunServokit(With(kCase4, {"--step", "0.01", "--verify", "--out", csv.string()}));
+  INFO(run.err);
+  REQUIRE(run.status == 0);
+  const auto json = nlohmann::json::parse(run.out);
+  for (const char* key : {"method", "classification", "steps", "max_servo_residual",
+                          "verification"}) {
+    CHECK(json.contains(key));
+  }
+  CHECK(json["method"] == "algebraic");
+  CHECK(json["classification"]["flat"] == true);
+  CHECK(json["verification"]["max_tracking_error"].get<double>() < 1e-6);
+  const auto rows = ReadCsv(csv);
+  REQUIRE(rows.size() == 1002);  // header, t = 0, 0.01, ..., 10
+  CHECK(rows[0] == std::vector<std::string>{"t", "x", "s", "x_dot", "s_dot", "F", "y1_d"});
+  // Eq. (47) at t = 2 s (row 201): F = (m1 + m2) y'' + (m1 m2 / k) y''''.
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.5),
+                                        Eigen::VectorXd::Constant(1, 2.5), 0.0, 6.0);
+  CHECK(std::stod(rows[201][0]) == Approx(2.0));
+  CHECK(std::stod(rows[201][5]) ==
+        Approx(3.0 * trajectory.Derivative(2.0, 2)(0) + 0.4 * trajectory.Derivative(2.0, 4)(0))
+            .epsilon(1e-12));
+  CHECK(std::stod(rows[201][6]) == Approx(trajectory.Derivative(2.0, 0)(0)).epsilon(1e-15));
+  std::filesystem::remove(csv);
+}
+
+TEST_CASE("solve reads a trajectory file of waypoints", "[reports]") {
+  const auto file = TemporaryFile("waypoints.yaml");
+  std::ofstream(file) << "waypoints:\n  - {t: 0, y: [0.5]}\n  - {t: 6, y: [2.5]}\n";
+  const auto csv = TemporaryFile("file.csv");
+  const auto run = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--set", "d=0",
+                                "--trajectory", file.string(), "--t-end", "8", "--out",
+                                csv.string()});
+  INFO(run.err);
+  REQUIRE(run.status == 0);
+  const auto json = nlohmann::json::parse(run.out);
+  CHECK(json["method"] == "normal-form");  // critical zero dynamics at 5 deg, d = 0
+  CHECK(json["max_servo_residual"].get<double>() < 1e-12);
+  std::filesystem::remove(file);
+  std::filesystem::remove(csv);
+}
+
+TEST_CASE("solve refuses unstable internal dynamics unless forced (exit 3)", "[reports]") {
+  const auto csv = TemporaryFile("arm.csv");
+  const std::vector<std::string> arm = {
+      "solve", ModelPath("rotational_arm.yaml"), "--set", "s=0.9", "--trajectory",
+      "rest-to-rest", "--y0", "0", "--yf", "0.1", "--t0", "1", "--tf", "3", "--t-end", "3.5",
+      "--out", csv.string()};
+  const auto refused = RunServokit(arm);
+  CHECK(refused.status == 3);
+  CHECK_THAT(refused.err, Catch::StartsWith("servokit: error: the zero dynamics are unstable"));
+  CHECK_THAT(refused.err, Catch::Contains("stable inversion"));
+  // Forced, the normal form runs forward; e^(16 t) growth makes it fail within half a second
+  // of the motion (exit 3 with the time), which is why it was refused.
+  const auto forced = RunServokit(With(arm, {"--force"}));
+  const auto json = nlohmann::json::parse(forced.out);
+  CHECK(json["method"] == "normal-form");
+  CHECK(json["steps"].get<long>() > 0);
+  CHECK_THAT(forced.err, !Catch::Contains("refuse") && !Catch::Contains("stable inversion"));
+  std::filesystem::remove(csv);
+}
+
+TEST_CASE("solve: each bad argument gives one error line and exit 2", "[reports]") {
+  const auto csv = TemporaryFile("bad.csv").string();
+  struct Bad {
+    std::vector<std::string> extra;
+    const char* says;
+  };
+  for (const Bad& bad : {Bad{{"--method", "rk4", "--out", csv}, "--method rk4"},
+                         Bad{{"--step", "-1", "--method", "euler", "--out", csv}, "step"},
+                         Bad{{"--rtol", "2", "--out", csv}, "rtol"}}) {
+    const auto run = RunServokit(With(kCase4, bad.extra));
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Catch::StartsWith("servokit: error:") && Catch::Contains(bad.says));
+    CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
+  }
+  const auto missing = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--trajectory",
+                                    "rest-to-rest", "--t-end", "1", "--out", csv});
+  CHECK(missing.status == 2);
+  CHECK_THAT(missing.err, Catch::Contains("--y0, --yf, --t0 and --tf"));
+  const auto no_file = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--trajectory",
+                                    "nowhere.yaml", "--t-end", "1", "--out", csv});
+  CHECK(no_file.status == 2);
+  CHECK_THAT(no_file.err, Catch::Contains("nowhere.yaml"));
+}
+
+TEST_CASE("solve with a method that does not fit the class says which does (exit 3)",
+          "[reports]") {
+  const auto csv = TemporaryFile("bdf.csv").string();
+  const auto run = RunServokit(With(kCase4, {"--method", "bdf", "--out", csv}));
+  CHECK(run.status == 3);
+  CHECK_THAT(run.err, Catch::Contains("use --method radau or algebraic"));
+}
+
+}  // namespace
+}  // namespace servokit
