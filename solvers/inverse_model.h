@@ -32,7 +32,7 @@ struct InverseModelOptions {
   // paper's finest Euler step (Fig. 10).
   double step = 1e-3;
   // Error tolerances of the adaptive methods; unset takes the method's default: 1e-8 / 1e-10
-  // for Radau IIA (resolves u_d of the paper's examples to ~1e-6 relative in < 100 steps) and
+  // for Radau IIA (u_d of the paper's case 4 to 1.5e-4 relative in 170 steps, 0.6 ms) and
   // 1e-10 / 1e-12 for Dormand-Prince and BDF (cheap for them, and a forward check of u_d then
   // tracks to ~1e-8).
   std::optional<double> rtol;

@@ -106,13 +106,18 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
   if (output_is_linear_) {
     chart_ << output_jacobian, internal_directions_.transpose();
     constant_chart_factor_.compute(chart_);
+    workspace_.output_bias.setZero();  // stays: h_bar = 0, H as evaluated above
   }
 }
 
 bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::VectorXd>& q,
                                               const Eigen::Ref<const Eigen::VectorXd>& q_dot,
                                               std::string& why) {
-  Evaluate(model_, workspace_, q, q_dot, kDynamics);
+  // A linear output has a constant H (kept from the constructor) and h_bar = H_dot q_dot = 0.
+  const unsigned quantities =
+      output_is_linear_ ? (kDynamics & ~(Quantity::kOutputJacobian | Quantity::kOutputBias))
+                        : kDynamics;
+  Evaluate(model_, workspace_, q, q_dot, quantities);
   if (!workspace_.mass_matrix.allFinite() || !workspace_.forces.allFinite() ||
       !workspace_.input_matrix.allFinite() || !workspace_.output.allFinite() ||
       !workspace_.output_jacobian.allFinite() || !workspace_.output_bias.allFinite()) {
@@ -127,7 +132,8 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
   // (min L_ii / max L_ii)^2 estimates 1/cond(M) from the factor at no extra cost (Eigen's
   // rcond() runs triangular solves and dominated the normal form's right-hand side).
   const auto diagonal = mass_factor_.matrixLLT().diagonal();
-  const double reciprocal_condition = std::pow(diagonal.minCoeff() / diagonal.maxCoeff(), 2);
+  const double diagonal_ratio = diagonal.minCoeff() / diagonal.maxCoeff();
+  const double reciprocal_condition = diagonal_ratio * diagonal_ratio;
   if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
     why = "M(q) is singular (reciprocal condition number " + Short(reciprocal_condition) + ")";
     return false;
@@ -184,7 +190,10 @@ bool ServoConstraintProblem::StateFromInternal(double t,
     }
     if (correction_.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
     if (iteration + 1 >= options_.max_coordinate_iterations) {
-      why = "Newton's method for q from y_d and the internal coordinates does not converge";
+      // Near a singular [H; C^T] Newton stalls before the pivot test trips: say how close.
+      why = "Newton's method for q from y_d and the internal coordinates does not converge "
+            "([H; C^T] nearly singular: pivot ratio " +
+            Short(pivots.minCoeff() / pivots.maxCoeff()) + ")";
       return false;
     }
   }
@@ -206,8 +215,11 @@ bool ServoConstraintProblem::NormalForm(double t,
                                         std::string& why) {
   if (!EvaluateDynamics(q, q_dot, why)) return false;
   DesiredAt(t);
-  input_accelerations_ = mass_factor_.solve(workspace_.input_matrix);
-  force_accelerations_ = mass_factor_.solve(workspace_.forces);
+  // In place: Eigen's solve() of a matrix right-hand side goes through a temporary.
+  input_accelerations_ = workspace_.input_matrix;
+  mass_factor_.solveInPlace(input_accelerations_);
+  force_accelerations_ = workspace_.forces;
+  mass_factor_.solveInPlace(force_accelerations_);
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
   decoupling_.noalias() = DecouplingMatrix(output_jacobian, input_accelerations_);
   // Full pivoting reveals the rank: its smallest pivot is within a small factor of sigma_min
@@ -251,8 +263,14 @@ bool ServoConstraintProblem::ProjectedEquations(double t,
   const auto u = x.tail(num_inputs());
   if (!EvaluateDynamics(q, v, why)) return false;
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
-  const Eigen::MatrixXd tangent_basis = TangentBasisAt(output_jacobian);
-  const Eigen::VectorXd applied = workspace_.input_matrix * u - workspace_.forces;  // B u - f
+  // With a constant H, D(q) = D_0 (H D_0 = 0 already).
+  if (!output_is_linear_) tangent_basis_ = TangentBasisAt(output_jacobian);
+  const Eigen::MatrixXd& tangent_basis = output_is_linear_ ? reference_tangent_basis_ : tangent_basis_;
+  applied_.noalias() = workspace_.input_matrix * u;  // B u - f
+  applied_ -= workspace_.forces;
+  const Eigen::VectorXd& applied = applied_;
+  accelerations_ = applied_;
+  mass_factor_.solveInPlace(accelerations_);
 
   mass.setZero(n, n);
   rhs.resize(n);
@@ -264,8 +282,8 @@ bool ServoConstraintProblem::ProjectedEquations(double t,
   rhs.segment(f, f - m) = tangent_basis.transpose() * applied;
   // Eq. (17): 0 = P u - H M^-1 f + h_bar - y_d'' = H M^-1 (B u - f) + h_bar - y_d''.
   DesiredAt(t);
-  rhs.segment(2 * f - m, m) = output_jacobian * mass_factor_.solve(applied) +
-                              workspace_.output_bias - desired_.col(2);
+  rhs.segment(2 * f - m, m).noalias() = output_jacobian * accelerations_;
+  rhs.segment(2 * f - m, m) += workspace_.output_bias - desired_.col(2);
   // Eq. (18): 0 = h(q) - y_d.
   rhs.tail(m) = workspace_.output - desired_.col(0);
   return true;

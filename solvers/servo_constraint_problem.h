@@ -132,6 +132,9 @@ class ServoConstraintProblem {
   Eigen::MatrixXd decoupling_;           // P
   Eigen::FullPivLU<Eigen::MatrixXd> decoupling_factor_;
   Eigen::VectorXd decoupling_rhs_;       // H M^-1 f - h_bar + y_d'' (Eq. 24)
+  Eigen::MatrixXd tangent_basis_;        // D(q) of the last evaluation
+  Eigen::VectorXd applied_;              // B u - f
+  Eigen::VectorXd accelerations_;        // M^-1 (B u - f)
   Eigen::MatrixXd reference_tangent_basis_;  // D_0
   Eigen::MatrixXd internal_directions_;      // C
   bool internal_are_unactuated_ = false;

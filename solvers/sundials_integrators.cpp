@@ -115,6 +115,7 @@ class CallbackGuard {
     if (refusal_time_ <= t) refusal_.clear();
   }
   bool HasRefusal() const { return !refusal_.empty(); }
+  double refusal_time() const { return refusal_time_; }
   std::string RefusalMessage() const { return AtTime(refusal_time_) + ": " + refusal_; }
   long evaluations() const { return evaluations_; }
 
@@ -230,6 +231,8 @@ class OneStepIntegrator {
 
   // The next steps end exactly on `stop_time` and do not pass it.
   virtual void SetStopTime(double stop_time) = 0;
+  // Upper bound of the step size (infinity: none).
+  virtual void SetMaxStep(double max_step) = 0;
   // One internal step towards `stop_time`. Returns the package's flag; on success sets `t`,
   // solution() and (for a DAE) derivative().
   virtual int TakeStep(double stop_time, double& t) = 0;
@@ -327,6 +330,10 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
     }
   }
 
+  void SetMaxStep(double max_step) override {
+    Check(ERKStepSetMaxStep(memory_.get(), std::isfinite(max_step) ? max_step : 0.0),
+          "ERKStepSetMaxStep");
+  }
   void SetStopTime(double stop_time) override {
     Check(ERKStepSetStopTime(memory_.get(), stop_time), "ERKStepSetStopTime");
   }
@@ -400,6 +407,10 @@ class BdfIntegrator final : public OneStepIntegrator {
     }
   }
 
+  void SetMaxStep(double max_step) override {
+    Check(CVodeSetMaxStep(memory_.get(), std::isfinite(max_step) ? max_step : 0.0),
+          "CVodeSetMaxStep");
+  }
   void SetStopTime(double stop_time) override {
     Check(CVodeSetStopTime(memory_.get(), stop_time), "CVodeSetStopTime");
   }
@@ -499,6 +510,10 @@ class IdaIntegrator final : public OneStepIntegrator {
     }
   }
 
+  void SetMaxStep(double max_step) override {
+    Check(IDASetMaxStep(memory_.get(), std::isfinite(max_step) ? max_step : 0.0),
+          "IDASetMaxStep");
+  }
   void SetStopTime(double stop_time) override {
     Check(IDASetStopTime(memory_.get(), stop_time), "IDASetStopTime");
   }
@@ -630,6 +645,7 @@ class IntegrationRun {
       const double step_start = t_;
       flag = integrator_.TakeStep(segment_end, t_);
       guard_.RethrowIfThrown();
+      if (flag < 0 && RetryShorter(segment_end)) continue;
       if (flag < 0) {
         return Finish(SolveStatus::kIntegratorFailure, integrator_.FailureMessage(flag, t_));
       }
@@ -640,9 +656,29 @@ class IntegrationRun {
       }
       ++summary_.steps;
       guard_.ForgetRefusalsUpTo(t_);
+      if (step_cap_ < kNoCap && !guard_.HasRefusal()) {
+        step_cap_ = kNoCap;  // past the trouble: the error control decides again
+        integrator_.SetMaxStep(options_.max_step);
+      }
       if (auto stopped = Observe()) return stopped;
     } while (!integrator_.ReachedStopTime(flag));
     return std::nullopt;
+  }
+
+  // A trial step that reached ahead into a region where the right-hand side refuses (a
+  // singularity further on) is fatal to ARKODE's explicit stepper, which cannot retry. Then
+  // restart from the last accepted step with the step size capped at a quarter of the
+  // distance to the refusal, shrinking it at each failure, so that the run stops close to the
+  // singularity with the time at which it really failed. True if a retry was set up.
+  bool RetryShorter(double segment_end) {
+    if (!guard_.HasRefusal() || !(guard_.refusal_time() > t_)) return false;
+    step_cap_ = std::min(step_cap_, guard_.refusal_time() - t_) / 4.0;
+    if (!(step_cap_ > kMinRelativeCap * std::max(1.0, std::abs(t_)))) return false;
+    guard_.ForgetRefusalsUpTo(guard_.refusal_time());
+    if (integrator_.Restart(t_, segment_end) < 0) return false;
+    integrator_.SetMaxStep(std::min(step_cap_, options_.max_step));
+    integrator_.SetStopTime(segment_end);
+    return true;
   }
 
   // Shows the observer the solution at t_; returns the summary if the run stops there.
@@ -675,6 +711,11 @@ class IntegrationRun {
     return summary_;
   }
 
+  static constexpr double kNoCap = std::numeric_limits<double>::infinity();
+  // Retries of RetryShorter() end when the cap falls below this, relative to |t|: the
+  // singularity is then located to round-off.
+  static constexpr double kMinRelativeCap = 1e-12;
+  double step_cap_ = kNoCap;
   OneStepIntegrator& integrator_;
   CallbackGuard& guard_;
   const IntegratorOptions& options_;

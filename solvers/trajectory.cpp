@@ -60,12 +60,25 @@ RestToRestTrajectory::RestToRestTrajectory(
                      std::to_string(continuous_derivatives) + ": must be >= 1");
   }
   coefficients_ = RestToRestCoefficients(continuous_derivatives);
-  // The time scales of the orders right-hand sides read most (y_d, y_d', y_d''), so that
-  // Derivatives() calls no pow().
-  for (int order = 0; order <= 4; ++order) time_scales_.push_back(std::pow(tf_ - t0_, -order));
+  for (int order = 0; order < kTabulatedOrders; ++order) {
+    std::vector<double> scaled;
+    const double scale = std::pow(tf_ - t0_, -order);
+    for (std::size_t i = std::size_t(order); i < coefficients_.size(); ++i) {
+      double falling = 1.0;  // i (i-1) ... (i-order+1)
+      for (int j = 0; j < order; ++j) falling *= double(i) - double(j);
+      scaled.push_back(coefficients_[i] * falling * scale);
+    }
+    scaled_derivative_coefficients_.push_back(std::move(scaled));
+  }
 }
 
 double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) const {
+  if (order < kTabulatedOrders) {
+    const std::vector<double>& coefficients = scaled_derivative_coefficients_[std::size_t(order)];
+    double value = 0.0;
+    for (auto c = coefficients.rbegin(); c != coefficients.rend(); ++c) value = value * tau + *c;
+    return value;
+  }
   // d^order/dtau^order of sum c_i tau^i, by Horner on the differentiated coefficients.
   double value = 0.0;
   for (int i = int(coefficients_.size()) - 1; i >= order; --i) {
@@ -73,7 +86,6 @@ double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) c
     for (int j = 0; j < order; ++j) falling *= double(i - j);
     value = value * tau + coefficients_[std::size_t(i)] * falling;
   }
-  if (std::size_t(order) < time_scales_.size()) return value * time_scales_[std::size_t(order)];
   return value * std::pow(tf_ - t0_, -order);
 }
 

@@ -62,7 +62,10 @@ class RestToRestTrajectory final : public OutputTrajectory {
   double t0_, tf_;
   int continuous_derivatives_;
   std::vector<double> coefficients_;
-  std::vector<double> time_scales_;  // (tf - t0)^-order for the orders Derivatives() was asked
+  // For the orders right-hand sides read most (0..kTabulatedOrders-1): the coefficients of
+  // d^order p / dtau^order times (tf - t0)^-order, so that Derivatives() is one Horner loop.
+  static constexpr int kTabulatedOrders = 5;
+  std::vector<std::vector<double>> scaled_derivative_coefficients_;
   // d^order p / dtau^order at tau, scaled by (tf - t0)^-order; the one place this is evaluated.
   double ScaledPolynomialDerivative(double tau, int order) const;
 };

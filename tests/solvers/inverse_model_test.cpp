@@ -360,3 +360,35 @@ TEST_CASE("inverse model options: defaults need only t_end, bad fields are named
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+TEST_CASE("a singularity along the motion stops the solve with the time and the reason",
+          "[solvers]") {
+  // y = sin(x) + s with B acting on x: P = cos(x), regular at rest, zero where x reaches
+  // pi/2. Asked to move y from 0 to 3, x must pass pi/2 (|sin x| <= 1 while s stays small
+  // under its spring), so the normal form meets P = 0 on the way.
+  const Model model = LoadModel(testing::TestDataPath("decoupling_vanishes.yaml"));
+  Workspace workspace(model);
+  const Classification classification = Classify(model, workspace);
+  REQUIRE(classification.decoupling.rank == 1);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 3.0),
+                                        0.0, 2.0);
+  InverseModelOptions options;
+  options.method = SolverMethod::kNormalForm;
+  options.t_end = 3.0;
+  const FeedforwardSolution solution =
+      SolveInverseModel(model, trajectory, classification, options);
+  CHECK_FALSE(solution.summary.IsUsable());
+  CHECK(solution.summary.stop_time > 0.0);
+  CHECK(solution.summary.stop_time < 2.0);
+  CHECK_THAT(solution.summary.message, Catch::Contains("singular"));
+  CHECK_THAT(solution.summary.message, Catch::Contains("t = "));
+  // The rows up to the singularity are kept, and x was close to pi/2 at the last one.
+  REQUIRE_FALSE(solution.times.empty());
+  CHECK(std::abs(std::cos(solution.q.back()(0))) < 0.2);
+}
+
+}  // namespace
+}  // namespace servokit
