@@ -112,11 +112,13 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
 
 bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::VectorXd>& q,
                                               const Eigen::Ref<const Eigen::VectorXd>& q_dot,
-                                              std::string& why) {
+                                              std::string& why,
+                                              bool with_output) {
   // A linear output has a constant H (kept from the constructor) and h_bar = H_dot q_dot = 0.
-  const unsigned quantities =
+  unsigned quantities =
       output_is_linear_ ? (kDynamics & ~(Quantity::kOutputJacobian | Quantity::kOutputBias))
                         : kDynamics;
+  if (!with_output) quantities &= ~static_cast<unsigned>(Quantity::kOutput);
   Evaluate(model_, workspace_, q, q_dot, quantities);
   if (!workspace_.mass_matrix.allFinite() || !workspace_.forces.allFinite() ||
       !workspace_.input_matrix.allFinite() || !workspace_.output.allFinite() ||
@@ -213,7 +215,7 @@ bool ServoConstraintProblem::NormalForm(double t,
                                         Eigen::VectorXd& u,
                                         Eigen::VectorXd& q_ddot,
                                         std::string& why) {
-  if (!EvaluateDynamics(q, q_dot, why)) return false;
+  if (!EvaluateDynamics(q, q_dot, why, /*with_output=*/false)) return false;  // h unused
   DesiredAt(t);
   // In place: Eigen's solve() of a matrix right-hand side goes through a temporary.
   input_accelerations_ = workspace_.input_matrix;

@@ -14,6 +14,7 @@
 // orthonormal tangent basis at the reference point: smooth in q (an SVD basis computed anew at
 // every q may flip sign or rotate between steps), and H D = 0 holds exactly.
 #include <Eigen/Dense>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -111,10 +112,15 @@ class ServoConstraintProblem {
   // reason when M is singular or a value is not finite.
   bool EvaluateDynamics(const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& q_dot,
-                        std::string& why);
+                        std::string& why,
+                        bool with_output = true);
 
-  // y_d, y_d', y_d'' at t into desired_ (outputs x 3).
-  void DesiredAt(double t) { trajectory_.Derivatives(t, 2, desired_); }
+  // y_d, y_d', y_d'' at t into desired_ (outputs x 3); the normal form asks twice per t.
+  void DesiredAt(double t) {
+    if (t == desired_time_) return;
+    trajectory_.Derivatives(t, 2, desired_);
+    desired_time_ = t;
+  }
 
   const Model& model_;
   const OutputTrajectory& trajectory_;
@@ -124,6 +130,7 @@ class ServoConstraintProblem {
   // Buffers of the right-hand sides, kept so that an integrator's inner loop allocates little.
   Eigen::VectorXd zero_velocity_;
   Eigen::MatrixXd desired_;
+  double desired_time_ = std::numeric_limits<double>::quiet_NaN();
   Eigen::MatrixXd chart_;  // [H; C^T]
   Eigen::VectorXd chart_residual_, correction_, velocity_targets_;
   Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor_;

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "models/errors.h"
+#include "solvers/radau.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -388,6 +389,55 @@ TEST_CASE("a singularity along the motion stops the solve with the time and the 
   // The rows up to the singularity are kept, and x was close to pi/2 at the last one.
   REQUIRE_FALSE(solution.times.empty());
   CHECK(std::abs(std::cos(solution.q.back()(0))) < 0.2);
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+TEST_CASE("case 4 at constant steps: Radau IIA's index-3 input converges at order 2, its "
+          "index-2 velocities at order 3", "[solvers][paper]") {
+  // Hairer, Lubich & Roche (1989): Radau IIA with s = 3 stages on an index-3 DAE has global
+  // errors O(h^(s-1)) in the index-3 and O(h^s) in the index-2 components. With the step held
+  // constant (initial = max step, a tolerance that never rejects), halving h must divide the
+  // error of u by 4 and that of x' by 8. x' = y' + (m2/k) y''' (Eqs. 27, 45).
+  const Case problem = LoadCase("0", "0");
+  const RestToRestTrajectory trajectory = PaperTrajectory();
+  std::vector<double> input_errors, velocity_errors;
+  for (const double step : {0.1, 0.05, 0.025}) {
+    ServoConstraintProblem equations(problem.model, trajectory, Eigen::VectorXd::Zero(2));
+    ProjectedDae dae(equations, /*decoupling_regular=*/false);
+    Eigen::VectorXd x_start = Eigen::VectorXd::Zero(5);
+    x_start(0) = 0.5;  // at rest at y = 0.5 with s = 0
+    RadauOptions options;
+    options.initial_step = options.max_step = step;
+    options.rtol = options.atol = 1e-2;
+    double input_error = 0.0, velocity_error = 0.0;
+    const SolveSummary summary = IntegrateRadau(
+        dae, 0.0, x_start, kTEnd, trajectory.breakpoints(), options,
+        [&](double t, const Eigen::VectorXd& x) {
+          input_error = std::max(input_error, std::abs(x(4) - PaperForceCase4(trajectory, t)));
+          const double car_velocity = trajectory.Derivative(t, 1)(0) +
+                                      kM2 / kStiffness * trajectory.Derivative(t, 3)(0);
+          velocity_error = std::max(velocity_error, std::abs(x(2) - car_velocity));
+          return true;
+        });
+    REQUIRE(summary.IsUsable());
+    CHECK(summary.rejected_steps == 0);
+    CHECK(summary.steps == Approx(kTEnd / step).margin(2));  // constant steps
+    input_errors.push_back(input_error);
+    velocity_errors.push_back(velocity_error);
+  }
+  WARN("Radau IIA case 4 at h = 0.1, 0.05, 0.025 s: max |u - Eq. 47| = " << input_errors[0]
+       << ", " << input_errors[1] << ", " << input_errors[2] << "; max |x' - exact| = "
+       << velocity_errors[0] << ", " << velocity_errors[1] << ", " << velocity_errors[2]);
+  for (std::size_t k = 0; k + 1 < input_errors.size(); ++k) {
+    // Asymptotic ratios 4 and 8, within the pre-asymptotic spread at h = 0.1.
+    CHECK(input_errors[k] / input_errors[k + 1] == Approx(4.0).epsilon(0.15));
+    CHECK(velocity_errors[k] / velocity_errors[k + 1] == Approx(8.0).epsilon(0.25));
+  }
 }
 
 }  // namespace
