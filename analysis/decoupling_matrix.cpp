@@ -7,9 +7,17 @@
 
 namespace servokit {
 
-Eigen::MatrixXd DecouplingMatrix(const Eigen::MatrixXd& output_jacobian,
-                                 const Eigen::MatrixXd& input_accelerations) {
-  return output_jacobian * input_accelerations;
+void DecouplingMatrix(const Eigen::Ref<const Eigen::MatrixXd>& output_jacobian,
+                      const Eigen::Ref<const Eigen::MatrixXd>& input_accelerations,
+                      Eigen::MatrixXd& decoupling) {
+  decoupling.noalias() = output_jacobian * input_accelerations;
+}
+
+Eigen::MatrixXd DecouplingMatrix(const Eigen::Ref<const Eigen::MatrixXd>& output_jacobian,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& input_accelerations) {
+  Eigen::MatrixXd decoupling;
+  DecouplingMatrix(output_jacobian, input_accelerations, decoupling);
+  return decoupling;
 }
 
 Eigen::MatrixXd TangentBasis(const Eigen::MatrixXd& output_jacobian, double rank_tolerance) {

@@ -9,9 +9,15 @@
 namespace servokit {
 
 /// P = H M^-1 B (paper Eq. 10): the one place this formula is written. H is outputs x dof,
-/// M^-1 B (the input accelerations) dof x inputs; returns outputs x inputs.
-Eigen::MatrixXd DecouplingMatrix(const Eigen::MatrixXd& output_jacobian,
-                                 const Eigen::MatrixXd& input_accelerations);
+/// M^-1 B (the input accelerations) dof x inputs; writes outputs x inputs into `decoupling`
+/// (resized only when its size differs, so that integrators' inner loops do not allocate).
+void DecouplingMatrix(const Eigen::Ref<const Eigen::MatrixXd>& output_jacobian,
+                      const Eigen::Ref<const Eigen::MatrixXd>& input_accelerations,
+                      Eigen::MatrixXd& decoupling);
+
+/// The same, returned.
+Eigen::MatrixXd DecouplingMatrix(const Eigen::Ref<const Eigen::MatrixXd>& output_jacobian,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& input_accelerations);
 
 /// An orthonormal D with H D = 0 (paper Eq. 11): dof x (dof - rank H).
 Eigen::MatrixXd TangentBasis(const Eigen::MatrixXd& output_jacobian, double rank_tolerance);

@@ -94,18 +94,37 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
     }
   }
 
-  output_is_linear_ = true;
-  const GiNaC::matrix& symbolic_jacobian = model.symbolic().output_jacobian();
-  for (unsigned row = 0; row < symbolic_jacobian.rows(); ++row) {
-    for (unsigned column = 0; column < symbolic_jacobian.cols(); ++column) {
-      for (const GiNaC::realsymbol& coordinate : model.symbolic().coordinates()) {
-        if (symbolic_jacobian(row, column).has(coordinate)) output_is_linear_ = false;
+  const auto independent_of_q = [&](const GiNaC::matrix& matrix) {
+    for (unsigned row = 0; row < matrix.rows(); ++row) {
+      for (unsigned column = 0; column < matrix.cols(); ++column) {
+        for (const GiNaC::realsymbol& coordinate : model.symbolic().coordinates()) {
+          if (matrix(row, column).has(coordinate)) return false;
+        }
       }
+    }
+    return true;
+  };
+  output_is_linear_ = options_.exploit_constant_structure &&
+                     independent_of_q(model.symbolic().output_jacobian());
+  std::string why;
+  if (output_is_linear_ && independent_of_q(model.symbolic().mass_matrix()) &&
+      independent_of_q(model.symbolic().input_matrix()) &&
+      EvaluateDynamics(reference_q, zero_velocity_, why)) {
+    constant_mass_factor_ = mass_factor_;
+    constant_input_accelerations_ = mass_factor_.solve(workspace_.input_matrix);
+    const Eigen::MatrixXd decoupling = DecouplingMatrix(output_jacobian, constant_input_accelerations_);
+    const Eigen::FullPivLU<Eigen::MatrixXd> factor(decoupling);
+    const double scale = output_jacobian.norm() * constant_input_accelerations_.norm();
+    // Only when P is regular; otherwise NormalForm() reports the singular P as usual.
+    if (factor.matrixLU().diagonal().cwiseAbs().minCoeff() > options_.rank_tolerance * scale) {
+      constant_decoupling_inverse_ = factor.inverse();
+      constant_geometry_ = true;
     }
   }
   if (output_is_linear_) {
     chart_ << output_jacobian, internal_directions_.transpose();
-    constant_chart_factor_.compute(chart_);
+    constant_chart_inverse_ = chart_.inverse();  // well-conditioned: checked above
+    output_offset_ = workspace_.output - output_jacobian * reference_q;  // h_0
     workspace_.output_bias.setZero();  // stays: h_bar = 0, H as evaluated above
   }
 }
@@ -155,15 +174,14 @@ bool ServoConstraintProblem::StateFromInternal(double t,
   const Eigen::Index m = num_outputs();
   DesiredAt(t);
   if (output_is_linear_) {
-    // h(q) = H q + h(0): Eq. (19) is linear, solved exactly with the factor from the start.
-    Evaluate(model_, workspace_, q, zero_velocity_, Quantity::kOutput);
-    chart_residual_.head(m) = workspace_.output - desired_.col(0);
-    chart_residual_.tail(num_internal()).noalias() = internal_directions_.transpose() * q;
-    chart_residual_.tail(num_internal()) -= z;
-    correction_ = constant_chart_factor_.solve(chart_residual_);
-    q -= correction_;
-    velocity_targets_ << desired_.col(1), z_dot;
-    q_dot = constant_chart_factor_.solve(velocity_targets_);
+    // h(q) = H q + h_0: Eq. (19) is linear, [H; C^T] q = [y_d - h_0; z], solved exactly with
+    // the inverse formed at the start.
+    chart_residual_.head(m) = desired_.col(0) - output_offset_;
+    chart_residual_.tail(num_internal()) = z;
+    q.noalias() = constant_chart_inverse_ * chart_residual_;
+    velocity_targets_.head(m) = desired_.col(1);
+    velocity_targets_.tail(num_internal()) = z_dot;
+    q_dot.noalias() = constant_chart_inverse_ * velocity_targets_;
     if (!q.allFinite() || !q_dot.allFinite()) {
       why = "the coordinates became NaN or Inf";
       return false;
@@ -215,31 +233,67 @@ bool ServoConstraintProblem::NormalForm(double t,
                                         Eigen::VectorXd& u,
                                         Eigen::VectorXd& q_ddot,
                                         std::string& why) {
+  if (constant_geometry_) return ConstantGeometryNormalForm(t, q, q_dot, u, q_ddot, why);
   if (!EvaluateDynamics(q, q_dot, why, /*with_output=*/false)) return false;  // h unused
   DesiredAt(t);
-  // In place: Eigen's solve() of a matrix right-hand side goes through a temporary.
-  input_accelerations_ = workspace_.input_matrix;
-  mass_factor_.solveInPlace(input_accelerations_);
-  force_accelerations_ = workspace_.forces;
-  mass_factor_.solveInPlace(force_accelerations_);
+  // M^-1 B and M^-1 f in one in-place solve (Eigen's solve() of a matrix right-hand side
+  // goes through a temporary).
+  const Eigen::Index m = num_inputs();
+  accelerations_of_inputs_and_forces_.resize(dof(), m + 1);
+  accelerations_of_inputs_and_forces_.leftCols(m) = workspace_.input_matrix;
+  accelerations_of_inputs_and_forces_.col(m) = workspace_.forces;
+  mass_factor_.solveInPlace(accelerations_of_inputs_and_forces_);
+  const auto input_accelerations = accelerations_of_inputs_and_forces_.leftCols(m);
+  const auto force_accelerations = accelerations_of_inputs_and_forces_.col(m);
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
-  decoupling_.noalias() = DecouplingMatrix(output_jacobian, input_accelerations_);
-  // Full pivoting reveals the rank: its smallest pivot is within a small factor of sigma_min
-  // (exactly it for one output), and costs far less than an SVD in this inner loop.
-  decoupling_factor_.compute(decoupling_);
-  const double scale = output_jacobian.norm() * input_accelerations_.norm();
-  const double smallest = decoupling_factor_.matrixLU().diagonal().cwiseAbs().minCoeff();
+  DecouplingMatrix(output_jacobian, input_accelerations, decoupling_);
+  const double scale = output_jacobian.norm() * input_accelerations.norm();
+  // Eq. (24): u = P^-1 (H M^-1 f - h_bar + y_d'').
+  decoupling_rhs_.noalias() = output_jacobian * force_accelerations;
+  decoupling_rhs_ += desired_.col(2) - workspace_.output_bias;
+  double smallest = 0.0;
+  if (m == 1) {
+    // One input, the common case: P is a number, and pivoting machinery would cost more than
+    // the rest of the right-hand side.
+    smallest = std::abs(decoupling_(0, 0));
+    u.resize(1);
+    u(0) = decoupling_rhs_(0) / decoupling_(0, 0);
+  } else {
+    // Full pivoting reveals the rank: its smallest pivot is within a small factor of sigma_min.
+    decoupling_factor_.compute(decoupling_);
+    smallest = decoupling_factor_.matrixLU().diagonal().cwiseAbs().minCoeff();
+    u = decoupling_factor_.solve(decoupling_rhs_);
+  }
   if (!(smallest > options_.rank_tolerance * scale)) {
     why = "P = H M^-1 B is singular (smallest pivot / (|H| |M^-1 B|) = " +
           Short(smallest / scale) + ")";
     return false;
   }
-  // Eq. (24): u = P^-1 (H M^-1 f - h_bar + y_d'').
-  decoupling_rhs_.noalias() = output_jacobian * force_accelerations_;
-  decoupling_rhs_ += desired_.col(2) - workspace_.output_bias;
-  u = decoupling_factor_.solve(decoupling_rhs_);
   // Eq. (1) solved for q''; its C^T-part is Eq. (25).
-  q_ddot.noalias() = input_accelerations_ * u;
+  q_ddot.noalias() = input_accelerations * u;
+  q_ddot -= force_accelerations;
+  return true;
+}
+
+bool ServoConstraintProblem::ConstantGeometryNormalForm(double t,
+                                                        const Eigen::VectorXd& q,
+                                                        const Eigen::VectorXd& q_dot,
+                                                        Eigen::VectorXd& u,
+                                                        Eigen::VectorXd& q_ddot,
+                                                        std::string& why) {
+  Evaluate(model_, workspace_, q, q_dot, Quantity::kForces);
+  if (!workspace_.forces.allFinite()) {
+    why = "the model evaluates to NaN or Inf";
+    return false;
+  }
+  DesiredAt(t);
+  force_accelerations_ = workspace_.forces;
+  constant_mass_factor_.solveInPlace(force_accelerations_);  // M^-1 f
+  // Eq. (24) with h_bar = 0 (H constant): u = P^-1 (H M^-1 f + y_d'').
+  decoupling_rhs_.noalias() = workspace_.output_jacobian * force_accelerations_;
+  decoupling_rhs_ += desired_.col(2);
+  u.noalias() = constant_decoupling_inverse_ * decoupling_rhs_;
+  q_ddot.noalias() = constant_input_accelerations_ * u;  // Eq. (1) for q''; Eq. (25)
   q_ddot -= force_accelerations_;
   return true;
 }

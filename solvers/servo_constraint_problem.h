@@ -36,6 +36,9 @@ struct ServoProblemOptions {
   // relative to 1 + |q|.
   double coordinate_tolerance = 1e-13;
   int max_coordinate_iterations = 25;
+  // When H (and M, B) do not depend on q, factor them once instead of at every evaluation.
+  // Off only to check the general path against the shortcut.
+  bool exploit_constant_structure = true;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
 };
@@ -115,6 +118,14 @@ class ServoConstraintProblem {
                         std::string& why,
                         bool with_output = true);
 
+  // NormalForm() when M, B and H are constant: only f is evaluated.
+  bool ConstantGeometryNormalForm(double t,
+                                  const Eigen::VectorXd& q,
+                                  const Eigen::VectorXd& q_dot,
+                                  Eigen::VectorXd& u,
+                                  Eigen::VectorXd& q_ddot,
+                                  std::string& why);
+
   // y_d, y_d', y_d'' at t into desired_ (outputs x 3); the normal form asks twice per t.
   void DesiredAt(double t) {
     if (t == desired_time_) return;
@@ -134,8 +145,8 @@ class ServoConstraintProblem {
   Eigen::MatrixXd chart_;  // [H; C^T]
   Eigen::VectorXd chart_residual_, correction_, velocity_targets_;
   Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor_;
-  Eigen::MatrixXd input_accelerations_;  // M^-1 B
-  Eigen::VectorXd force_accelerations_;  // M^-1 f
+  Eigen::MatrixXd accelerations_of_inputs_and_forces_;  // M^-1 [B f], one solve for both
+  Eigen::VectorXd force_accelerations_;                 // M^-1 f
   Eigen::MatrixXd decoupling_;           // P
   Eigen::FullPivLU<Eigen::MatrixXd> decoupling_factor_;
   Eigen::VectorXd decoupling_rhs_;       // H M^-1 f - h_bar + y_d'' (Eq. 24)
@@ -148,7 +159,14 @@ class ServoConstraintProblem {
   // h is linear in q (H constant, as for the mass on car): [H; C^T] is factored once and
   // StateFromInternal() needs no Newton iteration.
   bool output_is_linear_ = false;
-  Eigen::PartialPivLU<Eigen::MatrixXd> constant_chart_factor_;
+  Eigen::MatrixXd constant_chart_inverse_;  // [H; C^T]^-1: a product is cheaper than a solve
+  Eigen::VectorXd output_offset_;           // h_0 = h(q) - H q
+  // M, B and H do not depend on q (linear and linearized models, the mass on car): M is
+  // factored, M^-1 B and P are formed once, and the normal form evaluates only f.
+  bool constant_geometry_ = false;
+  Eigen::LLT<Eigen::MatrixXd> constant_mass_factor_;
+  Eigen::MatrixXd constant_input_accelerations_;  // M^-1 B
+  Eigen::MatrixXd constant_decoupling_inverse_;   // P^-1
 };
 
 /// The projected DAE (Eqs. 15-18) as Radau IIA and Euler backward see it. Component indices:

@@ -36,7 +36,12 @@ TEST_CASE("the normal form of the mass on car at 5 deg is the paper's Eqs. (35) 
   const double damping = 1.0, alpha = 5.0 * M_PI / 180.0;
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "1"}});
   const RestToRestTrajectory trajectory = PaperTrajectory();
-  ServoConstraintProblem problem(model, trajectory, Eigen::VectorXd::Zero(2));
+  // M, B and H are constant here: once with the shortcut that factors them once, once with
+  // the general path that evaluates and factors them at every call.
+  const bool exploit = GENERATE(true, false);
+  ServoProblemOptions options;
+  options.exploit_constant_structure = exploit;
+  ServoConstraintProblem problem(model, trajectory, Eigen::VectorXd::Zero(2), options);
   // Eq. (19) with q_u = s: the internal coordinate is the unactuated s.
   REQUIRE(problem.internal_are_unactuated());
   CHECK(problem.internal_directions().isApprox(Vector({0.0, 1.0})));
