@@ -301,6 +301,38 @@ void SolveProjected(ServoConstraintProblem& problem,
       });
 }
 
+// Watches det P from step to step: a sign change means P passed through singular between two
+// steps, where u_d ~ P^-1 has a pole, even if the integrator stepped over the instant (as it
+// may when the internal dynamics do not feel it). Stops the run there.
+class DecouplingWatch {
+ public:
+  // True to go on; false (with the summary's status and message set by Finish()) to stop.
+  bool Check(double t, double determinant) {
+    const bool crossed = std::isfinite(previous_) && determinant * previous_ < 0.0;
+    if (crossed) {
+      message_ = "P = H M^-1 B is singular between t = " + Number(previous_time_) + " s and " +
+                 Number(t) + " s (det P changes sign from " + Number(previous_) + " to " +
+                 Number(determinant) + "): u_d has a pole there";
+      return false;
+    }
+    previous_ = determinant;
+    previous_time_ = t;
+    return true;
+  }
+  // After the integrator stopped: a crossing overrides its kInterrupted.
+  void Finish(SolveSummary& summary) const {
+    if (message_.empty()) return;
+    summary.status = SolveStatus::kSingularDecoupling;
+    summary.message = message_;
+    summary.stop_time = previous_time_;
+  }
+
+ private:
+  double previous_ = std::numeric_limits<double>::quiet_NaN();
+  double previous_time_ = 0.0;
+  std::string message_;
+};
+
 void SolveBdf(ServoConstraintProblem& problem,
               const InverseModelOptions& options,
               const StartState& start,
@@ -314,6 +346,7 @@ void SolveBdf(ServoConstraintProblem& problem,
   }
   x_start << start.q, start.q_dot, u;
   x_dot_start << start.q_dot, q_ddot, Eigen::VectorXd::Zero(problem.num_inputs());
+  DecouplingWatch watch;
   std::vector<bool> differential(std::size_t(n), true);
   for (Eigen::Index i = 2 * f; i < n; ++i) differential[std::size_t(i)] = false;
   IntegratorOptions integrator;
@@ -331,9 +364,17 @@ void SolveBdf(ServoConstraintProblem& problem,
       // across the breakpoints (Eq. 65 has 4 continuous derivatives), so BDF steps across.
       options.t_start, x_start, x_dot_start, differential, options.t_end, {}, integrator,
       [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd&) {
+        // det P at the step, from the normal form of the same state.
+        Eigen::VectorXd input, q_ddot_at_step;
+        std::string reason;
+        if (!problem.NormalForm(t, x.head(f), x.segment(f, f), input, q_ddot_at_step, reason) ||
+            !watch.Check(t, problem.decoupling_determinant())) {
+          return false;
+        }
         Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
         return true;
       });
+  watch.Finish(solution.summary);
 }
 
 void SolveNormalForm(ServoConstraintProblem& problem,
@@ -361,6 +402,7 @@ void SolveNormalForm(ServoConstraintProblem& problem,
     evaluated_y = y;
     return true;
   };
+  DecouplingWatch watch;
   IntegratorOptions integrator;
   const MethodDefaults defaults = DefaultTolerances(SolverMethod::kNormalForm);
   integrator.rtol = options.rtol.value_or(defaults.rtol);
@@ -376,10 +418,13 @@ void SolveNormalForm(ServoConstraintProblem& problem,
       options.t_start, internal_start, options.t_end, problem.trajectory().breakpoints(),
       integrator, [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
         std::string why;
-        if (!state_at(t, y, why)) return false;
+        if (!state_at(t, y, why) || !watch.Check(t, problem.decoupling_determinant())) {
+          return false;
+        }
         Record(solution, t, q, q_dot, u);
         return true;
       });
+  watch.Finish(solution.summary);
 }
 
 }  // namespace
@@ -447,6 +492,13 @@ FeedforwardSolution SolveInverseModel(const Model& model,
     case SolverMethod::kAuto:
     case SolverMethod::kStableInversion:
       break;  // ChooseMethod() never returns these
+  }
+  // An integrator that stopped on a refused evaluation knows why only as text; the problem
+  // knows the kind (P or M singular).
+  if (!solution.summary.IsUsable() &&
+      (problem.last_failure() == SolveStatus::kSingularDecoupling ||
+       problem.last_failure() == SolveStatus::kSingularMass)) {
+    solution.summary.status = problem.last_failure();
   }
   solution.max_servo_residual = 0.0;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {

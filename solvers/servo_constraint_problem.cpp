@@ -118,6 +118,7 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
     // Only when P is regular; otherwise NormalForm() reports the singular P as usual.
     if (factor.matrixLU().diagonal().cwiseAbs().minCoeff() > options_.rank_tolerance * scale) {
       constant_decoupling_inverse_ = factor.inverse();
+      constant_decoupling_determinant_ = factor.determinant();
       constant_geometry_ = true;
     }
   }
@@ -143,11 +144,13 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
       !workspace_.input_matrix.allFinite() || !workspace_.output.allFinite() ||
       !workspace_.output_jacobian.allFinite() || !workspace_.output_bias.allFinite()) {
     why = "the model evaluates to NaN or Inf";
+    last_failure_ = SolveStatus::kIntegratorFailure;
     return false;
   }
   mass_factor_.compute(workspace_.mass_matrix);
   if (mass_factor_.info() != Eigen::Success) {
     why = "M(q) is not positive definite";
+    last_failure_ = SolveStatus::kSingularMass;
     return false;
   }
   // (min L_ii / max L_ii)^2 estimates 1/cond(M) from the factor at no extra cost (Eigen's
@@ -157,6 +160,7 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
   const double reciprocal_condition = diagonal_ratio * diagonal_ratio;
   if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
     why = "M(q) is singular (reciprocal condition number " + Short(reciprocal_condition) + ")";
+    last_failure_ = SolveStatus::kSingularMass;
     return false;
   }
   return true;
@@ -168,6 +172,7 @@ bool ServoConstraintProblem::StateFromInternal(double t,
                                                Eigen::VectorXd& q,
                                                Eigen::VectorXd& q_dot,
                                                std::string& why) {
+  last_failure_ = SolveStatus::kConverged;
   // A few Newton steps on a square system whose Jacobian [H; C^T] the model already gives;
   // exact in one step when h is linear. (KINSOL would cost more per call than the whole
   // right-hand side of the normal form, which calls this at every stage.)
@@ -184,6 +189,7 @@ bool ServoConstraintProblem::StateFromInternal(double t,
     q_dot.noalias() = constant_chart_inverse_ * velocity_targets_;
     if (!q.allFinite() || !q_dot.allFinite()) {
       why = "the coordinates became NaN or Inf";
+      last_failure_ = SolveStatus::kIntegratorFailure;
       return false;
     }
     return true;
@@ -200,12 +206,14 @@ bool ServoConstraintProblem::StateFromInternal(double t,
     const auto pivots = chart_factor_.matrixLU().diagonal().cwiseAbs();
     if (!(pivots.minCoeff() > kMinChartReciprocalCondition * 1e-4 * pivots.maxCoeff())) {
       why = "y and the internal coordinates no longer determine q ([H; C^T] is singular)";
+      last_failure_ = SolveStatus::kNoConvergence;
       return false;
     }
     correction_ = chart_factor_.solve(chart_residual_);
     q -= correction_;
     if (!q.allFinite()) {
       why = "the coordinates became NaN or Inf";
+      last_failure_ = SolveStatus::kIntegratorFailure;
       return false;
     }
     if (correction_.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
@@ -214,6 +222,7 @@ bool ServoConstraintProblem::StateFromInternal(double t,
       why = "Newton's method for q from y_d and the internal coordinates does not converge "
             "([H; C^T] nearly singular: pivot ratio " +
             Short(pivots.minCoeff() / pivots.maxCoeff()) + ")";
+      last_failure_ = SolveStatus::kNoConvergence;
       return false;
     }
   }
@@ -233,6 +242,7 @@ bool ServoConstraintProblem::NormalForm(double t,
                                         Eigen::VectorXd& u,
                                         Eigen::VectorXd& q_ddot,
                                         std::string& why) {
+  last_failure_ = SolveStatus::kConverged;
   if (constant_geometry_) return ConstantGeometryNormalForm(t, q, q_dot, u, q_ddot, why);
   if (!EvaluateDynamics(q, q_dot, why, /*with_output=*/false)) return false;  // h unused
   DesiredAt(t);
@@ -258,15 +268,18 @@ bool ServoConstraintProblem::NormalForm(double t,
     smallest = std::abs(decoupling_(0, 0));
     u.resize(1);
     u(0) = decoupling_rhs_(0) / decoupling_(0, 0);
+    decoupling_determinant_ = decoupling_(0, 0);
   } else {
     // Full pivoting reveals the rank: its smallest pivot is within a small factor of sigma_min.
     decoupling_factor_.compute(decoupling_);
     smallest = decoupling_factor_.matrixLU().diagonal().cwiseAbs().minCoeff();
     u = decoupling_factor_.solve(decoupling_rhs_);
+    decoupling_determinant_ = decoupling_factor_.determinant();
   }
   if (!(smallest > options_.rank_tolerance * scale)) {
     why = "P = H M^-1 B is singular (smallest pivot / (|H| |M^-1 B|) = " +
           Short(smallest / scale) + ")";
+    last_failure_ = SolveStatus::kSingularDecoupling;
     return false;
   }
   // Eq. (1) solved for q''; its C^T-part is Eq. (25).
@@ -293,6 +306,7 @@ bool ServoConstraintProblem::ConstantGeometryNormalForm(double t,
   decoupling_rhs_.noalias() = workspace_.output_jacobian * force_accelerations_;
   decoupling_rhs_ += desired_.col(2);
   u.noalias() = constant_decoupling_inverse_ * decoupling_rhs_;
+  decoupling_determinant_ = constant_decoupling_determinant_;
   q_ddot.noalias() = constant_input_accelerations_ * u;  // Eq. (1) for q''; Eq. (25)
   q_ddot -= force_accelerations_;
   return true;
@@ -310,6 +324,7 @@ bool ServoConstraintProblem::ProjectedEquations(double t,
                                                 Eigen::MatrixXd& mass,
                                                 Eigen::VectorXd& rhs,
                                                 std::string& why) {
+  last_failure_ = SolveStatus::kConverged;
   const Eigen::Index f = dof();
   const Eigen::Index m = num_outputs();
   const Eigen::Index n = 2 * f + num_inputs();
@@ -350,6 +365,7 @@ bool ServoConstraintProblem::IndexOneResidual(double t,
                                               const Eigen::VectorXd& x_dot,
                                               Eigen::VectorXd& residual,
                                               std::string& why) {
+  last_failure_ = SolveStatus::kConverged;
   const Eigen::Index f = dof();
   const Eigen::Index m = num_outputs();
   const Eigen::Index internal = f - m;
@@ -376,17 +392,6 @@ bool ServoConstraintProblem::IndexOneResidual(double t,
 double ServoConstraintProblem::ServoResidual(double t, const Eigen::VectorXd& q) {
   Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(dof()), Quantity::kOutput);
   return (workspace_.output - trajectory_.Derivative(t, 0)).cwiseAbs().maxCoeff();
-}
-
-double ServoConstraintProblem::DecouplingMargin(const Eigen::VectorXd& q) {
-  std::string why;
-  if (!EvaluateDynamics(q, Eigen::VectorXd::Zero(dof()), why)) return 0.0;
-  const Eigen::MatrixXd input_accelerations = mass_factor_.solve(workspace_.input_matrix);
-  const Eigen::MatrixXd decoupling =
-      DecouplingMatrix(workspace_.output_jacobian, input_accelerations);
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(decoupling);
-  const double scale = workspace_.output_jacobian.norm() * input_accelerations.norm();
-  return scale > 0.0 ? svd.singularValues()(svd.singularValues().size() - 1) / scale : 0.0;
 }
 
 std::vector<int> ProjectedDae::ComponentIndices() const {

@@ -20,6 +20,7 @@
 
 #include "models/model.h"
 #include "solvers/linearly_implicit_dae.h"
+#include "solvers/solve_summary.h"
 #include "solvers/trajectory.h"
 
 namespace servokit {
@@ -106,9 +107,14 @@ class ServoConstraintProblem {
   /// D(q) of Eq. (11), dof x (dof - m), continuous along the motion (see the file comment).
   Eigen::MatrixXd TangentBasisAt(const Eigen::MatrixXd& output_jacobian) const;
 
-  /// Relative size of the smallest singular value of P = H M^-1 B at q (0 when singular),
-  /// sigma_min / (|H| |M^-1 B|).
-  double DecouplingMargin(const Eigen::VectorXd& q);
+  /// det P at the last successful NormalForm(). Its sign change between two steps means P
+  /// was singular in between, even where an integrator stepped over the singular instant.
+  double decoupling_determinant() const { return decoupling_determinant_; }
+
+  /// What made the last failed evaluation fail: kSingularDecoupling (P), kSingularMass (M),
+  /// kNoConvergence (q from y_d and z) or kIntegratorFailure (NaN or Inf). Lets a solver that
+  /// stopped report the kind of singularity, with the reason in its message.
+  SolveStatus last_failure() const { return last_failure_; }
 
  private:
   // M, f, B, H, h_bar, h at (q, q_dot) into workspace_, and M's Cholesky factor; false with a
@@ -156,6 +162,9 @@ class ServoConstraintProblem {
   Eigen::MatrixXd reference_tangent_basis_;  // D_0
   Eigen::MatrixXd internal_directions_;      // C
   bool internal_are_unactuated_ = false;
+  SolveStatus last_failure_ = SolveStatus::kConverged;
+  double decoupling_determinant_ = std::numeric_limits<double>::quiet_NaN();
+  double constant_decoupling_determinant_ = std::numeric_limits<double>::quiet_NaN();
   // h is linear in q (H constant, as for the mass on car): [H; C^T] is factored once and
   // StateFromInternal() needs no Newton iteration.
   bool output_is_linear_ = false;
