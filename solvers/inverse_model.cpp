@@ -33,6 +33,11 @@ MethodDefaults DefaultTolerances(SolverMethod method) {
   return {1e-10, 1e-12};
 }
 
+// P = H M^-1 B has full rank at the operating point (an orthogonal realization).
+bool DecouplingRegular(const Classification& classification) {
+  return classification.decoupling.rank == classification.decoupling.decoupling_matrix.rows();
+}
+
 std::string Number(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.6g", value);
@@ -48,8 +53,7 @@ std::string EigenvalueText(std::complex<double> value) {
 std::pair<SolverMethod, std::string> ChooseMethod(const Classification& classification,
                                                   const InverseModelOptions& options) {
   const bool unstable = classification.zero_dynamics.stability == Stability::kUnstable;
-  const bool decoupling_regular =
-      classification.decoupling.rank == classification.decoupling.decoupling_matrix.rows();
+  const bool decoupling_regular = DecouplingRegular(classification);
   const int projected_index = classification.structure.projected_index;
   SolverMethod method = options.method;
   std::string reason = "asked for with --method";
@@ -126,7 +130,7 @@ StartState FindStartState(const Model& model,
   }
   StartState start{equilibrium.q, Eigen::VectorXd::Zero(problem.dof()), equilibrium.u};
   if (at_rest) return start;
-  if (classification.decoupling.rank != classification.decoupling.decoupling_matrix.rows()) {
+  if (!DecouplingRegular(classification)) {
     throw NoSolution("the trajectory moves at t_start = " + Number(t_start) +
                      ": a problem with P singular needs it at rest there (choose t_start <= t0)");
   }
@@ -280,8 +284,7 @@ void SolveProjected(ServoConstraintProblem& problem,
                     const StartState& start,
                     FeedforwardSolution& solution) {
   const Eigen::Index f = problem.dof();
-  const bool decoupling_regular =
-      classification.decoupling.rank == classification.decoupling.decoupling_matrix.rows();
+  const bool decoupling_regular = DecouplingRegular(classification);
   ProjectedDae dae(problem, decoupling_regular);
   Eigen::VectorXd x_start(dae.size());
   x_start << start.q, start.q_dot, start.u;
