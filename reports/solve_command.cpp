@@ -86,6 +86,11 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
                      ": expected auto, algebraic, euler, radau, bdf, normal-form or "
                      "stable-inversion");
   }
+  // Before any work: a solve whose answer cannot be written is wasted.
+  const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
+  if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
+    throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
+  }
   const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
   Workspace workspace(model);
   const ClassificationOptions classification_options;

@@ -126,6 +126,9 @@ TEST_CASE("solve: each bad argument gives one error line and exit 2", "[reports]
                                     "rest-to-rest", "--t-end", "1", "--out", csv});
   CHECK(missing.status == 2);
   CHECK_THAT(missing.err, Catch::Contains("--y0, --yf, --t0 and --tf"));
+  const auto no_directory = RunServokit(With(kCase4, {"--out", "/nonexistent/x.csv"}));
+  CHECK(no_directory.status == 2);
+  CHECK_THAT(no_directory.err, Catch::Contains("--out /nonexistent/x.csv"));
   const auto no_file = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--trajectory",
                                     "nowhere.yaml", "--t-end", "1", "--out", csv});
   CHECK(no_file.status == 2);
