@@ -465,6 +465,81 @@ void AddStableCaseFigures(Document& document,
   document.Add(comparison);
 }
 
+// Sect. 5.3, Figs. 14-16: stable inversion of the rotational arm with the end-point output.
+void AddStableInversionFigures(Document& document,
+                               const std::filesystem::path& directory,
+                               const std::string& path) {
+  document.Add(Heading{2, "Figs. 14-16: stable inversion of the rotational arm (Sect. 5.3)"});
+  document.Add(Paragraph{
+      "Output at the end effector (s = l, non-minimum phase), from 0 to 270 deg between t0 = 1 s "
+      "and tf = 3 s (Eq. 65). The internal dynamics (Eq. 25) are solved as a boundary value "
+      "problem (collocation as in bvp4c) whose start lies on the unstable and whose end lies on "
+      "the stable manifold of the rest positions; the window is chosen from the eigenvalues and "
+      "widened until the answer no longer changes."});
+  const Model model = LoadModel(path, {{"s", "1"}});
+  Workspace workspace(model);
+  const Classification classification = Classify(model, workspace);
+  const double angle = 1.5 * std::numbers::pi, t0 = 1.0, tf = 3.0;
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, angle),
+                                        t0, tf);
+  InverseModelOptions options;
+  options.t_end = 4.0;
+  const FeedforwardSolution solution =
+      SolveInverseModel(model, trajectory, classification, options);
+  if (!solution.summary.IsUsable()) {
+    throw NoSolution("paper report: stable inversion: " + solution.summary.message);
+  }
+  PlotSpec output{"fig14_arm_trajectory", "Fig. 14: desired output (end-point angle)", "t [s]",
+                  "y_d [deg]", "[0:4]", "", {}, {}};
+  std::vector<std::pair<double, double>> desired;
+  for (int n = 0; n <= 400; ++n) {
+    desired.emplace_back(0.01 * n, ToDegrees(trajectory.Derivative(0.01 * n, 0)(0)));
+  }
+  output.series.push_back({"y_d", desired, "lines linewidth 2"});
+  PlotSpec torque{"fig15_arm_torque", "Fig. 15: control torque T = u_d by stable inversion",
+                  "t [s]", "T [N m]", "[0:4]", "", {}, {}};
+  PlotSpec zoom{"fig15_arm_torque_zoom", "Fig. 15 enlarged: pre-actuation before t0 = 1 s",
+                "t [s]", "T [N m]", "[0.5:1.1]", "", {}, {}};
+  PlotSpec passive{"fig16_arm_beta", "Fig. 16: passive joint angle beta", "t [s]",
+                   "beta [deg]", "[0:4]", "", {}, {}};
+  std::vector<std::pair<double, double>> torques, zoomed, betas;
+  double largest_torque = 0.0, largest_beta = 0.0;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    const double t = solution.times[i];
+    largest_torque = std::max(largest_torque, std::abs(solution.u[i](0)));
+    largest_beta = std::max(largest_beta, std::abs(solution.q[i](1)));
+    if (t < 0.0 || t > 4.0) continue;
+    torques.emplace_back(t, solution.u[i](0));
+    betas.emplace_back(t, ToDegrees(solution.q[i](1)));
+    if (t >= 0.5 && t <= 1.1) zoomed.emplace_back(t, solution.u[i](0));
+  }
+  torque.series.push_back({"T", torques, "lines linewidth 2"});
+  zoom.series.push_back({"T", zoomed, "lines linewidth 2"});
+  passive.series.push_back({"beta", betas, "lines linewidth 2"});
+  torque.markers.push_back({t0, "t0"});
+  zoom.markers.push_back({t0, "t0"});
+  for (const PlotSpec* spec : {&output, &torque, &zoom, &passive}) {
+    DrawPlot(directory.string(), *spec);
+    document.Add(FigureOf(spec->name, spec->title));
+  }
+  Table numbers;
+  numbers.header = {"quantity", "servokit", "paper"};
+  numbers.rows.push_back({"pre-actuation starts (|T| > 1e-8 max |T|)",
+                          std::string(*solution.pre_actuation_start < t0 ? "before" : "NOT before") +
+                              " t0 = 1 s (`" + FormatShort(*solution.pre_actuation_start) + " s`)",
+                          "before t0 (Fig. 15)"});
+  numbers.rows.push_back({"post-actuation ends",
+                          std::string(*solution.post_actuation_end > tf ? "after" : "NOT after") +
+                              " tf = 3 s (`" + FormatShort(*solution.post_actuation_end) + " s`)",
+                          "after tf"});
+  numbers.rows.push_back({"largest torque", ThreeDigits(largest_torque) + " N m", "bounded"});
+  numbers.rows.push_back({"largest passive angle", ThreeDigits(ToDegrees(largest_beta)) + " deg",
+                          "bounded"});
+  numbers.rows.push_back({"collocation residual", Below(*solution.boundary_value_residual, 1e-8),
+                          "bvp5c"});
+  document.Add(numbers);
+}
+
 }  // namespace
 
 void WritePaperReport(const std::string& directory, const std::string& models_directory) {
@@ -484,6 +559,7 @@ void WritePaperReport(const std::string& directory, const std::string& models_di
                                               Eigen::VectorXd::Constant(1, 2.5), 0.0, kPaperTf);
   AddFlatCaseFigures(document, out, models_directory + "/mass_on_car.yaml", paper_trajectory);
   AddStableCaseFigures(document, out, models_directory + "/mass_on_car.yaml", paper_trajectory);
+  AddStableInversionFigures(document, out, models_directory + "/rotational_arm.yaml");
   WriteDocument(out, document);
 }
 

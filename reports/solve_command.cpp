@@ -1,6 +1,7 @@
 // servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf TF]
 //     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion
-//     [--force] [--step H] [--rtol R] [--atol A] [--verify] --out FILE.csv
+//     [--force] [--step H] [--rtol R] [--atol A] [--pre-actuation S] [--post-actuation S]
+//     [--verify] --out FILE.csv
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -31,7 +32,7 @@ struct SolveArguments {
   double t_end = std::numeric_limits<double>::quiet_NaN();
   std::string method = "auto";
   bool force = false;
-  std::optional<double> step, rtol, atol;
+  std::optional<double> step, rtol, atol, pre_actuation, post_actuation;
   bool verify = false;
   std::string out;
 };
@@ -109,6 +110,8 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.t_end = arguments.t_end;
   if (arguments.step) options.step = *arguments.step;
   options.rtol = arguments.rtol;
+  options.pre_actuation = arguments.pre_actuation;
+  options.post_actuation = arguments.post_actuation;
   options.atol = arguments.atol;
   const FeedforwardSolution solution =
       SolveInverseModel(model, *trajectory, classification, options);
@@ -169,9 +172,15 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--step", arguments->step,
                     "Euler backward step, algebraic sample spacing [s] (default 1e-3)");
   solve->add_option("--rtol", arguments->rtol,
-                    "Relative tolerance (default 1e-8 Radau, 1e-10 BDF and Dormand-Prince)");
+                    "Relative tolerance (default 1e-8 Radau and stable inversion, 1e-10 BDF and "
+                    "Dormand-Prince)");
   solve->add_option("--atol", arguments->atol,
                     "Absolute tolerance (default 1e-10 Radau, 1e-12 BDF and Dormand-Prince)");
+  solve->add_option("--pre-actuation", arguments->pre_actuation,
+                    "Stable inversion: time before the motion to cover [s] (default: from the "
+                    "eigenvalues, widened until the answer settles)");
+  solve->add_option("--post-actuation", arguments->post_actuation,
+                    "Stable inversion: time after the motion to cover [s] (default: likewise)");
   solve->add_flag("--verify", arguments->verify,
                   "Drive the model with u_d (CVODE) and report the largest output error");
   solve->add_option("--out", arguments->out, "CSV file to write")->required();

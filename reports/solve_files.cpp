@@ -76,6 +76,15 @@ nlohmann::ordered_json SolveToJson(const Model& model,
       {"samples", solution.times.size()},
       {"max_servo_residual", NumberOrNull(solution.max_servo_residual)},
   };
+  if (solution.pre_actuation_start) {  // stable inversion (DESIGN.md)
+    json["pre_actuation_start"] = NumberOrNull(*solution.pre_actuation_start);
+    json["post_actuation_end"] = NumberOrNull(solution.post_actuation_end.value_or(NAN));
+    json["window"] = {NumberOrNull(solution.window_start.value_or(NAN)),
+                      NumberOrNull(solution.window_end.value_or(NAN))};
+    json["window_widenings"] = solution.window_widenings;
+    json["boundary_value_residual"] = NumberOrNull(solution.boundary_value_residual.value_or(NAN));
+    json["mesh_points"] = solution.times.size();
+  }
   if (!trajectory_note.empty()) json["trajectory_note"] = trajectory_note;
   json["classification"] = ClassificationToJson(model, classification, classification_options);
   return json;

@@ -10,6 +10,7 @@
 #include "models/errors.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/radau.h"
+#include "solvers/stable_inversion.h"
 
 namespace servokit {
 namespace {
@@ -30,6 +31,8 @@ struct MethodDefaults {
 };
 MethodDefaults DefaultTolerances(SolverMethod method) {
   if (method == SolverMethod::kRadau || method == SolverMethod::kEuler) return {1e-8, 1e-10};
+  // The boundary value problem's collocation residual; its errors come out far smaller.
+  if (method == SolverMethod::kStableInversion) return {1e-8, 1e-10};
   return {1e-10, 1e-12};
 }
 
@@ -42,11 +45,6 @@ std::string Number(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.6g", value);
   return buffer;
-}
-
-std::string EigenvalueText(std::complex<double> value) {
-  return Number(value.real()) + (value.imag() < 0 ? " - " : " + ") +
-         Number(std::abs(value.imag())) + "i";
 }
 
 // The method to run and why, or NoSolution when the asked method does not fit the class.
@@ -65,30 +63,15 @@ std::pair<SolverMethod, std::string> ChooseMethod(const Classification& classifi
                   : std::string(ToString(classification.zero_dynamics.stability)) +
                         " zero dynamics") +
              ", projected index " + std::to_string(projected_index) + ")";
-    if (method == SolverMethod::kStableInversion && options.force) {
-      method = decoupling_regular ? SolverMethod::kNormalForm : SolverMethod::kRadau;
-      reason = "auto with --force: forward integration of unstable internal dynamics";
-    }
   }
-  if (method == SolverMethod::kStableInversion) {
-    std::string eigenvalue;
-    for (const auto& value : classification.zero_dynamics.eigenvalues) {
-      if (value.real() > 0) {
-        eigenvalue = " (eigenvalue " + EigenvalueText(value) + ")";
-        break;
-      }
-    }
-    throw NoSolution("the zero dynamics are unstable" + eigenvalue +
-                     ": integrating the internal dynamics forward diverges, and stable inversion "
-                     "(a non-causal boundary value problem, paper Sect. 5.3) is not available "
-                     "yet; --force integrates forward anyway");
-  }
-  if (unstable && !options.force && method != SolverMethod::kAlgebraic) {
+  if (unstable && !options.force && method != SolverMethod::kAlgebraic &&
+      method != SolverMethod::kStableInversion) {
     throw NoSolution("the zero dynamics are unstable: --method " + std::string(ToString(method)) +
                      " integrates the internal dynamics forward, which diverges; use --method "
                      "stable-inversion (paper Sect. 5.3), or --force to integrate anyway");
   }
-  if ((method == SolverMethod::kBdf || method == SolverMethod::kNormalForm) &&
+  if ((method == SolverMethod::kBdf || method == SolverMethod::kNormalForm ||
+       method == SolverMethod::kStableInversion) &&
       !decoupling_regular) {
     throw NoSolution("--method " + std::string(ToString(method)) +
                      " needs P = H M^-1 B regular (an orthogonal realization); this problem is " +
@@ -430,6 +413,38 @@ void SolveNormalForm(ServoConstraintProblem& problem,
   watch.Finish(solution.summary);
 }
 
+// Stable inversion on the window the boundary value problem chooses (or the user fixed), from
+// the equilibrium at the start of the motion to the one at its end.
+void SolveByStableInversion(const Model& model,
+                            const OutputTrajectory& trajectory,
+                            const InverseModelOptions& options,
+                            const StartState& start,
+                            FeedforwardSolution& solution) {
+  Workspace workspace(model);
+  OperatingPointOptions end_options;
+  end_options.y0 = trajectory.Derivative(trajectory.breakpoints().back(), 0);
+  end_options.q_guess = start.q;
+  const OperatingPoint end = FindOperatingPoint(model, workspace, end_options);
+  StableInversionOptions inversion;
+  inversion.tolerance = options.rtol.value_or(DefaultTolerances(SolverMethod::kStableInversion).rtol);
+  inversion.pre_actuation = options.pre_actuation;
+  inversion.post_actuation = options.post_actuation;
+  const StableInversionSolution result =
+      SolveStableInversion(model, trajectory, start.q, end.q, inversion);
+  solution.summary = result.summary;
+  solution.summary.steps = long(result.times.size());
+  solution.times = result.times;
+  solution.q = result.q;
+  solution.q_dot = result.q_dot;
+  solution.u = result.u;
+  solution.window_start = result.window_start;
+  solution.window_end = result.window_end;
+  solution.pre_actuation_start = result.pre_actuation_start;
+  solution.post_actuation_end = result.post_actuation_end;
+  solution.boundary_value_residual = result.max_residual;
+  solution.window_widenings = result.widenings;
+}
+
 }  // namespace
 
 void InverseModelOptions::Validate() const {
@@ -445,6 +460,13 @@ void InverseModelOptions::Validate() const {
   }
   if (atol && !(*atol > 0.0 && std::isfinite(*atol))) {
     throw UsageError("atol = " + Number(*atol) + ": must be a finite number > 0");
+  }
+  for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
+                                    std::pair{post_actuation, "post_actuation"}}) {
+    if (value && !(*value > 0.0 && std::isfinite(*value))) {
+      throw UsageError(std::string(name) + " = " + Number(*value) +
+                       ": must be a finite number > 0");
+    }
   }
   problem.Validate();
 }
@@ -492,9 +514,11 @@ FeedforwardSolution SolveInverseModel(const Model& model,
     case SolverMethod::kNormalForm:
       SolveNormalForm(problem, options, start, solution);
       break;
-    case SolverMethod::kAuto:
     case SolverMethod::kStableInversion:
-      break;  // ChooseMethod() never returns these
+      SolveByStableInversion(model, trajectory, options, start, solution);
+      break;
+    case SolverMethod::kAuto:
+      break;  // ChooseMethod() never returns it
   }
   // An integrator that stopped on a refused evaluation knows why only as text; the problem
   // knows the kind (P or M singular).

@@ -38,6 +38,10 @@ struct InverseModelOptions {
   std::optional<double> rtol;
   std::optional<double> atol;
   ServoProblemOptions problem;
+  // Stable inversion: time before the motion's start and after its end that the boundary
+  // value problem covers; unset: chosen from the eigenvalues (modes decayed to rtol) and
+  // widened until the answer no longer changes. rtol is the BVP's tolerance (default 1e-8).
+  std::optional<double> pre_actuation, post_actuation;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
 };
@@ -51,6 +55,12 @@ struct FeedforwardSolution {
   std::vector<double> times;
   std::vector<Eigen::VectorXd> q, q_dot, u;  // one per time: dof, dof, inputs
   double max_servo_residual = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
+  // Stable inversion only: the window [window_start, window_end] of the boundary value problem,
+  // where u_d departs from rest (first and last time |u_d - u_rest| > rtol max |u_d - u_rest|),
+  // the largest collocation residual and the widenings of the window.
+  std::optional<double> window_start, window_end, pre_actuation_start, post_actuation_end;
+  std::optional<double> boundary_value_residual;
+  int window_widenings = 0;
   // u_d at any t in [t_start, t_end] to drive a forward simulation: exact for the algebraic
   // inverse, otherwise the degree-5 interpolant of the samples within each smooth piece.
   std::function<Eigen::VectorXd(double)> feedforward;

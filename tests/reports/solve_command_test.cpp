@@ -88,23 +88,35 @@ TEST_CASE("solve reads a trajectory file of waypoints", "[reports]") {
   std::filesystem::remove(csv);
 }
 
-TEST_CASE("solve refuses unstable internal dynamics unless forced (exit 3)", "[reports]") {
+TEST_CASE("solve: unstable internal dynamics get stable inversion; forward methods refuse "
+          "unless forced (exit 3)", "[reports]") {
   const auto csv = TemporaryFile("arm.csv");
   const std::vector<std::string> arm = {
       "solve", ModelPath("rotational_arm.yaml"), "--set", "s=0.9", "--trajectory",
       "rest-to-rest", "--y0", "0", "--yf", "0.1", "--t0", "1", "--tf", "3", "--t-end", "3.5",
       "--out", csv.string()};
-  const auto refused = RunServokit(arm);
+  const auto automatic = RunServokit(arm);
+  INFO(automatic.err);
+  REQUIRE(automatic.status == 0);
+  const auto inverted = nlohmann::json::parse(automatic.out);
+  CHECK(inverted["method"] == "stable-inversion");
+  // DESIGN.md: stable inversion gives where the input departs from rest; it starts early.
+  CHECK(inverted["pre_actuation_start"].get<double>() < 1.0);
+  CHECK(inverted["post_actuation_end"].get<double>() > 3.0);
+  CHECK(inverted["boundary_value_residual"].get<double>() <= 1e-8);
+  const auto rows = ReadCsv(csv);
+  CHECK(std::stod(rows.at(1).at(0)) < 1.0);  // the CSV starts before the motion
+
+  const auto refused = RunServokit(With(arm, {"--method", "normal-form"}));
   CHECK(refused.status == 3);
   CHECK_THAT(refused.err, Catch::StartsWith("servokit: error: the zero dynamics are unstable"));
-  CHECK_THAT(refused.err, Catch::Contains("stable inversion"));
+  CHECK_THAT(refused.err, Catch::Contains("stable-inversion"));
   // Forced, the normal form runs forward; e^(16 t) growth makes it fail within half a second
   // of the motion (exit 3 with the time), which is why it was refused.
-  const auto forced = RunServokit(With(arm, {"--force"}));
+  const auto forced = RunServokit(With(arm, {"--method", "normal-form", "--force"}));
   const auto json = nlohmann::json::parse(forced.out);
   CHECK(json["method"] == "normal-form");
   CHECK(json["steps"].get<long>() > 0);
-  CHECK_THAT(forced.err, !Catch::Contains("refuse") && !Catch::Contains("stable inversion"));
   std::filesystem::remove(csv);
 }
 

@@ -325,8 +325,8 @@ TEST_CASE("forward methods refuse what does not fit the class, with the method t
                     Catch::Contains("internal dynamics"));
 }
 
-TEST_CASE("unstable zero dynamics are refused unless forced, pointing to stable inversion",
-          "[solvers]") {
+TEST_CASE("unstable zero dynamics: auto picks stable inversion, forward methods refuse unless "
+          "forced", "[solvers]") {
   // Rotational arm with the output beyond s = 2/3 l: non-minimum phase (paper Sect. 4).
   const Model model = LoadModel(ModelPath("rotational_arm.yaml"), {{"s", "0.9"}});
   Workspace workspace(model);
@@ -336,8 +336,12 @@ TEST_CASE("unstable zero dynamics are refused unless forced, pointing to stable 
                                         1.0, 3.0);
   InverseModelOptions options;
   options.t_end = 4.0;
-  CHECK_THROWS_WITH(SolveInverseModel(model, trajectory, classification, options),
-                    Catch::Contains("stable inversion"));
+  const FeedforwardSolution automatic =
+      SolveInverseModel(model, trajectory, classification, options);
+  CHECK(automatic.method == SolverMethod::kStableInversion);
+  REQUIRE(automatic.summary.IsUsable());
+  REQUIRE(automatic.pre_actuation_start.has_value());
+  CHECK(*automatic.pre_actuation_start < 1.0);  // non-causal: the torque starts before t0
   options.method = SolverMethod::kNormalForm;
   CHECK_THROWS_WITH(SolveInverseModel(model, trajectory, classification, options),
                     Catch::Contains("stable-inversion"));

@@ -1,0 +1,227 @@
+#include "solvers/stable_inversion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "models/errors.h"
+#include "solvers/boundary_value.h"
+#include "solvers/internal_dynamics.h"
+#include "solvers/linear_stable_inversion.h"
+#include "solvers/servo_constraint_problem.h"
+
+namespace servokit {
+namespace {
+
+// Mesh intervals of the first boundary value solve, before refinement: enough to resolve the
+// motion's polynomial and the exponential tails at a few points each.
+constexpr int kInitialIntervals = 200;
+// Each widening grows the pre- and post-actuation windows by this factor.
+constexpr double kWideningFactor = 1.5;
+
+std::string Number(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  return buffer;
+}
+
+// ln(1/tolerance) / rate: the time a mode of that decay rate needs to fall to the tolerance.
+double DecayTime(double rate, double tolerance) { return std::log(1.0 / tolerance) / rate; }
+
+}  // namespace
+
+void StableInversionOptions::Validate() const {
+  if (!(tolerance > 0.0 && tolerance < 1.0)) {
+    throw UsageError("StableInversionOptions::tolerance = " + Number(tolerance) +
+                     ": must be in (0, 1)");
+  }
+  for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
+                                    std::pair{post_actuation, "post_actuation"}}) {
+    if (value && !(*value > 0.0 && std::isfinite(*value))) {
+      throw UsageError(std::string("StableInversionOptions::") + name + " = " + Number(*value) +
+                       ": must be a finite number > 0");
+    }
+  }
+  if (max_widenings < 0) {
+    throw UsageError("StableInversionOptions::max_widenings = " + std::to_string(max_widenings) +
+                     ": must be >= 0");
+  }
+}
+
+StableInversionSolution SolveStableInversion(const Model& model,
+                                             const OutputTrajectory& trajectory,
+                                             const Eigen::VectorXd& start_q,
+                                             const Eigen::VectorXd& end_q,
+                                             const StableInversionOptions& options) {
+  options.Validate();
+  const LinearInternalDynamics start = LinearizeInternalDynamics(model, start_q);
+  const LinearInternalDynamics end = LinearizeInternalDynamics(model, end_q);
+  if (!start.internal_directions.isApprox(end.internal_directions)) {
+    throw NoSolution("stable inversion: the internal coordinates chosen at the start and end "
+                     "equilibria differ (H_a singular there); not supported yet");
+  }
+  const HyperbolicSplit start_split = SplitHyperbolic(start.state_matrix);
+  const HyperbolicSplit end_split = SplitHyperbolic(end.state_matrix);
+
+  // The slowest unstable mode at the start sets the pre-actuation, the slowest stable mode at
+  // the end the post-actuation.
+  double slowest_unstable = INFINITY, slowest_stable = INFINITY;
+  for (const auto& value : start_split.eigenvalues) {
+    if (value.real() > 0) slowest_unstable = std::min(slowest_unstable, value.real());
+  }
+  for (const auto& value : end_split.eigenvalues) {
+    if (value.real() < 0) slowest_stable = std::min(slowest_stable, -value.real());
+  }
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  const double t0 = breakpoints.front(), tf = breakpoints.back();
+  double pre = options.pre_actuation.value_or(
+      std::isfinite(slowest_unstable) ? DecayTime(slowest_unstable, options.tolerance) : 0.1 * (tf - t0));
+  double post = options.post_actuation.value_or(
+      std::isfinite(slowest_stable) ? DecayTime(slowest_stable, options.tolerance) : 0.1 * (tf - t0));
+
+  ServoConstraintProblem problem(model, trajectory, start_q);
+  const Eigen::Index internal = problem.num_internal();
+  const Eigen::MatrixXd& directions = problem.internal_directions();
+  Eigen::VectorXd q = start_q, q_dot, u, q_ddot;
+  const BvpRightHandSide rhs = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& x_dot,
+                                   std::string& why) {
+    if (!problem.StateFromInternal(t, x.head(internal), x.tail(internal), q, q_dot, why) ||
+        !problem.NormalForm(t, q, q_dot, u, q_ddot, why)) {
+      return false;
+    }
+    x_dot.resize(2 * internal);
+    x_dot << x.tail(internal), directions.transpose() * q_ddot;  // Eq. (25)
+    return true;
+  };
+  const Eigen::Index stable_count = start_split.stable_basis.cols();
+  BoundaryConditions conditions;
+  conditions.residual = [&](const Eigen::VectorXd& at_start, const Eigen::VectorXd& at_end,
+                            Eigen::VectorXd& residual) {
+    residual.resize(2 * internal);
+    residual.head(stable_count) = start_split.stable_left * (at_start - start.equilibrium_state);
+    residual.tail(2 * internal - stable_count) =
+        end_split.unstable_left * (at_end - end.equilibrium_state);
+  };
+  conditions.jacobians = [&](const Eigen::VectorXd&, const Eigen::VectorXd&,
+                             Eigen::MatrixXd& d_start, Eigen::MatrixXd& d_end) {
+    d_start = Eigen::MatrixXd::Zero(2 * internal, 2 * internal);
+    d_end = Eigen::MatrixXd::Zero(2 * internal, 2 * internal);
+    d_start.topRows(stable_count) = start_split.stable_left;
+    d_end.bottomRows(2 * internal - stable_count) = end_split.unstable_left;
+  };
+  if (end_split.unstable_basis.cols() != 2 * internal - stable_count) {
+    throw NoSolution("stable inversion: the start and end equilibria have different numbers of "
+                     "unstable modes (" + std::to_string(2 * internal - stable_count) + " and " +
+                     std::to_string(end_split.unstable_basis.cols()) + ")");
+  }
+
+  StableInversionSolution solution;
+  std::optional<BoundaryValueSolution> previous;
+  BoundaryValueOptions bvp_options;
+  bvp_options.tolerance = options.tolerance;
+  for (int widening = 0;; ++widening) {
+    const double t_a = t0 - pre, t_b = tf + post;
+    // Initial guess: the linear stable inversion about the start (exact for linear models).
+    std::vector<double> mesh;
+    for (int k = 0; k <= kInitialIntervals; ++k) {
+      mesh.push_back(t_a + (t_b - t_a) * k / kInitialIntervals);
+    }
+    for (double breakpoint : breakpoints) mesh.push_back(breakpoint);
+    std::sort(mesh.begin(), mesh.end());
+    mesh.erase(std::unique(mesh.begin(), mesh.end()), mesh.end());
+    const LinearStableInversion linear = SolveLinearStableInversion(
+        start_split,
+        [&](double t) -> Eigen::VectorXd {
+          Eigen::VectorXd outputs(start.equilibrium_output.size());
+          const Eigen::Index m = outputs.size() / 3;
+          for (int order = 0; order < 3; ++order) {
+            outputs.segment(order * m, m) = trajectory.Derivative(t, order);
+          }
+          return start.drive_matrix * (outputs - start.equilibrium_output);
+        },
+        t_a, t_b, mesh, breakpoints);
+    std::vector<Eigen::VectorXd> guess;
+    for (std::size_t i = 0; i < mesh.size(); ++i) {
+      guess.push_back(start.equilibrium_state +
+                      (linear.summary.IsUsable() ? linear.states[i]
+                                                 : Eigen::VectorXd::Zero(2 * internal)));
+    }
+    BoundaryValueSolution bvp =
+        SolveBoundaryValueProblem(rhs, {}, conditions, mesh, guess, bvp_options);
+    solution.summary = bvp.summary;
+    solution.max_residual = bvp.max_residual;
+    solution.window_start = t_a;
+    solution.window_end = t_b;
+    solution.widenings = widening;
+    if (!bvp.summary.IsUsable()) return solution;
+    // Unchanged when widened: compare the input on the previous window's mesh.
+    bool settled = false;
+    if (previous) {
+      double change = 0.0, scale = 0.0;
+      for (double t : previous->mesh) {
+        Eigen::VectorXd input_new, input_old;
+        std::string why;
+        for (int which = 0; which < 2; ++which) {
+          const Eigen::VectorXd x = (which == 0 ? bvp : *previous).Evaluate(t);
+          Eigen::VectorXd x_dot;
+          if (!rhs(t, x, x_dot, why)) break;
+          (which == 0 ? input_new : input_old) = u;
+        }
+        if (input_new.size() == 0 || input_old.size() == 0) continue;
+        change = std::max(change, (input_new - input_old).cwiseAbs().maxCoeff());
+        scale = std::max(scale, input_new.cwiseAbs().maxCoeff());
+      }
+      settled = change <= 10.0 * options.tolerance * std::max(scale, 1e-300);
+    }
+    if (settled || widening >= options.max_widenings ||
+        (options.pre_actuation && options.post_actuation)) {
+      previous = std::move(bvp);
+      break;
+    }
+    previous = std::move(bvp);
+    pre *= kWideningFactor;
+    post *= kWideningFactor;
+  }
+
+  // The answer at the mesh points, and where the input departs from rest.
+  const BoundaryValueSolution& bvp = *previous;
+  std::string why;
+  Eigen::VectorXd x_dot;
+  for (std::size_t i = 0; i < bvp.mesh.size(); ++i) {
+    if (!rhs(bvp.mesh[i], bvp.y[i], x_dot, why)) {
+      solution.summary.status = SolveStatus::kNoConvergence;
+      solution.summary.message = "at t = " + Number(bvp.mesh[i]) + " s: " + why;
+      return solution;
+    }
+    solution.times.push_back(bvp.mesh[i]);
+    solution.q.push_back(q);
+    solution.q_dot.push_back(q_dot);
+    solution.u.push_back(u);
+  }
+  double largest = 0.0;
+  for (const auto& input : solution.u) {
+    largest = std::max(largest, (input - start.equilibrium_input).cwiseAbs().maxCoeff());
+  }
+  solution.pre_actuation_start = solution.times.front();
+  solution.post_actuation_end = solution.times.back();
+  bool found = false;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    const double departure = (solution.u[i] - (solution.times[i] < t0 ? start : end)
+                                                  .equilibrium_input)
+                                 .cwiseAbs()
+                                 .maxCoeff();
+    if (departure > options.tolerance * largest) {
+      if (!found) solution.pre_actuation_start = solution.times[i];
+      found = true;
+      solution.post_actuation_end = solution.times[i];
+    }
+  }
+  solution.summary.message = "boundary value problem on [" + Number(solution.window_start) +
+                             ", " + Number(solution.window_end) + "] s, " +
+                             std::to_string(solution.times.size()) + " mesh points, residual " +
+                             Number(solution.max_residual);
+  return solution;
+}
+
+}  // namespace servokit

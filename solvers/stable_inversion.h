@@ -1,0 +1,59 @@
+#pragma once
+// Stable inversion (paper Sect. 5.3; Devasia, Chen & Paden 1996; Taylor & Li 2002): the bounded,
+// non-causal solution of unstable internal dynamics as a two-sided boundary value problem.
+//
+// The internal dynamics x' = F(t, x) of the normal form (Eq. 25, x = (z, z')) is solved on a
+// window [t_a, t_b] around the motion [t0, tf] with
+//   at t_a: the deviation from the start equilibrium lies in its unstable subspace,
+//           L_s (x(t_a) - x_start) = 0   (the stable part has not been excited yet);
+//   at t_b: the deviation from the end equilibrium lies in its stable subspace,
+//           L_u (x(t_b) - x_end) = 0     (the unstable part must have come to rest).
+// Outside the window the solution is the linear modes decaying away from it. The window is
+// chosen from the eigenvalues so that these modes have decayed to the tolerance, and widened
+// until the answer no longer changes.
+#include <Eigen/Dense>
+#include <optional>
+#include <vector>
+
+#include "models/model.h"
+#include "solvers/solve_summary.h"
+#include "solvers/trajectory.h"
+
+namespace servokit {
+
+struct StableInversionOptions {
+  // Relative tolerance of the boundary value problem (collocation residual) and of the window:
+  // modes outside the window are below tolerance times their size.
+  double tolerance = 1e-8;
+  // Time before the trajectory's first breakpoint and after its last; unset: chosen from the
+  // slowest unstable (before) and stable (after) eigenvalue, ln(1/tolerance) / |Re lambda|.
+  std::optional<double> pre_actuation, post_actuation;
+  // Window widenings (by half each) allowed while the answer still changes by more than the
+  // tolerance.
+  int max_widenings = 4;
+  void Validate() const;
+};
+
+struct StableInversionSolution {
+  SolveSummary summary;
+  std::vector<double> times;                 // the final mesh
+  std::vector<Eigen::VectorXd> q, q_dot, u;  // at each time
+  double window_start = 0.0, window_end = 0.0;
+  double pre_actuation_start = 0.0;  // first time |u - u_rest| > tolerance * max |u - u_rest|
+  double post_actuation_end = 0.0;   // last such time
+  double max_residual = 0.0;         // of the boundary value problem
+  int widenings = 0;
+};
+
+/// Solves the stable inversion of `model` along `trajectory` (at rest before its first and
+/// after its last breakpoint). `start_q`, `end_q`: the equilibria at the start and end of the
+/// motion (size dof). Throws NoSolution when an equilibrium's zero dynamics are not
+/// hyperbolic (naming the eigenvalues on the imaginary axis) or P is singular there, and
+/// UsageError for invalid options.
+StableInversionSolution SolveStableInversion(const Model& model,
+                                             const OutputTrajectory& trajectory,
+                                             const Eigen::VectorXd& start_q,
+                                             const Eigen::VectorXd& end_q,
+                                             const StableInversionOptions& options = {});
+
+}  // namespace servokit
