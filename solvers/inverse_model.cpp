@@ -443,6 +443,7 @@ void SolveByStableInversion(const Model& model,
   solution.post_actuation_end = result.post_actuation_end;
   solution.boundary_value_residual = result.max_residual;
   solution.window_widenings = result.widenings;
+  solution.feedforward = result.feedforward;
 }
 
 }  // namespace

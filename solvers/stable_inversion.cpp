@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <memory>
 #include <string>
 
 #include "models/errors.h"
@@ -217,6 +219,22 @@ StableInversionSolution SolveStableInversion(const Model& model,
       solution.post_actuation_end = solution.times[i];
     }
   }
+  // The feedforward between mesh points, from a problem of its own (the one above lives on
+  // this function's stack).
+  auto own_problem = std::make_shared<ServoConstraintProblem>(model, trajectory, start_q);
+  auto collocation = std::make_shared<const BoundaryValueSolution>(bvp);
+  solution.feedforward = [own_problem, collocation, internal, start_q](double t) {
+    const double clamped = std::clamp(t, collocation->mesh.front(), collocation->mesh.back());
+    const Eigen::VectorXd x = collocation->Evaluate(clamped);
+    Eigen::VectorXd coordinates = start_q, velocities, input, accelerations;
+    std::string reason;
+    if (!own_problem->StateFromInternal(clamped, x.head(internal), x.tail(internal), coordinates,
+                                        velocities, reason) ||
+        !own_problem->NormalForm(clamped, coordinates, velocities, input, accelerations, reason)) {
+      input.setConstant(own_problem->num_inputs(), std::numeric_limits<double>::quiet_NaN());
+    }
+    return input;
+  };
   solution.summary.message = "boundary value problem on [" + Number(solution.window_start) +
                              ", " + Number(solution.window_end) + "] s, " +
                              std::to_string(solution.times.size()) + " mesh points, residual " +

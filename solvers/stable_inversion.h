@@ -12,6 +12,7 @@
 // chosen from the eigenvalues so that these modes have decayed to the tolerance, and widened
 // until the answer no longer changes.
 #include <Eigen/Dense>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -43,6 +44,10 @@ struct StableInversionSolution {
   double post_actuation_end = 0.0;   // last such time
   double max_residual = 0.0;         // of the boundary value problem
   int widenings = 0;
+  // u_d at any t of the window: the collocation solution's C1 interpolant of the internal state
+  // mapped through the normal form (Eq. 24), as accurate as the solution itself. Keeps
+  // references to the model and the trajectory, which must outlive it.
+  std::function<Eigen::VectorXd(double)> feedforward;
 };
 
 /// Solves the stable inversion of `model` along `trajectory` (at rest before its first and

@@ -85,20 +85,20 @@ TEST_CASE("arm end point 0 to 270 deg: bounded, pre-actuated, unchanged when the
   const StableInversionSolution widened =
       SolveStableInversion(model, trajectory, ArmAt(0.0), ArmAt(angle), wider);
   REQUIRE(widened.summary.IsUsable());
-  // Compare by interpolating the widened input linearly on its (finer) mesh.
-  double change = 0.0;
+  // Compare at the first solution's mesh points through the widened one's interpolant.
+  double change = 0.0, servo = 0.0;
+  Workspace workspace(model);
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
-    const double t = solution.times[i];
-    const auto after = std::upper_bound(widened.times.begin(), widened.times.end(), t) -
-                       widened.times.begin();
-    const auto k = std::size_t(std::clamp<long>(long(after) - 1, 0, long(widened.times.size()) - 2));
-    const double weight = (t - widened.times[k]) / (widened.times[k + 1] - widened.times[k]);
-    const double interpolated = (1 - weight) * widened.u[k](0) + weight * widened.u[k + 1](0);
-    change = std::max(change, std::abs(interpolated - solution.u[i](0)));
+    change = std::max(change, std::abs(widened.feedforward(solution.times[i])(0) - solution.u[i](0)));
+    Evaluate(model, workspace, solution.q[i], solution.q_dot[i], Quantity::kOutput);
+    servo = std::max(servo, std::abs(workspace.output(0) -
+                                     trajectory.Derivative(solution.times[i], 0)(0)));
   }
   WARN("window doubled: max |T change| = " << change << " N m");
-  // Linear interpolation on the finer mesh: ~h^2 T'' / 8 with h ~ 1e-2, T'' ~ 1e4: 1e-1 scale.
-  CHECK(change <= 1e-3 * largest);
+  // The boundary value tolerance 1e-8 on the residual; the tails left out of the first
+  // window are below 1e-8 of the motion's modes by its choice.
+  CHECK(change <= 1e-8 * largest);
+  CHECK(servo <= 1e-12);  // the servo constraint holds along the solution (Eq. 19)
 }
 
 TEST_CASE("a linear model: the boundary value problem equals linear stable inversion to 1e-8",
