@@ -11,3 +11,6 @@ echo "== sweep throughput against the SciPy pipeline (issue #3) =="
 echo
 echo "== inverse-model solves against SciPy solve_ivp (issue #4) =="
 "$root/bench/compare_solve.sh" "$build"
+echo
+echo "== stable inversion against SciPy solve_bvp (issue #5) =="
+"$root/bench/compare_stable_inversion.sh" "$build"

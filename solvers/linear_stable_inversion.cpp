@@ -107,10 +107,11 @@ LinearStableInversion SolveLinearStableInversion(
     const IntegratorOptions& options) {
   LinearStableInversion result;
   result.summary.status = SolveStatus::kConverged;
-  // Samples come from cubic Hermite interpolation between steps (error ~ h^4): steps of at
-  // most 1/kMinStepsPerWindow of the window keep it below the integration error.
+  // Samples come from cubic Hermite interpolation between steps (error ~ h^4): unless the
+  // caller bounds the step, steps of at most 1/kMinStepsPerWindow of the window keep it below
+  // the integration error.
   IntegratorOptions capped = options;
-  capped.max_step = std::min(options.max_step, (t_end - t_start) / kMinStepsPerWindow);
+  if (!std::isfinite(options.max_step)) capped.max_step = (t_end - t_start) / kMinStepsPerWindow;
   // One part, integrated in direction `sign` (+1 forward from t_start, -1 backward from
   // t_end, as forward in s = -t) in its reduced coordinates w, starting at rest.
   auto integrate = [&](const Eigen::MatrixXd& reduced, const Eigen::MatrixXd& left, double sign,

@@ -37,7 +37,9 @@ HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix, double axis
 /// The bounded solution of x' = A x + g(t) on [t_start, t_end], with g = 0 outside [t_start,
 /// t_end] assumed (the stable part starts at 0 at t_start, the unstable part ends at 0 at
 /// t_end), sampled at `times` (increasing, within [t_start, t_end]). Each part is integrated
-/// with Dormand-Prince at `options`, the unstable one backward in time. `breakpoints` are
+/// with Dormand-Prince at `options`, the unstable one backward in time; unless options.max_step
+/// is set, steps are capped at 1/4000 of the window so that sampling between them is exact to
+/// the integration tolerance. `breakpoints` are
 /// where g is not smooth. Returns false with the reason in `summary` on failure.
 struct LinearStableInversion {
   SolveSummary summary;

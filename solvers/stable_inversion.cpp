@@ -122,8 +122,14 @@ StableInversionSolution SolveStableInversion(const Model& model,
   std::optional<BoundaryValueSolution> previous;
   BoundaryValueOptions bvp_options;
   bvp_options.tolerance = options.tolerance;
+  // The linear solution is only Newton's starting point: a few digits and steps of about the
+  // initial mesh's spacing suffice.
+  IntegratorOptions guess_accuracy;
+  guess_accuracy.rtol = 1e-6;
+  guess_accuracy.atol = 1e-9;
   for (int widening = 0;; ++widening) {
     const double t_a = t0 - pre, t_b = tf + post;
+    guess_accuracy.max_step = (t_b - t_a) / kInitialIntervals;
     // Initial guess: the linear stable inversion about the start (exact for linear models).
     std::vector<double> mesh;
     for (int k = 0; k <= kInitialIntervals; ++k) {
@@ -142,7 +148,7 @@ StableInversionSolution SolveStableInversion(const Model& model,
           }
           return start.drive_matrix * (outputs - start.equilibrium_output);
         },
-        t_a, t_b, mesh, breakpoints);
+        t_a, t_b, mesh, breakpoints, guess_accuracy);
     std::vector<Eigen::VectorXd> guess;
     for (std::size_t i = 0; i < mesh.size(); ++i) {
       guess.push_back(start.equilibrium_state +
