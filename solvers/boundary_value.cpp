@@ -4,11 +4,11 @@
 #include <Eigen/SparseLU>
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <string>
 #include <utility>
 
 #include "models/errors.h"
+#include "solvers/solver_messages.h"
 
 // The method of bvp4c (Kierzenka & Shampine, ACM TOMS 27 (2001) 299-316). On a mesh
 // t_0 < ... < t_{N-1} with h_i = t_{i+1} - t_i, the unknowns are the mesh values y_i (N n of
@@ -54,22 +54,6 @@ const double kDifferenceStep = std::sqrt(kRoundoff);
 // The interior points of the 5-point Lobatto rule other than the midpoint, as fractions of
 // the interval: (1 -+ sqrt(3/7)) / 2. S' - f vanishes at the ends and at the midpoint.
 const double kLobattoOffset = 0.5 * std::sqrt(3.0 / 7.0);
-
-template <typename Number>
-std::string FormatNumber(Number value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
-}
-
-template <typename Number>
-void RequireOption(bool valid, const char* field, Number value, const std::string& rule) {
-  if (!valid) {
-    throw UsageError(std::string("BoundaryValueOptions::") + field + " = " + FormatNumber(value) +
-                     ": " + rule);
-  }
-}
 
 // The C1 cubic Hermite interpolant on [t0, t0 + h] with values y0, y1 and slopes f0, f1, at
 // the fraction s of the interval: value and derivative.
@@ -534,12 +518,11 @@ class BvpSolver {
 }  // namespace
 
 void BoundaryValueOptions::Validate() const {
-  RequireOption(tolerance >= kMinTolerance && tolerance < 1.0, "tolerance", tolerance,
+  RequireOption(tolerance >= kMinTolerance && tolerance < 1.0, "BoundaryValueOptions", "tolerance", tolerance,
                 "must be >= " + FormatNumber(kMinTolerance) + " and < 1");
-  RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance), "absolute_tolerance",
-                absolute_tolerance, "must be finite and > 0");
-  RequireOption(max_mesh_points >= 2, "max_mesh_points", max_mesh_points, "must be >= 2");
-  RequireOption(max_newton_iterations >= 1, "max_newton_iterations", max_newton_iterations,
+  RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance), "BoundaryValueOptions", "absolute_tolerance", absolute_tolerance, "must be finite and > 0");
+  RequireOption(max_mesh_points >= 2, "BoundaryValueOptions", "max_mesh_points", double(max_mesh_points), "must be >= 2");
+  RequireOption(max_newton_iterations >= 1, "BoundaryValueOptions", "max_newton_iterations", double(max_newton_iterations),
                 "must be >= 1");
 }
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <string>
 
@@ -11,6 +10,7 @@
 #include "solvers/algebraic_inversion.h"
 #include "solvers/radau.h"
 #include "solvers/stable_inversion.h"
+#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -39,12 +39,6 @@ MethodDefaults DefaultTolerances(SolverMethod method) {
 // P = H M^-1 B has full rank at the operating point (an orthogonal realization).
 bool DecouplingRegular(const Classification& classification) {
   return classification.decoupling.rank == classification.decoupling.decoupling_matrix.rows();
-}
-
-std::string Number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
 }
 
 // The method to run and why, or NoSolution when the asked method does not fit the class.
@@ -114,7 +108,7 @@ StartState FindStartState(const Model& model,
   StartState start{equilibrium.q, Eigen::VectorXd::Zero(problem.dof()), equilibrium.u};
   if (at_rest) return start;
   if (!DecouplingRegular(classification)) {
-    throw NoSolution("the trajectory moves at t_start = " + Number(t_start) +
+    throw NoSolution("the trajectory moves at t_start = " + FormatNumber(t_start) +
                      ": a problem with P singular needs it at rest there (choose t_start <= t0)");
   }
   const Eigen::VectorXd z = problem.internal_directions().transpose() * equilibrium.q;
@@ -123,7 +117,7 @@ StartState FindStartState(const Model& model,
   Eigen::VectorXd q_ddot;
   if (!problem.StateFromInternal(t_start, z, z_dot, start.q, start.q_dot, why) ||
       !problem.NormalForm(t_start, start.q, start.q_dot, start.u, q_ddot, why)) {
-    throw NoSolution("no consistent start at t_start = " + Number(t_start) + ": " + why);
+    throw NoSolution("no consistent start at t_start = " + FormatNumber(t_start) + ": " + why);
   }
   return start;
 }
@@ -230,7 +224,7 @@ void SolveAlgebraic(const Model& model,
     if (!inverse->Evaluate(OutputDerivatives(trajectory, t, highest), model.parameters(), q, q_dot, u,
                            why)) {
       solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + Number(t) + " s: " + why;
+      solution.summary.message = "at t = " + FormatNumber(t) + " s: " + why;
       solution.summary.stop_time = t;
       return;
     }
@@ -296,9 +290,9 @@ class DecouplingWatch {
   bool Check(double t, double determinant) {
     const bool crossed = std::isfinite(previous_) && determinant * previous_ < 0.0;
     if (crossed) {
-      message_ = "P = H M^-1 B is singular between t = " + Number(previous_time_) + " s and " +
-                 Number(t) + " s (det P changes sign from " + Number(previous_) + " to " +
-                 Number(determinant) + "): u_d has a pole there";
+      message_ = "P = H M^-1 B is singular between t = " + FormatNumber(previous_time_) + " s and " +
+                 FormatNumber(t) + " s (det P changes sign from " + FormatNumber(previous_) + " to " +
+                 FormatNumber(determinant) + "): u_d has a pole there";
       return false;
     }
     previous_ = determinant;
@@ -328,7 +322,7 @@ void SolveBdf(ServoConstraintProblem& problem,
   Eigen::VectorXd x_start(n), x_dot_start(n), u, q_ddot;
   std::string why;
   if (!problem.NormalForm(options.t_start, start.q, start.q_dot, u, q_ddot, why)) {
-    throw NoSolution("no consistent start at t_start = " + Number(options.t_start) + ": " + why);
+    throw NoSolution("no consistent start at t_start = " + FormatNumber(options.t_start) + ": " + why);
   }
   x_start << start.q, start.q_dot, u;
   x_dot_start << start.q_dot, q_ddot, Eigen::VectorXd::Zero(problem.num_inputs());
@@ -450,22 +444,22 @@ void SolveByStableInversion(const Model& model,
 
 void InverseModelOptions::Validate() const {
   if (!std::isfinite(t_start) || !std::isfinite(t_end) || !(t_end > t_start)) {
-    throw UsageError("the time span t_start = " + Number(t_start) + ", t_end = " + Number(t_end) +
+    throw UsageError("the time span t_start = " + FormatNumber(t_start) + ", t_end = " + FormatNumber(t_end) +
                      ": needs finite t_start < t_end");
   }
   if (!(step > 0.0) || !std::isfinite(step)) {
-    throw UsageError("step = " + Number(step) + ": must be a finite number > 0");
+    throw UsageError("step = " + FormatNumber(step) + ": must be a finite number > 0");
   }
   if (rtol && !(*rtol > 0.0 && *rtol < 1.0)) {
-    throw UsageError("rtol = " + Number(*rtol) + ": must be in (0, 1)");
+    throw UsageError("rtol = " + FormatNumber(*rtol) + ": must be in (0, 1)");
   }
   if (atol && !(*atol > 0.0 && std::isfinite(*atol))) {
-    throw UsageError("atol = " + Number(*atol) + ": must be a finite number > 0");
+    throw UsageError("atol = " + FormatNumber(*atol) + ": must be a finite number > 0");
   }
   for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
                                     std::pair{post_actuation, "post_actuation"}}) {
     if (value && !(*value > 0.0 && std::isfinite(*value))) {
-      throw UsageError(std::string(name) + " = " + Number(*value) +
+      throw UsageError(std::string(name) + " = " + FormatNumber(*value) +
                        ": must be a finite number > 0");
     }
   }
@@ -561,7 +555,7 @@ Verification VerifyFeedforward(const Model& model,
         Evaluate(model, workspace, y.head(f), y.tail(f), kForwardDynamics);
         const Eigen::VectorXd u = solution.feedforward(t);
         if (!u.allFinite()) {
-          why = "u_d is not finite at t = " + Number(t);
+          why = "u_d is not finite at t = " + FormatNumber(t);
           return false;
         }
         const Eigen::LLT<Eigen::MatrixXd> mass_factor(workspace.mass_matrix);

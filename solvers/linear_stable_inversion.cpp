@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
+#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -20,10 +20,8 @@ constexpr double kProjectorRankThreshold = 0.5;
 constexpr double kMinStepsPerWindow = 4000.0;
 
 std::string Complex(std::complex<double> value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.6g %c %.6gi", value.real(), value.imag() < 0 ? '-' : '+',
-                std::abs(value.imag()));
-  return buffer;
+  return FormatNumber(value.real()) + (value.imag() < 0 ? " - " : " + ") +
+         FormatNumber(std::abs(value.imag())) + "i";
 }
 
 // sign(A) by the scaled Newton iteration X <- (c X + (c X)^-1) / 2, c = |det X|^(-1/n)

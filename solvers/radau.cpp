@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <sstream>
 #include <string>
 #include <utility>
 
 #include "models/errors.h"
+#include "solvers/solver_messages.h"
 
 // Radau IIA after Hairer & Wanner, Solving ODEs II (2nd ed.), Sect. IV.8 (the method, its
 // simplified Newton iteration in the eigenbasis of the Butcher matrix, the error estimate and
@@ -101,22 +101,6 @@ struct Tolerances {
 Tolerances CalibratedTolerances(const RadauOptions& options) {
   const double rtol = 0.1 * std::pow(options.rtol, 2.0 / 3.0);
   return {rtol, options.atol * rtol / options.rtol};
-}
-
-template <typename Number>
-std::string FormatNumber(Number value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
-}
-
-template <typename Number>
-void RequireOption(bool valid, const char* field, Number value, const std::string& rule) {
-  if (!valid) {
-    throw UsageError(std::string("RadauOptions::") + field + " = " + FormatNumber(value) + ": " +
-                     rule);
-  }
 }
 
 // Newton stops when its estimated remaining error, measured in units of the error tolerance,
@@ -949,20 +933,20 @@ void ValidateProblem(const LinearlyImplicitDae& dae,
 }  // namespace
 
 void RadauOptions::Validate() const {
-  RequireOption(stages == 1 || stages == 3, "stages", stages,
+  RequireOption(stages == 1 || stages == 3, "RadauOptions", "stages", double(stages),
                 "must be 1 (Euler backward) or 3 (Radau IIA)");
-  RequireOption(rtol >= kMinRelativeTolerance && rtol < 1.0, "rtol", rtol,
+  RequireOption(rtol >= kMinRelativeTolerance && rtol < 1.0, "RadauOptions", "rtol", rtol,
                 "must be >= " + FormatNumber(kMinRelativeTolerance) + " and < 1");
-  RequireOption(atol >= 0.0 && std::isfinite(atol), "atol", atol, "must be finite and >= 0");
-  RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), "initial_step", initial_step,
+  RequireOption(atol >= 0.0 && std::isfinite(atol), "RadauOptions", "atol", atol, "must be finite and >= 0");
+  RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), "RadauOptions", "initial_step", initial_step,
                 "must be finite and >= 0 (0: chosen by the integrator)");
-  RequireOption(fixed_step >= 0.0 && std::isfinite(fixed_step), "fixed_step", fixed_step,
+  RequireOption(fixed_step >= 0.0 && std::isfinite(fixed_step), "RadauOptions", "fixed_step", fixed_step,
                 "must be finite and >= 0");
-  RequireOption(stages != 1 || fixed_step > 0.0, "fixed_step", fixed_step,
+  RequireOption(stages != 1 || fixed_step > 0.0, "RadauOptions", "fixed_step", fixed_step,
                 "must be > 0 when stages = 1 (Euler backward has no step-size control)");
-  RequireOption(max_step > 0.0, "max_step", max_step, "must be > 0");
-  RequireOption(max_steps >= 1, "max_steps", max_steps, "must be >= 1");
-  RequireOption(max_newton_iterations >= 1, "max_newton_iterations", max_newton_iterations,
+  RequireOption(max_step > 0.0, "RadauOptions", "max_step", max_step, "must be > 0");
+  RequireOption(max_steps >= 1, "RadauOptions", "max_steps", double(max_steps), "must be >= 1");
+  RequireOption(max_newton_iterations >= 1, "RadauOptions", "max_newton_iterations", double(max_newton_iterations),
                 "must be >= 1");
 }
 

@@ -2,12 +2,12 @@
 
 #include <cassert>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "analysis/decoupling_matrix.h"
 #include "models/errors.h"
 #include "models/symbolic_model.h"
+#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -22,19 +22,12 @@ constexpr unsigned kOutputGeometry = Quantity::kOutput | Quantity::kOutputJacobi
 // (H_a nearly singular, paper Sect. 2.4) and the tangent basis D_0 is used instead.
 constexpr double kMinChartReciprocalCondition = 1e-8;
 
-// Numbers in messages: three significant digits say enough about a condition number.
-std::string Short(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.3g", value);
-  return buffer;
-}
-
 }  // namespace
 
 void ServoProblemOptions::Validate() const {
   auto require_positive = [](double value, const char* field) {
     if (!(value > 0.0) || !std::isfinite(value)) {
-      throw UsageError(std::string("ServoProblemOptions::") + field + " = " + Short(value) +
+      throw UsageError(std::string("ServoProblemOptions::") + field + " = " + FormatNumber(value) +
                        ": must be a finite number > 0");
     }
   };
@@ -159,7 +152,7 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
   const double diagonal_ratio = diagonal.minCoeff() / diagonal.maxCoeff();
   const double reciprocal_condition = diagonal_ratio * diagonal_ratio;
   if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
-    why = "M(q) is singular (reciprocal condition number " + Short(reciprocal_condition) + ")";
+    why = "M(q) is singular (reciprocal condition number " + FormatNumber(reciprocal_condition) + ")";
     last_failure_ = SolveStatus::kSingularMass;
     return false;
   }
@@ -221,7 +214,7 @@ bool ServoConstraintProblem::StateFromInternal(double t,
       // Near a singular [H; C^T] Newton stalls before the pivot test trips: say how close.
       why = "Newton's method for q from y_d and the internal coordinates does not converge "
             "([H; C^T] nearly singular: pivot ratio " +
-            Short(pivots.minCoeff() / pivots.maxCoeff()) + ")";
+            FormatNumber(pivots.minCoeff() / pivots.maxCoeff()) + ")";
       last_failure_ = SolveStatus::kNoConvergence;
       return false;
     }
@@ -278,7 +271,7 @@ bool ServoConstraintProblem::NormalForm(double t,
   }
   if (!(smallest > options_.rank_tolerance * scale)) {
     why = "P = H M^-1 B is singular (smallest pivot / (|H| |M^-1 B|) = " +
-          Short(smallest / scale) + ")";
+          FormatNumber(smallest / scale) + ")";
     last_failure_ = SolveStatus::kSingularDecoupling;
     return false;
   }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
@@ -12,6 +11,7 @@
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"
 #include "solvers/servo_constraint_problem.h"
+#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -22,12 +22,6 @@ constexpr int kInitialIntervals = 200;
 // Each widening grows the pre- and post-actuation windows by this factor.
 constexpr double kWideningFactor = 1.5;
 
-std::string Number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
-
 // ln(1/tolerance) / rate: the time a mode of that decay rate needs to fall to the tolerance.
 double DecayTime(double rate, double tolerance) { return std::log(1.0 / tolerance) / rate; }
 
@@ -35,13 +29,13 @@ double DecayTime(double rate, double tolerance) { return std::log(1.0 / toleranc
 
 void StableInversionOptions::Validate() const {
   if (!(tolerance > 0.0 && tolerance < 1.0)) {
-    throw UsageError("StableInversionOptions::tolerance = " + Number(tolerance) +
+    throw UsageError("StableInversionOptions::tolerance = " + FormatNumber(tolerance) +
                      ": must be in (0, 1)");
   }
   for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
                                     std::pair{post_actuation, "post_actuation"}}) {
     if (value && !(*value > 0.0 && std::isfinite(*value))) {
-      throw UsageError(std::string("StableInversionOptions::") + name + " = " + Number(*value) +
+      throw UsageError(std::string("StableInversionOptions::") + name + " = " + FormatNumber(*value) +
                        ": must be a finite number > 0");
     }
   }
@@ -199,7 +193,7 @@ StableInversionSolution SolveStableInversion(const Model& model,
   for (std::size_t i = 0; i < bvp.mesh.size(); ++i) {
     if (!rhs(bvp.mesh[i], bvp.y[i], x_dot, why)) {
       solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + Number(bvp.mesh[i]) + " s: " + why;
+      solution.summary.message = "at t = " + FormatNumber(bvp.mesh[i]) + " s: " + why;
       return solution;
     }
     solution.times.push_back(bvp.mesh[i]);
@@ -241,10 +235,10 @@ StableInversionSolution SolveStableInversion(const Model& model,
     }
     return input;
   };
-  solution.summary.message = "boundary value problem on [" + Number(solution.window_start) +
-                             ", " + Number(solution.window_end) + "] s, " +
+  solution.summary.message = "boundary value problem on [" + FormatNumber(solution.window_start) +
+                             ", " + FormatNumber(solution.window_end) + "] s, " +
                              std::to_string(solution.times.size()) + " mesh points, residual " +
-                             Number(solution.max_residual);
+                             FormatNumber(solution.max_residual);
   return solution;
 }
 

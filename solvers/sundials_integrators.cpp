@@ -12,7 +12,6 @@
 #include <limits>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -20,6 +19,7 @@
 
 #include "analysis/sundials_support.h"
 #include "models/errors.h"
+#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -34,16 +34,6 @@ constexpr int kCallbackThrew = -1;
 // SUNDIALS refuses to start on an interval of a few round-offs (CV_TOO_CLOSE, ARK_TOO_CLOSE),
 // and a restart there would change nothing.
 constexpr double kBreakpointResolutionInRoundoffs = 1000.0;
-
-// Significant digits of numbers in messages: enough to tell neighbouring steps apart.
-constexpr int kMessageDigits = 10;
-
-std::string FormatNumber(double value) {
-  std::ostringstream out;
-  out.precision(kMessageDigits);
-  out << value;
-  return out.str();
-}
 
 std::string AtTime(double t) { return "at t = " + FormatNumber(t) + " s"; }
 
@@ -758,20 +748,14 @@ void CheckOdeArguments(const OdeRightHandSide& rhs,
 }  // namespace
 
 void IntegratorOptions::Validate() const {
-  const auto fail = [](const char* field, double value, const char* rule) {
-    throw UsageError(std::string("IntegratorOptions::") + field + " = " + FormatNumber(value) +
-                     ": " + rule);
-  };
-  if (!(rtol > 0.0 && std::isfinite(rtol))) fail("rtol", rtol, "must be > 0 and finite");
-  if (!(atol >= 0.0 && std::isfinite(atol))) fail("atol", atol, "must be >= 0 and finite");
-  if (!(initial_step >= 0.0 && std::isfinite(initial_step))) {
-    fail("initial_step", initial_step, "must be >= 0 and finite (0: SUNDIALS chooses)");
-  }
-  if (!(max_step > 0.0)) fail("max_step", max_step, "must be > 0 (infinity: no bound)");
-  if (max_steps < 1) {
-    throw UsageError("IntegratorOptions::max_steps = " + std::to_string(max_steps) +
-                     ": must be >= 1");
-  }
+  constexpr const char* kOwner = "IntegratorOptions";
+  RequireOption(rtol > 0.0 && std::isfinite(rtol), kOwner, "rtol", rtol, "must be > 0 and finite");
+  RequireOption(atol >= 0.0 && std::isfinite(atol), kOwner, "atol", atol,
+                "must be >= 0 and finite");
+  RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), kOwner, "initial_step",
+                initial_step, "must be >= 0 and finite (0: SUNDIALS chooses)");
+  RequireOption(max_step > 0.0, kOwner, "max_step", max_step, "must be > 0 (infinity: no bound)");
+  RequireOption(max_steps >= 1, kOwner, "max_steps", double(max_steps), "must be >= 1");
 }
 
 SolveSummary IntegrateDormandPrince(const OdeRightHandSide& rhs,
