@@ -532,8 +532,16 @@ void AddStableInversionFigures(Document& document,
                           std::string(*solution.post_actuation_end > tf ? "after" : "NOT after") +
                               " tf = 3 s (`" + FormatShort(*solution.post_actuation_end) + " s`)",
                           "after tf"});
-  numbers.rows.push_back({"largest torque", ThreeDigits(largest_torque) + " N m", "bounded"});
-  numbers.rows.push_back({"largest passive angle", ThreeDigits(ToDegrees(largest_beta)) + " deg",
+  // Shown, not compared by the answer-file test: no independent reference fixes these digits
+  // (the tests check boundedness and the agreement with linear stable inversion instead).
+  numbers.rows.push_back({"largest torque",
+                          std::string(std::isfinite(largest_torque) ? "bounded" : "NOT bounded") +
+                              " (`" + ThreeDigits(largest_torque) + " N m`)",
+                          "bounded"});
+  numbers.rows.push_back({"largest passive angle",
+                          std::string(largest_beta < std::numbers::pi / 2 ? "below 90 deg"
+                                                                          : "NOT below 90 deg") +
+                              " (`" + ThreeDigits(ToDegrees(largest_beta)) + " deg`)",
                           "bounded"});
   numbers.rows.push_back({"collocation residual", Below(*solution.boundary_value_residual, 1e-8),
                           "bvp5c"});
