@@ -6,6 +6,7 @@
 // (model loaded once), best of several runs. Prints one JSON object.
 //
 // Usage: bench_stable_inversion MODELS_DIR [tolerance (1e-6)] [repetitions (5)]
+//                               [window_start window_end]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -20,22 +21,25 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace servokit;
 
-// The input T at t, linear interpolation on the mesh.
-double InputAt(const StableInversionSolution& solution, double t) {
-  const auto& times = solution.times;
-  const auto upper = std::upper_bound(times.begin(), times.end(), t);
-  if (upper == times.begin()) return solution.u.front()(0);
-  if (upper == times.end()) return solution.u.back()(0);
-  const std::size_t i = static_cast<std::size_t>(upper - times.begin());
-  const double weight = (t - times[i - 1]) / (times[i] - times[i - 1]);
-  return (1.0 - weight) * solution.u[i - 1](0) + weight * solution.u[i](0);
+// T on a uniform grid of `count` times over [t0 - 1, tf + 1] (clamped to the window), from the
+// solution's own interpolant, as a JSON array.
+std::string InputGrid(const StableInversionSolution& solution, int count) {
+  std::string text = "[";
+  for (int i = 0; i < count; ++i) {
+    const double t = 0.0 + 4.0 * i / (count - 1);
+    char number[32];
+    std::snprintf(number, sizeof number, "%s%.15e", i ? ", " : "", solution.feedforward(t)(0));
+    text += number;
+  }
+  return text + "]";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  constexpr int kGridPoints = 401;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s MODELS_DIR [tolerance] [repetitions]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s MODELS_DIR [tolerance] [repetitions] [window_start window_end]\n", argv[0]);
     return 2;
   }
   const std::string path = std::string(argv[1]) + "/rotational_arm.yaml";
@@ -48,6 +52,10 @@ int main(int argc, char** argv) {
   StableInversionOptions options;
   options.tolerance = tolerance;
   options.max_widenings = 0;
+  if (argc > 5) {  // a given window (for a reference solution on the same problem)
+    options.pre_actuation = 1.0 - std::atof(argv[4]);
+    options.post_actuation = std::atof(argv[5]) - 3.0;
+  }
   double best = 1e300;
   StableInversionSolution solution;
   for (int i = 0; i < repetitions; ++i) {
@@ -64,9 +72,11 @@ int main(int argc, char** argv) {
   for (const auto& u : solution.u) largest = std::max(largest, std::abs(u(0)));
   std::printf(
       "{\"method\": \"servokit\", \"tolerance\": %.3e, \"seconds\": %.6e, \"mesh_points\": %zu, "
-      "\"window_start\": %.15e, \"window_end\": %.15e, \"max_abs_T\": %.12e, \"T_0_9\": %.12e, "
-      "\"T_2_0\": %.12e, \"max_residual\": %.6e}\n",
+      "\"window_start\": %.15e, \"window_end\": %.15e, \"max_abs_T\": %.12e, "
+      "\"max_residual\": %.6e, \"function_evaluations\": %ld, \"newton_iterations\": %ld, "
+      "\"T_grid\": %s}\n",
       tolerance, best, solution.times.size(), solution.window_start, solution.window_end, largest,
-      InputAt(solution, 0.9), InputAt(solution, 2.0), solution.max_residual);
+      solution.max_residual, solution.summary.function_evaluations,
+      solution.summary.newton_iterations, InputGrid(solution, kGridPoints).c_str());
   return 0;
 }

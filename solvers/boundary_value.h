@@ -1,10 +1,13 @@
 #pragma once
 // Two-point boundary value problems for first-order ODE systems y' = f(t, y) on [a, b] with n
-// boundary conditions g(y(a), y(b)) = 0, solved as MATLAB's bvp4c does (Kierzenka & Shampine,
-// ACM TOMS 27, 2001): 3-point Lobatto IIIA (Hermite-Simpson) collocation on a mesh, damped Newton
-// on all mesh values at once with a sparse Jacobian, and mesh refinement driven by the residual
-// of the C1 cubic interpolant. Written here for stable inversion of unstable internal dynamics
-// (paper Sect. 5.3): the unstable modes get end conditions, the stable ones start conditions.
+// boundary conditions g(y(a), y(b)) = 0, by collocation at Gauss-Lobatto points: damped Newton
+// on all node values at once with a sparse Jacobian, and mesh refinement driven by the residual
+// of the collocation solution. With 3 points per interval this is MATLAB's bvp4c (Kierzenka &
+// Shampine, ACM TOMS 27, 2001: Hermite-Simpson, residual of the C1 cubic interpolant); with
+// s > 3 points it is Lobatto IIIA of order 2s - 2 (bvp5c's formula at s = 4), with the interior
+// nodes eliminated interval by interval before the sparse solve. Written here for stable
+// inversion of unstable internal dynamics (paper Sect. 5.3): the unstable modes get end
+// conditions, the stable ones start conditions.
 #include <Eigen/Dense>
 #include <functional>
 #include <limits>
@@ -16,9 +19,10 @@
 namespace servokit {
 
 struct BoundaryValueOptions {
-  // Largest relative residual of the interpolant S allowed on any mesh interval, as bvp4c's
-  // RelTol: |S'(t) - f(t, S(t))| <= max(tolerance |f|, absolute_tolerance) per component. A
-  // residual, not an error: the global error is this times the problem's conditioning. 1e-8
+  // With collocation_points = 3: the largest relative residual of the interpolant S allowed on
+  // any mesh interval, as bvp4c's RelTol: |S'(t) - f(t, S(t))| <= max(tolerance |f|,
+  // absolute_tolerance) per component (see collocation_points for s > 3). A residual, not an
+  // error: the global error is this times the problem's conditioning. 1e-8
   // gives about 8 digits on well-conditioned problems; it must be >= 1e-12 because Newton
   // stops at 1e-2 of it, which must stay above round-off.
   double tolerance = 1e-8;
@@ -32,6 +36,14 @@ struct BoundaryValueOptions {
   // Newton iterations per mesh before giving up with kNoConvergence. Newton converges
   // quadratically from a usable guess; 25 leaves room for the damped start from a poor one.
   int max_newton_iterations = 25;
+  // Gauss-Lobatto collocation points per mesh interval, ends included (3 .. 10). 3 is bvp4c's
+  // Hermite-Simpson method (order 4), with `tolerance` bounding the residual as described
+  // above. s > 3 is Lobatto IIIA collocation with a polynomial of degree s per interval
+  // (values at the interval ends accurate to O(h^(2s-2)), everywhere to O(h^(s+1)); s = 4 is
+  // bvp5c's formula); `tolerance` then bounds the estimated error h |residual| of each interval
+  // against max(tolerance |y|, absolute_tolerance), per component. Higher orders need far fewer
+  // points for smooth solutions and tight tolerances (stable inversion uses 7).
+  int collocation_points = 3;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
 };
@@ -71,8 +83,12 @@ struct BoundaryValueSolution {
   std::vector<Eigen::VectorXd> y_prime;
   // Largest relative residual (see BoundaryValueOptions::tolerance) over the final mesh.
   double max_residual = std::numeric_limits<double>::quiet_NaN();
-  /// The C1 cubic Hermite interpolant through (mesh, y, y_prime) at t, size n; its accuracy is
-  /// that of the collocation solution. Throws UsageError if t is outside [mesh.front(),
+  // Nodes per mesh interval, ends included: the mesh holds every node, interval k spans nodes
+  // k (p - 1) .. k (p - 1) + p - 1 with p = nodes_per_interval (2 for Hermite-Simpson,
+  // BoundaryValueOptions::collocation_points otherwise).
+  int nodes_per_interval = 2;
+  /// The collocation solution at t, size n: the C1 cubic Hermite interpolant through (mesh, y,
+  /// y_prime) for Hermite-Simpson, the interval's collocation polynomial otherwise. Throws UsageError if t is outside [mesh.front(),
   /// mesh.back()] or the solution has no derivative values.
   Eigen::VectorXd Evaluate(double t) const;
 };

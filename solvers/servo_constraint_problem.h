@@ -71,8 +71,8 @@ class ServoConstraintProblem {
   /// The state on the servo constraint with internal state (z, z') at t: Newton on
   /// h(q) = y_d(t), C^T q = z (Eq. 19) from the q passed in, then q' from Eq. (20).
   bool StateFromInternal(double t,
-                         const Eigen::VectorXd& z,
-                         const Eigen::VectorXd& z_dot,
+                         const Eigen::Ref<const Eigen::VectorXd>& z,
+                         const Eigen::Ref<const Eigen::VectorXd>& z_dot,
                          Eigen::VectorXd& q,
                          Eigen::VectorXd& q_dot,
                          std::string& why);

@@ -23,7 +23,8 @@
 namespace servokit {
 
 struct StableInversionOptions {
-  // Relative tolerance of the boundary value problem (collocation residual) and of the window:
+  // Relative tolerance of the boundary value problem (estimated error of the collocation
+  // solution, BoundaryValueOptions with 7 Lobatto points) and of the window:
   // modes outside the window are below tolerance times their size.
   double tolerance = 1e-8;
   // Time before the trajectory's first breakpoint and after its last; unset: chosen from the

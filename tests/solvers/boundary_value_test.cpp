@@ -207,6 +207,124 @@ TEST_CASE("stable inversion: the unstable mode gets an end condition and starts 
   CHECK(std::abs(solution.Evaluate(0.0)(1)) < 1e-10);  // x2 is causal: zero before the pulse
 }
 
+// Lobatto IIIA collocation with s points per interval (BoundaryValueOptions::
+// collocation_points) on y'' = y, y(0) = 1, y(1) = e (y = e^t) on fixed uniform meshes (a
+// tolerance so loose that no interval is refined): the values at the interval ends converge
+// as h^(2s-2) and the collocation polynomial between them as h^(s+1) (Ascher, Mattheij &
+// Russell, Thm. 5.140). Halving h must divide the errors by about 2^(2s-2) and 2^(s+1).
+TEST_CASE("Lobatto collocation converges with order 2s-2 at the interval ends, s+1 between",
+          "[solvers]") {
+  for (const int points : {4, 5}) {
+    CAPTURE(points);
+    BoundaryValueOptions options;
+    options.collocation_points = points;
+    options.tolerance = 0.5;
+    double previous_end_error = 0.0, previous_inner_error = 0.0;
+    for (const int intervals : {2, 4, 8}) {
+      const std::vector<double> mesh = UniformMesh(0.0, 1.0, intervals);
+      const BoundaryValueSolution solution = SolveBoundaryValueProblem(
+          ScaledSecondDerivative(1.0), ScaledSecondDerivativeJacobian(1.0),
+          Dirichlet(1.0, std::exp(1.0)), mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)),
+          options);
+      REQUIRE(solution.summary.IsUsable());
+      REQUIRE(solution.summary.steps == intervals);  // not refined
+      REQUIRE(solution.nodes_per_interval == points);
+      double end_error = 0.0, inner_error = 0.0;
+      for (const double t : mesh) {
+        end_error = std::max(end_error, std::abs(solution.Evaluate(t)(1) - std::exp(t)));
+      }
+      for (int k = 0; k < 1000; ++k) {
+        const double t = (k + 0.5) / 1000.0;
+        inner_error = std::max(inner_error, std::abs(solution.Evaluate(t)(1) - std::exp(t)));
+      }
+      CAPTURE(intervals, end_error, inner_error);
+      if (previous_end_error > 0.0) {
+        const double end_ratio = previous_end_error / end_error;
+        const double inner_ratio = previous_inner_error / inner_error;
+        CAPTURE(end_ratio, inner_ratio);
+        // Round-off floor: s = 5 at h = 1/8 reaches ~1e-15 at the ends; skip the ratio there.
+        if (end_error > 1e-13) CHECK(end_ratio == Approx(std::pow(2.0, 2 * points - 2)).epsilon(0.2));
+        CHECK(inner_ratio == Approx(std::pow(2.0, points + 1)).epsilon(0.35));
+      }
+      previous_end_error = end_error;
+      previous_inner_error = inner_error;
+    }
+  }
+}
+
+// The closed-form problems above, solved with 7 Lobatto points per interval to 1e-10: the
+// error test holds, with far fewer points than Hermite-Simpson needs at the same tolerance.
+TEST_CASE("7-point Lobatto collocation meets a tight tolerance with few points", "[solvers]") {
+  BoundaryValueOptions options;
+  options.collocation_points = 7;
+  options.tolerance = 1e-10;
+  options.absolute_tolerance = 1e-12;
+  SECTION("e^t") {
+    const std::vector<double> mesh = UniformMesh(0.0, 1.0, 2);
+    const BoundaryValueSolution solution = SolveBoundaryValueProblem(
+        ScaledSecondDerivative(1.0), nullptr, Dirichlet(1.0, std::exp(1.0)), mesh,
+        ConstantGuess(mesh.size(), VectorXd::Zero(2)), options);
+    REQUIRE(solution.summary.IsUsable());
+    CAPTURE(solution.mesh.size(), solution.summary.message);
+    CHECK(solution.mesh.size() < 40);
+    double max_error = 0.0;
+    for (int k = 0; k <= 1000; ++k) {
+      const double t = k / 1000.0;
+      max_error = std::max(max_error, std::abs(solution.Evaluate(t)(0) - std::exp(t)));
+    }
+    CHECK(max_error < 1e-10 * std::exp(1.0));
+  }
+  SECTION("the boundary layer, eps = 1e-3") {
+    const double eps = 1e-3;
+    const double root = std::sqrt(eps);
+    const std::vector<double> mesh = UniformMesh(-1.0, 1.0, 10);
+    const BoundaryValueSolution solution = SolveBoundaryValueProblem(
+        ScaledSecondDerivative(1.0 / eps), ScaledSecondDerivativeJacobian(1.0 / eps),
+        Dirichlet(1.0, 1.0), mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)), options);
+    REQUIRE(solution.summary.IsUsable());
+    BoundaryValueOptions hermite_simpson = options;
+    hermite_simpson.collocation_points = 3;
+    const BoundaryValueSolution fourth_order = SolveBoundaryValueProblem(
+        ScaledSecondDerivative(1.0 / eps), ScaledSecondDerivativeJacobian(1.0 / eps),
+        Dirichlet(1.0, 1.0), mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)),
+        hermite_simpson);
+    CAPTURE(solution.mesh.size(), fourth_order.mesh.size(), solution.summary.message);
+    CHECK(3 * solution.mesh.size() < fourth_order.mesh.size());
+    double max_error = 0.0;
+    for (int k = 0; k <= 2000; ++k) {
+      const double t = -1.0 + k / 1000.0;
+      const double exact = std::cosh(t / root) / std::cosh(1.0 / root);
+      max_error = std::max(max_error, std::abs(solution.Evaluate(t)(0) - exact));
+    }
+    CHECK(max_error < 1e-10);
+  }
+  SECTION("stable inversion of the pulse") {
+    const BvpRightHandSide f = [](double t, const VectorXd& x, VectorXd& out, std::string&) {
+      out.resize(2);
+      out << 2.0 * x(0) + Pulse(t), -3.0 * x(1) + Pulse(t);
+      return true;
+    };
+    BoundaryConditions conditions;
+    conditions.residual = [](const VectorXd& xa, const VectorXd& xb, VectorXd& residual) {
+      residual.resize(2);
+      residual << xb(0), xa(1);
+    };
+    // The pulse's ends are breakpoints of f (g is C^3 there): mesh points at 1 and 3.
+    const std::vector<double> mesh = {-5.0, -3.0, -1.0, 1.0, 2.0, 3.0, 5.0, 7.0, 9.0};
+    const BoundaryValueSolution solution = SolveBoundaryValueProblem(
+        f, nullptr, conditions, mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)), options);
+    REQUIRE(solution.summary.IsUsable());
+    CAPTURE(solution.mesh.size(), solution.summary.message);
+    double max_error = 0.0;
+    for (const double t : {-4.0, -1.0, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 8.5}) {
+      const VectorXd x = solution.Evaluate(t);
+      max_error = std::max(
+          {max_error, std::abs(x(0) - UnstableReference(t)), std::abs(x(1) - StableReference(t))});
+    }
+    CHECK(max_error < 1e-10);
+  }
+}
+
 // Bratu: y'' + lambda e^y = 0 on [0, 1], y(0) = y(1) = 0, lambda = 1. The lower solution is
 // y = -2 ln(cosh((t - 1/2) theta / 2) / cosh(theta / 4)) with theta = sqrt(2 lambda)
 // cosh(theta / 4) (the smaller root, theta ~ 1.5172); Newton from y = 0 finds it.
@@ -245,6 +363,12 @@ TEST_CASE("the nonlinear Bratu problem converges to its lower solution from a ze
 
 TEST_CASE("default boundary value options are valid and bad fields are named", "[solvers]") {
   CHECK_NOTHROW(BoundaryValueOptions{}.Validate());
+  {
+    BoundaryValueOptions options;
+    options.collocation_points = 2;
+    CHECK_THROWS_WITH(options.Validate(), Catch::Contains(
+                                              "BoundaryValueOptions::collocation_points = 2: must be in 3 .. 10"));
+  }
   BoundaryValueOptions options;
   options.tolerance = 1e-15;
   CHECK_THROWS_WITH(options.Validate(),
