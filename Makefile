@@ -16,7 +16,8 @@ MAKEFLAGS   += --no-print-directory
 
 # Build and run dependencies (DESIGN.md, "Dependencies").
 PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-dev libgsl-dev \
-            catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox
+            catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox \
+            libopenmpi-dev openmpi-bin
 # Only the benchmarks need the SciPy peer.
 BENCH_PACKAGES := python3-scipy python3-numpy
 

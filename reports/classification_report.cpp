@@ -206,25 +206,41 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
   };
 }
 
-std::string ClassificationToText(const Model& model, const Classification& c) {
+namespace {
+
+using SummaryRows = std::vector<std::pair<std::string, std::string>>;
+
+std::string RowsToText(const std::string& name,
+                       const std::string& source,
+                       const SummaryRows& rows) {
   std::ostringstream out;
-  out << model.name() << " (" << model.source() << ")\n";
-  for (const auto& [label, value] : ClassificationSummary(model, c)) {
+  out << name << " (" << source << ")\n";
+  for (const auto& [label, value] : rows) {
     out << "  " << label << std::string(label.size() < 24 ? 24 - label.size() : 1, ' ') << value
         << "\n";
   }
   return out.str();
 }
 
-std::string ClassificationToMarkdown(const Model& model, const Classification& c) {
+std::string RowsToMarkdown(const std::string& name,
+                           const std::string& description,
+                           const SummaryRows& rows) {
   std::ostringstream out;
-  out << "## " << model.name() << "\n\n";
-  if (!model.description().empty()) out << model.description() << "\n\n";
+  out << "## " << name << "\n\n";
+  if (!description.empty()) out << description << "\n\n";
   out << "| property | value |\n| --- | --- |\n";
-  for (const auto& [label, value] : ClassificationSummary(model, c)) {
-    out << "| " << label << " | " << value << " |\n";
-  }
+  for (const auto& [label, value] : rows) out << "| " << label << " | " << value << " |\n";
   return out.str();
+}
+
+}  // namespace
+
+std::string ClassificationToText(const Model& model, const Classification& c) {
+  return RowsToText(model.name(), model.source(), ClassificationSummary(model, c));
+}
+
+std::string ClassificationToMarkdown(const Model& model, const Classification& c) {
+  return RowsToMarkdown(model.name(), model.description(), ClassificationSummary(model, c));
 }
 
 std::string FormatClassification(const Model& model,
@@ -240,6 +256,150 @@ std::string FormatClassification(const Model& model,
       break;
   }
   return ClassificationToText(model, classification);
+}
+
+namespace {
+
+std::string LinearParametersToText(const LinearModel& model) {
+  std::vector<std::string> parts;
+  for (std::size_t i = 0; i < model.parameter_names().size(); ++i) {
+    parts.push_back(model.parameter_names()[i] + " = " +
+                    FormatShort(model.parameters()(Eigen::Index(i))));
+  }
+  return parts.empty() ? "none" : Join(parts, ", ");
+}
+
+std::vector<std::string> NumberedNames(const std::string& prefix, std::size_t count) {
+  std::vector<std::string> names;
+  for (std::size_t i = 1; i <= count; ++i) names.push_back(prefix + std::to_string(i));
+  return names;
+}
+
+constexpr const char* kLinearOperatingPoint =
+    "q = 0, q' = 0, u = 0, y = 0 (a linear model is its own linearization there)";
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const LinearModel& model,
+                                                                       const LinearAnalysis& a) {
+  const LinearZeroDynamics& zeros = a.zero_dynamics;
+  return {
+      {"parameters", LinearParametersToText(model)},
+      {"size", std::to_string(model.dof()) + " coordinates, " + std::to_string(model.num_inputs()) +
+                   " inputs, " + std::to_string(model.num_outputs()) + " outputs"},
+      {"operating point", kLinearOperatingPoint},
+      {"P = H M^-1 B", MatrixToText(a.decoupling.decoupling_matrix)},
+      {"singular values of P", VectorToText(a.decoupling.singular_values) + " (zero below " +
+                                   FormatShort(a.decoupling.rank_threshold) + ")"},
+      {"rank P", std::to_string(a.decoupling.rank) + " of " +
+                     std::to_string(a.decoupling.decoupling_matrix.rows()) + ", deficiency " +
+                     std::to_string(a.decoupling.rank_deficiency)},
+      {"realization", std::string(ToString(a.decoupling.realization))},
+      {"relative degree", a.relative_degrees.determined
+                              ? IntsToText(a.relative_degrees.relative_degree)
+                              : "not determined: " + a.relative_degrees.note},
+      {"differentiation index",
+       a.relative_degrees.determined
+           ? std::to_string(a.differentiation_index) + " (projected DAE: " +
+                 std::to_string(a.projected_index) + ")"
+           : std::string("not determined (needs the relative degrees)")},
+      {"internal dynamics",
+       a.relative_degrees.determined
+           ? "order " + std::to_string(a.internal_dynamics_order) + (a.flat ? " (flat)" : "")
+           : std::string("order not determined")},
+      {"zero dynamics", EigenvaluesToText(zeros.eigenvalues)},
+      {"eigenvalues computed", zeros.scope},
+      {"stability", std::string(ToString(zeros.stability)) +
+                        (zeros.minimum_phase ? ", minimum phase" : ", non-minimum phase")},
+      {"oscillatory modes", ModesToText(zeros.modes)},
+      {"recommended solver", std::string(ToString(a.recommended_solver))},
+  };
+}
+
+nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
+                                            const LinearAnalysis& a,
+                                            const LinearAnalysisOptions& options) {
+  nlohmann::ordered_json parameters = nlohmann::ordered_json::object();
+  for (std::size_t i = 0; i < model.parameter_names().size(); ++i) {
+    parameters[model.parameter_names()[i]] = model.parameters()(Eigen::Index(i));
+  }
+  const LinearZeroDynamics& zeros = a.zero_dynamics;
+  nlohmann::ordered_json modes = nlohmann::ordered_json::array();
+  for (const Mode& mode : zeros.modes) {
+    modes.push_back({{"frequency_hz", mode.frequency_hz}, {"damping_ratio", mode.damping_ratio}});
+  }
+  nlohmann::ordered_json zero_dynamics = {
+      {"eigenvalues", EigenvaluesToJson(zeros.eigenvalues)},
+      {"stability", ToString(zeros.stability)},
+      {"minimum_phase", zeros.minimum_phase},
+      {"modes", modes},
+      {"complete", zeros.complete},
+      {"zero_count", zeros.zero_count},
+      {"scope", zeros.scope},
+      {"solver", ToString(zeros.solver_used)},
+      {"target", ToString(zeros.target)},
+      {"shift", zeros.shift},
+  };
+  if (zeros.solver_used == LinearEigenSolver::kArpack) {
+    zero_dynamics["arpack"] = {{"restarts", zeros.arpack.restarts},
+                               {"operator_applications", zeros.arpack.operator_applications},
+                               {"basis_size", zeros.arpack.basis_size}};
+  }
+  const Eigen::VectorXd zero_io = Eigen::VectorXd::Zero(Eigen::Index(model.num_inputs()));
+  // Not determined numerically (a fine mesh of a continuum): null, with the note saying why.
+  const bool determined = a.relative_degrees.determined;
+  return {
+      {"model", model.name()},
+      {"kind", "linear"},
+      {"parameters", parameters},
+      {"dof", model.dof()},
+      {"inputs", NumberedNames("u", model.num_inputs())},
+      {"outputs", NumberedNames("y", model.num_outputs())},
+      {"operating_point",
+       {{"q", nlohmann::ordered_json::array()},
+        {"u", VectorToJson(zero_io)},
+        {"y", VectorToJson(zero_io)},
+        {"note", std::string(kLinearOperatingPoint) + "; q has dof entries, all 0, not listed"}}},
+      {"P", MatrixToJson(a.decoupling.decoupling_matrix)},
+      {"P_singular_values", VectorToJson(a.decoupling.singular_values)},
+      {"P_rank_threshold", a.decoupling.rank_threshold},
+      {"P_rank", a.decoupling.rank},
+      {"P_rank_deficiency", a.decoupling.rank_deficiency},
+      {"realization", ToString(a.decoupling.realization)},
+      {"relative_degree", determined ? nlohmann::ordered_json(a.relative_degrees.relative_degree)
+                                     : nlohmann::ordered_json(nullptr)},
+      {"relative_degree_note", a.relative_degrees.note},
+      {"decoupling_matrix_regular", a.relative_degrees.decoupling_matrix_regular},
+      {"differentiation_index",
+       determined ? nlohmann::ordered_json(a.differentiation_index) : nlohmann::ordered_json(nullptr)},
+      {"projected_index",
+       determined ? nlohmann::ordered_json(a.projected_index) : nlohmann::ordered_json(nullptr)},
+      {"internal_dynamics_order", determined ? nlohmann::ordered_json(a.internal_dynamics_order)
+                                             : nlohmann::ordered_json(nullptr)},
+      {"flat", a.flat},
+      {"zero_dynamics", zero_dynamics},
+      {"recommended_solver", ToString(a.recommended_solver)},
+      {"tolerances",
+       {{"rank_tolerance", options.rank_tolerance},
+        {"imaginary_axis_tolerance", options.zero_dynamics.imaginary_axis_tolerance},
+        {"infinite_tolerance", options.zero_dynamics.infinite_tolerance}}},
+  };
+}
+
+std::string FormatLinearAnalysis(const LinearModel& model,
+                                 const LinearAnalysis& analysis,
+                                 const LinearAnalysisOptions& options,
+                                 ReportFormat format) {
+  switch (format) {
+    case ReportFormat::kJson:
+      return LinearAnalysisToJson(model, analysis, options).dump(2) + "\n";
+    case ReportFormat::kMarkdown:
+      return RowsToMarkdown(model.name(), model.description(),
+                            LinearAnalysisSummary(model, analysis));
+    case ReportFormat::kText:
+      break;
+  }
+  return RowsToText(model.name(), model.source(), LinearAnalysisSummary(model, analysis));
 }
 
 }  // namespace servokit

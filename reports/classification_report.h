@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "analysis/classification.h"
+#include "analysis/linear_analysis.h"
+#include "models/linear_model.h"
 #include "models/model.h"
 
 namespace servokit {
@@ -37,6 +39,25 @@ std::string ClassificationToMarkdown(const Model& model, const Classification& c
 std::string FormatClassification(const Model& model,
                                  const Classification& classification,
                                  const ClassificationOptions& options,
+                                 ReportFormat format);
+
+/// The analyze object of a large linear model (models/linear_model.h): the keys of
+/// ClassificationToJson where they apply, at the operating point q = 0, u = 0, y = 0
+/// (operating_point.q is left empty, with a note, since it has dof entries, all zero); inputs
+/// and outputs are named u1.., y1..; zero_dynamics adds complete, zero_count, scope, solver,
+/// target, shift and the ARPACK counters.
+nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
+                                            const LinearAnalysis& analysis,
+                                            const LinearAnalysisOptions& options);
+
+/// (label, value) rows of a linear model's analysis, as ClassificationSummary.
+std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(
+    const LinearModel& model, const LinearAnalysis& analysis);
+
+/// Text, JSON or Markdown, as FormatClassification.
+std::string FormatLinearAnalysis(const LinearModel& model,
+                                 const LinearAnalysis& analysis,
+                                 const LinearAnalysisOptions& options,
                                  ReportFormat format);
 
 }  // namespace servokit

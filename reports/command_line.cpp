@@ -53,8 +53,8 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("servokit ") + SERVOKIT_VERSION);
   const std::vector<Command> commands = {AddAnalyzeCommand(app), AddThresholdCommand(app),
-                                         AddSweepCommand(app), AddSolveCommand(app),
-                                         AddReportCommand(app)};
+                                         AddSweepCommand(app),   AddSolveCommand(app),
+                                         AddReportCommand(app),  AddGenerateCommand(app)};
   try {
     try {
       app.parse(argc, argv);

@@ -22,6 +22,7 @@ struct Command {
 };
 
 Command AddAnalyzeCommand(CLI::App& app);
+Command AddGenerateCommand(CLI::App& app);
 Command AddThresholdCommand(CLI::App& app);
 Command AddReportCommand(CLI::App& app);
 Command AddSolveCommand(CLI::App& app);

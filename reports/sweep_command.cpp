@@ -1,12 +1,23 @@
 // servokit sweep MODEL --vary p=a:b:n | p=v1,v2,... [--vary ...] --out DIR [--threads N]
 //                [--set p=v]... [--y0 v]... [--q0 v]... [--rank-tolerance r] [--axis-tolerance a]
+//                [--checkpoint-interval s] [--block-size n]
+// Under mpirun (reports/mpi_sweep.h) every rank runs this command: each sets the sweep up,
+// rank 0 alone opens the output directory, and the blocks are shared out.
+#include <omp.h>
 #include <signal.h>
 
+#include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "analysis/parameter_grid.h"
@@ -14,6 +25,7 @@
 #include "models/errors.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
+#include "reports/mpi_sweep.h"
 #include "reports/number_format.h"
 #include "reports/progress.h"
 #include "reports/sweep_files.h"
@@ -27,9 +39,10 @@ constexpr int kInterruptedExitStatus = 128 + SIGINT;
 
 struct SweepArguments {
   std::string model_path;
-  std::vector<std::string> vary;       // "name=a:b:n" or "name=v1,v2,..."
-  std::string out;                     // the output directory
-  int threads = 0;                     // 0: not given, all cores
+  std::vector<std::string> vary;  // "name=a:b:n" or "name=v1,v2,..."
+  std::string out;                // the output directory
+  int threads = 0;                // 0: not given, all cores
+  std::size_t block_size = kSweepBlockSize;
   std::vector<std::string> overrides;  // "name=value"
   std::vector<std::string> y0, q0;     // each may hold several values separated by commas
   ClassificationOptions options;
@@ -79,6 +92,65 @@ class InterruptGuard {
   struct sigaction previous_interrupt_ = {}, previous_terminate_ = {};
 };
 
+// Test hooks: SERVOKIT_TEST_STOP_AFTER_BLOCKS=B makes a process act as if interrupted, and
+// SERVOKIT_TEST_FAIL_AFTER_BLOCKS=B throw an Error, once it has handled B blocks (written them,
+// on rank 0 or alone; computed them, on the other ranks of an MPI sweep), so that tests stop or
+// break a sweep at a known place, on a chosen rank.
+constexpr const char* kTestStopVariable = "SERVOKIT_TEST_STOP_AFTER_BLOCKS";
+constexpr const char* kTestFailVariable = "SERVOKIT_TEST_FAIL_AFTER_BLOCKS";
+
+std::optional<std::size_t> BlocksFromEnvironment(const char* variable) {
+  const char* text = std::getenv(variable);
+  if (text == nullptr) return std::nullopt;
+  std::size_t blocks = 0;
+  const char* end = text + std::strlen(text);
+  const auto [stop, error] = std::from_chars(text, end, blocks);
+  if (error != std::errc() || stop != end || blocks < 1) {
+    throw UsageError(std::string(variable) + "=" + text + ": must be a whole number >= 1");
+  }
+  return blocks;
+}
+
+struct TestHooks {
+  std::optional<std::size_t> stop_after_blocks, fail_after_blocks;
+};
+
+TestHooks TestHooksFromEnvironment() {
+  return {BlocksFromEnvironment(kTestStopVariable), BlocksFromEnvironment(kTestFailVariable)};
+}
+
+/// Asked after each block: should the sweep stop here (a signal, or a test hook)?
+class StopRequest {
+ public:
+  StopRequest(const InterruptGuard& interrupt, const TestHooks& hooks)
+      : interrupt_(interrupt), hooks_(hooks) {}
+  bool operator()() {
+    ++blocks_;
+    if (hooks_.fail_after_blocks && blocks_ >= *hooks_.fail_after_blocks) {
+      throw Error(std::string(kTestFailVariable) + "=" + std::to_string(blocks_) +
+                  ": failing as asked");
+    }
+    return interrupt_.interrupted() ||
+           (hooks_.stop_after_blocks && blocks_ >= *hooks_.stop_after_blocks);
+  }
+
+ private:
+  const InterruptGuard& interrupt_;
+  const TestHooks hooks_;
+  std::size_t blocks_ = 0;
+};
+
+// Threads per process of an MPI sweep without --threads: the cores this process may run on
+// (OpenMP's count follows mpirun's binding) shared among the ranks on this machine, unless it is
+// bound to fewer cores than the machine has (then they are its own); OMP_NUM_THREADS wins.
+int DefaultThreadsPerProcess(const ProcessGroup& processes) {
+  if (std::getenv("OMP_NUM_THREADS") != nullptr) return omp_get_max_threads();
+  const int available = omp_get_num_procs();
+  const auto machine = static_cast<int>(std::thread::hardware_concurrency());
+  if (available < machine) return std::max(available, 1);
+  return std::max(available / std::max(processes.ranks_on_node, 1), 1);
+}
+
 // The command line as given, rebuilt from the parsed options (RunCommandLine does not pass argv
 // on); options come in the order they are declared, each with every value it was given.
 std::vector<std::string> CommandLine(const CLI::App& sweep) {
@@ -120,19 +192,34 @@ SweepOptions MakeSweepOptions(const SweepArguments& arguments,
                        ": must be at least 1 (default: all cores)");
     }
     options.threads = arguments.threads;
+  } else if (Processes().size > 1) {
+    options.threads = DefaultThreadsPerProcess(Processes());
   }
+  if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
+  options.block_size = arguments.block_size;
   // Before the output directory is touched: a bad option must not leave a half-made sweep.
   options.classification.Validate(model);
   return options;
 }
 
-int RunSweepCommand(const SweepArguments& arguments,
-                    const CLI::App& sweep,
-                    std::ostream& out,
-                    std::ostream& err) {
+// Everything a sweep needs before it touches the output directory; the same on every process.
+struct SweepSetup {
+  Model model;
+  ParameterGrid grid;
+  SweepOptions options;
+  SweepOutputOptions output_options;
+  TestHooks test_hooks;
+};
+
+SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
+  if (Processes().size > 1 && !BuiltWithMpi()) {
+    throw UsageError("started by an MPI launcher with " + std::to_string(Processes().size) +
+                     " processes, but this servokit was built without MPI; run it without " +
+                     "mpirun, or rebuild it with MPI (libopenmpi-dev)");
+  }
   const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
-  const Model model = LoadModel(arguments.model_path, overrides);
-  const ParameterGrid grid = ParseParameterGrid(model, arguments.vary);
+  Model model = LoadModel(arguments.model_path, overrides);
+  ParameterGrid grid = ParseParameterGrid(model, arguments.vary);
   RejectSetAndVary(overrides, grid);
   const SweepOptions options = MakeSweepOptions(arguments, sweep, model);
   if (!(arguments.checkpoint_interval > 0.0)) {
@@ -141,37 +228,101 @@ int RunSweepCommand(const SweepArguments& arguments,
   }
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
-  SweepOutput output(arguments.out, model, grid, options.classification, CommandLine(sweep),
-                     output_options);
-  const std::size_t total = grid.num_points();
-  if (output.already_complete()) {
+  return {std::move(model), std::move(grid), options, output_options, TestHooksFromEnvironment()};
+}
+
+// Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
+template <typename Step>
+void OnEveryProcess(Step step) {
+  std::exception_ptr failure;
+  try {
+    step();
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  AgreeOnSuccess(failure);
+}
+
+// An MPI sweep's ranks must compute the same sweep: a rank that reads another model file (a
+// different copy on its machine) or runs another servokit would mix two sweeps in one file.
+void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
+  if (Processes().size == 1) return;
+  const std::string fingerprint =
+      SweepFingerprint(setup.model, setup.grid, setup.options.classification);
+  OnEveryProcess([&] {
+    if (BroadcastFromRoot(fingerprint) != fingerprint) {
+      throw UsageError("this rank computes another sweep than rank 0 (" + fingerprint +
+                       "): its model file or servokit differs");
+    }
+  });
+}
+
+// Computes points first_point.. and appends them to `output` (rank 0 only); returns the index
+// after the last point written: the grid's size, or less when stopped on request.
+std::size_t ComputeSweep(const SweepSetup& setup,
+                         std::size_t first_point,
+                         SweepOutput* output,
+                         std::ostream& err) {
+  ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
+  const InterruptGuard interrupt;
+  StopRequest stop_requested(interrupt, setup.test_hooks);
+  if (Processes().size == 1) {
+    return RunSweep(setup.model, setup.grid, setup.options, first_point,
+                    [&](std::size_t first, std::span<const SweepPoint> block) {
+                      output->Append(first, block);
+                      progress.Update(first + block.size());
+                      return !stop_requested();
+                    });
+  }
+  return RunDistributedSweep(
+             setup.model, setup.grid, setup.options, first_point,
+             [&](const FormattedBlock& block) {
+               output->Append(block);
+               progress.Update(block.first + block.points);
+             },
+             stop_requested)
+      .done;
+}
+
+int RunSweepCommand(const SweepArguments& arguments,
+                    const CLI::App& sweep,
+                    std::ostream& out,
+                    std::ostream& err) {
+  std::optional<SweepSetup> setup;
+  OnEveryProcess([&] { setup.emplace(MakeSweepSetup(arguments, sweep)); });
+  CheckSameSweepOnEveryProcess(*setup);
+  const bool root = Processes().IsRoot();
+  std::optional<SweepOutput> output;
+  OnEveryProcess([&] {
+    if (root) {
+      output.emplace(arguments.out, setup->model, setup->grid, setup->options.classification,
+                     CommandLine(sweep), setup->output_options);
+    }
+  });
+  const std::size_t total = setup->grid.num_points();
+  const bool already_complete = BroadcastFromRoot(root && output->already_complete()) != 0;
+  const std::size_t first_point = BroadcastFromRoot(root ? output->points_done() : 0);
+  if (already_complete) {
     err << "servokit: " << arguments.out << " already holds this sweep, complete (" << total
         << " points); nothing to do\n";
     return static_cast<int>(ExitCode::kSuccess);
   }
-  if (output.points_done() > 0) {
-    err << "servokit: resuming at point " << output.points_done() << " of " << total << "\n";
+  if (first_point > 0) {
+    err << "servokit: resuming at point " << first_point << " of " << total << "\n";
   }
-  std::size_t done = 0;
-  {
-    ProgressBar progress(err, total, output.points_done(), IsTerminalStderr(err));
-    const InterruptGuard interrupt;
-    done = RunSweep(model, grid, options, output.points_done(),
-                    [&](std::size_t first, std::span<const SweepPoint> block) {
-                      output.Append(first, block);
-                      progress.Update(first + block.size());
-                      return !interrupt.interrupted();
-                    });
+  const std::size_t done = ComputeSweep(*setup, first_point, output ? &*output : nullptr, err);
+  if (!root) {
+    return done < total ? kInterruptedExitStatus : static_cast<int>(ExitCode::kSuccess);
   }
   if (done < total) {
-    output.Checkpoint();
+    output->Checkpoint();
     err << "servokit: error: interrupted at point " << done << " of " << total
         << "; run the same command again to resume\n";
     return kInterruptedExitStatus;
   }
-  output.Finish();
-  out << "swept " << total << " points of " << model.name() << " into " << arguments.out
-      << " (points.csv, eigenvalues.csv, sweep.json); " << output.points_without_solution()
+  output->Finish();
+  out << "swept " << total << " points of " << setup->model.name() << " into " << arguments.out
+      << " (points.csv, eigenvalues.csv, sweep.json); " << output->points_without_solution()
       << " without a solution\n";
   return static_cast<int>(ExitCode::kSuccess);
 }
@@ -186,7 +337,8 @@ Command AddSweepCommand(CLI::App& app) {
       "Each --vary adds one axis of a full grid; the first varies slowest (row-major).\n"
       "A range a:b:n is n values from a to b inclusive; a list is v1,v2,...; values may end\n"
       "in deg. Interrupted (Ctrl-C), the sweep exits with status 130; the same command\n"
-      "resumes it.\n"
+      "resumes it. `mpirun -np K servokit sweep ...` shares the blocks out over K ranks and\n"
+      "writes the same files.\n"
       "Example:\n  servokit sweep models/mass_on_car.yaml --vary alpha=0deg:90deg:91 "
       "--vary d=0:2:21 --out sweep-out");
   sweep->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
@@ -195,7 +347,14 @@ Command AddSweepCommand(CLI::App& app) {
                    "A varied parameter: name=a:b:n (n values from a to b) or name=v1,v2,...")
       ->required();
   sweep->add_option("--out", arguments->out, "Output directory")->required();
-  sweep->add_option("--threads", arguments->threads, "Threads (default: all cores)");
+  sweep->add_option("--threads", arguments->threads,
+                    "Threads (default: all cores; under mpirun, per rank: the cores of its "
+                    "machine shared among its ranks)");
+  sweep
+      ->add_option("--block-size", arguments->block_size,
+                   "Points per block: computed in parallel, then written; under mpirun block b "
+                   "goes to rank b mod K. The files do not depend on it")
+      ->capture_default_str();
   sweep
       ->add_option("--checkpoint-interval", arguments->checkpoint_interval,
                    "Seconds between checkpoints (fsync): the most work a crash can lose")

@@ -260,6 +260,37 @@ void AppendCsvRows(const ParameterGrid& grid,
   }
 }
 
+void FormatBlock(const ParameterGrid& grid,
+                 std::size_t first,
+                 std::span<const SweepPoint> points,
+                 int threads,
+                 FormattedBlock& block) {
+  // Formatting numbers costs about a tenth of a small model's analysis: done on one thread it
+  // would cap the speed-up of many cores, so each thread formats one contiguous slice and the
+  // slices are written in order (the bytes do not depend on the number of slices).
+  const auto slices = static_cast<std::size_t>(std::max(threads, 1));
+  block.first = first;
+  block.points = points.size();
+  block.points_without_solution = 0;
+  for (const SweepPoint& point : points) block.points_without_solution += point.ok ? 0 : 1;
+  block.points_csv.resize(slices);
+  block.eigenvalues_csv.resize(slices);
+  ParallelFor(slices, static_cast<int>(slices), 1, [&](std::size_t slice, int) {
+    const std::size_t begin = points.size() * slice / slices;
+    const std::size_t end = points.size() * (slice + 1) / slices;
+    // Appended to as locals: the slices' string objects sit side by side, and a size field
+    // written by two threads at once would bounce its cache line between them.
+    std::string points_csv = std::move(block.points_csv[slice]);
+    std::string eigenvalues_csv = std::move(block.eigenvalues_csv[slice]);
+    points_csv.clear();
+    eigenvalues_csv.clear();
+    AppendCsvRows(grid, first + begin, points.subspan(begin, end - begin), points_csv,
+                  eigenvalues_csv);
+    block.points_csv[slice] = std::move(points_csv);
+    block.eigenvalues_csv[slice] = std::move(eigenvalues_csv);
+  });
+}
+
 std::string CsvQuote(const std::string& text) {
   std::string quoted = "\"";
   for (const char c : text) {
@@ -312,8 +343,7 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
       command_line_(std::move(command_line)),
       fingerprint_(SweepFingerprint(model, grid, options)),
       checkpoint_interval_(output_options.checkpoint_interval),
-      points_slices_(static_cast<std::size_t>(std::max(output_options.threads, 1))),
-      eigenvalues_slices_(points_slices_.size()) {
+      format_threads_(std::max(output_options.threads, 1)) {
   Lock();
   try {
     if (std::filesystem::exists(paths_.checkpoint)) {
@@ -403,36 +433,24 @@ void SweepOutput::Resume(const FileSizes& sizes) {
 }
 
 void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) {
-  assert(first == points_done_ && points_fd_ >= 0);
-  // Formatting numbers costs about a tenth of a small model's analysis: done on one thread it
-  // would cap the speed-up of many cores, so each thread formats one contiguous slice and the
-  // slices are written in order (the bytes do not depend on the number of slices).
-  const std::size_t slices = points_slices_.size();
-  ParallelFor(slices, static_cast<int>(slices), 1, [&](std::size_t slice, int) {
-    const std::size_t begin = points.size() * slice / slices;
-    const std::size_t end = points.size() * (slice + 1) / slices;
-    // Appended to as locals: the slices' string objects sit side by side, and a size field
-    // written by two threads at once would bounce its cache line between them.
-    std::string points_csv = std::move(points_slices_[slice]);
-    std::string eigenvalues_csv = std::move(eigenvalues_slices_[slice]);
-    points_csv.clear();
-    eigenvalues_csv.clear();
-    AppendCsvRows(grid_, first + begin, points.subspan(begin, end - begin), points_csv,
-                  eigenvalues_csv);
-    points_slices_[slice] = std::move(points_csv);
-    eigenvalues_slices_[slice] = std::move(eigenvalues_csv);
-  });
+  FormatBlock(grid_, first, points, format_threads_, block_);
+  Append(block_);
+}
+
+void SweepOutput::Append(const FormattedBlock& block) {
+  assert(block.first == points_done_ && points_fd_ >= 0);
+  assert(block.points_csv.size() == block.eigenvalues_csv.size());
   const FileSizes before = sizes_;
-  for (std::size_t slice = 0; slice < slices; ++slice) {
-    WriteAll(points_fd_, points_slices_[slice], paths_.points_partial);
-    WriteAll(eigenvalues_fd_, eigenvalues_slices_[slice], paths_.eigenvalues_partial);
-    sizes_.points += points_slices_[slice].size();
-    sizes_.eigenvalues += eigenvalues_slices_[slice].size();
+  for (std::size_t slice = 0; slice < block.points_csv.size(); ++slice) {
+    WriteAll(points_fd_, block.points_csv[slice], paths_.points_partial);
+    WriteAll(eigenvalues_fd_, block.eigenvalues_csv[slice], paths_.eigenvalues_partial);
+    sizes_.points += block.points_csv[slice].size();
+    sizes_.eigenvalues += block.eigenvalues_csv[slice].size();
   }
   StartWriteback(points_fd_, before.points, sizes_.points - before.points);
   StartWriteback(eigenvalues_fd_, before.eigenvalues, sizes_.eigenvalues - before.eigenvalues);
-  points_done_ += points.size();
-  for (const SweepPoint& point : points) points_without_solution_ += point.ok ? 0 : 1;
+  points_done_ += block.points;
+  points_without_solution_ += block.points_without_solution;
   if (std::chrono::steady_clock::now() - last_checkpoint_ >= checkpoint_interval_) {
     Checkpoint();
   }

@@ -63,6 +63,24 @@ void AppendCsvRows(const ParameterGrid& grid,
                    std::string& points_csv,
                    std::string& eigenvalues_csv);
 
+/// One block of consecutive points, formatted as AppendCsvRows writes them: what SweepOutput
+/// appends. The rows are held in slices (one per formatting thread), to be written in order.
+struct FormattedBlock {
+  std::size_t first = 0;                                 // index of the block's first point
+  std::size_t points = 0;                                // number of points in the block
+  std::size_t points_without_solution = 0;               // of them, points whose row holds an error
+  std::vector<std::string> points_csv, eigenvalues_csv;  // slices of rows, in order
+};
+
+/// Formats points first, first + 1, ... into `block` (AppendCsvRows), on `threads` threads that
+/// each format one contiguous slice; the bytes, slices joined, do not depend on `threads`.
+/// Reuses the strings `block` holds.
+void FormatBlock(const ParameterGrid& grid,
+                 std::size_t first,
+                 std::span<const SweepPoint> points,
+                 int threads,
+                 FormattedBlock& block);
+
 /// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
 std::string CsvQuote(const std::string& text);
 
@@ -103,6 +121,9 @@ class SweepOutput {
   /// Appends points first..first + points.size() - 1; first must be points_done(). Checkpoints
   /// when the last checkpoint is older than the checkpoint interval.
   void Append(std::size_t first, std::span<const SweepPoint> points);
+  /// The same for a block already formatted (FormatBlock, perhaps by another process of an MPI
+  /// sweep); block.first must be points_done().
+  void Append(const FormattedBlock& block);
   /// Makes everything appended so far durable and records it in the checkpoint.
   void Checkpoint();
   /// After the last point: renames the partial files to points.csv and eigenvalues.csv, writes
@@ -142,8 +163,10 @@ class SweepOutput {
   std::size_t points_done_ = 0, points_without_solution_ = 0;
   FileSizes sizes_;
   std::chrono::steady_clock::time_point last_checkpoint_;
+  // Threads that format a block (SweepOutputOptions::threads).
+  int format_threads_ = 1;
   // One block's rows, in one slice per formatting thread; reused from block to block.
-  std::vector<std::string> points_slices_, eigenvalues_slices_;
+  FormattedBlock block_;
 };
 
 }  // namespace servokit

@@ -1,0 +1,89 @@
+#pragma once
+// Distributed sweeps (issue #6): `mpirun -np K servokit sweep ...` splits the grid over the K
+// MPI ranks and writes the same files as one process, byte for byte.
+//
+// The grid is cut into the blocks of one process (SweepOptions::block_size, counted from the
+// first point still to compute); block b is computed by rank b mod K, with its own OpenMP
+// threads, and formatted there (FormatBlock, the one formatting path). Rank 0 owns the output
+// directory: it receives every block in index order and appends it as a single process would
+// (SweepOutput), so checkpoints and resume work unchanged, with or without MPI. Every other rank
+// writes nothing, prints nothing (main() gives it null streams) and ends with rank 0's verdict:
+//
+//   - an error on any rank (before or during the sweep) reaches rank 0, which prints it as the
+//     one `servokit: error:` line; every rank exits with its status;
+//   - a stop request (SIGINT, SIGTERM) on any rank stops all of them at a block boundary, with
+//     the checkpoint written by rank 0; every rank exits with status 130.
+//
+// The MPI code lives in mpi_sweep.cpp, built when CMake finds MPI (SERVOKIT_HAVE_MPI); without
+// it mpi_sweep_none.cpp gives the same functions for one process.
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <string>
+
+#include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
+#include "models/model.h"
+#include "reports/sweep_files.h"
+
+namespace servokit {
+
+/// Whether this servokit was built with MPI.
+bool BuiltWithMpi();
+
+/// While alive, this process is one rank of an MPI job: constructed at the top of main(), it
+/// initialises MPI (MPI_Init_thread, funneled: only the main thread calls MPI) when servokit
+/// was built with MPI and started by an MPI launcher (mpirun sets OMPI_COMM_WORLD_SIZE or
+/// PMIX_RANK), and finalises it on destruction. Started any other way it does nothing, so a
+/// plain `servokit analyze` neither slows down nor prints anything of MPI's.
+class MpiSession {
+ public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+};
+
+/// The processes that run this command together.
+struct ProcessGroup {
+  int rank = 0;           // this process, in [0, size)
+  int size = 1;           // all processes of the job
+  int ranks_on_node = 1;  // processes of the job on this machine (sharing its cores)
+  bool IsRoot() const { return rank == 0; }
+};
+
+/// This process's group: MPI_COMM_WORLD inside an MpiSession, else this process alone. In a
+/// build without MPI started by mpirun, rank and size come from the launcher's environment
+/// (so that only rank 0 prints), and `servokit sweep` refuses to run.
+ProcessGroup Processes();
+
+/// Collective (every process calls it): returns when no process failed (`failure` is null
+/// everywhere); otherwise throws on every process an error of the lowest failing rank's exit
+/// status (ExitCodeFor), with its message on rank 0 (the one that prints it).
+void AgreeOnSuccess(std::exception_ptr failure);
+
+/// Collective: rank 0's `value`, on every process.
+std::size_t BroadcastFromRoot(std::size_t value);
+/// Collective: rank 0's `text`, on every process.
+std::string BroadcastFromRoot(const std::string& text);
+
+/// How a distributed sweep ended, on every process.
+struct DistributedSweepEnd {
+  std::size_t done = 0;  // points written: the grid's size, or less when stopped on request
+  bool stopped = false;  // a process asked to stop (interrupt); done is then a block boundary
+};
+
+/// Collective: computes grid points first_point .. grid.num_points() - 1 over all processes
+/// (the blocks of RunSweep, block b on rank b mod size) and calls `write` on rank 0 for every
+/// block, in index order (it is never called elsewhere). `stop_requested` is asked on every
+/// process after each block it computes or writes; true on any process stops all of them at the
+/// next block boundary. An exception on any process (from an evaluation, `write` or MPI) ends
+/// all of them and is rethrown on every process as AgreeOnSuccess does. Needs size > 1 and MPI.
+DistributedSweepEnd RunDistributedSweep(const Model& model,
+                                        const ParameterGrid& grid,
+                                        const SweepOptions& options,
+                                        std::size_t first_point,
+                                        const std::function<void(const FormattedBlock&)>& write,
+                                        const std::function<bool()>& stop_requested);
+
+}  // namespace servokit

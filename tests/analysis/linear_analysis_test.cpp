@@ -1,0 +1,152 @@
+// The analyses of a large linear model (analysis/linear_analysis.h) against closed forms and
+// against the nonlinear route on the same model.
+//
+// Chain (GenerateChain; see tests/analysis/linear_zero_dynamics_test.cpp for the zeros): force
+// on mass 1, output mass j, M = m I.
+//  - P = C M^-1 B = e_j^T e_1 / m: 1/m for j = 1 (ideal orthogonal: B = e_1 is C^T), 0 for j > 1
+//    (tangential).
+//  - Undamped, u reaches q_j after j - 1 springs: y^(2j) is the first derivative u enters,
+//    relative degree 2j, Markov parameter k^(j-1) / m^j; index 2j + 1, projected 2j - 1,
+//    internal order 2N - 2j. With dampers each link passes d/m at one derivative less:
+//    relative degree j + 1, Markov parameter d^(j-1) / m^j (j >= 2).
+//  - j = N undamped: relative degree 2N, flat, algebraic solver.
+// The six-mass chain of models/mass_spring_chain.yaml (nonlinear format; free-free, k = 100, force
+// on mass 1, output mass 6) has the same structure as the generated grounded chain with output at
+// mass 6: Classify and the linear route must give the same class (tangential, relative degree
+// 12, index 13, flat, algebraic), though not the same matrices.
+#include "analysis/linear_analysis.h"
+
+#include <Eigen/Dense>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "analysis/classification.h"
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "models/model.h"
+#include "models/model_generators.h"
+
+namespace servokit {
+namespace {
+
+LinearSystem Chain(
+    long masses, long output_mass, double damping, double mass = 2.0, double stiffness = 3.0) {
+  ChainOptions options;
+  options.masses = masses;
+  options.output_mass = output_mass;
+  options.mass = mass;
+  options.stiffness = stiffness;
+  options.damping = damping;
+  const LinearModelFiles files = GenerateChain(options);
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() /
+      ("servokit_la_" + files.name + "_" + std::to_string(std::rand()));
+  std::filesystem::create_directories(directory);
+  const LinearModel model = LoadLinearModel(WriteLinearModel(files, directory.string()));
+  LinearSystem system = AssembleLinearSystem(model, model.parameters());
+  std::filesystem::remove_all(directory);
+  return system;
+}
+
+LinearAnalysis Analyze(const LinearSystem& system) {
+  LinearZeroDynamicsWorkspace workspace;
+  return AnalyzeLinearSystem(system, workspace);
+}
+
+}  // namespace
+
+TEST_CASE("default linear analysis options are valid", "[analysis]") {
+  CHECK_NOTHROW(LinearAnalysisOptions{}.Validate());
+  LinearAnalysisOptions options;
+  options.rank_tolerance = 2.0;
+  CHECK_THROWS_WITH(options.Validate(),
+                    Catch::StartsWith("LinearAnalysisOptions::rank_tolerance = 2.000000"));
+}
+
+TEST_CASE("undamped chain: relative degree 2j, P and the realization", "[analysis]") {
+  for (long output : {1L, 2L, 3L, 5L}) {
+    CAPTURE(output);
+    const LinearAnalysis analysis = Analyze(Chain(12, output, 0.0));
+    REQUIRE(analysis.relative_degrees.relative_degree == std::vector<int>{int(2 * output)});
+    // Markov parameter k^(j-1) / m^j, exact up to the sparse solves' round-off.
+    CHECK(analysis.relative_degrees.decoupling_matrix(0, 0) ==
+          Approx(std::pow(3.0, double(output - 1)) / std::pow(2.0, double(output))).epsilon(1e-12));
+    CHECK(analysis.differentiation_index == 2 * output + 1);
+    CHECK(analysis.projected_index == 2 * output - 1);
+    CHECK(analysis.internal_dynamics_order == 24 - 2 * output);
+    CHECK_FALSE(analysis.flat);
+    CHECK(analysis.zero_dynamics.stability == Stability::kCritical);
+    CHECK(analysis.recommended_solver == SolverMethod::kNormalForm);
+    if (output == 1) {
+      CHECK(analysis.decoupling.decoupling_matrix(0, 0) == Approx(0.5).epsilon(1e-14));
+      CHECK(analysis.decoupling.rank == 1);
+      CHECK(analysis.decoupling.realization == Realization::kIdealOrthogonal);
+    } else {
+      CHECK(analysis.decoupling.decoupling_matrix(0, 0) == 0.0);
+      CHECK(analysis.decoupling.rank == 0);
+      CHECK(analysis.decoupling.realization == Realization::kTangential);
+    }
+  }
+}
+
+TEST_CASE("damped chain: dampers pass the force one derivative earlier", "[analysis]") {
+  for (long output : {2L, 3L, 4L}) {
+    CAPTURE(output);
+    const LinearAnalysis analysis = Analyze(Chain(12, output, 0.1));
+    CHECK(analysis.relative_degrees.relative_degree == std::vector<int>{int(output + 1)});
+    CHECK(analysis.relative_degrees.decoupling_matrix(0, 0) ==
+          Approx(std::pow(0.1, double(output - 1)) / std::pow(2.0, double(output))).epsilon(1e-12));
+    CHECK(analysis.internal_dynamics_order == 24 - (output + 1));
+    CHECK(analysis.zero_dynamics.stability == Stability::kAsymptoticallyStable);
+  }
+}
+
+TEST_CASE("output at the free end of an undamped chain is flat", "[analysis]") {
+  const LinearAnalysis analysis = Analyze(Chain(5, 5, 0.0));
+  CHECK(analysis.relative_degrees.relative_degree == std::vector<int>{10});
+  CHECK(analysis.flat);
+  CHECK(analysis.zero_dynamics.eigenvalues.empty());
+  CHECK(analysis.zero_dynamics.stability == Stability::kNone);
+  CHECK(analysis.recommended_solver == SolverMethod::kAlgebraic);
+}
+
+TEST_CASE("the linear route classifies the shipped six-mass chain as Classify does", "[analysis]") {
+  const Model model = LoadModel(std::string(SERVOKIT_MODELS_DIR) + "/mass_spring_chain.yaml");
+  Workspace workspace(model);
+  const Classification nonlinear = Classify(model, workspace);
+  const LinearSystem system = Chain(6, 6, 0.0, 1.0, 1.0);
+  const LinearAnalysis linear = Analyze(system);
+  CHECK(linear.decoupling.realization == nonlinear.decoupling.realization);
+  CHECK(linear.decoupling.rank == nonlinear.decoupling.rank);
+  CHECK(linear.relative_degrees.relative_degree == nonlinear.structure.relative_degree);
+  CHECK(linear.differentiation_index == nonlinear.structure.differentiation_index);
+  CHECK(linear.projected_index == nonlinear.structure.projected_index);
+  CHECK(linear.internal_dynamics_order == nonlinear.structure.internal_dynamics_order);
+  CHECK(linear.flat == nonlinear.flat);
+  CHECK(linear.recommended_solver == nonlinear.recommended_solver);
+}
+
+TEST_CASE("the reduced linearization has the model's P and norms", "[analysis]") {
+  const LinearSystem system = Chain(40, 1, 0.1);
+  const Linearization reduced = ReducedLinearization(system, 1e-10);
+  CHECK(reduced.dof() <= 3);
+  const Eigen::MatrixXd p = reduced.output_jacobian * reduced.mass_inverse * reduced.input_matrix;
+  CHECK(p(0, 0) == Approx(0.5).epsilon(1e-14));
+  CHECK(reduced.output_jacobian.norm() == Approx(1.0).epsilon(1e-14));
+}
+
+TEST_CASE("an output no input reaches is NoSolution", "[analysis]") {
+  LinearSystem system = Chain(4, 3, 0.0);
+  // Cut the spring between masses 2 and 3: mass 3 no longer feels the force on mass 1.
+  system.stiffness.coeffRef(1, 1) = 1.0 * 3.0;
+  system.stiffness.coeffRef(2, 2) = 1.0 * 3.0;
+  system.stiffness.coeffRef(1, 2) = 0.0;
+  system.stiffness.coeffRef(2, 1) = 0.0;
+  CHECK_THROWS_AS(Analyze(system), NoSolution);
+  CHECK_THROWS_WITH(Analyze(system), Catch::Contains("infinite relative degree"));
+}
+
+}  // namespace servokit

@@ -1,0 +1,394 @@
+// Zero dynamics of large sparse linear models (analysis/linear_zero_dynamics.h), against
+// independent derivations.
+//
+// Chain (models/model_generators.h, GenerateChain): N masses m, springs k and dampers d from the
+// ground to a free end, force on mass 1, output the position of mass j. Holding y = q_j = 0
+// leaves masses j+1..N as a chain fixed at mass j and free at N, n' = N - j masses with
+// M = m I, K = k T', D = d T', T' the fixed-free Laplacian of size n', whose eigenvalues are
+// mu_i = 4 sin^2((2i - 1) pi / (2 (2n' + 1))), i = 1..n'. So these are zeros: the roots of
+// m lambda^2 + d mu_i lambda + k mu_i = 0. Undamped, masses 1..j-1 follow from y and its
+// derivatives: relative degree 2j, 2N - 2j zeros, exactly those. With dampers (d > 0) each link
+// between the input and the output transmits k + d s: the transfer function q_j / u has the
+// numerator (k + d s)^(j-1) times the sub-chain's polynomial, so the relative degree is j + 1
+// and there are j - 1 more zeros at -k/d (a (j-1)-fold eigenvalue, whose round-off grows as
+// eps^(1/(j-1)); the damped cases below stop at j = 2). This corrects the sketch, which
+// holds for d = 0 only.
+//
+// Beam (GenerateBeam): hub of inertia J with torque u, Euler-Bernoulli link (rho_a, EI, L)
+// clamped to it, output the tip's inertial displacement y = L theta + w(L). In the inertial
+// deflection W(x, t) = x theta + w(x, t) the link obeys rho_a W_tt + EI W_xxxx = 0 (undamped),
+// with w(0) = w'(0) = 0, w''(L) = w'''(L) = 0. Holding y = W(L) = 0 with the torque free: the
+// clamp only says W(0) = 0 and W'(0) = theta (theta is free; the hub equation
+// J theta'' = u + EI w''(0) only fixes u, so J drops out), and the zero dynamics is the link
+// pinned at the hub and pinned at the tip with zero moment and shear at the tip:
+//     W(0) = 0,  W(L) = 0,  W''(L) = 0,  W'''(L) = 0.
+// With W = e^(lambda t) phi(x): EI phi'''' = -rho_a lambda^2 phi. Imaginary zeros
+// lambda = +-i omega: phi'''' = b^4 phi, b^4 = rho_a omega^2 / EI, basis e^(bx), e^(-bx), cos bx,
+// sin bx. Real zeros lambda = +-s: phi'''' = -4 a^4 phi, 4 a^4 = rho_a s^2 / EI, basis
+// e^(+-ax) cos ax, e^(+-ax) sin ax. Each gives a 4 x 4 determinant of the four conditions in b
+// (or a), whose roots GSL's Brent finds. Result, unlike the sketch: the determinant in b
+// has no root below b L = 12 (no undamped zero; the problem is not self-adjoint, the boundary
+// term -u''v' + u'v'' at x = 0 survives), the one in a has roots a L = 2.3650, 5.4978, 8.6394,
+// ... (near (4k - 1) pi / 4): the zero dynamics is a ladder of real pairs +-s_k, hyperbolic and
+// non-minimum phase, s_1 = 35.375 1/s for the default beam. Dense QZ of the FE pencil (SciPy)
+// shows the same: only real pairs.
+//
+// The FE beam's P = C M^-1 B is nonzero in exact arithmetic but decays exponentially with N
+// (M^-1 of a banded matrix decays away from the diagonal: 7e-3 at N = 4, 5e-10 at N = 16,
+// round-off at N = 64), so its relative degree is numerically undetermined: the beam tests pass
+// an unknown zero count, and the infinite eigenvalues are told apart by infinite_tolerance.
+#include "analysis/linear_zero_dynamics.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "analysis/gsl_support.h"
+#include "analysis/linear_analysis.h"
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "models/model_generators.h"
+
+namespace servokit {
+namespace {
+
+using Complex = std::complex<double>;
+
+// Writes the generated files, loads them back and assembles them at the nominal parameters:
+// the path a user's model takes (servokit generate, then analyze).
+LinearSystem LoadGenerated(const LinearModelFiles& files) {
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() /
+      ("servokit_lzd_" + files.name + "_" + std::to_string(std::rand()));
+  std::filesystem::create_directories(directory);
+  const std::string path = WriteLinearModel(files, directory.string());
+  const LinearModel model = LoadLinearModel(path);
+  LinearSystem system = AssembleLinearSystem(model, model.parameters());
+  std::filesystem::remove_all(directory);
+  return system;
+}
+
+constexpr double kChainMass = 2.0;
+constexpr double kChainStiffness = 3.0;
+
+LinearSystem Chain(long masses, long output_mass, double damping) {
+  ChainOptions options;
+  options.masses = masses;
+  options.output_mass = output_mass;
+  options.mass = kChainMass;
+  options.stiffness = kChainStiffness;
+  options.damping = damping;
+  return LoadGenerated(GenerateChain(options));
+}
+
+std::vector<Complex> ChainZeros(long masses, long output_mass, double d) {
+  const double m = kChainMass, k = kChainStiffness;
+  const long free_masses = masses - output_mass;
+  std::vector<Complex> zeros;
+  for (long i = 1; i <= free_masses; ++i) {
+    const double angle = double(2 * i - 1) * std::numbers::pi / (2.0 * double(2 * free_masses + 1));
+    const double mu = 4.0 * std::sin(angle) * std::sin(angle);
+    // m lambda^2 + d mu lambda + k mu = 0
+    const Complex discriminant = std::sqrt(Complex(d * d * mu * mu - 4.0 * m * k * mu, 0.0));
+    zeros.push_back((-d * mu + discriminant) / (2.0 * m));
+    zeros.push_back((-d * mu - discriminant) / (2.0 * m));
+  }
+  if (d > 0.0) zeros.insert(zeros.end(), std::size_t(output_mass - 1), Complex(-k / d, 0.0));
+  SortEigenvalues(zeros);
+  return zeros;
+}
+
+Eigen::Index ZeroCount(const LinearSystem& system) {
+  LinearRelativeDegrees degrees;
+  try {
+    degrees = ComputeLinearRelativeDegrees(system, 1e-10);
+  } catch (const NoSolution&) {
+    return kUnknownZeroCount;  // the beam: P at round-off level (see the file comment)
+  }
+  Eigen::Index total = 0;
+  for (int degree : degrees.relative_degree) total += degree;
+  return 2 * system.dof() - total;
+}
+
+LinearZeroDynamics Zeros(const LinearSystem& system, const LinearZeroDynamicsOptions& options) {
+  LinearZeroDynamicsWorkspace workspace;
+  return ComputeLinearZeroDynamics(system, workspace, ZeroCount(system), options);
+}
+
+LinearZeroDynamicsOptions WithSolver(LinearEigenSolver solver, int eigenvalues = 10) {
+  LinearZeroDynamicsOptions options;
+  options.solver = solver;
+  options.arpack.eigenvalues = eigenvalues;
+  return options;
+}
+
+// ---- the continuous hub-beam zeros ------------------------------------------------------------
+
+// Rows phi(0), phi(L), phi''(L), phi'''(L) of the real basis Re/Im e^(mu x) for the exponents
+// `exponents` (a real exponent contributes e^(mu x) alone, a complex one its real and imaginary
+// parts). Each column is divided by max(1, |e^(mu L)|) so that the determinant stays O(1).
+double ConditionDeterminant(const std::vector<Complex>& exponents, double length) {
+  Eigen::Matrix4d conditions;
+  int column = 0;
+  for (const Complex& mu : exponents) {
+    const Complex tip = std::exp(mu * length);
+    const double scale = std::max(1.0, std::abs(tip));
+    const Complex rows[4] = {1.0, tip, mu * mu * tip, mu * mu * mu * tip};
+    for (int part = 0; part < (mu.imag() == 0.0 ? 1 : 2); ++part) {
+      for (int r = 0; r < 4; ++r) {
+        conditions(r, column) = (part == 0 ? rows[r].real() : rows[r].imag()) / scale;
+      }
+      ++column;
+    }
+  }
+  return conditions.determinant();
+}
+
+double OscillatoryDeterminant(double b, double length) {
+  return ConditionDeterminant({b, -b, Complex(0.0, b)}, length);
+}
+
+double RealDeterminant(double a, double length) {
+  return ConditionDeterminant({Complex(a, a), Complex(-a, a)}, length);
+}
+
+// Roots of `function` on (0, upper] by a scan for sign changes and Brent.
+std::vector<double> Roots(const std::function<double(double)>& function, double upper, int steps) {
+  UseGslStatusCodes();
+  std::vector<double> roots;
+  double previous = 1e-6 * upper;
+  for (int i = 1; i <= steps; ++i) {
+    const double next = upper * i / steps;
+    if (function(previous) * function(next) < 0.0) {
+      const auto bracket = NarrowBracket(gsl_root_fsolver_brent, function, previous, next, 1e-15);
+      REQUIRE(bracket);
+      roots.push_back(bracket->root);
+    }
+    previous = next;
+  }
+  return roots;
+}
+
+struct ContinuousBeamZeros {
+  std::vector<double> real;       // s > 0 of lambda = +-s, ascending
+  std::vector<double> frequency;  // omega > 0 of lambda = +-i omega (none, as it turns out)
+};
+
+ContinuousBeamZeros BeamZeros(const BeamOptions& beam) {
+  const double speed = std::sqrt(beam.bending_stiffness / beam.mass_per_length);
+  ContinuousBeamZeros zeros;
+  // Wave numbers up to 12/L: the lowest few zeros, the ones FE resolves best.
+  for (double a :
+       Roots([&](double x) { return RealDeterminant(x, beam.length); }, 12.0 / beam.length, 4000)) {
+    zeros.real.push_back(2.0 * a * a * speed);  // s = 2 a^2 sqrt(EI / rho_a)
+  }
+  for (double b : Roots([&](double x) { return OscillatoryDeterminant(x, beam.length); },
+                        12.0 / beam.length, 4000)) {
+    zeros.frequency.push_back(b * b * speed);  // omega = b^2 sqrt(EI / rho_a)
+  }
+  return zeros;
+}
+
+BeamOptions UndampedBeam(long elements) {
+  BeamOptions options;
+  options.elements = elements;
+  options.damping_factor = 0.0;
+  return options;
+}
+
+}  // namespace
+
+TEST_CASE("default linear zero-dynamics and ARPACK options are valid", "[analysis]") {
+  CHECK_NOTHROW(LinearZeroDynamicsOptions{}.Validate());
+  CHECK_NOTHROW(ArpackOptions{}.Validate());
+}
+
+TEST_CASE("bad options name the field, its value and the rule", "[analysis]") {
+  ArpackOptions arpack;
+  arpack.eigenvalues = 0;
+  CHECK_THROWS_WITH(arpack.Validate(), "ArpackOptions::eigenvalues = 0: must be >= 1");
+  arpack = {};
+  arpack.basis_size = 5;
+  CHECK_THROWS_WITH(arpack.Validate(),
+                    "ArpackOptions::basis_size = 5: must be 0 (automatic) or >= eigenvalues + 2 "
+                    "= 12");
+  LinearZeroDynamicsOptions options;
+  options.infinite_tolerance = 0.0;
+  CHECK_THROWS_AS(options.Validate(), UsageError);
+  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("infinite_tolerance"));
+}
+
+TEST_CASE("solver and target names go both ways", "[analysis]") {
+  for (auto solver :
+       {LinearEigenSolver::kAuto, LinearEigenSolver::kDense, LinearEigenSolver::kArpack}) {
+    CHECK(LinearEigenSolverFromString(ToString(solver)) == solver);
+  }
+  for (auto target : {EigenvalueTarget::kNearest, EigenvalueTarget::kRightmost}) {
+    CHECK(EigenvalueTargetFromString(ToString(target)) == target);
+  }
+  CHECK_FALSE(LinearEigenSolverFromString("qz"));
+}
+
+TEST_CASE("chain zeros are those of the fixed-free sub-chain beyond the output", "[analysis]") {
+  for (long masses : {6L, 12L, 25L}) {
+    // Beyond j ~ 12 the Markov rows span more than 1e10 (entries of T^j grow as 4^j) and the
+    // relative degree test cannot tell them from round-off.
+    for (long output : {1L, 2L, masses / 2, std::min(masses - 1, 12L)}) {
+      for (double damping : {0.0, 0.3}) {
+        if (damping > 0.0 && output > 2) continue;  // (j-1)-fold zero at -k/d: see above
+        CAPTURE(masses, output, damping);
+        const LinearSystem system = Chain(masses, output, damping);
+        const LinearZeroDynamics dense = Zeros(system, WithSolver(LinearEigenSolver::kDense));
+        CHECK(dense.complete);
+        CHECK(dense.zero_count == 2 * masses - (damping == 0.0 ? 2 * output : output + 1));
+        // Dense eigensolver round-off relative to |lambda| ~ 1.
+        CHECK(EigenvalueDistance(dense.eigenvalues, ChainZeros(masses, output, damping)) < 1e-10);
+        CHECK(dense.stability ==
+              (damping == 0.0 ? Stability::kCritical : Stability::kAsymptoticallyStable));
+      }
+    }
+  }
+}
+
+TEST_CASE("ARPACK finds the chain zeros nearest the shift", "[analysis]") {
+  const long masses = 25, output = 2;
+  const LinearSystem system = Chain(masses, output, 0.1);
+  for (double shift : {0.0, -0.05}) {
+    LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kArpack, 6);
+    options.shift = shift;
+    const LinearZeroDynamics arpack = Zeros(system, options);
+    CHECK(arpack.solver_used == LinearEigenSolver::kArpack);
+    CHECK_FALSE(arpack.complete);
+    REQUIRE(arpack.eigenvalues.size() == 6);
+    const auto expected = NearestEigenvalues(ChainZeros(masses, output, 0.1), shift, 6);
+    CHECK(EigenvalueDistance(arpack.eigenvalues, expected) < 1e-10);
+  }
+}
+
+TEST_CASE("chain N = 1000: ARPACK and dense agree on the 16 zeros nearest 0", "[analysis][slow]") {
+  const LinearSystem system = Chain(1000, 1, 0.01);
+  const auto start = std::chrono::steady_clock::now();
+  const LinearZeroDynamics dense = Zeros(system, WithSolver(LinearEigenSolver::kDense));
+  const double dense_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const LinearZeroDynamics arpack = Zeros(system, WithSolver(LinearEigenSolver::kArpack, 16));
+  REQUIRE(dense.eigenvalues.size() == 1998);
+  const auto dense_nearest = NearestEigenvalues(dense.eigenvalues, 0.0, 16);
+  INFO("dense " << dense_seconds << " s; ARPACK - dense "
+                << EigenvalueDistance(arpack.eigenvalues, dense_nearest));
+  // Both are limited by round-off in the shift-inverted operator.
+  CHECK(EigenvalueDistance(arpack.eigenvalues, dense_nearest) < 1e-8);
+  CHECK(EigenvalueDistance(arpack.eigenvalues,
+                           NearestEigenvalues(ChainZeros(1000, 1, 0.01), 0.0, 16)) < 1e-8);
+  // Measured 35 s on one busy core (Eigen real Schur of 2000 x 2000); a loose ceiling here.
+  CHECK(dense_seconds < 120.0);
+}
+
+TEST_CASE("FE zeros of the hub-beam converge to the continuous real pairs", "[analysis]") {
+  const ContinuousBeamZeros continuous = BeamZeros(UndampedBeam(1));
+  CHECK(continuous.frequency.empty());  // no undamped zero: see the file comment
+  REQUIRE(continuous.real.size() >= 2);
+  CHECK(continuous.real[0] == Approx(35.375).epsilon(1e-4));
+  std::vector<double> errors;
+  for (long elements : {8L, 16L, 32L, 64L}) {
+    const LinearSystem system = LoadGenerated(GenerateBeam(UndampedBeam(elements)));
+    const LinearZeroDynamics zeros = Zeros(system, WithSolver(LinearEigenSolver::kArpack, 4));
+    // The four nearest 0, sorted descending: +s_2, +s_1, -s_1, -s_2, all real.
+    REQUIRE(zeros.eigenvalues.size() == 4);
+    double error = 0.0;
+    for (std::size_t k = 0; k < 2; ++k) {
+      const double exact = continuous.real[k];
+      CHECK(zeros.eigenvalues[1 - k].imag() == 0.0);
+      CHECK(zeros.eigenvalues[2 + k].imag() == 0.0);
+      const double positive = zeros.eigenvalues[1 - k].real();
+      const double negative = -zeros.eigenvalues[2 + k].real();
+      error =
+          std::max({error, std::abs(positive - exact) / exact, std::abs(negative - exact) / exact});
+    }
+    errors.push_back(error);
+    CAPTURE(elements, error);
+    CHECK(zeros.stability == Stability::kUnstable);
+  }
+  INFO("relative errors at N = 8, 16, 32, 64: " << errors[0] << ", " << errors[1] << ", "
+                                                << errors[2] << ", " << errors[3]);
+  // Hermite cubics: eigenvalue errors fall as h^4 (x16 per halving) until round-off.
+  CHECK(errors[1] < errors[0] / 10.0);
+  CHECK(errors[2] < errors[1] / 10.0);
+  CHECK(errors[3] < 1e-6);
+}
+
+TEST_CASE("a non-minimum-phase beam is classified unstable by the rightmost route", "[analysis]") {
+  BeamOptions beam;
+  beam.elements = 400;  // 801 coordinates: ARPACK under auto
+  const LinearSystem system = LoadGenerated(GenerateBeam(beam));
+  LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kAuto, 4);
+  options.target = EigenvalueTarget::kRightmost;
+  const LinearZeroDynamics zeros = Zeros(system, options);
+  CHECK(zeros.solver_used == LinearEigenSolver::kArpack);
+  CHECK(zeros.stability == Stability::kUnstable);
+  CHECK_FALSE(zeros.minimum_phase);
+  REQUIRE_FALSE(zeros.eigenvalues.empty());
+  // Re 1/lambda is largest for the lowest real zero of the tip output, so it is among them. With
+  // D = beta K the link obeys rho_a W_tt + EI (1 + beta d/dt) W_xxxx = 0, so an undamped zero
+  // s_1 becomes the root of lambda^2 = s_1^2 (1 + beta lambda):
+  // lambda = (beta s_1^2 + sqrt(beta^2 s_1^4 + 4 s_1^2)) / 2 (35.4379 for 35.3753).
+  const double s1 = BeamZeros(beam).real[0];
+  const double beta = beam.damping_factor;
+  const double damped =
+      (beta * s1 * s1 + std::sqrt(beta * beta * s1 * s1 * s1 * s1 + 4 * s1 * s1)) / 2;
+  double lowest_positive = std::numeric_limits<double>::infinity();
+  for (const Complex& zero : zeros.eigenvalues) {
+    if (zero.real() > 0.0) lowest_positive = std::min(lowest_positive, zero.real());
+  }
+  // 400 elements: FE error ~1e-10 (h^4 from the convergence test above); what is left is
+  // round-off in the LU of R(0) (condition ~ h^-4): measured 1.1e-8.
+  CHECK(lowest_positive == Approx(damped).epsilon(1e-7));
+}
+
+TEST_CASE("a sweep over parameter values analyses the pattern once", "[analysis]") {
+  LinearZeroDynamicsWorkspace workspace;
+  for (double damping : {0.05, 0.1, 0.2}) {
+    const LinearSystem system = Chain(30, 2, damping);
+    const LinearZeroDynamics zeros = ComputeLinearZeroDynamics(
+        system, workspace, ZeroCount(system), WithSolver(LinearEigenSolver::kArpack, 4));
+    CHECK(EigenvalueDistance(zeros.eigenvalues,
+                             NearestEigenvalues(ChainZeros(30, 2, damping), 0.0, 4)) < 1e-10);
+  }
+  CHECK(workspace.pattern_analyses() == 1);
+}
+
+TEST_CASE("a shift on a zero is reported as a singular Rosenbrock matrix", "[analysis]") {
+  // Two masses, output at mass 1, mass 2 without spring or damper: holding mass 1 leaves mass 2
+  // free, a double zero at lambda = 0, which is the default shift.
+  LinearSystem system = Chain(2, 1, 0.0);
+  system.stiffness = SparseMatrix(2, 2);
+  system.stiffness.insert(0, 0) = 1.0;
+  system.damping = SparseMatrix(2, 2);
+  LinearZeroDynamicsWorkspace workspace;
+  CHECK_THROWS_AS(ComputeLinearZeroDynamics(system, workspace, 2, {}), NoSolution);
+  CHECK_THROWS_WITH(ComputeLinearZeroDynamics(system, workspace, 2, {}),
+                    Catch::Contains("singular at the shift s = 0"));
+}
+
+TEST_CASE("ARPACK out of iterations is NoSolution with ARPACK's reason", "[analysis]") {
+  const LinearSystem system = Chain(200, 1, 0.01);
+  LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kArpack, 30);
+  options.target = EigenvalueTarget::kRightmost;  // slow: the wanted nu crowd near 0
+  options.arpack.max_iterations = 1;
+  CHECK_THROWS_AS(Zeros(system, options), NoSolution);
+  CHECK_THROWS_WITH(Zeros(system, options),
+                    Catch::Contains("ARPACK dnaupd failed (info = 1): maximum number of "
+                                    "iterations taken"));
+}
+
+}  // namespace servokit
