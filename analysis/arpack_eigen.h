@@ -33,9 +33,11 @@ struct ArpackOptions {
   // restarts and 2.4 s with 30 (more vectors: fewer restarts, but memory n * ncv and
   // orthogonalisation ~n ncv^2 per restart; 40 took 4.3 s). Otherwise eigenvalues + 2..n.
   int basis_size = 0;
-  // ARPACK's relative accuracy of the Ritz values |nu|; 0 means machine precision (ARPACK's
-  // default when tol <= 0). Shift-invert converges fast, so full accuracy costs little.
-  double tolerance = 0.0;
+  // ARPACK's relative accuracy of the Ritz values |nu| (0: machine precision, ARPACK's default
+  // when tol <= 0). 1e-12 keeps the zeros to about 12 digits where they are well conditioned
+  // and halves the work against machine precision (measured: the chain of 1e4 masses 43
+  // operator applications instead of 69, the beam of 1e4 elements 31 instead of 65).
+  double tolerance = 1e-12;
   // Implicit restarts allowed (iparam(3)); 1000 is far beyond what shift-invert needs (a few
   // dozen) and stops a hopeless run in bounded time.
   int max_iterations = 1000;

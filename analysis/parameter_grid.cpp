@@ -38,9 +38,9 @@ UsageError VaryError(std::string_view text, const std::string& problem) {
   return UsageError("--vary " + std::string(text) + ": " + problem);
 }
 
-std::string KnownParameters(const Model& model) {
+std::string KnownParameters(const std::vector<std::string>& parameter_names) {
   std::string list;
-  for (const std::string& name : model.parameter_names()) {
+  for (const std::string& name : parameter_names) {
     if (!list.empty()) list += ", ";
     list += name;
   }
@@ -88,18 +88,22 @@ double GridAxis::Value(std::size_t i) const {
 }
 
 GridAxis ParseGridAxis(const Model& model, std::string_view text) {
+  return ParseGridAxis(model.parameter_names(), text);
+}
+
+GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text) {
   const std::size_t equals = text.find('=');
   const std::string_view name = Trim(text.substr(0, equals));
   if (equals == std::string_view::npos || name.empty()) {
     throw VaryError(text,
                     "expected name=a:b:n or name=v1,v2,... (e.g. --vary alpha=0deg:90deg:91)");
   }
-  const std::optional<std::size_t> parameter = model.FindParameter(name);
-  if (!parameter) {
+  const auto found = std::find(parameter_names.begin(), parameter_names.end(), name);
+  if (found == parameter_names.end()) {
     throw VaryError(text, "unknown parameter '" + std::string(name) + "' (the model has " +
-                              KnownParameters(model) + ")");
+                              KnownParameters(parameter_names) + ")");
   }
-  GridAxis axis{std::string(name), *parameter, {}};
+  GridAxis axis{std::string(name), static_cast<std::size_t>(found - parameter_names.begin()), {}};
   const std::string_view spec = text.substr(equals + 1);
   if (spec.find(':') != std::string_view::npos) {
     const std::vector<std::string_view> parts = Split(spec, ':');
@@ -155,9 +159,14 @@ void ParameterGrid::Apply(std::size_t point, Eigen::VectorXd& parameters) const 
 }
 
 ParameterGrid ParseParameterGrid(const Model& model, const std::vector<std::string>& texts) {
+  return ParseParameterGrid(model.parameter_names(), texts);
+}
+
+ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
+                                 const std::vector<std::string>& texts) {
   std::vector<GridAxis> axes;
   axes.reserve(texts.size());
-  for (const std::string& text : texts) axes.push_back(ParseGridAxis(model, text));
+  for (const std::string& text : texts) axes.push_back(ParseGridAxis(parameter_names, text));
   return ParameterGrid(std::move(axes));
 }
 

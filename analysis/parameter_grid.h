@@ -43,6 +43,8 @@ struct GridAxis {
 /// Throws UsageError "--vary <text>: ..." naming the problem: bad syntax, unknown parameter (the
 /// message lists the known ones), a value that is not a number, n < 1.
 GridAxis ParseGridAxis(const Model& model, std::string_view text);
+/// The same for any model with these parameter names (a linear model's, say).
+GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text);
 
 /// The full grid over its axes. Points are numbered 0..num_points()-1 in row-major order: the
 /// first axis varies slowest, the last fastest (as nested loops in the order of `--vary`).
@@ -72,5 +74,7 @@ class ParameterGrid {
 
 /// ParseGridAxis for each text, then the grid over them in the same order.
 ParameterGrid ParseParameterGrid(const Model& model, const std::vector<std::string>& texts);
+ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
+                                 const std::vector<std::string>& texts);
 
 }  // namespace servokit

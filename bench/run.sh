@@ -14,3 +14,13 @@ echo "== inverse-model solves against SciPy solve_ivp (issue #4) =="
 echo
 echo "== stable inversion against SciPy solve_bvp (issue #5) =="
 "$root/bench/compare_stable_inversion.sh" "$build"
+echo
+echo "== large linear models: ARPACK against scipy.sparse.linalg.eigs (issue #6) =="
+"$root/bench/compare_large.sh" "$build"
+echo
+echo "== distributed sweeps: MPI efficiency at 2 ranks (issue #6) =="
+if command -v mpirun >/dev/null; then
+  "$root/bench/compare_mpi_sweep.sh" "$build"
+else
+  echo "mpirun not found: skipped"
+fi

@@ -66,6 +66,9 @@ def assemble(terms, parameters, shape=None):
     return total.tocsc()
 
 
+TOLERANCE = 1e-12
+
+
 def main():
     path = sys.argv[1]
     k = int(sys.argv[2]) if len(sys.argv) > 2 else 10
@@ -96,7 +99,8 @@ def main():
     assemble_seconds = time.perf_counter() - start
 
     start = time.perf_counter()
-    values = sla.eigs(pencil_a, k=k, M=pencil_e, sigma=0.0, ncv=ncv,
+    # The same ARPACK tolerance as servokit's default (ArpackOptions::tolerance).
+    values = sla.eigs(pencil_a, k=k, M=pencil_e, sigma=0.0, ncv=ncv, tol=TOLERANCE,
                      return_eigenvectors=False)
     eigs_seconds = time.perf_counter() - start
     values = sorted(values, key=lambda z: (-z.real, -z.imag))

@@ -22,6 +22,7 @@
 
 #include "models/errors.h"
 #include "models/expression_program.h"
+#include "models/loader_support.h"
 #include "models/matrix_market.h"
 #include "models/units.h"
 
@@ -41,80 +42,26 @@ constexpr std::string_view kMatrixKey = "matrix";
 constexpr std::string_view kFactorKey = "factor";
 constexpr std::string_view kDefaultFactor = "1";
 
-// DESIGN.md, "The model file": the functions an expression may call (as the nonlinear loader).
-constexpr std::array<std::string_view, 14> kFunctions = {"sin",  "cos",   "tan",  "asin", "acos",
-                                                         "atan", "atan2", "exp",  "log",  "sqrt",
-                                                         "sinh", "cosh",  "tanh", "abs"};
-constexpr std::string_view kPiName = "pi";
-// GiNaC's parser reads these as its own constants before it looks at the symbol table.
-constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler", "Catalan"};
-constexpr std::string_view kQuantityHint = "(use e.g. 5 or \"5 deg\")";
+using detail::Contains;
+using detail::ContentHasher;
+using detail::FindUnsupported;
+using detail::Indexed;
+using detail::IsIdentifier;
+using detail::IsIdentifierChar;
+using detail::Join;
+using detail::kParserLiterals;
+using detail::kPiName;
+using detail::Text;
+constexpr const auto& kFunctions = detail::kModelFunctions;
+using detail::kQuantityHint;
 
 // A mass-matrix term counts as symmetric when |A - A^T| <= this * max |A| entrywise: files
 // written by other tools may carry round-off in the last digits, nothing more.
 constexpr double kSymmetryTolerance = 1e-12;
 
-// FNV-1a, 64 bit (offset basis and prime from the FNV reference), as the nonlinear loader's
-// content hash; here it runs over the model file and then every matrix file.
-constexpr std::uint64_t kFnvOffsetBasis = 14695981039346656037ull;
-constexpr std::uint64_t kFnvPrime = 1099511628211ull;
-
-class ContentHasher {
- public:
-  void Add(std::string_view bytes) {
-    for (const char byte : bytes) {
-      hash_ ^= static_cast<unsigned char>(byte);
-      hash_ *= kFnvPrime;
-    }
-  }
-  std::string Hex() const {
-    std::ostringstream hex;
-    hex.fill('0');
-    hex.width(16);
-    hex << std::hex << hash_;
-    return hex.str();
-  }
-
- private:
-  std::uint64_t hash_ = kFnvOffsetBasis;
-};
-
-template <typename Strings>
-std::string Join(const Strings& strings) {
-  std::string joined;
-  for (const auto& text : strings) {
-    if (!joined.empty()) joined += ", ";
-    joined += text;
-  }
-  return joined;
-}
-
-template <typename Strings>
-bool Contains(const Strings& strings, std::string_view text) {
-  return std::find(strings.begin(), strings.end(), text) != strings.end();
-}
-
-bool IsIdentifierStart(char c) { return std::isalpha(static_cast<unsigned char>(c)) != 0; }
-bool IsIdentifierChar(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
-}
-bool IsIdentifier(std::string_view name) {
-  return !name.empty() && IsIdentifierStart(name.front()) &&
-         std::all_of(name.begin(), name.end(), IsIdentifierChar);
-}
-
-std::string Indexed(std::string_view key, std::size_t i) {
-  return std::string(key) + "[" + std::to_string(i) + "]";
-}
 
 std::string Shape(Eigen::Index rows, Eigen::Index cols) {
   return std::to_string(rows) + " x " + std::to_string(cols);
-}
-
-std::string Text(const GiNaC::ex& expression) {
-  std::ostringstream stream;
-  stream << expression;
-  return stream.str();
 }
 
 std::string ShortNumber(double value) {
@@ -166,33 +113,6 @@ bool ReadKind(const YAML::Node& root, const std::string& source) {
                    (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
                    "' (expected " + std::string(kLinearKind) + " or " +
                    std::string(kMultibodyKind) + ")");
-}
-
-// The first construct a factor may not contain, or nullopt (GiNaC evaluates while it parses:
-// sqrt(-1) becomes I, 1e400 a float no double holds).
-std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
-  if (GiNaC::is_a<GiNaC::numeric>(expression)) {
-    const auto& number = GiNaC::ex_to<GiNaC::numeric>(expression);
-    if (!number.is_real()) return "complex number " + Text(expression);
-    if (!std::isfinite(number.to_double())) return "number out of range " + Text(expression);
-    return std::nullopt;
-  }
-  if (GiNaC::is_a<GiNaC::constant>(expression) && !expression.is_equal(GiNaC::Pi)) {
-    return "unsupported constant " + Text(expression);
-  }
-  if (GiNaC::is_a<GiNaC::function>(expression) &&
-      !Contains(kFunctions, GiNaC::ex_to<GiNaC::function>(expression).get_name())) {
-    return "unsupported function " + GiNaC::ex_to<GiNaC::function>(expression).get_name();
-  }
-  if (!GiNaC::is_a<GiNaC::symbol>(expression) && !GiNaC::is_a<GiNaC::constant>(expression) &&
-      !GiNaC::is_a<GiNaC::add>(expression) && !GiNaC::is_a<GiNaC::mul>(expression) &&
-      !GiNaC::is_a<GiNaC::power>(expression) && !GiNaC::is_a<GiNaC::function>(expression)) {
-    return "unsupported expression " + Text(expression);
-  }
-  for (std::size_t i = 0; i < expression.nops(); ++i) {
-    if (auto problem = FindUnsupported(expression.op(i))) return problem;
-  }
-  return std::nullopt;
 }
 
 // Same pattern and the same bits in every stored value.
@@ -351,23 +271,10 @@ class LinearModelBuilder {
     if (Contains(model_.parameter_names_, name)) Fail(where, "duplicate parameter");
   }
 
-  // As the nonlinear loader: an unknown name or a bad value is a command-line mistake.
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
-    for (const ParameterOverride& override_ : overrides) {
-      const std::string option = "--set " + override_.name + "=" + override_.value;
-      const std::optional<std::size_t> index = model_.FindParameter(override_.name);
-      if (!index) {
-        throw UsageError(option + ": unknown parameter '" + override_.name + "' (" +
-                         (model_.parameter_names_.empty()
-                              ? std::string("the model has no parameters")
-                              : "known: " + Join(model_.parameter_names_)) +
-                         ")");
-      }
-      const std::optional<double> value = ParseQuantity(override_.value);
-      if (!value) throw UsageError(option + ": not a number " + std::string(kQuantityHint));
-      model_.parameters_[static_cast<Eigen::Index>(*index)] = *value;
-    }
+    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
   }
+
 
   void MakeSymbols() {
     for (const std::string& name : model_.parameter_names_) {
@@ -456,40 +363,19 @@ class LinearModelBuilder {
   // Names in a factor: a parameter, pi, or a function followed by '('. Catches what GiNaC's
   // parser would report less clearly, or accept as one of its own functions.
   std::optional<std::string> FindNameProblem(const std::string& text) const {
-    std::size_t i = 0;
-    while (i < text.size()) {
-      if (!IsIdentifierStart(text[i]) && text[i] != '_') {
-        if (std::isdigit(static_cast<unsigned char>(text[i])) != 0 || text[i] == '.') {
-          // Skip a number with its exponent so that 1e-3 is not read as the name e.
-          while (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.' ||
-                                     ((text[i] == '+' || text[i] == '-') &&
-                                      (text[i - 1] == 'e' || text[i - 1] == 'E')))) {
-            ++i;
+    return detail::FindLexicalProblem(
+        text, [this](const std::string& name, bool called) -> std::optional<std::string> {
+          if (called && !Contains(kFunctions, name)) {
+            return "unsupported function '" + name + "' (supported: " + Join(kFunctions) + ")";
           }
-        } else if (std::isspace(static_cast<unsigned char>(text[i])) == 0 &&
-                   std::string_view("+-*/^(),").find(text[i]) == std::string_view::npos) {
-          return std::string("unexpected character '") + text[i] + "'";
-        } else {
-          ++i;
-        }
-        continue;
-      }
-      const std::size_t start = i;
-      while (i < text.size() && IsIdentifierChar(text[i])) ++i;
-      const std::string name = text.substr(start, i - start);
-      const std::size_t next = text.find_first_not_of(" \t", i);
-      const bool called = next != std::string::npos && text[next] == '(';
-      if (called && !Contains(kFunctions, name)) {
-        return "unsupported function '" + name + "' (supported: " + Join(kFunctions) + ")";
-      }
-      if (!called && symbol_table_.count(name) == 0) {
-        return "unknown symbol '" + name + "' (a factor may use the parameters" +
-               (model_.parameter_names_.empty() ? std::string(", and there are none")
-                                                : " " + Join(model_.parameter_names_)) +
-               ", pi and numbers)";
-      }
-    }
-    return std::nullopt;
+          if (!called && symbol_table_.count(name) == 0) {
+            return "unknown symbol '" + name + "' (a factor may use the parameters" +
+                   (model_.parameter_names_.empty() ? std::string(", and there are none")
+                                                    : " " + Join(model_.parameter_names_)) +
+                   ", pi and numbers)";
+          }
+          return std::nullopt;
+        });
   }
 
   std::shared_ptr<const ExpressionProgram> CompileFactor(const std::string& where,

@@ -24,6 +24,7 @@
 
 #include "models/errors.h"
 #include "models/expression_program.h"
+#include "models/loader_support.h"
 #include "models/model.h"
 #include "models/symbolic_model.h"
 #include "models/units.h"
@@ -35,19 +36,23 @@ constexpr std::array<std::string_view, 8> kRequiredKeys = {
     "name",        "parameters", "coordinates",  "inputs",
     "mass_matrix", "forces",     "input_matrix", "outputs"};
 constexpr std::string_view kDescriptionKey = "description";
+// Optional: the kind of model file. This reader reads `multibody` (the default); `linear`
+// files (models/linear_model.h) are read by LoadLinearModel.
+constexpr std::string_view kKindKey = "kind";
+constexpr std::string_view kMultibodyKind = "multibody";
 
-// DESIGN.md, "The model file": the functions an expression may call.
-constexpr std::array<std::string_view, 14> kFunctions = {"sin",  "cos",   "tan",  "asin", "acos",
-                                                         "atan", "atan2", "exp",  "log",  "sqrt",
-                                                         "sinh", "cosh",  "tanh", "abs"};
-// The name of the constant pi in expressions.
-constexpr std::string_view kPiName = "pi";
-// GiNaC's parser reads these as its own constants before it looks at the symbol table, so a
-// parameter with one of these names would silently be replaced.
-constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler", "Catalan"};
+using detail::Contains;
+using detail::FindUnsupported;
+using detail::Indexed;
+using detail::IsIdentifier;
+using detail::Join;
+using detail::kParserLiterals;
+using detail::kPiName;
+using detail::Text;
+constexpr const auto& kFunctions = detail::kModelFunctions;
 // The velocity of coordinate c is the symbol c_dot.
 constexpr std::string_view kVelocitySuffix = "_dot";
-constexpr std::string_view kQuantityHint = "(use e.g. 5 or \"5 deg\")";
+using detail::kQuantityHint;
 
 // Symmetry of M is decided symbolically when expand() or normal() shows M_ij - M_ji = 0;
 // otherwise (trigonometric identities, say) by evaluating both at random points near the
@@ -60,68 +65,13 @@ constexpr double kSymmetryParameterSpread = 0.1;
 // most for mass-matrix entries, far below this relative tolerance.
 constexpr double kSymmetryTolerance = 1e-10;
 
-// FNV-1a, 64 bit (offset basis and prime from the FNV reference).
-constexpr std::uint64_t kFnvOffsetBasis = 14695981039346656037ull;
-constexpr std::uint64_t kFnvPrime = 1099511628211ull;
-
-std::string ContentHash(std::string_view bytes) {
-  std::uint64_t hash = kFnvOffsetBasis;
-  for (const char byte : bytes) {
-    hash ^= static_cast<unsigned char>(byte);
-    hash *= kFnvPrime;
-  }
-  std::ostringstream hex;
-  hex.fill('0');
-  hex.width(16);
-  hex << std::hex << hash;
-  return hex.str();
-}
-
-template <typename Strings>
-std::string Join(const Strings& strings) {
-  std::string joined;
-  for (const auto& text : strings) {
-    if (!joined.empty()) {
-      joined += ", ";
-    }
-    joined += text;
-  }
-  return joined;
-}
-
-template <typename Strings>
-bool Contains(const Strings& strings, std::string_view text) {
-  return std::find(strings.begin(), strings.end(), text) != strings.end();
-}
-
-bool IsIdentifierStart(char c) { return std::isalpha(static_cast<unsigned char>(c)) != 0; }
-bool IsIdentifierChar(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
-}
-bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
-
-// Names GiNaC's parser reads as one identifier: a letter, then letters, digits and '_'.
-bool IsIdentifier(std::string_view name) {
-  return !name.empty() && IsIdentifierStart(name.front()) &&
-         std::all_of(name.begin(), name.end(), IsIdentifierChar);
-}
-
 // "1 row", "2 rows": counts in messages.
 std::string Count(std::size_t count, const std::string& singular, const std::string& plural) {
   return std::to_string(count) + " " + (count == 1 ? singular : plural);
 }
 
-std::string Indexed(std::string_view key, std::size_t i) {
-  return std::string(key) + "[" + std::to_string(i) + "]";
-}
 std::string Indexed(std::string_view key, std::size_t i, std::size_t j) {
   return Indexed(key, i) + "[" + std::to_string(j) + "]";
-}
-
-std::string Text(const GiNaC::ex& expression) {
-  std::ostringstream stream;
-  stream << expression;
-  return stream.str();
 }
 
 // GiNaC's parse_error text is "GiNaC: parse error at line 0, column 0: <what>\n[<function>...]";
@@ -136,40 +86,6 @@ std::string ParseErrorMessage(const std::exception& error) {
     }
   }
   return message.substr(0, message.find('\n'));
-}
-
-// The first construct a model expression may not contain, or nullopt. The parser only builds
-// what DESIGN.md allows from the names it is given, but GiNaC evaluates while it parses:
-// sqrt(-1) becomes I and 1e400 a float no double holds.
-std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
-  if (GiNaC::is_a<GiNaC::numeric>(expression)) {
-    const auto& number = GiNaC::ex_to<GiNaC::numeric>(expression);
-    if (!number.is_real()) {
-      return "complex number " + Text(expression);
-    }
-    if (!std::isfinite(number.to_double())) {
-      return "number out of range " + Text(expression);
-    }
-    return std::nullopt;
-  }
-  if (GiNaC::is_a<GiNaC::constant>(expression) && !expression.is_equal(GiNaC::Pi)) {
-    return "unsupported constant " + Text(expression);
-  }
-  if (GiNaC::is_a<GiNaC::function>(expression) &&
-      !Contains(kFunctions, GiNaC::ex_to<GiNaC::function>(expression).get_name())) {
-    return "unsupported function " + GiNaC::ex_to<GiNaC::function>(expression).get_name();
-  }
-  if (!GiNaC::is_a<GiNaC::symbol>(expression) && !GiNaC::is_a<GiNaC::constant>(expression) &&
-      !GiNaC::is_a<GiNaC::add>(expression) && !GiNaC::is_a<GiNaC::mul>(expression) &&
-      !GiNaC::is_a<GiNaC::power>(expression) && !GiNaC::is_a<GiNaC::function>(expression)) {
-    return "unsupported expression " + Text(expression);
-  }
-  for (std::size_t i = 0; i < expression.nops(); ++i) {
-    if (auto problem = FindUnsupported(expression.op(i))) {
-      return problem;
-    }
-  }
-  return std::nullopt;
 }
 
 // Column-major entries of each matrix, one after the other: the layout Evaluate() copies into
@@ -209,7 +125,9 @@ class ModelBuilder {
  public:
   ModelBuilder(const std::string& yaml_text, std::string source) {
     model_.source_ = std::move(source);
-    model_.content_hash_ = ContentHash(yaml_text);
+    detail::ContentHasher hasher;
+    hasher.Add(yaml_text);
+    model_.content_hash_ = hasher.Hex();
     root_ = ParseYaml(yaml_text);
   }
 
@@ -272,9 +190,11 @@ class ModelBuilder {
         Fail("top level", "keys must be plain names");
       }
       const std::string& key = entry.first.Scalar();
-      if (!Contains(kRequiredKeys, key) && key != kDescriptionKey) {
-        Fail(key, "unknown key (expected " + Join(kRequiredKeys) + " or " +
-                      std::string(kDescriptionKey) + ")");
+      if (key == kKindKey) {
+        CheckKind(entry.second);
+      } else if (!Contains(kRequiredKeys, key) && key != kDescriptionKey) {
+        Fail(key, "unknown key (expected " + Join(kRequiredKeys) + ", " +
+                      std::string(kDescriptionKey) + " or " + std::string(kKindKey) + ")");
       }
       if (Contains(seen, key)) {
         Fail(key, "duplicate key");
@@ -286,6 +206,18 @@ class ModelBuilder {
         Fail(std::string(key), "missing required key");
       }
     }
+  }
+
+  void CheckKind(const YAML::Node& kind) const {
+    if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return;
+    if (kind.IsScalar() && kind.Scalar() == "linear") {
+      Fail(std::string(kKindKey),
+           "a linear model (Matrix Market matrices): `servokit analyze` and `servokit sweep` "
+           "read it; this needs a multibody model");
+    }
+    Fail(std::string(kKindKey), "unknown kind '" +
+                                    (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
+                                    "' (expected " + std::string(kMultibodyKind) + " or linear)");
   }
 
   void ReadName() {
@@ -326,23 +258,9 @@ class ModelBuilder {
   }
 
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
-    for (const ParameterOverride& override_ : overrides) {
-      const std::string option = "--set " + override_.name + "=" + override_.value;
-      const std::optional<std::size_t> index = model_.FindParameter(override_.name);
-      if (!index) {
-        throw UsageError(option + ": unknown parameter '" + override_.name + "' (" +
-                         (model_.parameter_names_.empty()
-                              ? std::string("the model has no parameters")
-                              : "known: " + Join(model_.parameter_names_)) +
-                         ")");
-      }
-      const std::optional<double> value = ParseQuantity(override_.value);
-      if (!value) {
-        throw UsageError(option + ": not a number " + std::string(kQuantityHint));
-      }
-      model_.parameters_[static_cast<Eigen::Index>(*index)] = *value;
-    }
+    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
   }
+
 
   std::vector<std::string> ReadNameList(const std::string& key) const {
     const YAML::Node list = Entry(key);
@@ -424,58 +342,8 @@ class ModelBuilder {
   // Names in `text` that the parser would reject with a less helpful message, or read as
   // something else; also catches "2x" and characters that are no operator.
   std::optional<std::string> FindLexicalProblem(const std::string& text) const {
-    std::size_t i = 0;
-    while (i < text.size()) {
-      const char c = text[i];
-      if (std::isspace(static_cast<unsigned char>(c)) != 0) {
-        ++i;
-      } else if (IsDigit(c) || c == '.') {
-        const std::size_t start = i;
-        i = SkipNumber(text, i);
-        if (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) {
-          while (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) {
-            ++i;
-          }
-          return "malformed number '" + text.substr(start, i - start) + "'";
-        }
-      } else if (IsIdentifierStart(c) || c == '_') {
-        const std::size_t start = i;
-        while (i < text.size() && IsIdentifierChar(text[i])) {
-          ++i;
-        }
-        const std::string name = text.substr(start, i - start);
-        const std::size_t next = text.find_first_not_of(" \t", i);
-        const bool called = next != std::string::npos && text[next] == '(';
-        if (auto problem = NameProblem(name, called)) {
-          return problem;
-        }
-      } else if (std::string_view("+-*/^(),").find(c) == std::string_view::npos) {
-        return std::string("unexpected character '") + c + "'";
-      } else {
-        ++i;
-      }
-    }
-    return std::nullopt;
-  }
-
-  // Digits, an optional fraction and an optional exponent, starting at `i`.
-  static std::size_t SkipNumber(const std::string& text, std::size_t i) {
-    while (i < text.size() && (IsDigit(text[i]) || text[i] == '.')) {
-      ++i;
-    }
-    if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
-      std::size_t exponent = i + 1;
-      if (exponent < text.size() && (text[exponent] == '+' || text[exponent] == '-')) {
-        ++exponent;
-      }
-      if (exponent < text.size() && IsDigit(text[exponent])) {
-        i = exponent;
-        while (i < text.size() && IsDigit(text[i])) {
-          ++i;
-        }
-      }
-    }
-    return i;
+    return detail::FindLexicalProblem(
+        text, [this](const std::string& name, bool called) { return NameProblem(name, called); });
   }
 
   std::optional<std::string> NameProblem(const std::string& name, bool called) const {

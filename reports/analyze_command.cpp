@@ -23,33 +23,12 @@ struct AnalyzeArguments {
   std::vector<std::string> q0;
   std::string format = "text";
   ClassificationOptions options;
-  // Linear models only.
-  int eigenvalues = ArpackOptions{}.eigenvalues;
-  double shift = 0.0;
-  std::string eigen_solver = "auto";
-  std::string which = "nearest";
+  LinearModelArguments linear;  // linear models only
 };
 
 int RunLinearAnalyze(const AnalyzeArguments& arguments, ReportFormat format, std::ostream& out) {
-  if (!arguments.y0.empty() || !arguments.q0.empty()) {
-    throw UsageError(std::string(arguments.y0.empty() ? "--q0" : "--y0") +
-                     ": a linear model is analysed at q = 0, y = 0; the option does not apply");
-  }
-  LinearAnalysisOptions options;
-  options.rank_tolerance = arguments.options.rank_tolerance;
-  options.zero_dynamics.imaginary_axis_tolerance = arguments.options.imaginary_axis_tolerance;
-  options.zero_dynamics.arpack.eigenvalues = arguments.eigenvalues;
-  options.zero_dynamics.shift = arguments.shift;
-  const auto solver = LinearEigenSolverFromString(arguments.eigen_solver);
-  if (!solver) {
-    throw UsageError("--eigen-solver " + arguments.eigen_solver +
-                     ": expected auto, dense or arpack");
-  }
-  options.zero_dynamics.solver = *solver;
-  const auto target = EigenvalueTargetFromString(arguments.which);
-  if (!target) throw UsageError("--which " + arguments.which + ": expected nearest or rightmost");
-  options.zero_dynamics.target = *target;
-  options.Validate();
+  const LinearAnalysisOptions options = MakeLinearAnalysisOptions(
+      arguments.linear, arguments.options, !arguments.y0.empty(), !arguments.q0.empty());
 
   const LinearModel model =
       LoadLinearModel(arguments.model_path, ParseOverrides(arguments.overrides));
@@ -107,27 +86,7 @@ Command AddAnalyzeCommand(CLI::App& app) {
       ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
                    "Relative distance to the imaginary axis counted as on it")
       ->capture_default_str();
-  analyze
-      ->add_option("--eigenvalues", arguments->eigenvalues,
-                   "Linear models: how many zero-dynamics eigenvalues ARPACK computes (the dense "
-                   "route computes all)")
-      ->capture_default_str();
-  analyze
-      ->add_option("--shift", arguments->shift,
-                   "Linear models: real shift sigma (1/s) of the shift-invert (A - sigma E)^-1 E; "
-                   "must not be a zero")
-      ->capture_default_str();
-  analyze
-      ->add_option("--eigen-solver", arguments->eigen_solver,
-                   "Linear models: auto (dense up to 200 coordinates, ARPACK above), dense (every "
-                   "zero, O(n^3)) or arpack (K zeros, shift-invert)")
-      ->capture_default_str();
-  analyze
-      ->add_option("--which", arguments->which,
-                   "Linear models, ARPACK: nearest (the K zeros nearest the shift: the slowest "
-                   "modes) or rightmost (largest Re 1/(lambda - shift): any zero right of the "
-                   "shift ranks first, which decides stability at shift 0)")
-      ->capture_default_str();
+  AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
   return {analyze,
           [arguments](std::ostream& out, std::ostream&) { return RunAnalyze(*arguments, out); }};
 }

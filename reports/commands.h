@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "analysis/linear_analysis.h"
+#include "analysis/options.h"
 #include "models/model.h"
 
 namespace servokit {
@@ -27,6 +29,30 @@ Command AddThresholdCommand(CLI::App& app);
 Command AddReportCommand(CLI::App& app);
 Command AddSolveCommand(CLI::App& app);
 Command AddSweepCommand(CLI::App& app);
+
+/// The options `analyze` and `sweep` take for linear models, as given on the command line.
+struct LinearModelArguments {
+  int eigenvalues = ArpackOptions{}.eigenvalues;
+  double shift = 0.0;
+  std::string eigen_solver = "auto";
+  std::string which = "nearest";
+};
+
+/// Their names, so that a command can refuse them for a multibody model.
+inline constexpr const char* kLinearModelOptions[] = {"--eigenvalues", "--shift",
+                                                      "--eigen-solver", "--which"};
+
+/// Registers --eigenvalues, --shift, --eigen-solver and --which on `command`; `what` ends each
+/// help text's first words ("zeros", "zeros per point").
+void AddLinearModelOptions(CLI::App& command, LinearModelArguments& arguments, const std::string& what);
+
+/// The linear analysis options from `arguments` and the tolerances the commands share. Throws
+/// UsageError naming a bad --eigen-solver or --which, or --y0/--q0 when given (a linear model is
+/// analysed at q = 0, y = 0), and the options' own Validate() errors.
+LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& arguments,
+                                                const ClassificationOptions& tolerances,
+                                                bool y0_given,
+                                                bool q0_given);
 
 /// "--set name=value" texts into overrides; throws UsageError naming a malformed one.
 std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts);

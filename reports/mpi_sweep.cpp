@@ -284,18 +284,19 @@ struct BlockPlan {
 };
 
 // Computes block b into `block` with this rank's threads (RunSweep over that block alone).
-void ComputeBlock(const Model& model,
+// `run` is RunSweep or RunLinearSweep bound to the model (SweepRunner), so that the same
+// distribution serves both kinds of model.
+void ComputeBlock(const SweepRunner& run,
                   const ParameterGrid& grid,
                   const SweepOptions& options,
                   const BlockPlan& plan,
                   std::size_t b,
                   FormattedBlock& block) {
   const int threads = SweepThreads(options);
-  RunSweep(model, grid, options, plan.first(b),
-           [&](std::size_t first, std::span<const SweepPoint> points) {
-             FormatBlock(grid, first, points, threads, block);
-             return false;  // one block only
-           });
+  run(plan.first(b), [&](std::size_t first, std::span<const SweepPoint> points) {
+    FormatBlock(grid, first, points, threads, block);
+    return false;  // one block only
+  });
 }
 
 // Rank 0: writes every block in order, its own and the other ranks'.
@@ -306,7 +307,7 @@ class Root {
     finished_[0] = true;
   }
 
-  DistributedSweepEnd Run(const Model& model,
+  DistributedSweepEnd Run(const SweepRunner& run,
                           const ParameterGrid& grid,
                           const SweepOptions& options,
                           const std::function<void(const FormattedBlock&)>& write,
@@ -318,7 +319,7 @@ class Root {
       for (std::size_t b = 0; b < plan_.count(); ++b) {
         const int owner = plan_.owner(b, group_.size);
         if (owner == 0) {
-          ComputeBlock(model, grid, options, plan_, b, block_);
+          ComputeBlock(run, grid, options, plan_, b, block_);
         } else if (!ReceiveBlock(owner, plan_.first(b), plan_.size(b))) {
           verdict.kind = VerdictKind::kStopped;
           break;
@@ -401,7 +402,7 @@ bool VerdictArrived() {
 // Every rank but 0: computes blocks rank, rank + size, ... and sends them to rank 0.
 DistributedSweepEnd RunWorker(const ProcessGroup& group,
                               const BlockPlan& plan,
-                              const Model& model,
+                              const SweepRunner& run,
                               const ParameterGrid& grid,
                               const SweepOptions& options,
                               const std::function<bool()>& stop_requested) {
@@ -413,7 +414,7 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
     for (std::size_t b = static_cast<std::size_t>(group.rank); b < plan.count();
          b += static_cast<std::size_t>(group.size)) {
       if (VerdictArrived()) break;  // rank 0 has ended the sweep
-      ComputeBlock(model, grid, options, plan, b, block);
+      ComputeBlock(run, grid, options, plan, b, block);
       sends.Send(BlockMessage(block), 0, kResultTag, kSendsInFlight);
       if (stop_requested()) {
         end = MessageKind::kStopped;
@@ -519,11 +520,23 @@ DistributedSweepEnd RunDistributedSweep(const Model& model,
                                         std::size_t first_point,
                                         const std::function<void(const FormattedBlock&)>& write,
                                         const std::function<bool()>& stop_requested) {
+  const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
+    return RunSweep(model, grid, options, first, consume);
+  };
+  return RunDistributedSweep(run, grid, options, first_point, write, stop_requested);
+}
+
+DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
+                                        const ParameterGrid& grid,
+                                        const SweepOptions& options,
+                                        std::size_t first_point,
+                                        const std::function<void(const FormattedBlock&)>& write,
+                                        const std::function<bool()>& stop_requested) {
   if (!mpi_active) throw Error("RunDistributedSweep: MPI is not initialised");
   const BlockPlan plan = {first_point, std::max<std::size_t>(options.block_size, 1),
                           std::max(grid.num_points(), first_point)};
-  if (world.IsRoot()) return Root(world, plan).Run(model, grid, options, write, stop_requested);
-  return RunWorker(world, plan, model, grid, options, stop_requested);
+  if (world.IsRoot()) return Root(world, plan).Run(run, grid, options, write, stop_requested);
+  return RunWorker(world, plan, run, grid, options, stop_requested);
 }
 
 }  // namespace servokit

@@ -79,6 +79,22 @@ struct DistributedSweepEnd {
 /// process after each block it computes or writes; true on any process stops all of them at the
 /// next block boundary. An exception on any process (from an evaluation, `write` or MPI) ends
 /// all of them and is rethrown on every process as AgreeOnSuccess does. Needs size > 1 and MPI.
+/// Computes the points of one sweep from `first_point` on, block by block, and hands each block
+/// to the consumer (RunSweep or RunLinearSweep bound to a model, its grid and options); returns
+/// the index after the last point consumed. The distributed sweep calls it once per block it
+/// computes, with a consumer that stops after that block.
+using SweepRunner =
+    std::function<std::size_t(std::size_t first_point, const SweepConsumer& consume)>;
+
+/// RunDistributedSweep for any kind of model: blocks are computed by `run` (SweepRunner), whose
+/// blocks must be options.block_size points. The Model overload below is this with RunSweep.
+DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
+                                        const ParameterGrid& grid,
+                                        const SweepOptions& options,
+                                        std::size_t first_point,
+                                        const std::function<void(const FormattedBlock&)>& write,
+                                        const std::function<bool()>& stop_requested);
+
 DistributedSweepEnd RunDistributedSweep(const Model& model,
                                         const ParameterGrid& grid,
                                         const SweepOptions& options,

@@ -43,6 +43,15 @@ std::size_t BroadcastFromRoot(std::size_t value) { return value; }
 
 std::string BroadcastFromRoot(const std::string& text) { return text; }
 
+DistributedSweepEnd RunDistributedSweep(const SweepRunner&,
+                                        const ParameterGrid&,
+                                        const SweepOptions&,
+                                        std::size_t,
+                                        const std::function<void(const FormattedBlock&)>&,
+                                        const std::function<bool()>&) {
+  throw Error("this servokit was built without MPI: it cannot run a distributed sweep");
+}
+
 DistributedSweepEnd RunDistributedSweep(const Model&,
                                         const ParameterGrid&,
                                         const SweepOptions&,

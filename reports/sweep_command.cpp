@@ -1,6 +1,11 @@
 // servokit sweep MODEL --vary p=a:b:n | p=v1,v2,... [--vary ...] --out DIR [--threads N]
 //                [--set p=v]... [--y0 v]... [--q0 v]... [--rank-tolerance r] [--axis-tolerance a]
 //                [--checkpoint-interval s] [--block-size n]
+//                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
+//                [--which nearest|rightmost]            (linear models only)
+// A model of `kind: linear` is swept by analysis/linear_sweep.h (one workspace per thread, the
+// sparsity pattern analysed once per thread), a multibody model by analysis/sweep.h; both give
+// SweepPoints, so the files and the MPI distribution are the same code.
 // Under mpirun (reports/mpi_sweep.h) every rank runs this command: each sets the sweep up,
 // rank 0 alone opens the output directory, and the blocks are shared out.
 #include <omp.h>
@@ -20,9 +25,11 @@
 #include <thread>
 #include <vector>
 
+#include "analysis/linear_sweep.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "models/errors.h"
+#include "models/linear_model.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
 #include "reports/mpi_sweep.h"
@@ -48,6 +55,7 @@ struct SweepArguments {
   ClassificationOptions options;
   // Seconds between checkpoints.
   double checkpoint_interval = kSweepCheckpointInterval.count();
+  LinearModelArguments linear;  // linear models only (as `servokit analyze`)
 };
 
 // The signal that asked the sweep to stop, 0 if none. A signal handler may only touch a
@@ -177,7 +185,7 @@ void RejectSetAndVary(const std::vector<ParameterOverride>& overrides, const Par
 
 SweepOptions MakeSweepOptions(const SweepArguments& arguments,
                               const CLI::App& sweep,
-                              const Model& model) {
+                              const Model* model) {
   SweepOptions options;
   options.classification = arguments.options;
   if (!arguments.y0.empty()) {
@@ -198,13 +206,17 @@ SweepOptions MakeSweepOptions(const SweepArguments& arguments,
   if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
   options.block_size = arguments.block_size;
   // Before the output directory is touched: a bad option must not leave a half-made sweep.
-  options.classification.Validate(model);
+  if (model != nullptr) options.classification.Validate(*model);
   return options;
 }
 
 // Everything a sweep needs before it touches the output directory; the same on every process.
 struct SweepSetup {
-  Model model;
+  // Exactly one of the two: the kind of the model file.
+  std::optional<Model> model;
+  std::optional<LinearModel> linear_model;
+  LinearAnalysisOptions linear_options;  // for linear_model
+  SweepModelInfo info;                   // what the files record of either
   ParameterGrid grid;
   SweepOptions options;
   SweepOutputOptions output_options;
@@ -218,17 +230,38 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
                      "mpirun, or rebuild it with MPI (libopenmpi-dev)");
   }
   const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
-  Model model = LoadModel(arguments.model_path, overrides);
-  ParameterGrid grid = ParseParameterGrid(model, arguments.vary);
-  RejectSetAndVary(overrides, grid);
-  const SweepOptions options = MakeSweepOptions(arguments, sweep, model);
+  std::optional<Model> model;
+  std::optional<LinearModel> linear_model;
+  LinearAnalysisOptions linear_options;
+  std::optional<ParameterGrid> grid;
+  SweepModelInfo info;
+  if (IsLinearModelFile(arguments.model_path)) {
+    linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
+                                               !arguments.y0.empty(), !arguments.q0.empty());
+    linear_model.emplace(LoadLinearModel(arguments.model_path, overrides));
+    grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
+    info = DescribeSweepModel(*linear_model, linear_options);
+  } else {
+    for (const char* name : kLinearModelOptions) {
+      if (sweep.get_option(name)->count() > 0) {
+        throw UsageError(std::string(name) + ": applies to linear models (`kind: linear`) only");
+      }
+    }
+    model.emplace(LoadModel(arguments.model_path, overrides));
+    grid.emplace(ParseParameterGrid(*model, arguments.vary));
+    info = DescribeSweepModel(*model);
+  }
+  RejectSetAndVary(overrides, *grid);
+  const SweepOptions options = MakeSweepOptions(arguments, sweep, model ? &*model : nullptr);
   if (!(arguments.checkpoint_interval > 0.0)) {
     throw UsageError("--checkpoint-interval " + FormatShort(arguments.checkpoint_interval) +
                      ": must be > 0 seconds");
   }
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
-  return {std::move(model), std::move(grid), options, output_options, TestHooksFromEnvironment()};
+  return {std::move(model),   std::move(linear_model), linear_options,
+          std::move(info),    std::move(*grid),        options,
+          output_options,     TestHooksFromEnvironment()};
 }
 
 // Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
@@ -248,7 +281,7 @@ void OnEveryProcess(Step step) {
 void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
   if (Processes().size == 1) return;
   const std::string fingerprint =
-      SweepFingerprint(setup.model, setup.grid, setup.options.classification);
+      SweepFingerprint(setup.info, setup.grid, setup.options.classification);
   OnEveryProcess([&] {
     if (BroadcastFromRoot(fingerprint) != fingerprint) {
       throw UsageError("this rank computes another sweep than rank 0 (" + fingerprint +
@@ -266,16 +299,33 @@ std::size_t ComputeSweep(const SweepSetup& setup,
   ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
   const InterruptGuard interrupt;
   StopRequest stop_requested(interrupt, setup.test_hooks);
+  // The one place that knows the model's kind: both kinds give SweepPoints block by block. A
+  // linear sweep keeps its per-thread workspaces across blocks (and, under MPI, across the
+  // blocks of this rank), so each thread analyses the sparsity pattern once.
+  std::optional<LinearSweepWorkspaces> linear_workspaces;
+  LinearSweepOptions linear_options;
+  if (setup.linear_model) {
+    linear_options.analysis = setup.linear_options;
+    linear_options.threads = setup.options.threads;
+    linear_options.block_size = setup.options.block_size;
+    linear_workspaces.emplace(SweepThreads(setup.options));
+  }
+  const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
+    if (setup.linear_model) {
+      return RunLinearSweep(*setup.linear_model, setup.grid, linear_options, first,
+                            *linear_workspaces, consume);
+    }
+    return RunSweep(*setup.model, setup.grid, setup.options, first, consume);
+  };
   if (Processes().size == 1) {
-    return RunSweep(setup.model, setup.grid, setup.options, first_point,
-                    [&](std::size_t first, std::span<const SweepPoint> block) {
-                      output->Append(first, block);
-                      progress.Update(first + block.size());
-                      return !stop_requested();
-                    });
+    return run(first_point, [&](std::size_t first, std::span<const SweepPoint> block) {
+      output->Append(first, block);
+      progress.Update(first + block.size());
+      return !stop_requested();
+    });
   }
   return RunDistributedSweep(
-             setup.model, setup.grid, setup.options, first_point,
+             run, setup.grid, setup.options, first_point,
              [&](const FormattedBlock& block) {
                output->Append(block);
                progress.Update(block.first + block.points);
@@ -295,7 +345,7 @@ int RunSweepCommand(const SweepArguments& arguments,
   std::optional<SweepOutput> output;
   OnEveryProcess([&] {
     if (root) {
-      output.emplace(arguments.out, setup->model, setup->grid, setup->options.classification,
+      output.emplace(arguments.out, setup->info, setup->grid, setup->options.classification,
                      CommandLine(sweep), setup->output_options);
     }
   });
@@ -321,7 +371,7 @@ int RunSweepCommand(const SweepArguments& arguments,
     return kInterruptedExitStatus;
   }
   output->Finish();
-  out << "swept " << total << " points of " << setup->model.name() << " into " << arguments.out
+  out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out
       << " (points.csv, eigenvalues.csv, sweep.json); " << output->points_without_solution()
       << " without a solution\n";
   return static_cast<int>(ExitCode::kSuccess);
@@ -341,7 +391,10 @@ Command AddSweepCommand(CLI::App& app) {
       "writes the same files.\n"
       "Example:\n  servokit sweep models/mass_on_car.yaml --vary alpha=0deg:90deg:91 "
       "--vary d=0:2:21 --out sweep-out");
-  sweep->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
+  sweep
+      ->add_option("MODEL", arguments->model_path,
+                   "Model file (YAML; `kind: linear` for a large sparse linear model)")
+      ->required();
   sweep
       ->add_option("--vary", arguments->vary,
                    "A varied parameter: name=a:b:n (n values from a to b) or name=v1,v2,...")
@@ -372,6 +425,7 @@ Command AddSweepCommand(CLI::App& app) {
       ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
                    "Relative distance to the imaginary axis counted as on it")
       ->capture_default_str();
+  AddLinearModelOptions(*sweep, arguments->linear, "zeros per point");
   return {sweep, [arguments, sweep](std::ostream& out, std::ostream& err) {
             return RunSweepCommand(*arguments, *sweep, out, err);
           }};

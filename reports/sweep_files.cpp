@@ -17,6 +17,7 @@
 #include <system_error>
 #include <utility>
 
+#include "analysis/linear_sweep.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
@@ -60,12 +61,18 @@ void AppendPointRow(const std::string& values, const SweepPoint& point, std::str
   csv += ',';
   csv += std::to_string(point.rank);
   csv += ',';
-  csv += JoinRelativeDegrees(point.relative_degree);
-  csv += ',';
-  csv += std::to_string(point.differentiation_index);
-  csv += ',';
-  csv += std::to_string(point.internal_dynamics_order);
-  csv += ',';
+  // A negative internal order: the structure at infinity was not determined (a large linear
+  // model whose Markov rows vanish numerically): its three columns are empty, not numbers.
+  if (point.internal_dynamics_order >= 0) {
+    csv += JoinRelativeDegrees(point.relative_degree);
+    csv += ',';
+    csv += std::to_string(point.differentiation_index);
+    csv += ',';
+    csv += std::to_string(point.internal_dynamics_order);
+    csv += ',';
+  } else {
+    csv += ",,,";
+  }
   csv += ToString(point.stability);
   csv += ',';
   // NaN means no eigenvalues (SweepPoint): an empty field, not "nan".
@@ -300,14 +307,30 @@ std::string CsvQuote(const std::string& text) {
   return quoted + "\"";
 }
 
+SweepModelInfo DescribeSweepModel(const Model& model) {
+  return {model.name(), model.source(), model.content_hash(), model.parameter_names(),
+          model.parameters(), std::nullopt};
+}
+
+SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysisOptions& options) {
+  return {model.name(),       model.source(),       model.content_hash(), model.parameter_names(),
+          model.parameters(), options};
+}
+
 std::string SweepFingerprint(const Model& model,
                              const ParameterGrid& grid,
                              const ClassificationOptions& options) {
+  return SweepFingerprint(DescribeSweepModel(model), grid, options);
+}
+
+std::string SweepFingerprint(const SweepModelInfo& model,
+                             const ParameterGrid& grid,
+                             const ClassificationOptions& options) {
   std::string text = std::string("servokit ") + SERVOKIT_VERSION + "; model " +
-                     model.content_hash() + "; parameters";
-  for (std::size_t i = 0; i < model.num_parameters(); ++i) {
-    text += (i == 0 ? " " : ",") + model.parameter_names()[i] + "=" +
-            FormatExact(model.parameters()[static_cast<Eigen::Index>(i)]);
+                     model.content_hash + "; parameters";
+  for (std::size_t i = 0; i < model.parameter_names.size(); ++i) {
+    text += (i == 0 ? " " : ",") + model.parameter_names[i] + "=" +
+            FormatExact(model.parameters[static_cast<Eigen::Index>(i)]);
   }
   text += "; vary";
   for (const GridAxis& axis : grid.axes()) {
@@ -319,6 +342,7 @@ std::string SweepFingerprint(const Model& model,
       text += "[" + JoinExact(std::get<std::vector<double>>(axis.values)) + "]";
     }
   }
+  if (model.linear) return text + "; linear " + DescribeLinearSweepOptions(*model.linear);
   const OperatingPointOptions& point = options.operating_point;
   return text + "; rank_tolerance=" + FormatExact(options.rank_tolerance) +
          " imaginary_axis_tolerance=" + FormatExact(options.imaginary_axis_tolerance) +
@@ -333,15 +357,28 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
                          const ClassificationOptions& options,
                          std::vector<std::string> command_line,
                          const SweepOutputOptions& output_options)
+    : SweepOutput(directory,
+                  DescribeSweepModel(model),
+                  grid,
+                  options,
+                  std::move(command_line),
+                  output_options) {}
+
+SweepOutput::SweepOutput(const std::filesystem::path& directory,
+                         SweepModelInfo model,
+                         const ParameterGrid& grid,
+                         const ClassificationOptions& options,
+                         std::vector<std::string> command_line,
+                         const SweepOutputOptions& output_options)
     : directory_(directory),
       paths_{directory / "points.csv",      directory / "points.csv.partial",
              directory / "eigenvalues.csv", directory / "eigenvalues.csv.partial",
              directory / "sweep.json",      directory / ".sweep-checkpoint"},
-      model_(model),
+      model_(std::move(model)),
       grid_(grid),
       options_(options),
       command_line_(std::move(command_line)),
-      fingerprint_(SweepFingerprint(model, grid, options)),
+      fingerprint_(SweepFingerprint(model_, grid, options)),
       checkpoint_interval_(output_options.checkpoint_interval),
       format_threads_(std::max(output_options.threads, 1)) {
   Lock();
@@ -491,18 +528,18 @@ void SweepOutput::Finish() {
 
 void SweepOutput::WriteRecord(bool completed) const {
   nlohmann::ordered_json fixed = nlohmann::ordered_json::object();
-  for (std::size_t i = 0; i < model_.num_parameters(); ++i) {
+  for (std::size_t i = 0; i < model_.parameter_names.size(); ++i) {
     bool varied = false;
     for (const GridAxis& axis : grid_.axes()) varied = varied || axis.parameter == i;
     if (!varied) {
-      fixed[model_.parameter_names()[i]] = model_.parameters()[static_cast<Eigen::Index>(i)];
+      fixed[model_.parameter_names[i]] = model_.parameters[static_cast<Eigen::Index>(i)];
     }
   }
   const OperatingPointOptions& point = options_.operating_point;
   nlohmann::ordered_json record = {
-      {"model", model_.name()},
-      {"model_path", model_.source()},
-      {"content_hash", model_.content_hash()},
+      {"model", model_.name},
+      {"model_path", model_.source},
+      {"content_hash", model_.content_hash},
       {"command_line", command_line_},
       {"fixed_parameters", fixed},
       {"grid", GridToJson(grid_)},
@@ -518,6 +555,19 @@ void SweepOutput::WriteRecord(bool completed) const {
       {"servokit_version", SERVOKIT_VERSION},
       {"fingerprint", fingerprint_},
       {"completed", completed}};
+  if (model_.linear) {
+    // A linear model is analysed at q = 0, u = 0 (no Newton, no y0/q0) with its own options.
+    const LinearAnalysisOptions& linear = *model_.linear;
+    const LinearZeroDynamicsOptions& zeros = linear.zero_dynamics;
+    record["options"] = {{"rank_tolerance", linear.rank_tolerance},
+                         {"imaginary_axis_tolerance", zeros.imaginary_axis_tolerance},
+                         {"eigen_solver", std::string(ToString(zeros.solver))},
+                         {"which", std::string(ToString(zeros.target))},
+                         {"shift", zeros.shift},
+                         {"eigenvalues", zeros.arpack.eigenvalues},
+                         {"dense_threshold", zeros.dense_threshold}};
+    record["kind"] = "linear";
+  }
   if (completed) record["points_without_solution"] = points_without_solution_;
   WriteDurably(paths_.record, record.dump(2) + "\n");
 }

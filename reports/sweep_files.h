@@ -22,10 +22,15 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+#include <optional>
+
+#include "analysis/linear_analysis.h"
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
+#include "models/linear_model.h"
 #include "models/model.h"
 
 namespace servokit {
@@ -55,8 +60,10 @@ std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
 /// Appends the rows of points first, first + 1, ... to `points_csv` and `eigenvalues_csv`.
 /// Numbers are FormatExact (they read back to the same double). A point without a solution has
 /// empty class columns, its message CSV-quoted in `error`, and no eigenvalue rows;
-/// relative_degree of several outputs is joined with ';'; max_real_part is empty when there are
-/// no eigenvalues; k numbers a point's eigenvalues from 0 in SweepPoint order.
+/// relative_degree of several outputs is joined with ';'; relative_degree,
+/// differentiation_index and internal_dynamics_order are empty when the internal order is
+/// negative (not determined: a linear model, LinearRelativeDegrees::determined false);
+/// max_real_part is empty when there are no eigenvalues; k numbers a point's eigenvalues from 0 in SweepPoint order.
 void AppendCsvRows(const ParameterGrid& grid,
                    std::size_t first,
                    std::span<const SweepPoint> points,
@@ -84,10 +91,27 @@ void FormatBlock(const ParameterGrid& grid,
 /// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
 std::string CsvQuote(const std::string& text);
 
+/// What the files record of the swept model, whatever its kind: a multibody model (Model) or a
+/// large linear one (LinearModel, with the options of its analysis, which decide its zeros).
+struct SweepModelInfo {
+  std::string name, source, content_hash;
+  std::vector<std::string> parameter_names;
+  Eigen::VectorXd parameters;  // nominal values after --set, in the order of parameter_names
+  // Set for a linear model: the analysis of each point (eigenvalue count, shift, solver, ...).
+  std::optional<LinearAnalysisOptions> linear;
+};
+SweepModelInfo DescribeSweepModel(const Model& model);
+SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysisOptions& options);
+
 /// One line naming everything that decides a sweep's files: servokit version, model file hash,
 /// every parameter value, the grid and the classification options. Two sweeps with the same
 /// fingerprint write the same bytes; the number of threads is not part of it.
 std::string SweepFingerprint(const Model& model,
+                             const ParameterGrid& grid,
+                             const ClassificationOptions& options);
+/// The same for either kind; a linear model's line also names its analysis options
+/// (DescribeLinearSweepOptions). For a Model it is the line above, byte for byte.
+std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
                              const ClassificationOptions& options);
 
@@ -103,6 +127,16 @@ class SweepOutput {
   /// and Error for I/O failures and unreadable files.
   SweepOutput(const std::filesystem::path& directory,
               const Model& model,
+              const ParameterGrid& grid,
+              const ClassificationOptions& options,
+              std::vector<std::string> command_line,
+              const SweepOutputOptions& output_options = {});
+  /// The same for a model of either kind (DescribeSweepModel). For a linear model, sweep.json
+  /// has `kind: linear` and its `options` are the analysis options of the linear sweep
+  /// (rank and axis tolerances, eigen_solver, which, shift, eigenvalues); `options` here only
+  /// decides the tolerances of a multibody model.
+  SweepOutput(const std::filesystem::path& directory,
+              SweepModelInfo model,
               const ParameterGrid& grid,
               const ClassificationOptions& options,
               std::vector<std::string> command_line,
@@ -150,7 +184,7 @@ class SweepOutput {
 
   std::filesystem::path directory_;
   Paths paths_;
-  const Model& model_;
+  SweepModelInfo model_;
   const ParameterGrid& grid_;
   ClassificationOptions options_;
   std::vector<std::string> command_line_;

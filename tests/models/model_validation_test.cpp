@@ -103,7 +103,18 @@ TEST_CASE("a missing required key is named", "[models]") {
 TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models]") {
   RequireError(Edit("mass_matrix:", "mass_matrx:"),
                "mass_matrx: unknown key (expected name, parameters, coordinates, inputs, "
-               "mass_matrix, forces, input_matrix, outputs or description)");
+               "mass_matrix, forces, input_matrix, outputs, description or kind)");
+}
+
+// models/linear_model.h: IsLinearModelFile() reads `kind: multibody` (or no kind) as this
+// format, so the multibody reader accepts it; a linear model file is not one of its own.
+TEST_CASE("kind: multibody is accepted; kind: linear and unknown kinds are named", "[models]") {
+  CHECK_NOTHROW(LoadModelFromString(kValidModel + "kind: multibody\n", kSource));
+  RequireError(kValidModel + "kind: linear\n",
+               "kind: a linear model (Matrix Market matrices): `servokit analyze` and "
+               "`servokit sweep` read it; this needs a multibody model");
+  RequireError(kValidModel + "kind: rigid\n",
+               "kind: unknown kind 'rigid' (expected multibody or linear)");
 }
 
 TEST_CASE("a duplicate top-level key is an error", "[models]") {

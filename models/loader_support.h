@@ -1,0 +1,97 @@
+#pragma once
+// What the two model-file readers share (models/model_loader.cpp for multibody models,
+// models/linear_model.cpp for `kind: linear`): the expression language of DESIGN.md ("The model
+// file"), the checks that keep GiNaC's parser from reading a mistake as something else, names,
+// and the content hash that sweep.json records. Internal to models/ (namespace detail).
+#include <ginac/ginac.h>
+
+#include <Eigen/Dense>
+#include <vector>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "models/model.h"  // ParameterOverride
+
+namespace servokit::detail {
+
+/// DESIGN.md, "The model file": the functions an expression may call.
+inline constexpr std::array<std::string_view, 14> kModelFunctions = {
+    "sin", "cos", "tan", "asin", "acos", "atan", "atan2",
+    "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs"};
+/// The name of the constant pi in expressions.
+inline constexpr std::string_view kPiName = "pi";
+/// GiNaC's parser reads these as its own constants before it looks at the symbol table, so a
+/// parameter with one of these names would silently be replaced.
+inline constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler",
+                                                                    "Catalan"};
+
+/// How a number may be written, for messages about values.
+inline constexpr std::string_view kQuantityHint = "(use e.g. 5 or \"5 deg\")";
+
+/// FNV-1a, 64 bit, over any number of byte ranges (the model file, then its matrix files).
+class ContentHasher {
+ public:
+  void Add(std::string_view bytes);
+  /// The hash as 16 lower-case hex digits.
+  std::string Hex() const;
+
+ private:
+  std::uint64_t hash_ = 14695981039346656037ull;  // FNV offset basis
+};
+
+/// "a, b, c".
+template <typename Strings>
+std::string Join(const Strings& strings) {
+  std::string joined;
+  for (const auto& text : strings) {
+    if (!joined.empty()) joined += ", ";
+    joined += text;
+  }
+  return joined;
+}
+
+template <typename Strings>
+bool Contains(const Strings& strings, std::string_view text) {
+  return std::find(strings.begin(), strings.end(), text) != strings.end();
+}
+
+bool IsIdentifierStart(char c);  // a letter
+bool IsIdentifierChar(char c);   // a letter, a digit or '_'
+/// Names GiNaC's parser reads as one identifier: a letter, then letters, digits and '_'.
+bool IsIdentifier(std::string_view name);
+
+/// "key[i]".
+std::string Indexed(std::string_view key, std::size_t i);
+
+/// The expression as GiNaC prints it.
+std::string Text(const GiNaC::ex& expression);
+
+/// What a name in an expression is checked with: `called` when '(' follows it.
+using NameCheck = std::function<std::optional<std::string>(const std::string& name, bool called)>;
+
+/// Scans `text` as the expression language and returns the first problem, or nullopt: a
+/// malformed number ("2x", "1.2.3"), a character that is no operator, or what `check_name`
+/// says of a name. Catches what GiNaC's parser would report less clearly or read as something
+/// else.
+std::optional<std::string> FindLexicalProblem(const std::string& text,
+                                              const NameCheck& check_name);
+
+/// The first construct a parsed expression may not contain, or nullopt. The parser only builds
+/// what DESIGN.md allows from the names it is given, but GiNaC evaluates while it parses:
+/// sqrt(-1) becomes I and 1e400 a float no double holds.
+std::optional<std::string> FindUnsupported(const GiNaC::ex& expression);
+
+/// Applies "--set name=value" overrides to `parameters` (in the order of `parameter_names`).
+/// Throws UsageError naming the option for an unknown name (listing the known ones) or a value
+/// that is not a number (optionally with "deg").
+void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
+                             const std::vector<ParameterOverride>& overrides,
+                             Eigen::VectorXd& parameters);
+
+}  // namespace servokit::detail

@@ -1,0 +1,171 @@
+// Sweeps of a linear model (analysis/linear_sweep.h) against the chain's closed form, and the
+// reuse of the sparsity pattern: one pattern analysis per thread, not per point.
+//
+// Chain (GenerateChain): N masses, force and output at mass 1, M = m I, K = k T, D = d T. The
+// zero dynamics are the chain beyond mass 1 held at rest (N' = N - 1 masses, fixed-free), so
+// the zeros are the roots of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))),
+// i = 1..N': 2N' zeros (DESIGN.md / README "Large linear models").
+#include "analysis/linear_sweep.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <complex>
+#include <cstdlib>
+#include <filesystem>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "models/linear_model.h"
+#include "models/model_generators.h"
+
+namespace servokit {
+namespace {
+
+constexpr double kMass = 2.0, kStiffness = 3.0;
+
+LinearModel Chain(long masses) {
+  ChainOptions options;
+  options.masses = masses;
+  options.mass = kMass;
+  options.stiffness = kStiffness;
+  const LinearModelFiles files = GenerateChain(options);
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() /
+      ("servokit_lsweep_" + files.name + "_" + std::to_string(std::rand()));
+  std::filesystem::create_directories(directory);
+  LinearModel model = LoadLinearModel(WriteLinearModel(files, directory.string()));
+  std::filesystem::remove_all(directory);
+  return model;
+}
+
+// The closed-form zeros of the chain observed at mass 1, for damping d.
+std::vector<std::complex<double>> ClosedFormZeros(long masses, double d) {
+  std::vector<std::complex<double>> zeros;
+  const long beyond = masses - 1;
+  for (long i = 1; i <= beyond; ++i) {
+    const double s = std::sin((2.0 * static_cast<double>(i) - 1.0) * std::numbers::pi /
+                              (2.0 * (2.0 * static_cast<double>(beyond) + 1.0)));
+    const double mu = 4.0 * s * s;
+    // m λ² + d μ λ + k μ = 0
+    const std::complex<double> disc =
+        std::sqrt(std::complex<double>(d * mu * d * mu - 4.0 * kMass * kStiffness * mu, 0.0));
+    zeros.push_back((-d * mu + disc) / (2.0 * kMass));
+    zeros.push_back((-d * mu - disc) / (2.0 * kMass));
+  }
+  return zeros;
+}
+
+double DistanceToNearest(std::complex<double> value, const std::vector<std::complex<double>>& set) {
+  double best = INFINITY;
+  for (const auto& other : set) best = std::min(best, std::abs(value - other));
+  return best;
+}
+
+struct Collected {
+  std::vector<SweepPoint> points;
+  std::vector<std::size_t> firsts;
+};
+
+Collected Sweep(const LinearModel& model,
+                const ParameterGrid& grid,
+                const LinearSweepOptions& options,
+                LinearSweepWorkspaces& workspaces) {
+  Collected collected;
+  const std::size_t done =
+      RunLinearSweep(model, grid, options, 0, workspaces,
+                     [&](std::size_t first, std::span<const SweepPoint> block) {
+                       collected.firsts.push_back(first);
+                       collected.points.insert(collected.points.end(), block.begin(), block.end());
+                       return true;
+                     });
+  REQUIRE(done == grid.num_points());
+  return collected;
+}
+
+}  // namespace
+
+TEST_CASE("linear sweep: every zero of a 30-mass chain at each damping (dense route)",
+          "[linear_sweep]") {
+  const long masses = 30;
+  const LinearModel model = Chain(masses);
+  const ParameterGrid grid = ParseLinearParameterGrid(model, {"d=0.01:0.1:5"});
+  REQUIRE(grid.num_points() == 5);
+  LinearSweepOptions options;
+  options.threads = 1;
+  options.block_size = 2;  // several blocks, one workspace across them
+  LinearSweepWorkspaces workspaces(1);
+  const Collected result = Sweep(model, grid, options, workspaces);
+  REQUIRE(result.points.size() == 5);
+  CHECK(result.firsts == std::vector<std::size_t>{0, 2, 4});
+  for (std::size_t p = 0; p < 5; ++p) {
+    const double d = 0.01 + static_cast<double>(p) * (0.1 - 0.01) / 4.0;
+    const SweepPoint& point = result.points[p];
+    INFO("d = " << d);
+    REQUIRE(point.ok);
+    CHECK(point.realization == Realization::kIdealOrthogonal);
+    CHECK(point.rank == 1);
+    CHECK(point.relative_degree == std::vector<int>{2});
+    CHECK(point.internal_dynamics_order == 2 * (masses - 1));
+    CHECK(point.stability == Stability::kAsymptoticallyStable);
+    const auto expected = ClosedFormZeros(masses, d);
+    REQUIRE(point.eigenvalues.size() == expected.size());
+    double worst = 0.0;
+    for (const auto& zero : expected) {
+      worst = std::max(worst, DistanceToNearest(zero, point.eigenvalues) / std::abs(zero));
+    }
+    CHECK(worst < 1e-9);
+    double max_real = -INFINITY;
+    for (const auto& zero : expected) max_real = std::max(max_real, zero.real());
+    CHECK(point.max_real_part == Approx(max_real).epsilon(1e-8));
+  }
+  // The sparsity pattern of the Rosenbrock matrix is analysed once for the five points.
+  CHECK(workspaces.pattern_analyses() == std::vector<int>{1});
+}
+
+TEST_CASE(
+    "linear sweep: ARPACK's zeros nearest 0 of a 2000-mass chain, one pattern analysis "
+    "per thread",
+    "[linear_sweep]") {
+  const long masses = 2000;
+  const LinearModel model = Chain(masses);
+  const ParameterGrid grid = ParseLinearParameterGrid(model, {"d=0.01:0.1:6"});
+  LinearSweepOptions options;
+  options.threads = 2;
+  options.block_size = 3;
+  options.analysis.zero_dynamics.arpack.eigenvalues = 6;
+  LinearSweepWorkspaces workspaces(2);
+  const Collected result = Sweep(model, grid, options, workspaces);
+  REQUIRE(result.points.size() == 6);
+  for (std::size_t p = 0; p < 6; ++p) {
+    const double d = p == 5 ? 0.1 : 0.01 + static_cast<double>(p) * (0.1 - 0.01) / 5.0;
+    INFO("d = " << d);
+    const SweepPoint& point = result.points[p];
+    INFO(point.error);
+    REQUIRE(point.ok);
+    REQUIRE(point.eigenvalues.size() == 6);
+    // The six zeros nearest 0 are the three slowest pairs (i = 1, 2, 3).
+    auto expected = ClosedFormZeros(masses, d);
+    expected.resize(6);
+    for (const auto& zero : point.eigenvalues) {
+      CHECK(DistanceToNearest(zero, expected) / std::abs(zero) < 1e-8);
+    }
+  }
+  const std::vector<int> analyses = workspaces.pattern_analyses();
+  int total = 0;
+  for (const int count : analyses) {
+    CHECK(count <= 1);  // never once per point
+    total += count;
+  }
+  CHECK(total >= 1);
+  CHECK(total <= 2);
+}
+
+TEST_CASE("linear sweep: a bad --vary is a usage error", "[linear_sweep]") {
+  const LinearModel model = Chain(3);
+  CHECK_THROWS_WITH(ParseLinearParameterGrid(model, {"q=1:2:3"}),
+                    Catch::Contains("unknown parameter 'q'") && Catch::Contains("d"));
+  CHECK_THROWS_WITH(ParseLinearParameterGrid(model, {"d=1:2:0"}), Catch::Contains("at least 1"));
+}
+
+}  // namespace servokit
