@@ -19,7 +19,7 @@ PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-d
             catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox \
             libopenmpi-dev openmpi-bin
 # Only the benchmarks need the SciPy peer.
-BENCH_PACKAGES := python3-scipy python3-numpy
+BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml
 
 .PHONY: all deps bench-deps configure build test demo bench clean
 
