@@ -14,13 +14,23 @@ namespace {
 
 using MassSolver = Eigen::SparseLU<SparseMatrix, Eigen::COLAMDOrdering<int>>;
 
-void FactorizeMass(const SparseMatrix& mass, MassSolver& solver) {
-  SparseMatrix compressed = mass;
+// The sparse LU of M and M^-1 B, which both the relative degrees and the reduced model need:
+// AnalyzeLinearSystem factors M once for the two.
+struct FactoredMass {
+  MassSolver solver;
+  Eigen::MatrixXd input;                // B, dense (n x m, m small)
+  Eigen::MatrixXd input_accelerations;  // M^-1 B
+};
+
+void FactorMass(const LinearSystem& system, FactoredMass& factored) {
+  SparseMatrix compressed = system.mass;
   compressed.makeCompressed();
-  solver.compute(compressed);
-  if (solver.info() != Eigen::Success) {
-    throw NoSolution("the mass matrix M is singular: " + solver.lastErrorMessage());
+  factored.solver.compute(compressed);
+  if (factored.solver.info() != Eigen::Success) {
+    throw NoSolution("the mass matrix M is singular: " + factored.solver.lastErrorMessage());
   }
+  factored.input = Eigen::MatrixXd(system.input_matrix);
+  factored.input_accelerations = factored.solver.solve(factored.input);
 }
 
 // An orthonormal basis of the column space of a tall n x p matrix (p small): column-pivoted
@@ -44,15 +54,15 @@ void LinearAnalysisOptions::Validate() const {
   zero_dynamics.Validate();
 }
 
-LinearRelativeDegrees ComputeLinearRelativeDegrees(const LinearSystem& system,
-                                                   double rank_tolerance) {
-  system.Validate();
+namespace {
+
+LinearRelativeDegrees RelativeDegrees(const LinearSystem& system,
+                                      FactoredMass& factored,
+                                      double rank_tolerance) {
   const Eigen::Index n = system.dof();
   const Eigen::Index m = system.num_inputs();
-  MassSolver mass_solver;
-  FactorizeMass(system.mass, mass_solver);
-  const Eigen::MatrixXd input = Eigen::MatrixXd(system.input_matrix);
-  const Eigen::MatrixXd input_accelerations = mass_solver.solve(input);
+  MassSolver& mass_solver = factored.solver;
+  const Eigen::MatrixXd& input_accelerations = factored.input_accelerations;
   const double input_size = input_accelerations.norm();  // |B| of the first-order form
   const SparseMatrix stiffness_transpose = system.stiffness.transpose();
   const SparseMatrix damping_transpose = system.damping.transpose();
@@ -105,15 +115,13 @@ LinearRelativeDegrees ComputeLinearRelativeDegrees(const LinearSystem& system,
   return result;
 }
 
-Linearization ReducedLinearization(const LinearSystem& system, double rank_tolerance) {
-  system.Validate();
+Linearization Reduced(const LinearSystem& system, FactoredMass& factored, double rank_tolerance) {
   const Eigen::Index n = system.dof();
   const Eigen::Index m = system.num_inputs();
-  MassSolver mass_solver;
-  FactorizeMass(system.mass, mass_solver);
-  const Eigen::MatrixXd input = Eigen::MatrixXd(system.input_matrix);
+  MassSolver& mass_solver = factored.solver;
+  const Eigen::MatrixXd& input = factored.input;
+  const Eigen::MatrixXd& input_accelerations = factored.input_accelerations;
   const Eigen::MatrixXd output_transpose = Eigen::MatrixXd(system.output_matrix.transpose());
-  const Eigen::MatrixXd input_accelerations = mass_solver.solve(input);
   Eigen::MatrixXd spanning(n, 3 * m);
   spanning << output_transpose, input, input_accelerations;
   // Columns scaled to unit size so that one relative threshold decides the rank.
@@ -133,6 +141,23 @@ Linearization ReducedLinearization(const LinearSystem& system, double rank_toler
   return reduced;
 }
 
+}  // namespace
+
+LinearRelativeDegrees ComputeLinearRelativeDegrees(const LinearSystem& system,
+                                                   double rank_tolerance) {
+  system.Validate();
+  FactoredMass factored;
+  FactorMass(system, factored);
+  return RelativeDegrees(system, factored, rank_tolerance);
+}
+
+Linearization ReducedLinearization(const LinearSystem& system, double rank_tolerance) {
+  system.Validate();
+  FactoredMass factored;
+  FactorMass(system, factored);
+  return Reduced(system, factored, rank_tolerance);
+}
+
 LinearAnalysis AnalyzeLinearSystem(const LinearSystem& system,
                                    LinearZeroDynamicsWorkspace& workspace,
                                    const LinearAnalysisOptions& options) {
@@ -142,9 +167,11 @@ LinearAnalysis AnalyzeLinearSystem(const LinearSystem& system,
   ClassificationOptions classification_options;
   classification_options.rank_tolerance = options.rank_tolerance;
   classification_options.imaginary_axis_tolerance = options.zero_dynamics.imaginary_axis_tolerance;
-  result.decoupling = AnalyzeDecouplingMatrix(ReducedLinearization(system, options.rank_tolerance),
+  FactoredMass factored;
+  FactorMass(system, factored);
+  result.decoupling = AnalyzeDecouplingMatrix(Reduced(system, factored, options.rank_tolerance),
                                               classification_options);
-  result.relative_degrees = ComputeLinearRelativeDegrees(system, options.rank_tolerance);
+  result.relative_degrees = RelativeDegrees(system, factored, options.rank_tolerance);
   if (!result.relative_degrees.determined) {
     // Without the structure at infinity the number of zeros is unknown: the eigensolver gives
     // the zeros it is asked for (nearest the shift, or rightmost), and says so in its scope.

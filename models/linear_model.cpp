@@ -46,12 +46,9 @@ using detail::Contains;
 using detail::ContentHasher;
 using detail::FindUnsupported;
 using detail::Indexed;
-using detail::IsIdentifier;
 using detail::IsIdentifierChar;
 using detail::Join;
-using detail::kParserLiterals;
 using detail::kPiName;
-using detail::Text;
 constexpr const auto& kFunctions = detail::kModelFunctions;
 using detail::kQuantityHint;
 
@@ -258,16 +255,7 @@ class LinearModelBuilder {
   }
 
   void CheckParameterName(const std::string& name, const std::string& where) const {
-    if (!IsIdentifier(name)) {
-      Fail(where,
-           "invalid name '" + name + "' (use letters, digits and _, starting with a letter)");
-    }
-    if (Contains(kFunctions, name)) {
-      Fail(where, "name '" + name + "' clashes with the function " + name + "()");
-    }
-    if (name == kPiName || Contains(kParserLiterals, name)) {
-      Fail(where, "name '" + name + "' is reserved for a constant");
-    }
+    if (auto problem = detail::ReservedNameProblem(name)) Fail(where, *problem);
     if (Contains(model_.parameter_names_, name)) Fail(where, "duplicate parameter");
   }
 

@@ -54,6 +54,19 @@ bool IsIdentifier(std::string_view name) {
          std::all_of(name.begin(), name.end(), IsIdentifierChar);
 }
 
+std::optional<std::string> ReservedNameProblem(const std::string& name) {
+  if (!IsIdentifier(name)) {
+    return "invalid name '" + name + "' (use letters, digits and _, starting with a letter)";
+  }
+  if (Contains(kModelFunctions, name)) {
+    return "name '" + name + "' clashes with the function " + name + "()";
+  }
+  if (name == kPiName || Contains(kParserLiterals, name)) {
+    return "name '" + name + "' is reserved for a constant";
+  }
+  return std::nullopt;
+}
+
 std::string Indexed(std::string_view key, std::size_t i) {
   return std::string(key) + "[" + std::to_string(i) + "]";
 }

@@ -66,6 +66,10 @@ bool IsIdentifierChar(char c);   // a letter, a digit or '_'
 /// Names GiNaC's parser reads as one identifier: a letter, then letters, digits and '_'.
 bool IsIdentifier(std::string_view name);
 
+/// Why `name` cannot name a parameter, coordinate or input (not an identifier, a function's
+/// name, pi or one of GiNaC's constants), or nullopt.
+std::optional<std::string> ReservedNameProblem(const std::string& name);
+
 /// "key[i]".
 std::string Indexed(std::string_view key, std::size_t i);
 

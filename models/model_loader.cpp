@@ -44,9 +44,7 @@ constexpr std::string_view kMultibodyKind = "multibody";
 using detail::Contains;
 using detail::FindUnsupported;
 using detail::Indexed;
-using detail::IsIdentifier;
 using detail::Join;
-using detail::kParserLiterals;
 using detail::kPiName;
 using detail::Text;
 constexpr const auto& kFunctions = detail::kModelFunctions;
@@ -293,16 +291,7 @@ class ModelBuilder {
   void CheckNames() const {
     std::map<std::string, std::string> owners;  // name -> where it was defined
     const auto check = [&](const std::string& name, const std::string& where) {
-      if (!IsIdentifier(name)) {
-        Fail(where,
-             "invalid name '" + name + "' (use letters, digits and _, starting with a letter)");
-      }
-      if (Contains(kFunctions, name)) {
-        Fail(where, "name '" + name + "' clashes with the function " + name + "()");
-      }
-      if (name == kPiName || Contains(kParserLiterals, name)) {
-        Fail(where, "name '" + name + "' is reserved for a constant");
-      }
+      if (auto problem = detail::ReservedNameProblem(name)) Fail(where, *problem);
       for (const std::string& coordinate : model_.coordinates_) {
         if (name == coordinate + std::string(kVelocitySuffix)) {
           Fail(where,

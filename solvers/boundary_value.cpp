@@ -236,6 +236,36 @@ class CollocationSolver {
   }
   bool apply_last_correction_ = true;
 
+  // f at every node of `y` into slopes_; false (with failure_) when f fails.
+  bool EvaluateNodeSlopes(const VectorXd& y) {
+    for (Index i = 0; i < points_; ++i) {
+      y_point_ = y.segment(i * n_, n_);
+      if (!CallF(mesh_[std::size_t(i)], y_point_, f_point_)) return false;
+      slopes_.col(i) = f_point_;
+    }
+    return true;
+  }
+
+  // g(y(a), y(b)) into the last n rows of phi_.
+  void EvaluateBoundaryResidual(const VectorXd& y) {
+    ya_ = y.head(n_);
+    yb_ = y.tail(n_);
+    CallConditions(ya_, yb_, bc_residual_);
+    phi_.tail(n_) = bc_residual_;
+  }
+
+  // df/dy at every node of y_ (whose f values are in slopes_) into jacobians_.
+  bool NodeJacobians() {
+    for (Index i = 0; i < points_; ++i) {
+      y_point_ = y_.segment(i * n_, n_);
+      f_point_ = slopes_.col(i);
+      if (!CallJacobian(mesh_[std::size_t(i)], y_point_, f_point_, jacobians_[std::size_t(i)])) {
+        return false;
+      }
+    }
+    return true;
+  }
+
   // A new set of nodes (the unknowns' times); the method keeps its own per-interval data.
   virtual void SetMesh(std::vector<double> mesh) {
     mesh_ = std::move(mesh);
@@ -539,11 +569,7 @@ class HermiteSimpsonSolver final : public CollocationSolver {
   // f at the mesh points and midpoints of the mesh values `y`, and the collocation and
   // boundary residuals into phi_. False (with failure_) when f cannot be evaluated.
   bool EvaluateResidual(const VectorXd& y) override {
-    for (Index i = 0; i < points_; ++i) {
-      y_point_ = y.segment(i * n_, n_);
-      if (!CallF(mesh_[std::size_t(i)], y_point_, f_point_)) return false;
-      slopes_.col(i) = f_point_;
-    }
+    if (!EvaluateNodeSlopes(y)) return false;
     for (Index i = 0; i + 1 < points_; ++i) {
       const double t = mesh_[std::size_t(i)];
       const double h = mesh_[std::size_t(i + 1)] - t;
@@ -556,23 +582,14 @@ class HermiteSimpsonSolver final : public CollocationSolver {
       phi_.segment(i * n_, n_) =
           y1 - y0 - (h / 6.0) * (slopes_.col(i) + 4.0 * f_mid_.col(i) + slopes_.col(i + 1));
     }
-    ya_ = y.head(n_);
-    yb_ = y.tail(n_);
-    CallConditions(ya_, yb_, bc_residual_);
-    phi_.tail(n_) = bc_residual_;
+    EvaluateBoundaryResidual(y);
     return true;
   }
 
   // The Jacobian of phi_ at y_ (whose f values EvaluateResidual left in slopes_, f_mid_), as
   // triplets: two n x n blocks per interval and the boundary rows.
   bool AssembleJacobian() override {
-    for (Index i = 0; i < points_; ++i) {
-      y_point_ = y_.segment(i * n_, n_);
-      f_point_ = slopes_.col(i);
-      if (!CallJacobian(mesh_[std::size_t(i)], y_point_, f_point_, jacobians_[std::size_t(i)])) {
-        return false;
-      }
-    }
+    if (!NodeJacobians()) return false;
     for (Index i = 0; i + 1 < points_; ++i) {
       const double t = mesh_[std::size_t(i)];
       y_point_ = y_mid_.col(i);
@@ -770,11 +787,7 @@ class LobattoSolver final : public CollocationSolver {
   }
 
   bool EvaluateResidual(const VectorXd& y) override {
-    for (Index i = 0; i < points_; ++i) {
-      y_point_ = y.segment(i * n_, n_);
-      if (!CallF(mesh_[std::size_t(i)], y_point_, f_point_)) return false;
-      slopes_.col(i) = f_point_;
-    }
+    if (!EvaluateNodeSlopes(y)) return false;
     for (Index interval = 0; interval < Intervals(); ++interval) {
       const Index first = FirstNode(interval);
       const double h = Width(interval);
@@ -785,10 +798,7 @@ class LobattoSolver final : public CollocationSolver {
         equation.noalias() -= h * (slopes * node_integrals_.row(k).transpose());
       }
     }
-    ya_ = y.head(n_);
-    yb_ = y.tail(n_);
-    CallConditions(ya_, yb_, bc_residual_);
-    phi_.tail(n_) = bc_residual_;
+    EvaluateBoundaryResidual(y);
     return true;
   }
 
@@ -802,13 +812,7 @@ class LobattoSolver final : public CollocationSolver {
   // matrix_ is the block-bidiagonal system in the interval ends plus the boundary rows, a
   // (s - 1)-th of the full size; the dense G_II solves are local to each interval.
   bool AssembleJacobian() override {
-    for (Index i = 0; i < points_; ++i) {
-      y_point_ = y_.segment(i * n_, n_);
-      f_point_ = slopes_.col(i);
-      if (!CallJacobian(mesh_[std::size_t(i)], y_point_, f_point_, jacobians_[std::size_t(i)])) {
-        return false;
-      }
-    }
+    if (!NodeJacobians()) return false;
     const Index inner = (stages_ - 2) * n_;
     const Index intervals = Intervals();
     interior_lu_.resize(std::size_t(intervals));

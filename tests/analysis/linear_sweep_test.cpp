@@ -18,6 +18,7 @@
 
 #include "models/linear_model.h"
 #include "models/model_generators.h"
+#include "tests/chain_closed_form.h"
 
 namespace servokit {
 namespace {
@@ -37,23 +38,6 @@ LinearModel Chain(long masses) {
   LinearModel model = LoadLinearModel(WriteLinearModel(files, directory.string()));
   std::filesystem::remove_all(directory);
   return model;
-}
-
-// The closed-form zeros of the chain observed at mass 1, for damping d.
-std::vector<std::complex<double>> ClosedFormZeros(long masses, double d) {
-  std::vector<std::complex<double>> zeros;
-  const long beyond = masses - 1;
-  for (long i = 1; i <= beyond; ++i) {
-    const double s = std::sin((2.0 * static_cast<double>(i) - 1.0) * std::numbers::pi /
-                              (2.0 * (2.0 * static_cast<double>(beyond) + 1.0)));
-    const double mu = 4.0 * s * s;
-    // m λ² + d μ λ + k μ = 0
-    const std::complex<double> disc =
-        std::sqrt(std::complex<double>(d * mu * d * mu - 4.0 * kMass * kStiffness * mu, 0.0));
-    zeros.push_back((-d * mu + disc) / (2.0 * kMass));
-    zeros.push_back((-d * mu - disc) / (2.0 * kMass));
-  }
-  return zeros;
 }
 
 double DistanceToNearest(std::complex<double> value, const std::vector<std::complex<double>>& set) {
@@ -108,7 +92,7 @@ TEST_CASE("linear sweep: every zero of a 30-mass chain at each damping (dense ro
     CHECK(point.relative_degree == std::vector<int>{2});
     CHECK(point.internal_dynamics_order == 2 * (masses - 1));
     CHECK(point.stability == Stability::kAsymptoticallyStable);
-    const auto expected = ClosedFormZeros(masses, d);
+    const auto expected = testing::ChainZeros(masses, 1, kMass, kStiffness, d);
     REQUIRE(point.eigenvalues.size() == expected.size());
     double worst = 0.0;
     for (const auto& zero : expected) {
@@ -145,7 +129,7 @@ TEST_CASE(
     REQUIRE(point.ok);
     REQUIRE(point.eigenvalues.size() == 6);
     // The six zeros nearest 0 are the three slowest pairs (i = 1, 2, 3).
-    auto expected = ClosedFormZeros(masses, d);
+    auto expected = testing::ChainZeros(masses, 1, kMass, kStiffness, d);
     expected.resize(6);
     for (const auto& zero : point.eigenvalues) {
       CHECK(DistanceToNearest(zero, expected) / std::abs(zero) < 1e-8);

@@ -58,6 +58,7 @@
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
+#include "tests/chain_closed_form.h"
 
 namespace servokit {
 namespace {
@@ -91,19 +92,10 @@ LinearSystem Chain(long masses, long output_mass, double damping) {
   return LoadGenerated(GenerateChain(options));
 }
 
+// The closed form, sorted as the solver sorts.
 std::vector<Complex> ChainZeros(long masses, long output_mass, double d) {
-  const double m = kChainMass, k = kChainStiffness;
-  const long free_masses = masses - output_mass;
-  std::vector<Complex> zeros;
-  for (long i = 1; i <= free_masses; ++i) {
-    const double angle = double(2 * i - 1) * std::numbers::pi / (2.0 * double(2 * free_masses + 1));
-    const double mu = 4.0 * std::sin(angle) * std::sin(angle);
-    // m lambda^2 + d mu lambda + k mu = 0
-    const Complex discriminant = std::sqrt(Complex(d * d * mu * mu - 4.0 * m * k * mu, 0.0));
-    zeros.push_back((-d * mu + discriminant) / (2.0 * m));
-    zeros.push_back((-d * mu - discriminant) / (2.0 * m));
-  }
-  if (d > 0.0) zeros.insert(zeros.end(), std::size_t(output_mass - 1), Complex(-k / d, 0.0));
+  std::vector<Complex> zeros =
+      testing::ChainZeros(masses, output_mass, kChainMass, kChainStiffness, d);
   SortEigenvalues(zeros);
   return zeros;
 }

@@ -20,44 +20,20 @@
 
 #include "models/errors.h"
 #include "models/matrix_market.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
 namespace {
+
+using testing::TemporaryDirectory;
+using testing::ReadFile;
 
 namespace fs = std::filesystem;
 using testing::ModelPath;
 using testing::TestDataPath;
 
 std::string LinearData(const std::string& file) { return TestDataPath("linear/" + file); }
-
-/// A fresh directory under the system's temporary directory, removed with everything in it.
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    static int counter = 0;
-    path_ =
-        fs::temp_directory_path() / ("servokit-linear-model-test-" + std::to_string(::getpid()) +
-                                     "-" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() { fs::remove_all(path_); }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  const fs::path& path() const { return path_; }
-  std::string operator/(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
-
-std::string ReadText(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 void WriteText(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary);
@@ -151,7 +127,7 @@ TEST_CASE("AssembleLinearMatrices rejects a wrong parameter count and a non-fini
   for (const char* file : {"tiny.M.mtx", "tiny.N.mtx", "tiny.K.mtx", "tiny.B.mtx", "tiny.C.mtx"}) {
     fs::copy_file(LinearData(file), directory / file);
   }
-  std::string yaml = ReadText(LinearData("tiny.yaml"));
+  std::string yaml = ReadFile(LinearData("tiny.yaml"));
   yaml.replace(yaml.find("factor: d}"), 10, "factor: k/d}");
   WriteText(directory / "ratio.yaml", yaml);
   const LinearModel ratio = LoadLinearModel(directory / "ratio.yaml");
@@ -172,10 +148,10 @@ TEST_CASE("the content hash covers the model file and every matrix file", "[mode
   }
   const std::string original = LoadLinearModel(LinearData("tiny.yaml")).content_hash();
   CHECK(LoadLinearModel(directory / "tiny.yaml").content_hash() == original);
-  WriteText(directory / "tiny.C.mtx", ReadText(LinearData("tiny.C.mtx")) + "\n");
+  WriteText(directory / "tiny.C.mtx", ReadFile(LinearData("tiny.C.mtx")) + "\n");
   const std::string changed_matrix = LoadLinearModel(directory / "tiny.yaml").content_hash();
   CHECK(changed_matrix != original);
-  WriteText(directory / "tiny.yaml", ReadText(LinearData("tiny.yaml")) + "# comment\n");
+  WriteText(directory / "tiny.yaml", ReadFile(LinearData("tiny.yaml")) + "# comment\n");
   CHECK(LoadLinearModel(directory / "tiny.yaml").content_hash() != changed_matrix);
 }
 
@@ -339,7 +315,7 @@ TEST_CASE("WriteLinearModel then LoadLinearModel gives the same model bit for bi
   // D and K hold the same matrix: one file, named by both keys.
   CHECK(fs::exists(directory / "round_trip.D.mtx"));
   CHECK_FALSE(fs::exists(directory / "round_trip.K.mtx"));
-  CHECK(ReadText(path).find("stiffness_matrix: round_trip.D.mtx") != std::string::npos);
+  CHECK(ReadFile(path).find("stiffness_matrix: round_trip.D.mtx") != std::string::npos);
   CHECK(fs::exists(directory / "round_trip.M.1.mtx"));
   CHECK(fs::exists(directory / "round_trip.M.2.mtx"));
 }

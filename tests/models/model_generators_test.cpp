@@ -22,29 +22,14 @@
 
 #include "models/errors.h"
 #include "models/linear_model.h"
+#include "tests/test_files.h"
 
 namespace servokit {
 namespace {
 
+using testing::TemporaryDirectory;
+
 namespace fs = std::filesystem;
-
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() / ("servokit-generators-test-" + std::to_string(::getpid()) +
-                                         "-" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() { fs::remove_all(path_); }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  std::string path() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
 
 // The generated files, written and read back: what a user of `servokit generate` gets.
 LinearModel WriteAndLoad(const LinearModelFiles& files) {

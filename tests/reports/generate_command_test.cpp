@@ -11,31 +11,16 @@
 #include "models/model_generators.h"
 #include "reports/exit_codes.h"
 #include "tests/reports/run_servokit.h"
+#include "tests/test_files.h"
 
 namespace servokit {
 namespace {
 
+using testing::TemporaryDirectory;
+
 namespace fs = std::filesystem;
 using testing::Run;
 using testing::RunServokit;
-
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() / ("servokit-generate-test-" + std::to_string(::getpid()) +
-                                         "-" + std::to_string(counter++));
-    fs::remove_all(path_);
-  }
-  ~TemporaryDirectory() { fs::remove_all(path_); }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  std::string operator/(const std::string& name) const { return (path_ / name).string(); }
-  std::string path() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
 
 constexpr int kBadInput = static_cast<int>(ExitCode::kBadInput);
 
@@ -45,7 +30,7 @@ bool SameMatrix(const SparseMatrix& a, const SparseMatrix& b) {
 }
 
 TEST_CASE("generate chain writes the generator's chain and prints the model path", "[reports]") {
-  TemporaryDirectory directory;  // made by the command, with its missing parent levels
+  TemporaryDirectory directory(/*create=*/false);  // made by the command, with its parents
   const std::string out = directory / "nested/dir";
   const Run run =
       RunServokit({"generate", "chain", "--masses", "12", "--mass", "0.5", "--stiffness", "40",
@@ -71,7 +56,7 @@ TEST_CASE("generate chain writes the generator's chain and prints the model path
 }
 
 TEST_CASE("generate beam writes the generator's beam under the name asked", "[reports]") {
-  TemporaryDirectory directory;
+  TemporaryDirectory directory(/*create=*/false);
   const Run run =
       RunServokit({"generate", "beam", "--elements", "5", "--length", "2", "--hub-inertia", "0.3",
                    "--mass-per-length", "1.5", "--bending-stiffness", "20", "--damping-factor",
@@ -94,7 +79,7 @@ TEST_CASE("generate beam writes the generator's beam under the name asked", "[re
 }
 
 TEST_CASE("generate rejects each bad option with one usage error naming it", "[reports]") {
-  TemporaryDirectory directory;
+  TemporaryDirectory directory(/*create=*/false);
   const std::string out = directory.path();
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
       {{"generate", "chain", "--masses", "0", "--out", out}, "(--masses)"},

@@ -19,24 +19,14 @@
 #include <regex>
 #include <sstream>
 
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
 namespace {
 
-std::string ReadFile(const std::filesystem::path& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::stringstream stream(text);
-  for (std::string line; std::getline(stream, line);) lines.push_back(line);
-  return lines;
-}
+using testing::ReadFile;
+using testing::Lines;
 
 // Tokens outside backquotes: numbers and words.
 std::vector<std::string> Tokens(const std::string& line) {

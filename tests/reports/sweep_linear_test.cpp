@@ -24,39 +24,20 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include "tests/chain_closed_form.h"
+#include "tests/test_files.h"
 
 namespace servokit {
 namespace {
+
+using testing::TemporaryDirectory;
+using testing::ReadFile;
+using testing::Lines;
 
 namespace fs = std::filesystem;
 
 constexpr const char* kJobTimeoutSeconds = "300";
 constexpr double kMass = 2.0, kStiffness = 3.0;
-
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() / ("servokit-lsweep-test-" + std::to_string(::getpid()) +
-                                         "-" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() { fs::remove_all(path_); }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 std::vector<std::string> Split(const std::string& line, char separator) {
   std::vector<std::string> parts;
@@ -64,13 +45,6 @@ std::vector<std::string> Split(const std::string& line, char separator) {
   for (std::string part; std::getline(stream, part, separator);) parts.push_back(part);
   if (!line.empty() && line.back() == separator) parts.emplace_back();
   return parts;
-}
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream stream(text);
-  for (std::string line; std::getline(stream, line);) lines.push_back(line);
-  return lines;
 }
 
 struct Job {
@@ -132,21 +106,6 @@ std::vector<std::string> Sweep(const std::string& model,
   return command;
 }
 
-std::vector<std::complex<double>> ClosedFormZeros(long masses, double d) {
-  std::vector<std::complex<double>> zeros;
-  const long beyond = masses - 1;
-  for (long i = 1; i <= beyond; ++i) {
-    const double s = std::sin((2.0 * static_cast<double>(i) - 1.0) * std::numbers::pi /
-                              (2.0 * (2.0 * static_cast<double>(beyond) + 1.0)));
-    const double mu = 4.0 * s * s;
-    const std::complex<double> root =
-        std::sqrt(std::complex<double>(d * mu * d * mu - 4.0 * kMass * kStiffness * mu, 0.0));
-    zeros.push_back((-d * mu + root) / (2.0 * kMass));
-    zeros.push_back((-d * mu - root) / (2.0 * kMass));
-  }
-  return zeros;
-}
-
 double Damping(std::size_t i) {
   return i == 4 ? 0.1 : 0.01 + static_cast<double>(i) * ((0.1 - 0.01) / 4.0);  // numpy.linspace
 }
@@ -177,7 +136,7 @@ void CheckZeros(const fs::path& out, long masses, std::size_t per_point, double 
     REQUIRE(zeros.count(d) == 1);
     const auto& computed = zeros.at(d);
     REQUIRE(computed.size() == per_point);
-    auto expected = ClosedFormZeros(masses, d);
+    auto expected = testing::ChainZeros(masses, 1, kMass, kStiffness, d);
     expected.resize(per_point);  // the slowest pairs first: the ones nearest 0
     double worst = 0.0;
     for (const auto& zero : expected) {

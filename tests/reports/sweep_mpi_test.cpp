@@ -21,10 +21,15 @@
 #include <thread>
 #include <vector>
 
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
 namespace {
+
+using testing::TemporaryDirectory;
+using testing::ReadFile;
+using testing::Lines;
 
 namespace fs = std::filesystem;
 using testing::ModelPath;
@@ -36,39 +41,6 @@ constexpr const char* kJobTimeoutSeconds = "120";
 
 // The exit status of a job `timeout` killed.
 constexpr int kTimedOut = 124;
-
-/// A fresh directory under the system's temporary directory, removed with everything in it.
-class TemporaryDirectory {
- public:
-  TemporaryDirectory() {
-    static int counter = 0;
-    path_ = fs::temp_directory_path() /
-            ("servokit-mpi-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TemporaryDirectory() { fs::remove_all(path_); }
-  TemporaryDirectory(const TemporaryDirectory&) = delete;
-  TemporaryDirectory& operator=(const TemporaryDirectory&) = delete;
-  fs::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  fs::path path_;
-};
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream stream(text);
-  for (std::string line; std::getline(stream, line);) lines.push_back(line);
-  return lines;
-}
 
 struct Job {
   int status = -1;  // exit status, or 128 + the signal that ended it
