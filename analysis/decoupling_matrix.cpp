@@ -1,5 +1,8 @@
 #include "analysis/decoupling_matrix.h"
 
+#include <cmath>
+#include <limits>
+#include <sstream>
 #include <string>
 
 #include "analysis/subspaces.h"
@@ -45,6 +48,19 @@ DecouplingAnalysis AnalyzeDecouplingMatrix(const Linearization& linearization,
   // Scale: |H| |M^-1 B| bounds sigma_max(P); see ClassificationOptions::rank_tolerance.
   result.rank_threshold =
       options.rank_tolerance * output_jacobian.norm() * input_accelerations.norm();
+  // A threshold below the smallest normal double has lost its digits to underflow (and an
+  // infinite one means |H| |M^-1 B| overflowed): the rank of P cannot be decided then, and a
+  // verdict would be an artefact of the number format (e.g. m2 = 1e308 in the mass on car).
+  const double scale = output_jacobian.norm() * input_accelerations.norm();
+  if (!std::isfinite(result.rank_threshold) ||
+      (scale > 0.0 && result.rank_threshold < std::numeric_limits<double>::min())) {
+    std::ostringstream message;
+    message << "the rank of P = H M^-1 B cannot be decided in double precision: its scale |H| "
+               "|M^-1 B| = "
+            << scale << " puts the rank threshold " << result.rank_threshold
+            << " outside the range of normal doubles (parameters near 0 or huge?)";
+    throw NoSolution(message.str());
+  }
   result.rank = NumericalRank(result.singular_values, result.rank_threshold);
   result.rank_deficiency = outputs - result.rank;
 

@@ -2,10 +2,30 @@
 
 #include <cassert>
 #include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "models/errors.h"
 
 namespace servokit {
+namespace {
+
+// M counts as singular when its reciprocal condition number (LLT's estimate, 1-norm) is at most
+// this: M^-1 then keeps fewer than three correct digits in double precision (relative error
+// about epsilon / rcond), so P = H M^-1 B and every rank decision after it would be round-off.
+constexpr double kMassMatrixReciprocalConditionLimit = 1e3 * std::numeric_limits<double>::epsilon();
+
+std::string ShortNumber(double value) {
+  std::ostringstream text;
+  text.precision(6);
+  text << value;
+  return text.str();
+}
+
+}  // namespace
 
 Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point) {
   assert(workspace.Fits(model));
@@ -24,18 +44,53 @@ Linearization Linearize(const Model& model, Workspace& workspace, const Operatin
   linearization.input_matrix = workspace.input_matrix;
   linearization.output_jacobian = workspace.output_jacobian;
 
-  if (!linearization.mass_matrix.allFinite() || !linearization.damping.allFinite() ||
-      !linearization.stiffness.allFinite() || !linearization.input_matrix.allFinite() ||
-      !linearization.output_jacobian.allFinite()) {
-    throw NoSolution(
-        "the linearization at the operating point is not finite (NaN or Inf in M, "
-        "f, B or H): check the parameters");
+  const std::pair<const char*, const Eigen::MatrixXd*> quantities[] = {
+      {"the mass matrix M", &linearization.mass_matrix},
+      {"the damping df/dq_dot", &linearization.damping},
+      {"the stiffness df/dq - d(B u0)/dq", &linearization.stiffness},
+      {"the input matrix B", &linearization.input_matrix},
+      {"the output Jacobian H = dh/dq", &linearization.output_jacobian}};
+  for (const auto& [name, matrix] : quantities) {
+    if (!matrix->allFinite()) {
+      throw NoSolution(std::string("the linearization at the operating point is not finite: ") +
+                       name + " holds NaN or Inf (" + DescribeParameters(model, workspace) + ")");
+    }
   }
   const Eigen::LLT<Eigen::MatrixXd> mass_factor(linearization.mass_matrix);
   if (mass_factor.info() != Eigen::Success) {
-    throw NoSolution("the mass matrix is not positive definite at the operating point");
+    throw NoSolution("the mass matrix is not positive definite at the operating point (" +
+                     DescribeParameters(model, workspace) + ")");
+  }
+  // rcond() divides by the 1-norm of M: when that overflows, the estimate is 0 for a reason
+  // that is not singularity.
+  if (!std::isfinite(linearization.mass_matrix.cwiseAbs().colwise().sum().maxCoeff())) {
+    throw NoSolution("the mass matrix overflows the range of double at the operating point (" +
+                     DescribeParameters(model, workspace) + ")");
+  }
+  const double reciprocal_condition = mass_factor.rcond();
+  if (!(reciprocal_condition > kMassMatrixReciprocalConditionLimit)) {
+    throw NoSolution(
+        "the mass matrix is singular to working precision at the operating point: "
+        "reciprocal condition number " +
+        ShortNumber(reciprocal_condition) +
+        " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit) + " (" +
+        DescribeParameters(model, workspace) + ")");
   }
   linearization.mass_inverse = mass_factor.solve(Eigen::MatrixXd::Identity(dof, dof));
+  // The analyses form these products (ToStateSpace, P); parameters near the end of the double
+  // range (k = 1e308, say) overflow here although every entry above is finite.
+  const std::pair<const char*, Eigen::MatrixXd> rates[] = {
+      {"M^-1", linearization.mass_inverse},
+      {"M^-1 K", linearization.mass_inverse * linearization.stiffness},
+      {"M^-1 D", linearization.mass_inverse * linearization.damping},
+      {"M^-1 B", linearization.mass_inverse * linearization.input_matrix}};
+  for (const auto& [name, matrix] : rates) {
+    if (!matrix.allFinite()) {
+      throw NoSolution(std::string("the linearization overflows the range of double: ") + name +
+                       " is not finite at the operating point (" +
+                       DescribeParameters(model, workspace) + ")");
+    }
+  }
   return linearization;
 }
 
@@ -46,8 +101,10 @@ StateSpace ToStateSpace(const Linearization& linearization) {
   const Eigen::MatrixXd damping_rate = mass_inverse * linearization.damping;      // 1/s
   // The model's own time scale: sqrt of the stiffness rate, or the damping rate if there is no
   // stiffness, or 1 for a free mass.
-  double time_scale = std::sqrt(stiffness_rate.norm());
-  if (!(time_scale > 0.0)) time_scale = damping_rate.norm();
+  // stableNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
+  // (k = 1e200 in the mass on car) and made the time scale infinite and B vanish.
+  double time_scale = std::sqrt(stiffness_rate.stableNorm());
+  if (!(time_scale > 0.0)) time_scale = damping_rate.stableNorm();
   if (!(time_scale > 0.0)) time_scale = 1.0;
 
   StateSpace state_space;

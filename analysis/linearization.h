@@ -23,8 +23,10 @@ struct Linearization {
   Eigen::Index num_inputs() const { return input_matrix.cols(); }
 };
 
-/// Linearizes `model` at `point`. Throws NoSolution if a matrix is not finite there or M(q0)
-/// is not symmetric positive definite.
+/// Linearizes `model` at `point`. Throws NoSolution, naming the quantity and the parameter
+/// values, if a matrix is not finite there, M(q0) is not symmetric positive definite or is
+/// singular to working precision (reciprocal condition number at most 1e3 epsilon), or
+/// M^-1, M^-1 K, M^-1 D or M^-1 B overflows.
 Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point);
 
 /// The first-order form x = [dq; dq' / time_scale] of a linearization:

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "analysis/sundials_support.h"
 #include "models/errors.h"
@@ -90,6 +92,18 @@ Eigen::VectorXd ResidualScaling(const Eigen::MatrixXd& jacobian) {
   return scaling;
 }
 
+// The Jacobian with its rows and then its columns scaled to a largest entry of 1, so that an
+// invertibility test compares each pivot with its own row's and column's size, not with the
+// largest entry of the whole matrix (which would make a test of isolation depend on units).
+Eigen::MatrixXd EquilibratedJacobian(const Eigen::MatrixXd& jacobian) {
+  Eigen::MatrixXd scaled = ResidualScaling(jacobian).asDiagonal() * jacobian;
+  for (Eigen::Index j = 0; j < scaled.cols(); ++j) {
+    const double column_size = scaled.col(j).cwiseAbs().maxCoeff();
+    if (column_size > 0.0) scaled.col(j) /= column_size;
+  }
+  return scaled;
+}
+
 void RunKinsol(EquilibriumProblem& problem,
                Eigen::VectorXd& unknowns,
                const Eigen::VectorXd& scaling,
@@ -169,6 +183,18 @@ void OperatingPointOptions::Validate(const Model& model) const {
   }
 }
 
+std::string DescribeParameters(const Model& model, const Workspace& workspace) {
+  std::ostringstream text;
+  text.precision(6);
+  text << "parameters";
+  const std::vector<std::string>& names = model.parameter_names();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    text << (i == 0 ? " " : ", ") << names[i] << " = "
+         << workspace.parameters(static_cast<Eigen::Index>(i));
+  }
+  return text.str();
+}
+
 OperatingPoint FindOperatingPoint(const Model& model,
                                   Workspace& workspace,
                                   const OperatingPointOptions& options) {
@@ -206,7 +232,16 @@ OperatingPoint FindOperatingPoint(const Model& model,
   Eigen::MatrixXd jacobian(dof + inputs, dof + inputs);
   problem.Jacobian(unknowns, jacobian);
   if (!jacobian.allFinite()) {
-    throw NoSolution("the model is not finite at q0 = " + FormatVector(unknowns.head(dof)));
+    std::string quantities;
+    for (const auto& [name, finite] :
+         {std::pair{"df/dq", workspace.forces_position_jacobian.allFinite()},
+          std::pair{"B", workspace.input_matrix.allFinite()},
+          std::pair{"H = dh/dq", workspace.output_jacobian.allFinite()}}) {
+      if (!finite) quantities += (quantities.empty() ? "" : ", ") + std::string(name);
+    }
+    throw NoSolution("the model is not finite at q0 = " + FormatVector(unknowns.head(dof)) +
+                     ": NaN or Inf in " + (quantities.empty() ? "the forces" : quantities) + " (" +
+                     DescribeParameters(model, workspace) + ")");
   }
   const Eigen::VectorXd scaling = ResidualScaling(jacobian);
   Eigen::VectorXd residual(dof + inputs);
@@ -225,7 +260,9 @@ OperatingPoint FindOperatingPoint(const Model& model,
     }
     problem.Jacobian(unknowns, jacobian);
   }
-  const Eigen::FullPivLU<Eigen::MatrixXd> lu(jacobian);
+  // Decided on the equilibrated Jacobian: unscaled, one huge entry (k = 1e308, say) sets
+  // FullPivLU's threshold and every other pivot looks like zero.
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(EquilibratedJacobian(jacobian));
   if (!lu.isInvertible()) {
     throw NoSolution("the equilibrium at q = " + FormatVector(unknowns.head(dof)) +
                      " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "

@@ -1,4 +1,5 @@
 #pragma once
+#include <string>
 // The equilibrium at which servokit linearizes (DESIGN.md "Operating point"):
 // q_dot = 0,  f(q, 0) = B(q) u,  h(q) = y0.
 #include <Eigen/Dense>
@@ -31,6 +32,10 @@ struct OperatingPoint {
   Eigen::VectorXd y;
   int newton_iterations = 0;  // 0 when the starting point already was an equilibrium
 };
+
+/// "parameters m1 = 1, m2 = 2, ...": the values in workspace.parameters (6 digits), for
+/// messages about a point where the model misbehaves.
+std::string DescribeParameters(const Model& model, const Workspace& workspace);
 
 /// Finds the equilibrium by Newton's method (SUNDIALS KINSOL) from options.q_guess.
 /// Throws UsageError for bad options and NoSolution when Newton does not converge, the

@@ -1,6 +1,7 @@
 #include "analysis/output_structure.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string>
 
@@ -17,14 +18,22 @@ void FindRelativeDegrees(const StateSpace& system,
                          OutputStructure& structure) {
   const Eigen::Index outputs = system.output_matrix.rows();
   const Eigen::Index states = system.state_matrix.rows();
-  const double input_size = system.input_matrix.norm();
+  const double input_size = system.input_matrix.stableNorm();
   structure.relative_degree.assign(std::size_t(outputs), 0);
   structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
   for (Eigen::Index i = 0; i < outputs; ++i) {
     Eigen::RowVectorXd output_row = system.output_matrix.row(i);  // C_i A^k
     for (Eigen::Index k = 0; k < states; ++k) {
       const Eigen::RowVectorXd markov_row = output_row * system.input_matrix;
-      if (markov_row.norm() > rank_tolerance * output_row.norm() * input_size) {
+      // stableNorm: the squares of norm() overflow long before the entries do.
+      const double allowed = rank_tolerance * output_row.stableNorm() * input_size;
+      if (!markov_row.allFinite() || !std::isfinite(allowed)) {
+        throw NoSolution("output y" + std::to_string(i + 1) + ": the Markov parameter C A^" +
+                         std::to_string(k) +
+                         " B overflows the range of double at the operating point (a "
+                         "parameter near the end of the double range?)");
+      }
+      if (markov_row.stableNorm() > allowed) {
         structure.relative_degree[std::size_t(i)] = static_cast<int>(k + 1);
         structure.decoupling_matrix.row(i) = markov_row;
         break;

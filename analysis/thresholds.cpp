@@ -9,6 +9,8 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <sstream>
+#include <string>
 
 #include "analysis/classification.h"
 #include "analysis/gsl_support.h"
@@ -282,6 +284,16 @@ ThresholdSearch FindThresholds(const Model& model,
     throw UsageError("the range " + std::to_string(low) + ":" + std::to_string(high) + " of " +
                      model.parameter_names()[parameter] + " must be finite with low < high");
   }
+  // Bisection and the merging of events add two values of the range: beyond half the largest
+  // double that sum overflows (a null "value" in JSON, or GSL's "floating point overflow").
+  constexpr double kLargestEndpoint = 0.5 * std::numeric_limits<double>::max();
+  if (std::abs(low) > kLargestEndpoint || std::abs(high) > kLargestEndpoint) {
+    std::ostringstream message;
+    message << "the range " << low << ":" << high << " of " << model.parameter_names()[parameter]
+            << " must lie within +-" << kLargestEndpoint
+            << " (half the largest double), so that its midpoints do not overflow";
+    throw UsageError(message.str());
+  }
   UseGslStatusCodes();  // for the minimizer of FindTouch
 
   ThresholdSearch search;
@@ -328,6 +340,13 @@ ThresholdSearch FindThresholds(const Model& model,
     for (ThresholdCrossing& crossing : search.events) {
       RefineThroughSingularDecoupling(probe, options.relative_tolerance, options.merge_tolerance,
                                       crossing);
+    }
+  }
+  for (const ThresholdCrossing& crossing : search.events) {
+    if (!std::isfinite(crossing.value) || !std::isfinite(crossing.bracket_width)) {
+      throw NoSolution("the " + std::string(ToString(event)) + " event between " + crossing.from +
+                       " and " + crossing.to + " of " + search.parameter +
+                       " could not be located to a finite value");
     }
   }
   search.classifications = probe.classifications();

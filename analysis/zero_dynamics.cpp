@@ -83,6 +83,12 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
     // Householder QR without pivoting suffices: [V, B] has full column rank (checked).
     const Eigen::MatrixXd solution = basis.householderQr().solve(A * subspace);
     result.state_matrix = solution.topRows(order);
+    if (!result.state_matrix.allFinite()) {
+      // Overflow, not a failure of the eigensolver: say so rather than "did not converge".
+      throw NoSolution(
+          "the zero dynamics' matrix overflows the range of double at the "
+          "operating point (a parameter near the end of the double range?)");
+    }
     const Eigen::EigenSolver<Eigen::MatrixXd> eigen(result.state_matrix, false);
     if (eigen.info() != Eigen::Success) {
       throw NoSolution("the eigenvalues of the zero dynamics did not converge");

@@ -24,6 +24,19 @@ namespace servokit::detail {
 inline constexpr std::array<std::string_view, 14> kModelFunctions = {
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2",
     "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs"};
+/// How many arguments a function of kModelFunctions takes: 2 for atan2, else 1.
+constexpr std::size_t FunctionArity(std::string_view function) {
+  return function == "atan2" ? 2 : 1;
+}
+/// GiNaC's parser recurses per level of parentheses and per power in a chain (a^b^c), and a
+/// model file's line can be long enough to overflow the stack; these bound each, far above what
+/// a model needs.
+inline constexpr std::size_t kMaxParenthesisDepth = 100;
+inline constexpr std::size_t kMaxChainedPowers = 10;
+/// Largest |exponent| a constant exponent may have, and most decimal digits a number computed
+/// from numbers only may have: GiNaC computes number^number exactly while it parses.
+inline constexpr double kMaxConstantExponent = 1000;
+inline constexpr double kMaxConstantDigits = 10000;
 /// The name of the constant pi in expressions.
 inline constexpr std::string_view kPiName = "pi";
 /// GiNaC's parser reads these as its own constants before it looks at the symbol table, so a
@@ -80,9 +93,12 @@ std::string Text(const GiNaC::ex& expression);
 using NameCheck = std::function<std::optional<std::string>(const std::string& name, bool called)>;
 
 /// Scans `text` as the expression language and returns the first problem, or nullopt: a
-/// malformed number ("2x", "1.2.3"), a character that is no operator, or what `check_name`
-/// says of a name. Catches what GiNaC's parser would report less clearly or read as something
-/// else.
+/// malformed number ("2x", "1.2.3"), a character that is no operator, what `check_name` says of
+/// a name, unbalanced or empty parentheses, a function with the wrong number of arguments, a
+/// sign after an operator (which GiNaC reads differently from everyone else: 2*-x+1 is
+/// 2*(1-x) to it), more parentheses or chained powers than the limits above, a constant exponent or a number computed from
+/// numbers larger than kMaxConstantExponent and kMaxConstantDigits allow. Catches what GiNaC's parser would report less
+/// clearly, read as something else, or crash on (issue #7's fuzzing: "cos()").
 std::optional<std::string> FindLexicalProblem(const std::string& text,
                                               const NameCheck& check_name);
 

@@ -6,15 +6,17 @@
 #include <vector>
 
 #include "models/errors.h"
+#include "models/matrix_market.h"
 
 namespace servokit {
 namespace {
 
 using Triplet = Eigen::Triplet<double>;
 
-// Largest chain or beam: keeps every matrix's stored entries (about 16 per element for the
-// beam's mass matrix) within Eigen's int indices.
-constexpr long kMaxSize = 100'000'000;
+// Largest chain or beam: as many coordinates as a Matrix Market file may have (the beam has
+// two per node and the hub angle: 2 elements + 1).
+constexpr long kMaxMasses = kMaxMatrixDimension;
+constexpr long kMaxElements = (kMaxMatrixDimension - 1) / 2;
 
 std::string Number(double value) {
   char text[32];
@@ -147,8 +149,8 @@ SparseMatrix BeamUnitStiffness(long elements, double length) {
 
 void ChainOptions::Validate() const {
   constexpr const char* kOptions = "ChainOptions";
-  Require(masses >= 1 && masses <= kMaxSize, kOptions, "masses", std::to_string(masses),
-          "must be from 1 to " + std::to_string(kMaxSize));
+  Require(masses >= 1 && masses <= kMaxMasses, kOptions, "masses", std::to_string(masses),
+          "must be from 1 to " + std::to_string(kMaxMasses));
   RequirePositive(kOptions, "mass", mass);
   RequirePositive(kOptions, "stiffness", stiffness);
   RequireNonNegative(kOptions, "damping", damping);
@@ -182,8 +184,8 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
 
 void BeamOptions::Validate() const {
   constexpr const char* kOptions = "BeamOptions";
-  Require(elements >= 1 && elements <= kMaxSize, kOptions, "elements", std::to_string(elements),
-          "must be from 1 to " + std::to_string(kMaxSize));
+  Require(elements >= 1 && elements <= kMaxElements, kOptions, "elements",
+          std::to_string(elements), "must be from 1 to " + std::to_string(kMaxElements));
   RequirePositive(kOptions, "length", length);
   RequireNonNegative(kOptions, "hub_inertia", hub_inertia);
   RequirePositive(kOptions, "mass_per_length", mass_per_length);

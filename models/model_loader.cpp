@@ -151,11 +151,20 @@ class ModelBuilder {
     GiNaC::matrix output = ReadOutputs();
     model_.num_outputs_ = num_inputs;
 
-    auto symbolic = std::make_shared<const SymbolicModel>(
-        parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
-        std::move(forces), std::move(input_matrix), std::move(output));
-    Compile(*symbolic);
-    model_.symbolic_ = std::move(symbolic);
+    try {
+      auto symbolic = std::make_shared<const SymbolicModel>(
+          parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
+          std::move(forces), std::move(input_matrix), std::move(output));
+      Compile(*symbolic);
+      model_.symbolic_ = std::move(symbolic);
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& error) {
+      // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
+      // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
+      Fail("derivatives", std::string("cannot differentiate the model's expressions: ") +
+                              error.what());
+    }
     return std::move(model_);
   }
 

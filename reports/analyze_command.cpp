@@ -39,12 +39,13 @@ int RunLinearAnalyze(const AnalyzeArguments& arguments, ReportFormat format, std
   return static_cast<int>(ExitCode::kSuccess);
 }
 
-int RunAnalyze(const AnalyzeArguments& arguments, std::ostream& out) {
+int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::ostream& out) {
   const std::optional<ReportFormat> format = ReportFormatFromString(arguments.format);
   if (!format) {
     throw UsageError("--format " + arguments.format + ": expected text, json or md");
   }
   if (IsLinearModelFile(arguments.model_path)) return RunLinearAnalyze(arguments, *format, out);
+  RefuseLinearModelOptions(analyze);
   const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
   ClassificationOptions options = arguments.options;
   if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
@@ -88,7 +89,9 @@ Command AddAnalyzeCommand(CLI::App& app) {
       ->capture_default_str();
   AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
   return {analyze,
-          [arguments](std::ostream& out, std::ostream&) { return RunAnalyze(*arguments, out); }};
+          [arguments, analyze](std::ostream& out, std::ostream&) {
+            return RunAnalyze(*arguments, *analyze, out);
+          }};
 }
 
 }  // namespace servokit

@@ -1,6 +1,7 @@
 #include "reports/command_line.h"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -51,11 +52,25 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
       "servokit: analyse and solve servo-constraint problems of underactuated "
       "multibody systems");
   app.require_subcommand(1);
+  app.footer(
+      "Example:\n  servokit analyze models/mass_on_car.yaml\n"
+      "`servokit SUBCOMMAND --help` shows each subcommand's options and an example; the errors\n"
+      "and exit statuses are listed in the README (\"Errors and exit status\").");
   app.set_version_flag("--version", std::string("servokit ") + SERVOKIT_VERSION);
   const std::vector<Command> commands = {AddAnalyzeCommand(app), AddThresholdCommand(app),
                                          AddSweepCommand(app),   AddSolveCommand(app),
                                          AddReportCommand(app),  AddGenerateCommand(app)};
   try {
+    // CLI11 reports a misspelt command as a missing one ("A subcommand is required").
+    if (argc > 1 && argv[1][0] != '-' &&
+        std::none_of(commands.begin(), commands.end(),
+                     [&](const Command& command) { return command.app->check_name(argv[1]); })) {
+      std::string names;
+      for (const Command& command : commands) {
+        names += (names.empty() ? "" : ", ") + command.app->get_name();
+      }
+      throw UsageError(std::string("unknown command '") + argv[1] + "' (expected " + names + ")");
+    }
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp&) {

@@ -42,6 +42,10 @@ struct LinearModelArguments {
 inline constexpr const char* kLinearModelOptions[] = {"--eigenvalues", "--shift",
                                                       "--eigen-solver", "--which"};
 
+/// Throws UsageError naming the first of kLinearModelOptions given to `command`: a multibody
+/// model has no use for them, and ignoring them would hide a mistake.
+void RefuseLinearModelOptions(const CLI::App& command);
+
 /// Registers --eigenvalues, --shift, --eigen-solver and --which on `command`; `what` ends each
 /// help text's first words ("zeros", "zeros per point").
 void AddLinearModelOptions(CLI::App& command, LinearModelArguments& arguments, const std::string& what);

@@ -55,4 +55,12 @@ LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& argu
   return options;
 }
 
+void RefuseLinearModelOptions(const CLI::App& command) {
+  for (const char* name : kLinearModelOptions) {
+    if (command.get_option(name)->count() > 0) {
+      throw UsageError(std::string(name) + ": applies to linear models (`kind: linear`) only");
+    }
+  }
+}
+
 }  // namespace servokit

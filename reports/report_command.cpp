@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <memory>
 #include <ostream>
+#include <system_error>
 
 #include "analysis/parameter_grid.h"
 #include "models/errors.h"
@@ -26,11 +27,27 @@ struct ReportArguments {
   std::string models_directory;
 };
 
-// Where the shipped models are: --models, else $SERVOKIT_MODELS, else the source tree's.
+// Where the shipped models are: --models, else $SERVOKIT_MODELS, else beside an installed
+// executable (<prefix>/bin/servokit -> <prefix>/share/servokit/models, cmake/install.cmake),
+// else the source tree's.
 std::string ModelsDirectory(const ReportArguments& arguments) {
   if (!arguments.models_directory.empty()) return arguments.models_directory;
   if (const char* environment = std::getenv("SERVOKIT_MODELS")) return environment;
+  std::error_code no_executable;
+  const std::filesystem::path installed =
+      std::filesystem::read_symlink("/proc/self/exe", no_executable).parent_path().parent_path() /
+      "share" / "servokit" / "models";
+  if (!no_executable && std::filesystem::is_directory(installed)) return installed.string();
   return SERVOKIT_MODELS_DIR;
+}
+
+// Makes --out before a report is written into it, with a message that names the option.
+void MakeOutputDirectory(const std::string& directory) {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) {
+    throw Error("--out " + directory + ": cannot make the directory (" + error.message() + ")");
+  }
 }
 
 int RunReport(const ReportArguments& arguments, std::ostream& out) {
@@ -43,11 +60,13 @@ int RunReport(const ReportArguments& arguments, std::ostream& out) {
       throw UsageError("report paper: no mass_on_car.yaml in " + models +
                        " (give the shipped models with --models DIR)");
     }
+    MakeOutputDirectory(arguments.out);
     WritePaperReport(arguments.out, models);
   } else {
     const Model model = LoadModel(arguments.subject, ParseOverrides(arguments.overrides));
     std::vector<GridAxis> axes;
     for (const std::string& text : arguments.vary) axes.push_back(ParseGridAxis(model, text));
+    MakeOutputDirectory(arguments.out);
     WriteModelReport(arguments.out, model, axes);
   }
   out << "report written to " << (std::filesystem::path(arguments.out) / "report.md").string()

@@ -101,6 +101,15 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   const int needed_derivatives = classification.structure.differentiation_index - 1;
   const std::unique_ptr<OutputTrajectory> trajectory =
       MakeTrajectory(arguments, needed_derivatives, trajectory_note);
+  if (trajectory->outputs() != Eigen::Index(model.num_outputs())) {
+    const std::string given = arguments.trajectory == "rest-to-rest"
+                                  ? std::string("--y0 and --yf")
+                                  : arguments.trajectory + ": waypoints[0].y";
+    const std::size_t outputs = model.num_outputs();
+    throw UsageError(given + ": " + std::to_string(trajectory->outputs()) +
+                     " values, but the model has " + std::to_string(outputs) +
+                     (outputs == 1 ? " output" : " outputs") + " (one value per output)");
+  }
   if (!trajectory_note.empty()) err << "servokit: note: " << trajectory_note << "\n";
 
   InverseModelOptions options;

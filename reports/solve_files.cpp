@@ -1,6 +1,8 @@
 #include "reports/solve_files.h"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -33,7 +35,7 @@ void WriteFeedforwardCsv(const std::string& path,
   const std::string partial = path + ".partial";
   {
     std::ofstream file(partial);
-    if (!file) throw Error("cannot write " + path);
+    if (!file) throw Error("cannot write " + path + " (" + std::strerror(errno) + ")");
     std::string line = "t";
     for (const std::string& name : model.coordinates()) line += "," + name;
     for (const std::string& name : model.coordinates()) line += "," + name + "_dot";

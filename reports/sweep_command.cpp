@@ -242,11 +242,7 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
     grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
     info = DescribeSweepModel(*linear_model, linear_options);
   } else {
-    for (const char* name : kLinearModelOptions) {
-      if (sweep.get_option(name)->count() > 0) {
-        throw UsageError(std::string(name) + ": applies to linear models (`kind: linear`) only");
-      }
-    }
+    RefuseLinearModelOptions(sweep);
     model.emplace(LoadModel(arguments.model_path, overrides));
     grid.emplace(ParseParameterGrid(*model, arguments.vary));
     info = DescribeSweepModel(*model);

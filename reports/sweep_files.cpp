@@ -136,6 +136,13 @@ void SyncFile(int fd, const std::filesystem::path& path) {
   if (::fsync(fd) != 0) throw IoError(path, "fsync failed");
 }
 
+// Where WriteDurably writes `path` before it renames it into place.
+std::filesystem::path TemporaryPath(const std::filesystem::path& path) {
+  std::filesystem::path temporary = path;
+  temporary += ".tmp";
+  return temporary;
+}
+
 std::string ReadFile(const std::filesystem::path& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw IoError(path, "cannot read");
@@ -383,6 +390,7 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
       format_threads_(std::max(output_options.threads, 1)) {
   Lock();
   try {
+    RemoveStaleTemporaries();
     if (std::filesystem::exists(paths_.checkpoint)) {
       const CheckpointRecord checkpoint = ReadCheckpoint(paths_.checkpoint);
       if (checkpoint.fingerprint != fingerprint_) throw AnotherSweep(directory_);
@@ -431,6 +439,19 @@ void SweepOutput::Lock() {
     CloseFile(directory_fd_);
     throw UsageError("--out " + directory_.string() +
                      ": another servokit sweep is writing this directory");
+  }
+}
+
+void SweepOutput::RemoveStaleTemporaries() const {
+  // A run killed inside WriteDurably leaves its temporary behind. Most resumed runs overwrite
+  // it at their next checkpoint, but one killed after its last checkpoint never writes another,
+  // and the finished directory would keep a stray file. We hold the lock: nobody else writes.
+  for (const std::filesystem::path& path : {paths_.checkpoint, paths_.record}) {
+    std::error_code error;
+    std::filesystem::remove(TemporaryPath(path), error);
+    if (error) {
+      throw Error(TemporaryPath(path).string() + ": cannot remove: " + error.message());
+    }
   }
 }
 
@@ -574,8 +595,7 @@ void SweepOutput::WriteRecord(bool completed) const {
 
 void SweepOutput::WriteDurably(const std::filesystem::path& path,
                                const std::string& contents) const {
-  std::filesystem::path temporary = path;
-  temporary += ".tmp";
+  const std::filesystem::path temporary = TemporaryPath(path);
   int fd = OpenFile(temporary, O_WRONLY | O_CREAT | O_TRUNC);
   try {
     WriteAll(fd, contents, temporary);

@@ -175,6 +175,7 @@ class SweepOutput {
   };
 
   void Lock();
+  void RemoveStaleTemporaries() const;
   void StartAfresh();
   void Resume(const FileSizes& sizes);
   void WriteRecord(bool completed) const;

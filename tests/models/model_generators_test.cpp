@@ -210,7 +210,7 @@ TEST_CASE("bad generator options name the field, the value, the rule and the opt
   ChainOptions chain;
   chain.masses = 0;
   CHECK_THROWS_WITH(chain.Validate(),
-                    "ChainOptions::masses = 0: must be from 1 to 100000000 (--masses)");
+                    "ChainOptions::masses = 0: must be from 1 to 10000000 (--masses)");
   chain = ChainOptions();
   chain.masses = 5;
   chain.output_mass = 6;

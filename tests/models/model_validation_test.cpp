@@ -1,6 +1,9 @@
 // Every malformed model file gives one ModelError that names the file, the key and the entry
 // (DESIGN.md, "The model file"). Each case edits one line of a valid model (the mass on a car).
 #include <catch2/catch.hpp>
+#include <cmath>
+#include <utility>
+#include <vector>
 #include <string>
 
 #include "models/errors.h"
@@ -193,7 +196,103 @@ TEST_CASE("an expression with a syntax error is named with its text", "[models]"
   RequireError(Edit("k*s + d*s_dot", "k*s +"),
                "forces[1]: syntax error in \"k*s +\": unexpected token, got: EOF");
   RequireError(Edit("k*s + d*s_dot", "cos(s, s)"),
-               "forces[1]: syntax error in \"cos(s, s)\": no function \"cos\" with 2 arguments");
+               "forces[1]: cos() takes 1 argument, found 2");
+}
+
+// Found by fuzzing (issue #7; the inputs are in tests/fuzz/regressions/): GiNaC's parser
+// dereferences a null pointer on cos(), and computes number^number exactly, for ever.
+TEST_CASE("parentheses and function arguments are checked before GiNaC parses", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "cos()"), "forces[1]: empty argument of cos()");
+  RequireError(Edit("k*s + d*s_dot", "atan2(s)"), "forces[1]: atan2() takes 2 arguments, found 1");
+  RequireError(Edit("k*s + d*s_dot", "atan2(s, )"), "forces[1]: empty argument of atan2()");
+  RequireError(Edit("k*s + d*s_dot", "k*(s, s)"),
+               "forces[1]: ',' outside a function's arguments");
+  RequireError(Edit("k*s + d*s_dot", "k*s)"), "forces[1]: ')' without '('");
+  RequireError(Edit("k*s + d*s_dot", "k*(s"), "forces[1]: '(' without ')'");
+  RequireError(Edit("k*s + d*s_dot", "k*()"), "forces[1]: empty parentheses");
+  RequireError(Edit("k*s + d*s_dot", std::string(101, '(') + "s" + std::string(101, ')')),
+               "forces[1]: parentheses nested deeper than 100");
+  CHECK_NOTHROW(LoadModelFromString(
+      Edit("k*s + d*s_dot", std::string(100, '(') + "s" + std::string(100, ')')), kSource));
+}
+
+// A long enough line overflowed the stack in GiNaC's recursive parser (exit 139).
+TEST_CASE("chains of powers are bounded", "[models]") {
+  std::string chain = "s";
+  for (int i = 0; i < 11; ++i) chain += "^1";
+  RequireError(Edit("k*s + d*s_dot", chain), "forces[1]: more than 10 powers in a chain a^b^c...");
+  // Powers that are not chained do not count: a polynomial in s.
+  std::string polynomial = "s";
+  for (int i = 2; i < 30; ++i) polynomial += " + s^" + std::to_string(i);
+  CHECK_NOTHROW(LoadModelFromString(Edit("k*s + d*s_dot", polynomial), kSource));
+}
+
+// GiNaC's parser gives a sign after an operator the whole rest of the expression (checked
+// against GiNaC 1.8 directly): 2*-s+1 is 2*(1-s), s^-2+1 is s^(-1), s - -s + 1 is 2s - 1, and
+// - -s+1 is s - 1. Found while fuzzing (x^-x-9 became x^(-9-x)), issue #7.
+TEST_CASE("a sign after an operator is refused: GiNaC would read it differently", "[models]") {
+  const std::string hint =
+      "': put the signed operand in parentheses, as 2*(-x) (GiNaC would read 2*-x+1 as 2*(-x+1))";
+  RequireError(Edit("k*s + d*s_dot", "2*-s+1"), "forces[1]: '-' right after '*" + hint);
+  RequireError(Edit("k*s + d*s_dot", "s^-2+1"), "forces[1]: '-' right after '^" + hint);
+  RequireError(Edit("k*s + d*s_dot", "s - -s + 1"), "forces[1]: '-' right after '-" + hint);
+  RequireError(Edit("k*s + d*s_dot", "s/+s"), "forces[1]: '+' right after '/" + hint);
+  RequireError(Edit("k*s + d*s_dot", "(- -s+1)"), "forces[1]: '-' right after '-" + hint);
+}
+
+TEST_CASE("a sign that opens an expression, parenthesis or argument reads as usual",
+          "[models]") {
+  // f_2(s) for the forms GiNaC reads conventionally, against the value written out in C++.
+  const double s = 0.7;
+  const std::vector<std::pair<std::string, double>> cases = {
+      {"-s*3 + 1", -s * 3 + 1},
+      {"-s^2 + 1", -(s * s) + 1},
+      {"(-s + 1)*2", (-s + 1) * 2},
+      {"2*(-s) + 1", 2 * (-s) + 1},
+      {"s^(-2) + 1", 1 / (s * s) + 1},
+      {"atan2(-s + 1, 2)", std::atan2(-s + 1, 2)},
+      {"+s - 1", s - 1},
+  };
+  for (const auto& [expression, expected] : cases) {
+    INFO(expression);
+    const Model model = LoadModelFromString(Edit("k*s + d*s_dot", expression), kSource);
+    Workspace workspace(model);
+    Evaluate(model, workspace, Eigen::Vector2d(0.1, s), Eigen::Vector2d::Zero(), Quantity::kForces);
+    CHECK(workspace.forces(1) == Approx(expected).epsilon(1e-15));
+  }
+}
+
+TEST_CASE("powers GiNaC would compute for ever are refused", "[models]") {
+  // 523^25 = 9.17e67 (25 log10(523) = 67.96); as an exponent it is far above 1000.
+  RequireError(Edit("k*s + d*s_dot", "s - 9^(523^25)"),
+               "forces[1]: exponent too large (9.17365e+67; at most 1000 in absolute value)");
+  RequireError(Edit("k*s + d*s_dot", "s^2000"),
+               "forces[1]: exponent too large (2000; at most 1000 in absolute value)");
+  // (2^1000)^1000 = 2^1e6 = 10^301029.996
+  RequireError(Edit("k*s + d*s_dot", "(2^1000)^1000*s"),
+               "forces[1]: number too large to compute (about 10^301030)");
+  // GiNaC expands 8^(9^322 - s) into 8^(9^322) 8^(-s) (a fuzzed input hung for minutes);
+  // 9^322 = 10^307.3.
+  RequireError(Edit("k*s + d*s_dot", "s + 8^(2*(9^322 - s))"),
+               "forces[1]: a number in an exponent too large (about 10^307; at most 1000 in "
+               "absolute value: GiNaC would compute a^(n + x) as a^n a^x, a^n exactly)");
+  CHECK_NOTHROW(LoadModelFromString(
+      Edit("k*s + d*s_dot", "s + 2^(1000 - s) + sin(2^(s + 300))"), kSource));
+  // What stays in range is still read: 10^400/10^399 = 10 exactly.
+  CHECK_NOTHROW(LoadModelFromString(Edit("k*s + d*s_dot", "10^400/10^399*s - 2^(-3^2)*s"), kSource));
+}
+
+TEST_CASE("a decimal exponent beyond 10000 is out of range", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "0e20300000000000000000099*s"),
+               "forces[1]: number out of range '0e20300000000000000000099'");
+  RequireError(Edit("k*s + d*s_dot", "1e-10001*s"), "forces[1]: number out of range '1e-10001'");
+  CHECK_NOTHROW(LoadModelFromString(Edit("k*s + d*s_dot", "1e-300*s + 1e+3*s"), kSource));
+}
+
+TEST_CASE("an expression that has no derivative is a clear error", "[models]") {
+  RequireError(Edit("k*s + d*s_dot", "0^s"),
+               "derivatives: cannot differentiate the model's expressions: power::eval(): "
+               "division by zero");
 }
 
 TEST_CASE("an unknown symbol is named", "[models]") {

@@ -93,13 +93,31 @@ TEST_CASE("no equilibrium exits 3", "[reports]") {
   CHECK_THAT(run.err, Catch::StartsWith("servokit: error: no equilibrium found"));
 }
 
-TEST_CASE("--version and --help exit 0", "[reports]") {
+TEST_CASE("--version prints the project version", "[reports]") {
   const Run version = RunServokit({"--version"});
   CHECK(version.status == 0);
-  CHECK_THAT(version.out, Catch::StartsWith("servokit "));
-  const Run help = RunServokit({"analyze", "--help"});
-  CHECK(help.status == 0);
-  CHECK_THAT(help.out, Catch::Contains("Example"));
+  CHECK(version.out == std::string("servokit ") + SERVOKIT_PROJECT_VERSION + "\n");
+}
+
+TEST_CASE("--help of servokit and of every subcommand exits 0 with an example of it",
+          "[reports]") {
+  const std::vector<std::vector<std::string>> subcommands = {
+      {},           {"analyze"},          {"threshold"},       {"sweep"}, {"solve"},
+      {"report"},   {"generate"},         {"generate", "chain"}, {"generate", "beam"}};
+  for (const auto& subcommand : subcommands) {
+    std::vector<std::string> arguments = subcommand;
+    arguments.push_back("--help");
+    const Run help = RunServokit(arguments);
+    std::string invocation = "servokit";
+    for (const auto& word : subcommand) invocation += " " + word;
+    INFO(invocation << " --help");
+    CHECK(help.status == 0);
+    CHECK(help.err.empty());
+    // The footer's example is a command line of this subcommand (its first word for generate).
+    const std::string example = "\n  servokit " + (subcommand.empty() ? "analyze" : subcommand[0]);
+    CHECK_THAT(help.out, Catch::Contains("Example"));
+    CHECK_THAT(help.out, Catch::Contains(example));
+  }
 }
 
 }  // namespace

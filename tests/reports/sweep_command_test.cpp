@@ -296,6 +296,51 @@ TEST_CASE("a finished sweep run again is reported complete and not computed agai
   CHECK(fs::last_write_time(work / "out" / "points.csv") == written);
 }
 
+// The moment sweep_kill_test once hit by chance: the last block's checkpoint says every point is
+// done, Finish() starts to write the same checkpoint again and is killed inside WriteDurably,
+// before the renames. The run that resumes writes no checkpoint, so it must remove the
+// temporary itself.
+TEST_CASE("a sweep killed while writing its last checkpoint finishes with no temporary left",
+          "[reports]") {
+  const TemporaryDirectory work;
+  const fs::path reference = work / "reference", out = work / "out";
+  const std::string model = ModelPath("mass_on_car.yaml");
+  REQUIRE(RunServokit(Sweep(model, {"d=0:1:11"}, reference)).status == 0);
+  REQUIRE(RunServokit(Sweep(model, {"d=0:1:11"}, out)).status == 0);
+  // Back to the moment of the kill: partial tables, an all-done checkpoint, a torn temporary.
+  fs::rename(out / "points.csv", out / "points.csv.partial");
+  fs::rename(out / "eigenvalues.csv", out / "eigenvalues.csv.partial");
+  const nlohmann::json record = nlohmann::json::parse(ReadFile(out / "sweep.json"));
+  const std::string checkpoint =
+      "servokit-sweep-checkpoint 1\nfingerprint=" + record["fingerprint"].get<std::string>() +
+      "\npoints_done=11\npoints_without_solution=0\npoints_bytes=" +
+      std::to_string(fs::file_size(out / "points.csv.partial")) +
+      "\neigenvalues_bytes=" + std::to_string(fs::file_size(out / "eigenvalues.csv.partial")) +
+      "\n";
+  std::ofstream(out / ".sweep-checkpoint") << checkpoint;
+  std::ofstream(out / ".sweep-checkpoint.tmp") << checkpoint.substr(0, checkpoint.size() / 2);
+  std::ofstream(out / "sweep.json.tmp") << "{\"model\": ";
+  const Run resumed = RunServokit(Sweep(model, {"d=0:1:11"}, out));
+  INFO("stderr: " << resumed.err);
+  REQUIRE(resumed.status == 0);
+  CheckSameTables(reference, out);
+  CheckOnlyFinalFiles(out);
+  CHECK(nlohmann::json::parse(ReadFile(out / "sweep.json"))["completed"] == true);
+}
+
+TEST_CASE("a stale temporary that cannot be removed stops the sweep with status 1", "[reports]") {
+  const TemporaryDirectory work;
+  // A directory with a file in it, where the checkpoint's temporary would be.
+  fs::create_directories(work / "out" / ".sweep-checkpoint.tmp" / "inside");
+  const Run run =
+      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out"));
+  CHECK(run.status == 1);
+  CHECK_THAT(run.err, Catch::StartsWith("servokit: error: "));
+  CHECK_THAT(run.err, Catch::Contains(".sweep-checkpoint.tmp: cannot remove"));
+  CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(work / "out" / "points.csv.partial"));
+}
+
 TEST_CASE("a directory holding another sweep is refused, finished or not", "[reports]") {
   const TemporaryDirectory work;
   const std::string model = ModelPath("mass_on_car.yaml");

@@ -7,10 +7,6 @@
 // of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))), N' = N − 1 (README,
 // "Large linear models"): 2N' of them; with ARPACK the `--eigenvalues K` nearest 0 are the K/2
 // slowest pairs (μ_1, μ_2, ...).
-#include <fcntl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
@@ -26,6 +22,7 @@
 #include <vector>
 #include "tests/chain_closed_form.h"
 #include "tests/test_files.h"
+#include "tests/test_process.h"
 
 namespace servokit {
 namespace {
@@ -47,44 +44,17 @@ std::vector<std::string> Split(const std::string& line, char separator) {
   return parts;
 }
 
-struct Job {
-  int status = -1;
-  std::string out, err;
-};
+using Job = testing::ProcessResult;
 
 /// Runs `command` in `directory` (created if needed) under `timeout`, with `environment` added.
 Job RunIn(const fs::path& directory,
           const std::vector<std::string>& command,
           const std::map<std::string, std::string>& environment = {}) {
-  fs::create_directories(directory);
   std::vector<std::string> all = {"timeout", "-k", "5", kJobTimeoutSeconds};
   all.insert(all.end(), command.begin(), command.end());
-  std::vector<char*> argv;
-  for (std::string& argument : all) argv.push_back(argument.data());
-  argv.push_back(nullptr);
-  const fs::path out = directory / "stdout.txt", err = directory / "stderr.txt";
-  const pid_t child = ::fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    for (const auto& [name, value] : environment) ::setenv(name.c_str(), value.c_str(), 1);
-    const int out_fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err_fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out_fd < 0 || err_fd < 0 || ::dup2(out_fd, STDOUT_FILENO) < 0 ||
-        ::dup2(err_fd, STDERR_FILENO) < 0 || ::chdir(directory.c_str()) != 0) {
-      ::_exit(127);
-    }
-    ::execvp(argv[0], argv.data());
-    ::_exit(127);
-  }
-  int status = 0;
-  REQUIRE(::waitpid(child, &status, 0) == child);
-  Job job;
-  job.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  job.out = ReadFile(out);
-  job.err = ReadFile(err);
-  fs::remove(out);
-  fs::remove(err);
-  return job;
+  testing::ProcessOptions options;
+  options.environment = environment;
+  return testing::RunProcess(directory, all, options);
 }
 
 /// `servokit generate chain` of `masses` masses into `directory`; returns the YAML's path.

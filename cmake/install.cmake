@@ -1,0 +1,42 @@
+# `cmake --install` (issue #7): the four libraries, their headers, the `servokit` executable,
+# the shipped models and a CMake package, so that another project can write
+#   find_package(servokit REQUIRED)
+#   target_link_libraries(app PRIVATE servokit::analysis)
+# Installed layout under the prefix:
+#   bin/servokit
+#   lib/libservokit_{models,analysis,solvers,reports}.a
+#   include/servokit/{models,analysis,solvers,reports}/*.h   (included as "models/model.h")
+#   share/servokit/models/*.yaml                             (the shipped models)
+#   lib/cmake/servokit/servokit{Config,ConfigVersion,Targets}.cmake
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(SERVOKIT_LIBRARIES models analysis solvers reports)
+set(SERVOKIT_PACKAGE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/servokit)
+
+foreach(folder IN LISTS SERVOKIT_LIBRARIES)
+  # Exported as servokit::<folder>, the same name as the alias inside this build.
+  set_target_properties(servokit_${folder} PROPERTIES EXPORT_NAME ${folder})
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder}/
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit/${folder}
+          FILES_MATCHING PATTERN "*.h")
+endforeach()
+list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
+install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+install(TARGETS servokit RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/models/
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/servokit/models
+        FILES_MATCHING PATTERN "*.yaml")
+
+install(EXPORT servokitTargets NAMESPACE servokit:: DESTINATION ${SERVOKIT_PACKAGE_DIR})
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/servokitConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/servokitConfig.cmake
+  INSTALL_DESTINATION ${SERVOKIT_PACKAGE_DIR}
+  PATH_VARS CMAKE_INSTALL_DATADIR)
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/servokitConfigVersion.cmake
+  COMPATIBILITY SameMinorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/servokitConfig.cmake
+              ${PROJECT_BINARY_DIR}/servokitConfigVersion.cmake
+        DESTINATION ${SERVOKIT_PACKAGE_DIR})

@@ -1,0 +1,419 @@
+// Numerical edge cases of the classification (issue #7): P near singular, M near singular,
+// parameters at 0 or huge, NaN or Inf in a parameter or produced by the model. Each case must
+// give a correct classification, with the tolerance that decided it stated, or a clear error;
+// never a NaN in the output without a message. Expected values are closed forms derived here:
+//
+// Rotational arm (models/rotational_arm.yaml, paper Eq. 49 with Table 2, output
+// y = alpha + s/(s+l) beta) at beta = 0: M = m l^2 [[8/3, 5/6], [5/6, 1/3]], det M = 7/36 m^2 l^4,
+// M^-1 B = [12, -30] / (7 m l^2), H = [1, sigma] with sigma = s/(s+l), so
+//   P(s) = (12 - 30 sigma) / (7 m l^2) = 6 (2l - 3s) / (7 m l^2 (s + l)),
+// linear in s - 2l/3 near s* = 2l/3: P = -54 (s - s*) / (35 m l^3). The rank threshold is
+// rank_tolerance |H| |M^-1 B| = 1e-10 sqrt(1 + sigma^2) sqrt(12^2 + 30^2) / (7 m l^2)
+// (= 1.446e-10 at s*), so P counts as zero for |s - s*| <= 3.2e-10 l. The zero dynamics are the
+// roots of Eq. (56): m l^2 (2l - 3s) lambda^2 + 6 d (s+l) lambda + 6 c (s+l) = 0; where P is
+// taken as zero only the linear part remains: lambda = -c/d.
+//
+// Mass on car (models/mass_on_car.yaml, Eqs. 26-27): det M = m1 m2 + m2^2 sin^2(alpha),
+// P = (M22 - cos(alpha) M12) / det M = sin^2(alpha) / (m1 + m2 sin^2(alpha)), and the zero
+// dynamics m2 sin^2(alpha) s'' + d s' + k s = 0 (Eq. 36 with y_d = 0).
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "analysis/sweep_point.h"
+#include "analysis/thresholds.h"
+#include "models/errors.h"
+#include "tests/analysis/classify_helpers.h"
+#include "tests/test_files.h"
+#include "tests/test_process.h"
+
+namespace servokit {
+namespace {
+
+namespace fs = std::filesystem;
+using Catch::Matchers::Contains;
+using testing::ClassifyFile;
+using testing::ModelPath;
+using testing::ReadFile;
+using testing::StartProcess;
+using testing::TemporaryDirectory;
+using testing::TestDataPath;
+using testing::WaitForProcess;
+
+// Table 2 (the arm) and the mass on car's parameters (README "Shipped models").
+constexpr double kL = 1.0, kArmMass = 3.438, kC = 50.0, kArmDamping = 0.25;
+constexpr double kM1 = 1.0, kM2 = 2.0, kK = 5.0;
+const double kAlpha = 5.0 * std::numbers::pi / 180.0;
+const double kSin2 = std::sin(kAlpha) * std::sin(kAlpha);
+
+std::string Exact(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return text;
+}
+
+// ---- closed forms --------------------------------------------------------------------------
+
+// In long double: near s* the factor 2l - 3s cancels to a few bits of a double.
+long double ArmP(double s) {
+  const long double ls = s;
+  return 6.0L * (2.0L * kL - 3.0L * ls) / (7.0L * kArmMass * kL * kL * (ls + kL));
+}
+
+double ArmRankThreshold(double s, double rank_tolerance) {
+  const double sigma = s / (s + kL);
+  return rank_tolerance * std::sqrt(1.0 + sigma * sigma) * std::sqrt(12.0 * 12.0 + 30.0 * 30.0) /
+         (7.0 * kArmMass * kL * kL);
+}
+
+// The two real roots of Eq. (56), by the cancellation-free quadratic formula in long double,
+// sorted as SortEigenvalues does (real part descending).
+std::vector<double> ArmZeroDynamics(double s) {
+  const long double ls = s;
+  const long double a2 = kArmMass * kL * kL * (2.0L * kL - 3.0L * ls);
+  const long double a1 = 6.0L * kArmDamping * (ls + kL);
+  const long double a0 = 6.0L * kC * (ls + kL);
+  const long double discriminant = a1 * a1 - 4.0L * a2 * a0;
+  REQUIRE(discriminant > 0.0L);
+  const long double q = -0.5L * (a1 + std::sqrt(discriminant));
+  std::vector<double> roots = {double(q / a2), double(a0 / q)};
+  std::sort(roots.rbegin(), roots.rend());
+  return roots;
+}
+
+// ---- the servokit binary -------------------------------------------------------------------
+
+struct Run {
+  int status = -1;
+  std::string out, err;
+};
+
+// Runs SERVOKIT_BINARY with `arguments` in `work`, which keeps its stdout and stderr.
+Run RunBinary(const TemporaryDirectory& work, std::vector<std::string> arguments) {
+  REQUIRE(fs::exists(SERVOKIT_BINARY));
+  arguments.insert(arguments.begin(), SERVOKIT_BINARY);
+  const int status = WaitForProcess(StartProcess(work.path(), arguments));
+  REQUIRE(WIFEXITED(status));
+  return {WEXITSTATUS(status), ReadFile(work / "stdout.txt"), ReadFile(work / "stderr.txt")};
+}
+
+// The message of the NoSolution that `classify` throws (any other exception fails the test).
+template <typename Classify>
+std::string NoSolutionMessage(Classify classify) {
+  try {
+    classify();
+  } catch (const NoSolution& error) {
+    return error.what();
+  }
+  return "(no NoSolution was thrown)";
+}
+
+// "nan", "inf" or "infinity" as a word, as printf and CSV writers spell non-finite numbers
+// (not "infinite_zero_orders").
+bool HasNonFiniteNumber(const std::string& text) {
+  static const std::regex non_finite(R"(\b(nan|inf|infinity)\b)", std::regex::icase);
+  return std::regex_search(text, non_finite);
+}
+
+// ---- P near singular: the arm around s* = 2l/3 ---------------------------------------------
+
+TEST_CASE("the arm near s = 2l/3: P, the rank band and the zero dynamics follow the closed form",
+          "[analysis][paper]") {
+  const double s_star = 2.0 * kL / 3.0;
+  for (const double offset : {0.0, 1e-10, -1e-10, 1e-9, -1e-9, 1e-6, -1e-6}) {
+    const double s = s_star + offset;
+    INFO("s = 2l/3 + " << offset);
+    const Classification c = ClassifyFile(ModelPath("rotational_arm.yaml"), {{"s", Exact(s)}});
+    const double expected_p = double(ArmP(s));
+    const double threshold = ArmRankThreshold(s, 1e-10);
+    // Round-off of H M^-1 B: a few epsilon of |H| |M^-1 B| = 1.4 (absolute).
+    CHECK(c.decoupling.decoupling_matrix(0, 0) == Approx(expected_p).margin(1e-15));
+    CHECK(c.decoupling.rank_threshold == Approx(threshold).epsilon(1e-12));
+    // Every case is at least a factor 3 from the edge of the band (|s - s*| = 3.2e-10), so
+    // round-off cannot decide it.
+    const double ratio = std::abs(expected_p) / threshold;
+    REQUIRE((ratio < 1.0 / 3.0 || ratio > 3.0));
+    const bool rank_one = ratio > 1.0;
+    CHECK(c.decoupling.rank == (rank_one ? 1 : 0));
+    REQUIRE(c.cross_check.has_value());
+    CHECK(c.cross_check->agrees);
+    if (!rank_one) {
+      CHECK(c.decoupling.realization == Realization::kTangential);
+      CHECK(c.structure.relative_degree == std::vector<int>{3});
+      CHECK(c.structure.differentiation_index == 4);
+      REQUIRE(c.zero_dynamics.eigenvalues.size() == 1);
+      CHECK(c.zero_dynamics.eigenvalues[0].real() == Approx(-kC / kArmDamping).epsilon(1e-6));
+      CHECK(c.zero_dynamics.stability == Stability::kAsymptoticallyStable);
+      continue;
+    }
+    CHECK(c.decoupling.realization == Realization::kNonIdealOrthogonal);
+    CHECK(c.structure.relative_degree == std::vector<int>{2});
+    CHECK(c.structure.differentiation_index == 3);
+    const std::vector<double> roots = ArmZeroDynamics(s);
+    REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+    // The far root is -a1/a2 ~ 1/P: P carries a relative round-off of up to 1e-16 * 1.4 / |P|
+    // (7e-7 at |s - s*| = 1e-9).
+    for (std::size_t i = 0; i < 2; ++i) {
+      CHECK(c.zero_dynamics.eigenvalues[i].real() == Approx(roots[i]).epsilon(1e-5));
+      CHECK(c.zero_dynamics.eigenvalues[i].imag() == 0.0);
+    }
+    // Past s* the leading coefficient m l^2 (2l - 3s) is negative: one root in the right half
+    // plane (Fig. 8).
+    CHECK(c.zero_dynamics.stability ==
+          (offset > 0 ? Stability::kUnstable : Stability::kAsymptoticallyStable));
+  }
+}
+
+TEST_CASE("analyze states the rank threshold next to P, and the tolerance moves the verdict",
+          "[analysis]") {
+  const TemporaryDirectory work;
+  const double s = 2.0 * kL / 3.0 + 1e-10;  // |P| = 4.5e-11: zero at 1e-10, not at 1e-11
+  for (const double tolerance : {1e-10, 1e-11}) {
+    INFO("--rank-tolerance " << tolerance);
+    const Run run =
+        RunBinary(work, {"analyze", ModelPath("rotational_arm.yaml"), "--set", "s=" + Exact(s),
+                         "--rank-tolerance", Exact(tolerance), "--format", "json"});
+    INFO(run.err);
+    REQUIRE(run.status == 0);
+    const nlohmann::json json = nlohmann::json::parse(run.out);
+    const double threshold = ArmRankThreshold(s, tolerance);
+    CHECK(json["tolerances"]["rank_tolerance"].get<double>() == tolerance);
+    CHECK(json["P_rank_threshold"].get<double>() == Approx(threshold).epsilon(1e-12));
+    CHECK(json["P"][0][0].get<double>() == Approx(double(ArmP(s))).margin(1e-15));
+    const bool rank_one = std::abs(double(ArmP(s))) > threshold;
+    CHECK(rank_one == (tolerance < 1e-10));
+    CHECK(json["P_rank"].get<int>() == (rank_one ? 1 : 0));
+    CHECK(json["realization"].get<std::string>() ==
+          (rank_one ? "non-ideal-orthogonal" : "tangential"));
+    CHECK_FALSE(HasNonFiniteNumber(run.out));
+    // nlohmann::json writes NaN and Inf as null.
+    for (const char* key : {"P", "P_singular_values", "P_rank_threshold"}) {
+      INFO(key);
+      CHECK(json[key].dump().find("null") == std::string::npos);
+    }
+  }
+  // The text form says the same: "(zero below <threshold>)".
+  const Run text =
+      RunBinary(work, {"analyze", ModelPath("rotational_arm.yaml"), "--set", "s=" + Exact(s)});
+  REQUIRE(text.status == 0);
+  CHECK_THAT(text.out, Contains("(zero below 1.44602e-10)"));
+}
+
+// ---- M near singular ------------------------------------------------------------------------
+
+TEST_CASE("a mass matrix singular to working precision is an error that names it", "[analysis]") {
+  // det M = m1 m2 + m2^2 sin^2(alpha): exactly 0 for m1 = 0 at alpha = 0; 1e-300 against entries
+  // of order 1 for m2 = 1e-300; entries 1e308 against 2 for m1 = 1e308 (condition ~ 1e308).
+  // Before: "the output does not determine the inputs" and "infinite relative degree".
+  const std::vector<std::vector<ParameterOverride>> cases = {
+      {{"m1", "0"}, {"alpha", "0"}}, {{"m2", "1e-300"}}, {{"m1", "1e308"}}};
+  for (const auto& overrides : cases) {
+    INFO(overrides.front().name << " = " << overrides.front().value);
+    CHECK_THAT(NoSolutionMessage([&] { ClassifyFile(ModelPath("mass_on_car.yaml"), overrides); }),
+               Contains("the mass matrix is singular to working precision"));
+  }
+  // m2 = 0 makes M semidefinite: det M = 0 and the Cholesky factor fails.
+  CHECK_THAT(NoSolutionMessage([&] {
+               ClassifyFile(ModelPath("mass_on_car.yaml"), {{"m2", "0"}});
+             }),
+             Contains("mass matrix is not positive definite"));
+  // Through the command line: one line, exit status 3 (no solution of the kind asked).
+  const TemporaryDirectory work;
+  const Run run = RunBinary(
+      work, {"analyze", ModelPath("mass_on_car.yaml"), "--set", "m1=0", "--set", "alpha=0"});
+  CHECK(run.status == 3);
+  CHECK_THAT(run.err, Contains("servokit: error: the mass matrix is singular to working "
+                               "precision at the operating point"));
+  CHECK(run.out.empty());
+}
+
+TEST_CASE("a massless car is regular away from alpha = 0: P = 1/m2", "[analysis]") {
+  // m1 = 0 at alpha = 5 deg: det M = m2^2 sin^2(alpha) > 0; P = sin^2 / (0 + m2 sin^2) = 1/m2.
+  for (const char* m1 : {"0", "1e-300"}) {
+    INFO("m1 = " << m1);
+    const Classification c = ClassifyFile(ModelPath("mass_on_car.yaml"), {{"m1", m1}, {"d", "1"}});
+    CHECK(c.decoupling.decoupling_matrix(0, 0) == Approx(1.0 / kM2).epsilon(1e-12));
+    const std::vector<std::complex<double>> roots = testing::QuadraticRoots(kM2 * kSin2, 1.0, kK);
+    REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+    for (std::size_t i = 0; i < 2; ++i) {
+      CHECK(c.zero_dynamics.eigenvalues[i].real() == Approx(roots[i].real()).epsilon(1e-9));
+    }
+  }
+}
+
+// ---- parameters at 0 or huge ----------------------------------------------------------------
+
+TEST_CASE("huge stiffness: exact zero dynamics up to k = 1e300, a clear overflow error at 1e308",
+          "[analysis]") {
+  // d = 0: the zero dynamics are +-i sqrt(k / (m2 sin^2 alpha)) (critical).
+  // Before: k = 1e200 gave "infinite relative degree" (the squares in norm() overflowed) and
+  // k = 1e300 "equilibrium not isolated" (FullPivLU's threshold set by the entry 1e300).
+  for (const double k : {1e20, 1e150, 1e200, 1e300}) {
+    INFO("k = " << k);
+    const Classification c =
+        ClassifyFile(ModelPath("mass_on_car.yaml"), {{"k", Exact(k)}, {"d", "0"}});
+    const double frequency = std::sqrt(k) / std::sqrt(kM2 * kSin2);
+    REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+    CHECK(c.zero_dynamics.eigenvalues[0].imag() == Approx(frequency).epsilon(1e-9));
+    CHECK(c.zero_dynamics.eigenvalues[1].imag() == Approx(-frequency).epsilon(1e-9));
+    CHECK(c.zero_dynamics.stability == Stability::kCritical);
+    CHECK(c.decoupling.decoupling_matrix(0, 0) ==
+          Approx(kSin2 / (kM1 + kM2 * kSin2)).epsilon(1e-12));
+  }
+  // k = 1e308: M^-1 K is finite but the first-order zero dynamics overflow; before, "the
+  // equilibrium is not isolated", which is false (k > 0 fixes s).
+  CHECK_THAT(NoSolutionMessage([&] {
+               ClassifyFile(ModelPath("mass_on_car.yaml"), {{"k", "1e308"}, {"d", "0"}});
+             }),
+             Contains("overflows the range of double"));
+  // The sweep's polynomial route never forms k / m2 and gets it right: a second method.
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"k", "1e308"}, {"d", "0"}});
+  Workspace workspace(model);
+  const SweepPoint point = AnalyzeSweepPoint(model, workspace, ClassificationOptions{});
+  REQUIRE(point.ok);
+  REQUIRE(point.eigenvalues.size() == 2);
+  CHECK(point.eigenvalues[0].imag() ==
+        Approx(std::sqrt(1e308) / std::sqrt(kM2 * kSin2)).epsilon(1e-9));
+}
+
+TEST_CASE("a mass matrix beyond the largest double is an overflow error, not a singular one",
+          "[analysis]") {
+  // m2 = 1e308: the first column of M sums to m1 + m2 + m2 cos(alpha) = 1.996e308 > 1.797e308,
+  // so M's norm (and its condition estimate) overflows; before: "infinite relative degree".
+  CHECK_THAT(NoSolutionMessage([&] {
+               ClassifyFile(ModelPath("mass_on_car.yaml"), {{"m2", "1e308"}});
+             }),
+             Contains("the mass matrix overflows the range of double") && Contains("m2 = 1e+308"));
+}
+
+TEST_CASE("k = 0 leaves s free: the equilibrium is not isolated", "[analysis]") {
+  // With k = 0, f(q, 0) = 0 for every s: (y0 - s cos(alpha), s) is an equilibrium for all s.
+  CHECK_THAT(NoSolutionMessage([&] {
+               ClassifyFile(ModelPath("mass_on_car.yaml"), {{"k", "0"}});
+             }),
+             Contains("is not isolated"));
+}
+
+TEST_CASE("huge damping overflows with a message, not 'did not converge'", "[analysis]") {
+  // d = 1e308: the roots of m2 sin^2 lambda^2 + d lambda + k are -k/d = -5e-308 and
+  // -d/(m2 sin^2 alpha) = -6.6e309, beyond the largest double.
+  CHECK_THAT(NoSolutionMessage([&] {
+               ClassifyFile(ModelPath("mass_on_car.yaml"), {{"d", "1e308"}});
+             }),
+             Contains("overflows the range of double"));
+}
+
+// ---- NaN and Inf ----------------------------------------------------------------------------
+
+TEST_CASE("a force that is NaN or infinite at the operating point is an error naming it",
+          "[analysis]") {
+  const std::string path = TestDataPath("edge_nan_stiffness.yaml");
+  // Nominal: sqrt(25) = 5 = k and log(e) = 1 = d: the mass on car's zero dynamics.
+  const Classification c = ClassifyFile(path);
+  const auto roots = testing::QuadraticRoots(kM2 * kSin2, 1.0, kK);
+  REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+  for (std::size_t i = 0; i < 2; ++i) {
+    CHECK(c.zero_dynamics.eigenvalues[i].real() == Approx(roots[i].real()).epsilon(1e-9));
+  }
+  // sqrt(-1) and log(0), log(-1): NaN or -Inf in the forces at q = 0.
+  for (const ParameterOverride& bad :
+       std::vector<ParameterOverride>{{"c", "-1"}, {"g", "0"}, {"g", "-1"}}) {
+    const std::string& name = bad.name;
+    const std::string& value = bad.value;
+    INFO(name << " = " << value);
+    CHECK_THAT(NoSolutionMessage([&] { ClassifyFile(path, {bad}); }),
+               Contains("the model is not finite at q0 = [0, 0]: NaN or Inf") &&
+                   Contains(name + " = " + value));
+  }
+}
+
+TEST_CASE("Inf, NaN and numbers beyond double on the command line are usage errors", "[analysis]") {
+  const TemporaryDirectory work;
+  for (const char* value : {"inf", "-inf", "nan", "1e400", "-1e400"}) {
+    INFO("--set k=" << value);
+    const Run run = RunBinary(
+        work, {"analyze", ModelPath("mass_on_car.yaml"), "--set", std::string("k=") + value});
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Contains(std::string("--set k=") + value + ": not a number"));
+  }
+  for (const char* vary : {"k=0:inf:3", "k=1e400:1:3", "k=1,nan", "k=-inf,1"}) {
+    INFO("--vary " << vary);
+    const fs::path out = work / "sweep";
+    const Run run = RunBinary(
+        work, {"sweep", ModelPath("mass_on_car.yaml"), "--vary", vary, "--out", out.string()});
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Contains(std::string("--vary ") + vary + ": '"));
+    CHECK_FALSE(fs::exists(out));
+  }
+}
+
+TEST_CASE("a sweep records edge points that fail with their message and writes no NaN",
+          "[analysis]") {
+  const TemporaryDirectory work;
+  const fs::path out = work / "sweep";
+  const Run run =
+      RunBinary(work, {"sweep", ModelPath("mass_on_car.yaml"), "--vary", "k=0,5,1e300,1e308",
+                       "--set", "d=0", "--out", out.string(), "--threads", "1"});
+  INFO(run.err);
+  REQUIRE(run.status == 0);
+  const std::vector<std::string> rows = testing::Lines(ReadFile(out / "points.csv"));
+  REQUIRE(rows.size() == 5);
+  CHECK_THAT(rows[1], Contains("0,,,,,,,,\"the equilibrium at q = [0, 0] is not isolated"));
+  CHECK(rows[2] == "5,non-ideal-orthogonal,1,2,3,2,critical,0,");
+  CHECK(rows[3] == "1e+300,non-ideal-orthogonal,1,2,3,2,critical,0,");
+  CHECK(rows[4] == "1e+308,non-ideal-orthogonal,1,2,3,2,critical,0,");
+  const std::string eigenvalues = ReadFile(out / "eigenvalues.csv");
+  CHECK_FALSE(HasNonFiniteNumber(ReadFile(out / "points.csv")));
+  CHECK_FALSE(HasNonFiniteNumber(eigenvalues));
+  // k = 5: +-i sqrt(5 / (2 sin^2 5 deg)) = +-18.1415 (2.887 Hz, paper Sect. 3).
+  const std::vector<std::string> eigenvalue_rows = testing::Lines(eigenvalues);
+  REQUIRE(eigenvalue_rows.size() == 7);
+  CHECK_THAT(eigenvalue_rows[1], Contains("5,0,0,18.14153353797"));
+
+  // The NaN-producing model: the row names the problem, the sweep goes on.
+  const fs::path out2 = work / "sweep2";
+  const Run nan_run = RunBinary(work, {"sweep", TestDataPath("edge_nan_stiffness.yaml"), "--vary",
+                                       "c=-1,25", "--out", out2.string()});
+  REQUIRE(nan_run.status == 0);
+  const std::vector<std::string> nan_rows = testing::Lines(ReadFile(out2 / "points.csv"));
+  REQUIRE(nan_rows.size() == 3);
+  CHECK_THAT(nan_rows[1], Contains("-1,,,,,,,,\"the model is not finite at q0 = [0, 0]"));
+  CHECK_THAT(nan_rows[2], Contains("25,non-ideal-orthogonal,1,2,3,2,asymptotically-stable,"));
+}
+
+TEST_CASE("threshold refuses a range whose midpoints overflow and finds k = 0 exactly",
+          "[analysis]") {
+  const TemporaryDirectory work;
+  // Before: "value": null (a NaN) for 0:1e308 and "floating point overflow" (status 1) for
+  // 1e300:1e308.
+  for (const char* range : {"k=0:1e308", "k=1e300:1e308"}) {
+    INFO(range);
+    const Run run = RunBinary(work, {"threshold", ModelPath("mass_on_car.yaml"), "--vary", range,
+                                     "--event", "stability", "--set", "d=0"});
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Contains("so that its midpoints do not overflow"));
+    CHECK(run.out.empty());
+  }
+  // k = 0 has no isolated equilibrium, every k > 0 is critical (d = 0): the one event is at 0.
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  const ThresholdSearch search = FindThresholds(model, 2, 0.0, 10.0, ThresholdEvent::kStability);
+  REQUIRE(search.events.size() == 1);
+  const ThresholdCrossing& event = search.events[0];
+  CHECK(event.from == "no-solution");
+  CHECK(event.to == "critical");
+  CHECK(std::abs(event.value) <= event.bracket_width);
+  CHECK(event.bracket_width <= 1e-12);
+}
+
+}  // namespace
+}  // namespace servokit

@@ -1,0 +1,35 @@
+# Installs this build into a fresh prefix, builds tests/install/consumer against it and runs it,
+# then runs the installed `servokit` on an installed model (issue #7: cmake --install and
+# find_package). Called by CTest: cmake -DBINARY_DIR=... -DSOURCE_DIR=... -DWORK_DIR=...
+#   -DCXX_COMPILER=... -P consumer_test.cmake
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "failed (${status}): ${ARGN}\n${out}\n${err}")
+  endif()
+  message(STATUS "${ARGN}\n${out}")
+  set(output "${out}" PARENT_SCOPE)
+endfunction()
+
+file(REMOVE_RECURSE ${WORK_DIR})
+set(prefix ${WORK_DIR}/prefix)
+run(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix})
+foreach(path bin/servokit include/servokit/analysis/classification.h
+        share/servokit/models/mass_on_car.yaml lib/cmake/servokit/servokitConfig.cmake)
+  if(NOT EXISTS ${prefix}/${path})
+    message(FATAL_ERROR "not installed: ${path}")
+  endif()
+endforeach()
+
+# The consumer sees only the installed tree: its own source folder and the prefix.
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/install/consumer -B ${WORK_DIR}/build
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+run(${WORK_DIR}/build/consumer)
+
+run(${prefix}/bin/servokit --version)
+run(${prefix}/bin/servokit analyze ${prefix}/share/servokit/models/mass_on_car.yaml --format json)
+if(NOT output MATCHES "\"realization\"")
+  message(FATAL_ERROR "the installed servokit printed no classification")
+endif()
+file(REMOVE_RECURSE ${WORK_DIR})
