@@ -24,6 +24,7 @@
 #include <complex>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <regex>
@@ -354,6 +355,44 @@ TEST_CASE("Inf, NaN and numbers beyond double on the command line are usage erro
     CHECK(run.status == 2);
     CHECK_THAT(run.err, Contains(std::string("--vary ") + vary + ": '"));
     CHECK_FALSE(fs::exists(out));
+  }
+}
+
+TEST_CASE("NaN and Inf in a trajectory are usage errors, and no CSV is written", "[analysis]") {
+  const TemporaryDirectory work;
+  const fs::path csv = work / "u.csv";
+  const std::vector<std::string> solve = {"solve", ModelPath("mass_on_car.yaml"), "--t-end", "3",
+                                          "--out", csv.string()};
+  const auto with = [&](std::vector<std::string> trajectory) {
+    std::vector<std::string> arguments = solve;
+    arguments.insert(arguments.end(), trajectory.begin(), trajectory.end());
+    return arguments;
+  };
+  const std::vector<std::string> rest_to_rest = {"--trajectory", "rest-to-rest", "--t0", "0",
+                                                 "--tf", "1"};
+  for (const char* value : {"nan", "inf", "-inf"}) {
+    std::vector<std::string> arguments = with(rest_to_rest);
+    arguments.insert(arguments.end(), {"--y0", "0", "--yf", value});
+    INFO("--yf " << value);
+    const Run run = RunBinary(work, arguments);
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Contains(std::string("--yf ") + value + ": '" + value +
+                                 "' is not a number"));
+    CHECK_FALSE(fs::exists(csv));
+  }
+  // YAML spells them .nan and .inf; a waypoint file names the entry.
+  for (const auto& [entry, waypoints] :
+       {std::pair{"waypoints[1].y[0]", "waypoints:\n- {t: 0, y: [0]}\n- {t: 1, y: [.nan]}\n"},
+        std::pair{"waypoints[1].t", "waypoints:\n- {t: 0, y: [0]}\n- {t: .inf, y: [1]}\n"},
+        std::pair{"waypoints[0].y[0]", "waypoints:\n- {t: 0, y: [-.inf]}\n- {t: 1, y: [1]}\n"}}) {
+    const fs::path file = work / "waypoints.yaml";
+    std::ofstream(file) << waypoints;
+    INFO(waypoints);
+    const Run run = RunBinary(work, with({"--trajectory", file.string()}));
+    CHECK(run.status == 2);
+    CHECK_THAT(run.err, Contains(file.string() + ": " + entry + ": not a number"));
+    CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
+    CHECK_FALSE(fs::exists(csv));
   }
 }
 
