@@ -6,6 +6,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -23,6 +24,9 @@ struct EquilibriumProblem {
   Workspace& workspace;
   Eigen::VectorXd y0;
   Eigen::VectorXd zero_velocity;
+  // The last q at which the residual was NaN or Inf: when KINSOL then gives up, that is the
+  // reason to report (it names the failure with a flag SUNDIALS itself cannot name).
+  std::optional<Eigen::VectorXd> non_finite_at;
 
   Eigen::Index dof() const { return static_cast<Eigen::Index>(model.dof()); }
   Eigen::Index inputs() const { return static_cast<Eigen::Index>(model.num_inputs()); }
@@ -55,7 +59,9 @@ struct EquilibriumProblem {
 int KinsolResidual(N_Vector unknowns, N_Vector residual, void* user_data) {
   auto& problem = *static_cast<EquilibriumProblem*>(user_data);
   problem.Residual(AsEigen(unknowns), AsEigen(residual));
-  return AsEigen(residual).allFinite() ? 0 : 1;  // positive: recoverable, KINSOL backtracks
+  if (AsEigen(residual).allFinite()) return 0;
+  problem.non_finite_at = AsEigen(unknowns).head(problem.dof());
+  return 1;  // positive: recoverable, KINSOL backtracks
 }
 
 int KinsolJacobian(
@@ -138,17 +144,38 @@ void RunKinsol(EquilibriumProblem& problem,
   CheckSundialsCall(namer, KINSetJacFn(kinsol, KinsolJacobian), "KINSetJacFn");
   // A fresh Jacobian every iteration: exact Newton, since these systems are tiny.
   CheckSundialsCall(namer, KINSetMaxSetupCalls(kinsol, 1), "KINSetMaxSetupCalls");
-  CheckSundialsCall(namer, KINSetNumMaxIters(kinsol, options.max_iterations), "KINSetNumMaxIters");
   CheckSundialsCall(namer, KINSetFuncNormTol(kinsol, options.residual_tolerance),
                     "KINSetFuncNormTol");
   // Let the residual test decide convergence, not a small step.
   CheckSundialsCall(namer, KINSetScaledStepTol(kinsol, 0.0), "KINSetScaledStepTol");
 
-  const int flag =
-      KINSol(kinsol, solution.get(), KIN_LINESEARCH, unknown_scale.get(), residual_scale.get());
-  long int newton_iterations = 0;
-  KINGetNumNonlinSolvIters(kinsol, &newton_iterations);
-  iterations = static_cast<int>(newton_iterations);
+  // KINSOL caps a Newton step at 1000 |u| of the point it starts from, but at no less than 1
+  // (so at 1 from u = 0; KINSolInit sets the cap on every KINSol call): a guard against
+  // leaping into another branch of a nonlinear model. A target farther away than five such
+  // steps (y0 = 10 for the mass on the car, from q = 0) ends in KIN_MXNEWT_5X_EXCEEDED. Then
+  // we go on from where it stopped, with the cap taken afresh from that point, so a far target
+  // is reached in a few rounds, while whatever one round solves is solved exactly as before.
+  int flag = KIN_MXNEWT_5X_EXCEEDED;
+  iterations = 0;
+  while (flag == KIN_MXNEWT_5X_EXCEEDED && iterations < options.max_iterations) {
+    CheckSundialsCall(namer, KINSetNumMaxIters(kinsol, options.max_iterations - iterations),
+                      "KINSetNumMaxIters");
+    flag = KINSol(kinsol, solution.get(), KIN_LINESEARCH, unknown_scale.get(),
+                  residual_scale.get());
+    long int newton_iterations = 0;
+    KINGetNumNonlinSolvIters(kinsol, &newton_iterations);
+    iterations += static_cast<int>(newton_iterations);
+    if (!AsEigen(solution.get()).allFinite()) break;
+  }
+  if (flag < 0 && problem.non_finite_at) {
+    // A step so large that q itself overflowed says nothing by its value: name the overflow.
+    const std::string where = problem.non_finite_at->allFinite()
+                                  ? "at q = " + FormatVector(*problem.non_finite_at)
+                                  : "after a Newton step overflowed q";
+    throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
+                     ": the equilibrium equations became NaN or Inf " + where +
+                     " (is y0 within the model's range?); try --q0 near the equilibrium");
+  }
   if (flag < 0) {
     throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
                      ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
@@ -204,7 +231,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
   const auto inputs = static_cast<Eigen::Index>(model.num_inputs());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
 
-  EquilibriumProblem problem{model, workspace, Eigen::VectorXd(), zero};
+  EquilibriumProblem problem{model, workspace, Eigen::VectorXd(), zero, std::nullopt};
   if (options.y0) {
     problem.y0 = *options.y0;
   } else {

@@ -26,9 +26,10 @@ Eigen::Map<Eigen::VectorXd> AsEigen(N_Vector vector) {
 
 std::string SundialsFlagName(SundialsFlagNamer namer, int flag) {
   char* name = namer(flag);
-  std::string result = name ? name : "flag " + std::to_string(flag);
+  std::string result = name ? name : "NONE";
   std::free(name);  // the *GetReturnFlagName functions return malloc'ed memory
-  return result;
+  // "NONE" is what SUNDIALS answers for a flag its table lacks (KINSOL 6.4: KIN_SYSFUNC_FAIL).
+  return result == "NONE" ? "flag " + std::to_string(flag) : result;
 }
 
 void CheckSundialsCall(SundialsFlagNamer namer, int flag, const char* call) {

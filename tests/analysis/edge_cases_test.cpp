@@ -297,6 +297,33 @@ TEST_CASE("a mass matrix beyond the largest double is an overflow error, not a s
              Contains("the mass matrix overflows the range of double") && Contains("m2 = 1e+308"));
 }
 
+TEST_CASE("far output values are reached; one so large that Newton's step overflows is named",
+          "[analysis]") {
+  // The mass on the car: y = x + s cos(alpha), and k s = 0, F = 0 at rest, so the equilibrium
+  // for y0 is x = y0, s = 0, u = 0 exactly. KINSOL caps a step from q = 0 at length 1 and gave
+  // up after five (KIN_MXNEWT_5X_EXCEEDED) for y0 = 10 before servokit continued from there.
+  const TemporaryDirectory work;
+  for (const double y0 : {10.0, 1e3, 1e6}) {
+    INFO("y0 = " << y0);
+    const Run run = RunBinary(work, {"analyze", ModelPath("mass_on_car.yaml"), "--y0", Exact(y0),
+                                     "--format", "json"});
+    REQUIRE(run.status == 0);
+    const nlohmann::json point = nlohmann::json::parse(run.out)["operating_point"];
+    CHECK(point["q"][0].get<double>() == Approx(y0).epsilon(1e-12));
+    CHECK(std::abs(point["q"][1].get<double>()) <= 1e-12 * y0);
+    CHECK(std::abs(point["u"][0].get<double>()) <= 1e-12 * y0);
+  }
+  // Past about 1e154 KINSOL's 0.5 |F|^2 overflows; then its step does. It used to give up with
+  // a flag SUNDIALS 6.4 names "NONE"; the message must say what happened instead.
+  const Run run = RunBinary(work, {"analyze", ModelPath("mass_on_car.yaml"), "--y0", "1e308"});
+  CHECK(run.status == 3);
+  CHECK(run.out.empty());
+  CHECK(run.err ==
+        "servokit: error: no equilibrium found for y0 = [1e+308]: the equilibrium equations "
+        "became NaN or Inf after a Newton step overflowed q (is y0 within the model's range?); "
+        "try --q0 near the equilibrium\n");
+}
+
 TEST_CASE("k = 0 leaves s free: the equilibrium is not isolated", "[analysis]") {
   // With k = 0, f(q, 0) = 0 for every s: (y0 - s cos(alpha), s) is an equilibrium for all s.
   CHECK_THAT(NoSolutionMessage([&] {
