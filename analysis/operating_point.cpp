@@ -24,8 +24,9 @@ struct EquilibriumProblem {
   Workspace& workspace;
   Eigen::VectorXd y0;
   Eigen::VectorXd zero_velocity;
-  // The last q at which the residual was NaN or Inf: when KINSOL then gives up, that is the
-  // reason to report (it names the failure with a flag SUNDIALS itself cannot name).
+  // q of the last residual evaluated, if that residual was NaN or Inf (a finite one clears it:
+  // KINSOL backtracked out of the overflow). When KINSOL gives up there, this is the reason to
+  // report; its own flag for it is one SUNDIALS cannot name.
   std::optional<Eigen::VectorXd> non_finite_at;
 
   Eigen::Index dof() const { return static_cast<Eigen::Index>(model.dof()); }
@@ -59,7 +60,10 @@ struct EquilibriumProblem {
 int KinsolResidual(N_Vector unknowns, N_Vector residual, void* user_data) {
   auto& problem = *static_cast<EquilibriumProblem*>(user_data);
   problem.Residual(AsEigen(unknowns), AsEigen(residual));
-  if (AsEigen(residual).allFinite()) return 0;
+  if (AsEigen(residual).allFinite()) {
+    problem.non_finite_at.reset();
+    return 0;
+  }
   problem.non_finite_at = AsEigen(unknowns).head(problem.dof());
   return 1;  // positive: recoverable, KINSOL backtracks
 }

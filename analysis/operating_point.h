@@ -1,9 +1,9 @@
 #pragma once
-#include <string>
 // The equilibrium at which servokit linearizes (DESIGN.md "Operating point"):
 // q_dot = 0,  f(q, 0) = B(q) u,  h(q) = y0.
 #include <Eigen/Dense>
 #include <optional>
+#include <string>
 
 #include "models/model.h"
 

@@ -26,10 +26,11 @@ Eigen::Map<Eigen::VectorXd> AsEigen(N_Vector vector) {
 
 std::string SundialsFlagName(SundialsFlagNamer namer, int flag) {
   char* name = namer(flag);
-  std::string result = name ? name : "NONE";
+  std::string result = name ? name : "";
   std::free(name);  // the *GetReturnFlagName functions return malloc'ed memory
   // "NONE" is what SUNDIALS answers for a flag its table lacks (KINSOL 6.4: KIN_SYSFUNC_FAIL).
-  return result == "NONE" ? "flag " + std::to_string(flag) : result;
+  if (result.empty() || result == "NONE") return "flag " + std::to_string(flag);
+  return result;
 }
 
 void CheckSundialsCall(SundialsFlagNamer namer, int flag, const char* call) {

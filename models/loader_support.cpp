@@ -34,7 +34,6 @@ std::size_t SkipNumber(const std::string& text, std::size_t i) {
   return i;
 }
 
-
 // Finds powers that GiNaC's parser would evaluate for minutes or without end. GiNaC computes
 // number^number exactly while it parses, so 9^(523^25) asks for a number of 10^68 digits (found
 // by fuzzing, issue #7). This reads the expression once more (recursive descent, GiNaC's

@@ -96,9 +96,10 @@ using NameCheck = std::function<std::optional<std::string>(const std::string& na
 /// malformed number ("2x", "1.2.3"), a character that is no operator, what `check_name` says of
 /// a name, unbalanced or empty parentheses, a function with the wrong number of arguments, a
 /// sign after an operator (which GiNaC reads differently from everyone else: 2*-x+1 is
-/// 2*(1-x) to it), more parentheses or chained powers than the limits above, a constant exponent or a number computed from
-/// numbers larger than kMaxConstantExponent and kMaxConstantDigits allow. Catches what GiNaC's parser would report less
-/// clearly, read as something else, or crash on (issue #7's fuzzing: "cos()").
+/// 2*(1-x) to it), more parentheses or chained powers than the limits above, or a constant
+/// exponent or a number computed from numbers beyond kMaxConstantExponent and
+/// kMaxConstantDigits. Catches what GiNaC's parser would report less clearly, read as
+/// something else, or crash on (issue #7's fuzzing: "cos()").
 std::optional<std::string> FindLexicalProblem(const std::string& text,
                                               const NameCheck& check_name);
 

@@ -2,9 +2,11 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <filesystem>
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "models/errors.h"
@@ -17,6 +19,14 @@
 #endif
 
 namespace servokit {
+
+void MakeOutputDirectory(const std::string& directory) {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error || !std::filesystem::is_directory(directory)) {
+    throw Error("--out " + directory + ": cannot make the directory (" + error.message() + ")");
+  }
+}
 
 std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts) {
   std::vector<ParameterOverride> overrides;

@@ -58,6 +58,10 @@ LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& argu
                                                 bool y0_given,
                                                 bool q0_given);
 
+/// Makes the directory `--out` names (and its parents). Throws Error (exit status 1, as for any
+/// file that cannot be written) naming --out and the system's reason.
+void MakeOutputDirectory(const std::string& directory);
+
 /// "--set name=value" texts into overrides; throws UsageError naming a malformed one.
 std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts);
 

@@ -5,11 +5,9 @@
 //
 // Writes a large linear model (models/linear_model.h) into DIR, made if missing, and prints the
 // path of its YAML file as one line, so that `servokit analyze "$(servokit generate ...)"` works.
-#include <filesystem>
 #include <memory>
 #include <ostream>
 #include <string>
-#include <system_error>
 
 #include "models/errors.h"
 #include "models/linear_model.h"
@@ -27,18 +25,9 @@ struct GenerateArguments {
   std::string name;  // empty: chain_N or beam_N
 };
 
-void MakeDirectory(const std::string& directory) {
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error || !std::filesystem::is_directory(directory)) {
-    throw UsageError("--out " + directory + ": cannot make the directory (" + error.message() +
-                     ")");
-  }
-}
-
 int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::ostream& out) {
   if (!arguments.name.empty()) files.name = arguments.name;
-  MakeDirectory(arguments.out);
+  MakeOutputDirectory(arguments.out);
   out << WriteLinearModel(files, arguments.out) << "\n";
   return static_cast<int>(ExitCode::kSuccess);
 }

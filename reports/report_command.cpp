@@ -41,15 +41,6 @@ std::string ModelsDirectory(const ReportArguments& arguments) {
   return SERVOKIT_MODELS_DIR;
 }
 
-// Makes --out before a report is written into it, with a message that names the option.
-void MakeOutputDirectory(const std::string& directory) {
-  std::error_code error;
-  std::filesystem::create_directories(directory, error);
-  if (error) {
-    throw Error("--out " + directory + ": cannot make the directory (" + error.message() + ")");
-  }
-}
-
 int RunReport(const ReportArguments& arguments, std::ostream& out) {
   if (arguments.subject == "paper") {
     if (!arguments.vary.empty() || !arguments.overrides.empty()) {
