@@ -7,7 +7,9 @@
 
 #include "analysis/gsl_support.h"
 #include "analysis/operating_point.h"
+#include "models/canonical_expression.h"
 #include "models/errors.h"
+#include "models/expression_program.h"
 #include "models/symbolic_model.h"
 
 namespace servokit {
@@ -21,10 +23,23 @@ constexpr double kSignChangeRelativeTolerance = 1e-12;
 // |q|, |u| below this at the operating point count as "at rest at q = 0, u = 0".
 constexpr double kAtRestTolerance = 1e-12;
 
-std::string Print(const ex& expression) {
-  std::ostringstream out;
-  out << expression;
-  return out.str();
+std::string Print(const ex& expression) { return CanonicalText(expression); }
+
+// `expression` as GiNaC's factor() gives it, with every factor expanded: factor() writes a
+// factor in a form (nested or expanded, signed either way) that depends on GiNaC's
+// hash-dependent term order, while the expanded factors and their product are unique up to
+// signs, which CanonicalText settles.
+ex CanonicalFactors(const ex& expression) {
+  const ex factored = GiNaC::factor(expression);
+  if (GiNaC::is_a<GiNaC::mul>(factored)) {
+    ex product = 1;
+    for (std::size_t i = 0; i < factored.nops(); ++i) product *= CanonicalFactors(factored.op(i));
+    return product;
+  }
+  if (GiNaC::is_a<GiNaC::power>(factored)) {
+    return GiNaC::pow(factored.op(0).expand(), factored.op(1));
+  }
+  return factored.expand();
 }
 
 // A factored form where GiNaC can factor (polynomials), with cos^2 written as 1 - sin^2 when
@@ -37,7 +52,7 @@ ex Simplify(const ex& expression) {
                            .expand();
   if (Print(with_sine).size() < Print(best).size()) best = with_sine;
   try {
-    const ex factored = GiNaC::factor(best);
+    const ex factored = CanonicalFactors(best);
     if (Print(factored).size() <= Print(best).size()) best = factored;
   } catch (const std::exception&) {
     // factor() only handles polynomials; leave the expanded form.
@@ -45,43 +60,65 @@ ex Simplify(const ex& expression) {
   return best;
 }
 
-// The value of `expression` with `parameter` = value, or NaN if it is not a real number.
-double EvaluateAt(const ex& expression, const GiNaC::realsymbol& parameter, double value) {
-  const ex result = GiNaC::evalf(expression.subs(parameter == value));
-  if (!GiNaC::is_a<GiNaC::numeric>(result)) return std::nan("");
-  const auto& number = GiNaC::ex_to<GiNaC::numeric>(result);
-  if (!number.is_real()) return std::nan("");
-  return number.to_double();
-}
+// An expression of the model's parameters, compiled once and evaluated with one parameter
+// varied and the others at their nominal values. Compiled, not GiNaC's evalf: evalf sums in
+// GiNaC's hash-dependent order, so its last bits, and the roots located from them, would
+// change from run to run.
+class ParameterFunction {
+ public:
+  ParameterFunction(const ex& expression,
+                    const SymbolicModel& symbolic,
+                    const Eigen::VectorXd& values,
+                    std::size_t parameter)
+      : inputs_(values.data(), values.data() + values.size()), parameter_(parameter) {
+    const std::vector<ex> symbols(symbolic.parameters().begin(), symbolic.parameters().end());
+    try {
+      program_ = CompileExpressions({expression}, symbols);
+      registers_.resize(program_.num_registers());
+      compiled_ = true;
+    } catch (const std::invalid_argument&) {
+      // Not a real function of the parameters (a complex constant): no value anywhere.
+    }
+  }
 
-// The root of `expression` in [left, right], where its sign differs at the ends: GSL's Brent
+  // The value at parameter = x, or NaN where it is not a finite real number.
+  double operator()(double x) const {
+    if (!compiled_) return std::nan("");
+    inputs_[parameter_] = x;
+    double value = 0.0;
+    program_.Evaluate(inputs_.data(), registers_.data(), &value);
+    return std::isfinite(value) ? value : std::nan("");
+  }
+
+ private:
+  ExpressionProgram program_;
+  mutable std::vector<double> inputs_;
+  mutable std::vector<double> registers_;
+  std::size_t parameter_;
+  bool compiled_ = false;
+};
+
+// The root of `function` in [left, right], where its sign differs at the ends: GSL's Brent
 // solver (the conditions are smooth in the parameter).
-double LocateRoot(const ex& expression,
-                  const GiNaC::realsymbol& parameter,
-                  double left,
-                  double right) {
-  const auto bracket = NarrowBracket(
-      gsl_root_fsolver_brent, [&](double x) { return EvaluateAt(expression, parameter, x); }, left,
-      right, kSignChangeRelativeTolerance);
+double LocateRoot(const ParameterFunction& function, double left, double right) {
+  const auto bracket = NarrowBracket(gsl_root_fsolver_brent, function, left, right,
+                                     kSignChangeRelativeTolerance);
   return bracket ? bracket->root : 0.5 * (left + right);
 }
 
-// Where `expression` changes sign in [low, high]: a scan, then a root in each bracket.
-std::vector<double> SignChanges(const ex& expression,
-                                const GiNaC::realsymbol& parameter,
-                                double low,
-                                double high) {
+// Where `function` changes sign in [low, high]: a scan, then a root in each bracket.
+std::vector<double> SignChanges(const ParameterFunction& function, double low, double high) {
   std::vector<double> changes;
   double previous_x = low;
-  double previous = EvaluateAt(expression, parameter, low);
+  double previous = function(low);
   for (int i = 1; i <= kSignScanPoints; ++i) {
     const double x = low + (high - low) * i / kSignScanPoints;
-    const double value = EvaluateAt(expression, parameter, x);
+    const double value = function(x);
     if (std::isfinite(previous) && std::isfinite(value) && previous != 0.0) {
       if (value == 0.0) {
         changes.push_back(x);
       } else if ((value > 0) != (previous > 0)) {
-        changes.push_back(LocateRoot(expression, parameter, previous_x, x));
+        changes.push_back(LocateRoot(function, previous_x, x));
       }
     }
     if (value != 0.0 || !std::isfinite(previous)) {
@@ -101,16 +138,18 @@ bool AtRest(const Model& model, Workspace& workspace) {
 // "s < 2/3*l" when `condition` > 0 is linear in the parameter; "" otherwise. The direction
 // of the inequality is the sign of the slope at the nominal parameter values.
 std::string SolveLinear(const ex& condition,
-                        const GiNaC::realsymbol& parameter,
-                        const GiNaC::exmap& nominal) {
+                        const SymbolicModel& symbolic,
+                        const Eigen::VectorXd& nominal,
+                        std::size_t parameter) {
+  const GiNaC::realsymbol& symbol = symbolic.parameters()[parameter];
   const ex expanded = condition.expand();
-  if (!expanded.is_polynomial(parameter) || expanded.degree(parameter) != 1) return "";
-  const ex slope = expanded.coeff(parameter, 1);
-  const ex boundary = GiNaC::normal(-expanded.coeff(parameter, 0) / slope);
-  const ex slope_value = GiNaC::evalf(slope.subs(nominal));
-  if (!GiNaC::is_a<GiNaC::numeric>(slope_value)) return "";
-  const bool increasing = GiNaC::ex_to<GiNaC::numeric>(slope_value).is_positive();
-  return Print(parameter) + (increasing ? " > " : " < ") + Print(Simplify(boundary));
+  if (!expanded.is_polynomial(symbol) || expanded.degree(symbol) != 1) return "";
+  const ex slope = expanded.coeff(symbol, 1);
+  const ex boundary = GiNaC::normal(-expanded.coeff(symbol, 0) / slope);
+  const double slope_value =
+      ParameterFunction(slope, symbolic, nominal, parameter)(nominal(Eigen::Index(parameter)));
+  if (!std::isfinite(slope_value)) return "";
+  return Print(symbol) + (slope_value > 0 ? " > " : " < ") + Print(Simplify(boundary));
 }
 
 }  // namespace
@@ -146,17 +185,18 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
       GiNaC::numer(GiNaC::normal(symbolic.RosenbrockDeterminant(lambda, at_rest))).expand();
   const int degree = polynomial.degree(lambda);
 
-  const GiNaC::realsymbol& swept = symbolic.parameters()[parameter];
-  GiNaC::exmap nominal = symbolic.ParameterValues(model.parameters());
-  GiNaC::exmap others = nominal;
-  others.erase(swept);
+  const Eigen::VectorXd& nominal = model.parameters();
+  const double nominal_value = nominal(Eigen::Index(parameter));
+  const auto function_of_swept = [&](const ex& expression) {
+    return ParameterFunction(expression, symbolic, nominal, parameter);
+  };
 
   // Make the lowest nonzero coefficient positive at the nominal values, so that "stable" reads
   // "every condition > 0".
   for (int k = 0; k <= degree; ++k) {
-    const ex value = GiNaC::evalf(polynomial.coeff(lambda, k).subs(nominal));
-    if (GiNaC::is_a<GiNaC::numeric>(value) && !GiNaC::ex_to<GiNaC::numeric>(value).is_zero()) {
-      if (GiNaC::ex_to<GiNaC::numeric>(value).is_negative()) polynomial = (-polynomial).expand();
+    const double value = function_of_swept(polynomial.coeff(lambda, k))(nominal_value);
+    if (std::isfinite(value) && value != 0.0) {
+      if (value < 0.0) polynomial = (-polynomial).expand();
       break;
     }
   }
@@ -167,8 +207,7 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
   for (int k = 0; k <= degree; ++k) {
     coefficients.push_back(Simplify(polynomial.coeff(lambda, k)));
     result.coefficients.push_back(Print(coefficients.back()));
-    result.nominal_coefficients.push_back(EvaluateAt(coefficients.back().subs(others), swept,
-                                                     model.parameters()(Eigen::Index(parameter))));
+    result.nominal_coefficients.push_back(function_of_swept(coefficients.back())(nominal_value));
   }
   ex printed = 0;
   for (int k = degree; k >= 0; --k) printed += coefficients[std::size_t(k)] * GiNaC::pow(lambda, k);
@@ -178,8 +217,8 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     HurwitzCondition entry;
     entry.name = name;
     entry.expression = Print(condition);
-    entry.solved = SolveLinear(condition, swept, nominal);
-    entry.sign_changes = SignChanges(condition.subs(others), swept, low, high);
+    entry.solved = SolveLinear(condition, symbolic, nominal, parameter);
+    entry.sign_changes = SignChanges(function_of_swept(condition), low, high);
     result.hurwitz.push_back(std::move(entry));
   };
   // Stodola: every coefficient positive; Hurwitz: the determinants Delta_2 .. Delta_(n-1)
@@ -212,7 +251,7 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     const ex discriminant =
         Simplify(GiNaC::normal(sign * resultant / polynomial.coeff(lambda, degree)));
     result.discriminant = Print(discriminant);
-    result.discriminant_sign_changes = SignChanges(discriminant.subs(others), swept, low, high);
+    result.discriminant_sign_changes = SignChanges(function_of_swept(discriminant), low, high);
   }
   return result;
 }

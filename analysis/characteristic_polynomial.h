@@ -27,9 +27,10 @@ struct HurwitzCondition {
 
 struct CharacteristicPolynomial {
   std::string variable = "lambda";
-  std::vector<std::string> coefficients;  // a_0 .. a_n, factored
-  // a_0 .. a_n at the model's nominal parameter values. (GiNaC's printed term order depends
-  // on symbol hashes and may differ between runs; these numbers do not.)
+  // a_0 .. a_n, factored; all texts here are canonical (models/canonical_expression.h): the
+  // same in every run.
+  std::vector<std::string> coefficients;
+  // a_0 .. a_n at the model's nominal parameter values.
   std::vector<double> nominal_coefficients;
   std::string polynomial;                         // a_n*lambda^n + ... + a_0
   int degree = 0;                                 // = order of the zero dynamics where a_n != 0

@@ -8,35 +8,18 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include "models/canonical_expression.h"
+
 namespace servokit {
 namespace {
 
-std::string Text(const GiNaC::ex& expression) {
-  std::ostringstream stream;
-  stream << expression;
-  return stream.str();
-}
-
-[[noreturn]] void Unsupported(const std::string& what, const GiNaC::ex& expression) {
-  throw std::invalid_argument("cannot compile " + what + ": " + Text(expression));
-}
-
-// A term of a sum whose numeric coefficient is negative is compiled as a subtraction of its
-// negation, so that "a - b" costs one instruction and shares "b" with other uses.
-bool HasNegativeCoefficient(const GiNaC::ex& term) {
-  if (GiNaC::is_a<GiNaC::numeric>(term)) {
-    return GiNaC::ex_to<GiNaC::numeric>(term).is_negative();
-  }
-  if (GiNaC::is_a<GiNaC::mul>(term) && term.nops() > 0) {
-    // GiNaC lists a product's numeric coefficient last (when it is not 1).
-    const GiNaC::ex last = term.op(term.nops() - 1);
-    return GiNaC::is_a<GiNaC::numeric>(last) && GiNaC::ex_to<GiNaC::numeric>(last).is_negative();
-  }
-  return false;
+[[noreturn]] void Unsupported(const std::string& what, const std::string& text) {
+  throw std::invalid_argument("cannot compile " + what + ": " + text);
 }
 
 enum class SlotKind : std::uint8_t { kInput, kConstant, kInstruction };
@@ -51,22 +34,28 @@ struct Slot {
 
 }  // namespace
 
-// Builds one ExpressionProgram; each distinct subexpression (by GiNaC's structural order) gets
-// one register, which is how common subexpressions are shared across all outputs.
+// Builds one ExpressionProgram from the canonical form of the expressions
+// (models/canonical_expression.h): the instructions follow the canonical order of operands, so
+// a program computes the same bits in every run, and each node of the canonical DAG gets one
+// register, which is how common subexpressions are shared across all outputs.
 class ExpressionCompiler {
  public:
   using OpCode = ExpressionProgram::OpCode;
+  using Scaled = CanonicalExpressions::Scaled;
+  using Kind = CanonicalExpressions::Kind;
+  using NodeId = CanonicalExpressions::NodeId;
 
-  explicit ExpressionCompiler(const std::vector<GiNaC::ex>& input_symbols) {
+  explicit ExpressionCompiler(const std::vector<GiNaC::ex>& input_symbols)
+      : canonical_(input_symbols) {
     program_.num_inputs_ = input_symbols.size();
     for (std::size_t i = 0; i < input_symbols.size(); ++i) {
       if (!GiNaC::is_a<GiNaC::symbol>(input_symbols[i])) {
-        Unsupported("input that is not a symbol", input_symbols[i]);
+        Unsupported("input that is not a symbol", CanonicalText(input_symbols[i]));
       }
-      if (!registers_
-               .emplace(input_symbols[i], Slot(SlotKind::kInput, static_cast<std::uint32_t>(i)))
+      const NodeId node = canonical_.Add(input_symbols[i]).node;
+      if (!node_slots_.emplace(node, Slot(SlotKind::kInput, static_cast<std::uint32_t>(i)))
                .second) {
-        Unsupported("duplicate input symbol", input_symbols[i]);
+        Unsupported("duplicate input symbol", CanonicalText(input_symbols[i]));
       }
     }
   }
@@ -75,7 +64,7 @@ class ExpressionCompiler {
     std::vector<Slot> output_slots;
     output_slots.reserve(outputs.size());
     for (const GiNaC::ex& output : outputs) {
-      output_slots.push_back(Register(output));
+      output_slots.push_back(RegisterScaled(canonical_.Add(output)));
     }
     // Registers hold [inputs | constants | instructions], but constants were numbered apart
     // while compiling; now that their count is known, place them and the instructions.
@@ -112,133 +101,138 @@ class ExpressionCompiler {
     std::uint32_t exponent = 0;  // kPowInt only
   };
 
-  Slot Register(const GiNaC::ex& expression) {
-    if (const auto found = registers_.find(expression); found != registers_.end()) {
+  std::string Text(const Scaled& value) const { return canonical_.Text(value); }
+
+  // coefficient * node, the coefficient's multiplication shared like any subexpression.
+  Slot RegisterScaled(const Scaled& value) {
+    if (value.node == canonical_.one()) return Constant(NumericValue(value.coefficient));
+    if (value.coefficient == 1) return RegisterNode(value.node);
+    const auto key = std::make_pair(value.node, NumericValue(value.coefficient));
+    if (const auto found = scaled_slots_.find(key); found != scaled_slots_.end()) {
       return found->second;
     }
-    const Slot slot = Build(expression);
-    registers_.emplace(expression, slot);
+    const Slot node = RegisterNode(value.node);
+    const Slot slot = value.coefficient == -1
+                          ? Emit(OpCode::kNeg, node)
+                          : Emit(OpCode::kMul, Constant(NumericValue(value.coefficient)), node);
+    scaled_slots_.emplace(key, slot);
     return slot;
   }
 
-  Slot Build(const GiNaC::ex& expression) {
-    if (GiNaC::is_a<GiNaC::numeric>(expression)) {
-      return Constant(NumericValue(expression));
-    }
-    if (GiNaC::is_a<GiNaC::constant>(expression)) {
-      if (expression.is_equal(GiNaC::Pi)) {
-        return Constant(std::numbers::pi);
-      }
-      Unsupported("constant", expression);
-    }
-    if (GiNaC::is_a<GiNaC::symbol>(expression)) {
-      // Inputs were entered in registers_ up front; any other symbol is free.
-      Unsupported("symbol that is not an input", expression);
-    }
-    if (GiNaC::is_a<GiNaC::add>(expression)) {
-      return BuildSum(expression);
-    }
-    if (GiNaC::is_a<GiNaC::mul>(expression)) {
-      return BuildProduct(expression);
-    }
-    if (GiNaC::is_a<GiNaC::power>(expression)) {
-      return BuildPower(expression.op(0), expression.op(1));
-    }
-    if (GiNaC::is_a<GiNaC::function>(expression)) {
-      return BuildFunction(expression);
-    }
-    Unsupported("expression", expression);
+  Slot RegisterNode(NodeId id) {
+    if (const auto found = node_slots_.find(id); found != node_slots_.end()) return found->second;
+    const Slot slot = BuildNode(id);
+    node_slots_.emplace(id, slot);
+    return slot;
   }
 
-  static double NumericValue(const GiNaC::ex& expression) {
-    const auto& number = GiNaC::ex_to<GiNaC::numeric>(expression);
-    if (!number.is_real()) {
-      Unsupported("complex number", expression);
+  Slot BuildNode(NodeId id) {
+    const CanonicalExpressions::Node& node = canonical_.node(id);
+    switch (node.kind) {
+      case Kind::kNumber:
+        return Constant(NumericValue(node.number));
+      case Kind::kConstant:
+        if (node.original.is_equal(GiNaC::Pi)) return Constant(std::numbers::pi);
+        Unsupported("constant", node.name);
+      case Kind::kSymbol:
+        // Inputs were entered in node_slots_ up front; any other symbol is free.
+        Unsupported("symbol that is not an input", node.name);
+      case Kind::kSum:
+        return BuildSum(node);
+      case Kind::kProduct:
+        return BuildProduct(node);
+      case Kind::kPower:
+        return BuildPower(node.operands[0], node.operands[1], Text({1, id}));
+      case Kind::kFunction:
+        return BuildFunction(node, Text({1, id}));
+      case Kind::kOpaque:
+        break;
     }
+    Unsupported("expression", Text({1, id}));
+  }
+
+  static double NumericValue(const GiNaC::numeric& number) {
+    if (!number.is_real()) Unsupported("complex number", CanonicalText(number));
     const double value = number.to_double();
     if (!std::isfinite(value)) {
-      Unsupported("number outside the range of double", expression);
+      Unsupported("number outside the range of double", CanonicalText(number));
     }
     return value;
   }
 
-  Slot BuildSum(const GiNaC::ex& sum) {
-    std::vector<Slot> added, subtracted;
-    for (std::size_t i = 0; i < sum.nops(); ++i) {
-      const GiNaC::ex term = sum.op(i);
-      if (HasNegativeCoefficient(term)) {
-        subtracted.push_back(Register(-term));
-      } else {
-        added.push_back(Register(term));
-      }
-    }
-    Slot result;
-    auto next_subtracted = subtracted.begin();
-    if (added.empty()) {
-      result = Emit(OpCode::kNeg, *next_subtracted++);
-    } else {
-      result = Fold(OpCode::kAdd, added);
-    }
-    for (; next_subtracted != subtracted.end(); ++next_subtracted) {
-      result = Emit(OpCode::kSub, result, *next_subtracted);
+  // First term (positive by the canonical sign convention), then each further one added or
+  // subtracted in order. A sum and its negation thus give exactly negated bits.
+  Slot BuildSum(const CanonicalExpressions::Node& sum) {
+    Slot result = RegisterScaled(sum.operands.front());
+    for (std::size_t i = 1; i < sum.operands.size(); ++i) {
+      const Scaled& term = sum.operands[i];
+      const bool negative = term.coefficient.is_real() && term.coefficient.is_negative();
+      const GiNaC::numeric magnitude = negative ? -term.coefficient : term.coefficient;
+      const Slot term_slot = RegisterScaled({magnitude, term.node});
+      result = Emit(negative ? OpCode::kSub : OpCode::kAdd, result, term_slot);
     }
     return result;
   }
 
   // Factors with negative numeric exponents go to a denominator, so that x*y^-1 is one division
-  // and the rounding of a separate reciprocal is avoided. A coefficient of -1 becomes a negation.
-  Slot BuildProduct(const GiNaC::ex& product) {
+  // and the rounding of a separate reciprocal is avoided.
+  Slot BuildProduct(const CanonicalExpressions::Node& product) {
     std::vector<Slot> numerator, denominator;
-    bool negate = false;
-    for (std::size_t i = 0; i < product.nops(); ++i) {
-      const GiNaC::ex factor = product.op(i);
-      if (GiNaC::is_a<GiNaC::numeric>(factor)) {
-        if (factor.is_equal(-1)) {
-          negate = true;
-        } else {
-          numerator.insert(numerator.begin(), Register(factor));
-        }
-      } else if (GiNaC::is_a<GiNaC::power>(factor) && GiNaC::is_a<GiNaC::numeric>(factor.op(1)) &&
-                 GiNaC::ex_to<GiNaC::numeric>(factor.op(1)).is_negative()) {
-        denominator.push_back(Register(GiNaC::pow(factor.op(0), -factor.op(1))));
+    for (const Scaled& factor : product.operands) {
+      const CanonicalExpressions::Node& node = canonical_.node(factor.node);
+      const bool reciprocal = node.kind == Kind::kPower &&
+                              node.operands[1].node == canonical_.one() &&
+                              node.operands[1].coefficient.is_real() &&
+                              node.operands[1].coefficient.is_negative();
+      if (reciprocal) {
+        denominator.push_back(PowerSlot(node.operands[0], -node.operands[1].coefficient,
+                                        Text({1, factor.node})));
       } else {
-        numerator.push_back(Register(factor));
+        numerator.push_back(RegisterNode(factor.node));
       }
     }
-    Slot result;
-    if (denominator.empty()) {
-      result = Fold(OpCode::kMul, numerator);
-    } else if (numerator.empty()) {
-      result = Emit(OpCode::kReciprocal, Fold(OpCode::kMul, denominator));
-    } else {
-      result = Emit(OpCode::kDiv, Fold(OpCode::kMul, numerator), Fold(OpCode::kMul, denominator));
-    }
-    return negate ? Emit(OpCode::kNeg, result) : result;
+    if (denominator.empty()) return Fold(OpCode::kMul, numerator);
+    if (numerator.empty()) return Emit(OpCode::kReciprocal, Fold(OpCode::kMul, denominator));
+    return Emit(OpCode::kDiv, Fold(OpCode::kMul, numerator), Fold(OpCode::kMul, denominator));
   }
 
-  Slot BuildPower(const GiNaC::ex& base, const GiNaC::ex& exponent) {
-    if (!GiNaC::is_a<GiNaC::numeric>(exponent)) {
-      return Emit(OpCode::kPow, Register(base), Register(exponent));
+  Slot BuildPower(const Scaled& base, const Scaled& exponent, const std::string& text) {
+    if (exponent.node != canonical_.one()) {
+      return Emit(OpCode::kPow, RegisterScaled(base), RegisterScaled(exponent));
     }
-    const auto& number = GiNaC::ex_to<GiNaC::numeric>(exponent);
-    if (number.is_negative()) {
-      return Emit(OpCode::kReciprocal, Register(GiNaC::pow(base, -exponent)));
+    const GiNaC::numeric& number = exponent.coefficient;
+    if (number.is_real() && number.is_negative()) {
+      return Emit(OpCode::kReciprocal, PowerSlot(base, -number, text));
     }
-    if (number.is_pos_integer()) {
-      return IntegerPower(Register(base), number, exponent);
+    return PowerSlot(base, number, text);
+  }
+
+  // base^exponent for a positive numeric exponent, shared between every use: x^(1/2) and
+  // x^(3/2) share one square root.
+  Slot PowerSlot(const Scaled& base, const GiNaC::numeric& exponent, const std::string& text) {
+    const auto key =
+        std::make_tuple(base.node, NumericValue(base.coefficient), NumericValue(exponent));
+    if (const auto found = power_slots_.find(key); found != power_slots_.end()) {
+      return found->second;
     }
-    if (number.is_rational() && number.denom().is_equal(2)) {
+    Slot slot;
+    if (exponent.is_pos_integer()) {
+      slot = IntegerPower(RegisterScaled(base), exponent, text);
+    } else if (exponent.is_rational() && exponent.denom().is_equal(2)) {
       // x^(p/2) = sqrt(x)^p: one square root, shared with every other power of the same base.
-      const Slot root = number.numer().is_equal(1) ? Emit(OpCode::kSqrt, Register(base))
-                                                   : Register(GiNaC::sqrt(base));
-      return IntegerPower(root, number.numer(), exponent);
+      const Slot root = exponent.numer().is_equal(1) ? Emit(OpCode::kSqrt, RegisterScaled(base))
+                                                     : PowerSlot(base, GiNaC::numeric(1, 2), text);
+      slot = exponent.numer().is_equal(1) ? root : IntegerPower(root, exponent.numer(), text);
+    } else {
+      slot = Emit(OpCode::kPow, RegisterScaled(base), Constant(NumericValue(exponent)));
     }
-    return Emit(OpCode::kPow, Register(base), Register(exponent));
+    power_slots_.emplace(key, slot);
+    return slot;
   }
 
-  Slot IntegerPower(Slot base, const GiNaC::numeric& exponent, const GiNaC::ex& expression) {
+  Slot IntegerPower(Slot base, const GiNaC::numeric& exponent, const std::string& text) {
     if (exponent > GiNaC::numeric(kMaxIntegerExponent)) {
-      Unsupported("power with an exponent above 2^31", expression);
+      Unsupported("power with an exponent above 2^31", text);
     }
     const auto power = static_cast<std::uint32_t>(exponent.to_long());
     if (power == 1) {
@@ -251,22 +245,22 @@ class ExpressionCompiler {
     return LastInstruction();
   }
 
-  Slot BuildFunction(const GiNaC::ex& call) {
+  Slot BuildFunction(const CanonicalExpressions::Node& call, const std::string& text) {
     static const std::unordered_map<std::string, OpCode> kUnary = {
         {"sin", OpCode::kSin},   {"cos", OpCode::kCos},   {"tan", OpCode::kTan},
         {"asin", OpCode::kAsin}, {"acos", OpCode::kAcos}, {"atan", OpCode::kAtan},
         {"exp", OpCode::kExp},   {"log", OpCode::kLog},   {"sinh", OpCode::kSinh},
         {"cosh", OpCode::kCosh}, {"tanh", OpCode::kTanh}, {"abs", OpCode::kAbs},
     };
-    const std::string name = GiNaC::ex_to<GiNaC::function>(call).get_name();
-    if (name == "atan2" && call.nops() == 2) {
-      return Emit(OpCode::kAtan2, Register(call.op(0)), Register(call.op(1)));
+    if (call.name == "atan2" && call.operands.size() == 2) {
+      return Emit(OpCode::kAtan2, RegisterScaled(call.operands[0]),
+                  RegisterScaled(call.operands[1]));
     }
-    const auto found = kUnary.find(name);
-    if (found == kUnary.end() || call.nops() != 1) {
-      Unsupported("function", call);
+    const auto found = kUnary.find(call.name);
+    if (found == kUnary.end() || call.operands.size() != 1) {
+      Unsupported("function", text);
     }
-    return Emit(found->second, Register(call.op(0)));
+    return Emit(found->second, RegisterScaled(call.operands[0]));
   }
 
   Slot Constant(double value) {
@@ -299,8 +293,12 @@ class ExpressionCompiler {
   // Integer exponents are stored in 32 bits; any power beyond this over- or underflows anyway.
   static constexpr long kMaxIntegerExponent = 1L << 31;
 
+  CanonicalExpressions canonical_;
   ExpressionProgram program_;
-  std::map<GiNaC::ex, Slot, GiNaC::ex_is_less> registers_;
+  std::unordered_map<NodeId, Slot> node_slots_;
+  std::map<std::pair<NodeId, double>, Slot> scaled_slots_;
+  std::map<std::tuple<NodeId, double, double>, Slot> power_slots_;
+  // Constants by value; -0.0 and 0.0 compare equal and share a register.
   std::map<double, std::uint32_t> constants_;
   std::vector<PendingInstruction> pending_;
 };

@@ -389,18 +389,24 @@ bool ServoConstraintProblem::IndexOneResidual(double t,
   const auto u = x.tail(num_inputs());
   if (!EvaluateDynamics(q, v, why)) return false;
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
-  const Eigen::MatrixXd tangent_basis = TangentBasisAt(output_jacobian);
-  const Eigen::VectorXd applied = workspace_.input_matrix * u - workspace_.forces;
+  applied_.noalias() = workspace_.input_matrix * u;  // B u - f
+  applied_ -= workspace_.forces;
+  accelerations_ = applied_;
+  mass_factor_.solveInPlace(accelerations_);  // M^-1 (B u - f)
 
   DesiredAt(t);
   residual.resize(x.size());
-  residual.head(internal) = internal_directions_.transpose() * (x_dot.head(f) - v);
+  // Only C^T q' and C^T v' appear, with C constant: the leading term's null space does not
+  // move with q. Eq. (15) projected with D(q)^T M(q), whose null space does, made BDF unstable
+  // on a pendubot (errors growing by about -2 per step, Gear & Petzold's phenomenon).
+  residual.head(internal).noalias() = internal_directions_.transpose() * (x_dot.head(f) - v);
   residual.segment(internal, m) = workspace_.output - desired_.col(0);
-  residual.segment(f, internal) =
-      tangent_basis.transpose() * (workspace_.mass_matrix * x_dot.segment(f, f) - applied);
-  residual.segment(f + internal, m) = output_jacobian * v - desired_.col(1);
-  residual.tail(m) = output_jacobian * mass_factor_.solve(applied) + workspace_.output_bias -
-                     desired_.col(2);
+  residual.segment(f, internal).noalias() = internal_directions_.transpose() * x_dot.segment(f, f);
+  residual.segment(f, internal).noalias() -= internal_directions_.transpose() * accelerations_;
+  residual.segment(f + internal, m).noalias() = output_jacobian * v;
+  residual.segment(f + internal, m) -= desired_.col(1);
+  residual.tail(m).noalias() = output_jacobian * accelerations_;
+  residual.tail(m) += workspace_.output_bias - desired_.col(2);
   return true;
 }
 

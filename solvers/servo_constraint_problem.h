@@ -4,8 +4,10 @@
 // once here:
 //   - the projected DAE (Eqs. 15-18) in x = (q, v, u) as A(t, x) x' = phi(t, x), for Radau IIA
 //     and Euler backward (ProjectedDae);
-//   - its index-1 form for IDA (IndexOneResidual): Eq. (15) projected on the internal
-//     directions, with the velocity-level servo constraint H v = y_d' in place of the rest;
+//   - its index-1 form for IDA (IndexOneResidual): the internal parts C^T q' = C^T v and
+//     C^T v' = C^T M^-1 (B u - f) of Eq. (15), with the servo constraint at position,
+//     velocity (H v = y_d') and acceleration level (Eq. 17) for the rest. Its leading term
+//     C^T x' has a constant null space, which BDF needs to be stable on it;
 //   - the normal form (Eqs. 19-25): internal coordinates z = C^T q (C selects the unactuated
 //     coordinates q_u, as Eq. 19 does, when B acts on single coordinates and H_a is invertible;
 //     otherwise C = D at the reference point), u from Eq. (24) and z'' from Eq. (25).
@@ -94,7 +96,8 @@ class ServoConstraintProblem {
                           std::string& why);
 
   /// The index-1 residual of the projected DAE at (t, x, x'), size 2 dof + inputs:
-  /// C^T (q' - v), h(q) - y_d, D^T (M v' + f - B u), H v - y_d', P u - H M^-1 f + h_bar - y_d''.
+  /// C^T (q' - v), h(q) - y_d, C^T (v' - M^-1 (B u - f)), H v - y_d',
+  /// P u - H M^-1 f + h_bar - y_d''.
   bool IndexOneResidual(double t,
                         const Eigen::VectorXd& x,
                         const Eigen::VectorXd& x_dot,
