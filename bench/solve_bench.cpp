@@ -30,6 +30,8 @@ void Measure(const std::string& path, const char* alpha, const char* damping,
   InverseModelOptions options;
   options.method = method;
   options.t_end = 10.0;
+  // The rows at the steps, as SciPy's solve_ivp gives them without dense_output.
+  options.continuous_extension = false;
   if (method == SolverMethod::kNormalForm) {
     options.rtol = 1e-10;
     options.atol = 1e-12;

@@ -27,8 +27,11 @@ std::string InputGrid(const StableInversionSolution& solution, int count) {
   std::string text = "[";
   for (int i = 0; i < count; ++i) {
     const double t = 0.0 + 4.0 * i / (count - 1);
+    Eigen::VectorXd q, q_dot, u;
+    std::string why;
+    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) u.setConstant(1, NAN);
     char number[32];
-    std::snprintf(number, sizeof number, "%s%.15e", i ? ", " : "", solution.feedforward(t)(0));
+    std::snprintf(number, sizeof number, "%s%.15e", i ? ", " : "", u(0));
     text += number;
   }
   return text + "]";

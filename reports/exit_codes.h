@@ -10,6 +10,9 @@ enum class ExitCode : int {
   kOther = 1,       // anything else (I/O failure, internal error)
   kBadInput = 2,    // bad usage or a bad model file (UsageError, ModelError)
   kNoSolution = 3,  // no solution of the kind asked (NoSolution, unusable solver summary)
+  // A solve that finished, but whose u_d, driving the model (--verify), does not reproduce
+  // y_d within the stated bound.
+  kVerificationFailed = 4,
 };
 
 /// The exit status for an exception that reached the command line.

@@ -1,7 +1,7 @@
 // servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf TF]
 //     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion
-//     [--force] [--step H] [--rtol R] [--atol A] [--pre-actuation S] [--post-actuation S]
-//     [--verify] --out FILE.csv
+//     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
+//     [--post-actuation S] [--verify] --out FILE.csv
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -17,7 +17,10 @@
 #include "reports/number_format.h"
 #include "reports/solve_files.h"
 #include "solvers/inverse_model.h"
+#include "solvers/method_choice.h"
+#include "solvers/solve_settings.h"
 #include "solvers/trajectory.h"
+#include "solvers/verification.h"
 #include "solvers/waypoint_trajectory.h"
 
 namespace servokit {
@@ -32,7 +35,7 @@ struct SolveArguments {
   double t_end = std::numeric_limits<double>::quiet_NaN();
   std::string method = "auto";
   bool force = false;
-  std::optional<double> step, rtol, atol, pre_actuation, post_actuation;
+  std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
   bool verify = false;
   std::string out;
 };
@@ -75,9 +78,52 @@ std::unique_ptr<OutputTrajectory> MakeTrajectory(const SolveArguments& arguments
   return std::make_unique<WaypointTrajectory>(std::move(file));
 }
 
-double TrajectoryStart(const SolveArguments& arguments, const OutputTrajectory& trajectory) {
-  if (arguments.t_start) return *arguments.t_start;
-  return trajectory.breakpoints().front();
+// The flag of a solve setting: the one place where the library's words meet the command line.
+std::string FlagFor(SolveSetting setting) {
+  switch (setting) {
+    case SolveSetting::kMethod:
+      return "--method";
+    case SolveSetting::kForce:
+      return "--force";
+    case SolveSetting::kStartTime:
+      return "--t-start";
+    case SolveSetting::kEndTime:
+      return "--t-end";
+    case SolveSetting::kStep:
+      return "--step";
+    case SolveSetting::kRelativeTolerance:
+      return "--rtol";
+    case SolveSetting::kAbsoluteTolerance:
+      return "--atol";
+    case SolveSetting::kSampleTime:
+      return "--sample-time";
+    case SolveSetting::kPreActuation:
+      return "--pre-actuation";
+    case SolveSetting::kPostActuation:
+      return "--post-actuation";
+  }
+  return "--" + std::string(ToString(setting));
+}
+
+// The solve, with the library's errors about settings and methods told in flags.
+FeedforwardSolution Solve(const Model& model,
+                          const OutputTrajectory& trajectory,
+                          const Classification& classification,
+                          const InverseModelOptions& options) {
+  try {
+    return SolveInverseModel(model, trajectory, classification, options);
+  } catch (const SettingError& error) {
+    throw UsageError(FlagFor(error.setting()) + ": " + error.what());
+  } catch (const MethodRefused& error) {
+    std::string hint;
+    if (!error.forceable().empty()) {
+      hint = "; --force integrates forward anyway";
+      if (options.method == SolverMethod::kAuto) {
+        hint += " (with " + std::string(ToString(error.forceable().front())) + ")";
+      }
+    }
+    throw NoSolution(std::string(error.what()) + hint);
+  }
 }
 
 int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
@@ -115,31 +161,41 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   InverseModelOptions options;
   options.method = *method;
   options.force = arguments.force;
-  options.t_start = TrajectoryStart(arguments, *trajectory);
+  options.t_start = arguments.t_start;
   options.t_end = arguments.t_end;
-  if (arguments.step) options.step = *arguments.step;
+  options.step = arguments.step;
   options.rtol = arguments.rtol;
+  options.atol = arguments.atol;
+  options.sample_time = arguments.sample_time;
+  options.continuous_extension = arguments.verify;  // the sample grid asks for it itself
   options.pre_actuation = arguments.pre_actuation;
   options.post_actuation = arguments.post_actuation;
-  options.atol = arguments.atol;
-  const FeedforwardSolution solution =
-      SolveInverseModel(model, *trajectory, classification, options);
+  const FeedforwardSolution solution = Solve(model, *trajectory, classification, options);
   WriteFeedforwardCsv(arguments.out, model, *trajectory, solution);
 
   nlohmann::ordered_json report = SolveToJson(model, classification, classification_options,
                                               solution, trajectory_note);
+  std::vector<std::string> warnings = solution.warnings;
   std::optional<Verification> verification;
-  if (arguments.verify && !solution.times.empty()) {
+  if (arguments.verify && solution.extension) {
     verification = VerifyFeedforward(model, *trajectory, solution);
     report["verification"] = VerificationToJson(*verification);
+    warnings.insert(warnings.end(), verification->warnings.begin(), verification->warnings.end());
   }
+  report["warnings"] = warnings;
   report["out"] = arguments.out;
   out << report.dump(2) << "\n";
+  for (const std::string& warning : warnings) err << "servokit: warning: " << warning << "\n";
   if (!solution.summary.IsUsable()) {
     err << "servokit: error: " << ToString(solution.method) << " stopped: "
         << solution.summary.message << " (the rows up to there are in " << arguments.out
         << ")\n";
     return static_cast<int>(ExitCode::kNoSolution);
+  }
+  if (verification && !verification->passed) {
+    err << "servokit: error: the verification failed: " << VerificationFailure(*verification)
+        << "\n";
+    return static_cast<int>(ExitCode::kVerificationFailed);
   }
   return static_cast<int>(ExitCode::kSuccess);
 }
@@ -153,11 +209,12 @@ Command AddSolveCommand(CLI::App& app) {
   solve->footer(
       "The CSV has the columns t, each coordinate, each <coordinate>_dot, each input, y1_d, ...;\n"
       "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
-      "with --verify the largest output error of a forward simulation driven by u_d).\n\n"
-      "Example (paper Sect. 5.1, case 4):\n"
+      "with --verify the largest output error when u_d drives the model from rest, against a\n"
+      "bound from the tolerances; a failed check exits with status 4).\n\n"
+      "Example (paper Sect. 5.1, case 4, u_d every millisecond):\n"
       "  servokit solve models/mass_on_car.yaml --set alpha=0 --set d=0 \\\n"
       "    --trajectory rest-to-rest --y0 0.5 --yf 2.5 --t0 0 --tf 6 --t-end 10 \\\n"
-      "    --method radau --verify --out case4.csv");
+      "    --sample-time 0.001 --verify --out case4.csv");
   solve->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
   solve->add_option("--set", arguments->overrides,
                     "Override a parameter: name=value (value may end in deg)");
@@ -170,7 +227,8 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--t0", arguments->t0, "Rest-to-rest: start of the motion [s]");
   solve->add_option("--tf", arguments->tf, "Rest-to-rest: end of the motion [s]");
   solve->add_option("--t-start", arguments->t_start,
-                    "Start of the solve [s] (default: the trajectory's first time)");
+                    "Start of the solve [s] (default: the trajectory's first time; stable "
+                    "inversion: the start of its pre-actuation)");
   solve->add_option("--t-end", arguments->t_end, "End of the solve [s]")->required();
   solve
       ->add_option("--method", arguments->method,
@@ -179,19 +237,25 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_flag("--force", arguments->force,
                   "Integrate unstable internal dynamics forward anyway");
   solve->add_option("--step", arguments->step,
-                    "Euler backward step, algebraic sample spacing [s] (default 1e-3)");
+                    "Euler backward's fixed step, the algebraic inverse's own spacing [s] "
+                    "(default 1e-3)");
   solve->add_option("--rtol", arguments->rtol,
-                    "Relative tolerance (default 1e-8 Radau and stable inversion, 1e-10 BDF and "
-                    "Dormand-Prince)");
+                    "Relative tolerance (default 1e-8 radau, euler and stable inversion, 1e-10 "
+                    "bdf and normal-form)");
   solve->add_option("--atol", arguments->atol,
-                    "Absolute tolerance (default 1e-10 Radau, 1e-12 BDF and Dormand-Prince)");
+                    "Absolute tolerance (default 1e-10 radau, euler and stable inversion, 1e-12 "
+                    "bdf and normal-form)");
+  solve->add_option("--sample-time", arguments->sample_time,
+                    "Write rows at t_start + k DT over exactly [t_start, t_end], from the "
+                    "method's continuous extension [s] (default: the method's own points)");
   solve->add_option("--pre-actuation", arguments->pre_actuation,
                     "Stable inversion: time before the motion to cover [s] (default: from the "
                     "eigenvalues, widened until the answer settles)");
   solve->add_option("--post-actuation", arguments->post_actuation,
                     "Stable inversion: time after the motion to cover [s] (default: likewise)");
   solve->add_flag("--verify", arguments->verify,
-                  "Drive the model with u_d (CVODE) and report the largest output error");
+                  "Drive the model with u_d from rest (CVODE) and check the output error "
+                  "against a bound from the tolerances (exit status 4 when it fails)");
   solve->add_option("--out", arguments->out, "CSV file to write")->required();
   return {solve, [arguments](std::ostream& out, std::ostream& err) {
             return RunSolve(*arguments, out, err);

@@ -71,6 +71,13 @@ nlohmann::ordered_json SolveToJson(const Model& model,
       {"status", ToString(summary.status)},
       {"message", summary.message},
       {"stop_time", NumberOrNull(summary.stop_time)},
+      {"t_start", NumberOrNull(solution.t_start)},
+      {"t_end", NumberOrNull(solution.t_end)},
+      {"sample_time", NumberOrNull(solution.sample_time.value_or(NAN))},
+      {"tolerances",
+       {{"rtol", NumberOrNull(solution.accuracy.rtol)},
+        {"atol", NumberOrNull(solution.accuracy.atol)},
+        {"step", NumberOrNull(solution.accuracy.step.value_or(NAN))}}},
       {"steps", summary.steps},
       {"rejected_steps", summary.rejected_steps},
       {"newton_iterations", summary.newton_iterations},
@@ -78,14 +85,14 @@ nlohmann::ordered_json SolveToJson(const Model& model,
       {"samples", solution.times.size()},
       {"max_servo_residual", NumberOrNull(solution.max_servo_residual)},
   };
-  if (solution.pre_actuation_start) {  // stable inversion (DESIGN.md)
-    json["pre_actuation_start"] = NumberOrNull(*solution.pre_actuation_start);
-    json["post_actuation_end"] = NumberOrNull(solution.post_actuation_end.value_or(NAN));
-    json["window"] = {NumberOrNull(solution.window_start.value_or(NAN)),
-                      NumberOrNull(solution.window_end.value_or(NAN))};
-    json["window_widenings"] = solution.window_widenings;
-    json["boundary_value_residual"] = NumberOrNull(solution.boundary_value_residual.value_or(NAN));
-    json["mesh_points"] = solution.times.size();
+  if (solution.window) {  // stable inversion (DESIGN.md)
+    const StableInversionWindow& window = *solution.window;
+    json["pre_actuation_start"] = NumberOrNull(window.pre_actuation_start);
+    json["post_actuation_end"] = NumberOrNull(window.post_actuation_end);
+    json["window"] = {NumberOrNull(window.start), NumberOrNull(window.end)};
+    json["window_widenings"] = window.widenings;
+    json["boundary_value_residual"] = NumberOrNull(window.boundary_value_residual);
+    json["mesh_points"] = window.mesh_points;
   }
   if (!trajectory_note.empty()) json["trajectory_note"] = trajectory_note;
   json["classification"] = ClassificationToJson(model, classification, classification_options);
@@ -93,13 +100,39 @@ nlohmann::ordered_json SolveToJson(const Model& model,
 }
 
 nlohmann::ordered_json VerificationToJson(const Verification& verification) {
+  const bool restarted = verification.segments > 1;
   return {
+      {"passed", verification.passed},
       {"max_tracking_error", NumberOrNull(verification.max_tracking_error)},
+      {"bound", NumberOrNull(verification.bound)},
+      {"bound_rule", verification.bound_rule},
       {"time_of_max_error", NumberOrNull(verification.time_of_max_error)},
+      {"start", verification.start},
+      {"solution_starts_at_rest", verification.solution_starts_at_rest},
+      {"start_position_deviation", NumberOrNull(verification.start_position_deviation)},
+      {"start_velocity_deviation", NumberOrNull(verification.start_velocity_deviation)},
+      {"plant_growth_rate", NumberOrNull(verification.plant_growth_rate)},
+      {"strategy", restarted ? "restarted from the solution's state at the start of each "
+                               "segment (unstable plant)"
+                             : "one forward run"},
+      {"segment_length", NumberOrNull(verification.segment_length)},
+      {"segments", verification.segments},
+      {"forward_rtol", NumberOrNull(verification.forward_rtol)},
+      {"forward_atol", NumberOrNull(verification.forward_atol)},
       {"status", ToString(verification.summary.status)},
       {"message", verification.summary.message},
       {"steps", verification.summary.steps},
   };
+}
+
+std::string VerificationFailure(const Verification& verification) {
+  if (!verification.summary.IsUsable()) {
+    return "the forward simulation stopped: " + verification.summary.message;
+  }
+  return "the largest output error " + FormatShort(verification.max_tracking_error) +
+         " (at t = " + FormatShort(verification.time_of_max_error) +
+         " s) exceeds the bound " + FormatShort(verification.bound) + " = " +
+         verification.bound_rule;
 }
 
 }  // namespace servokit

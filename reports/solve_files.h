@@ -9,6 +9,7 @@
 #include "models/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/trajectory.h"
+#include "solvers/verification.h"
 
 namespace servokit {
 
@@ -20,16 +21,21 @@ void WriteFeedforwardCsv(const std::string& path,
                          const OutputTrajectory& trajectory,
                          const FeedforwardSolution& solution);
 
-/// method, method_reason, status, message, stop_time, the counters, max_servo_residual,
-/// samples, trajectory_note (when the trajectory was raised in order) and classification (the
-/// analyze object).
+/// method, method_reason, status, message, stop_time, t_start, t_end, sample_time, tolerances,
+/// the counters, max_servo_residual, samples, trajectory_note (when the trajectory was raised
+/// in order), stable inversion's window, and classification (the analyze object).
 nlohmann::ordered_json SolveToJson(const Model& model,
                                    const Classification& classification,
                                    const ClassificationOptions& classification_options,
                                    const FeedforwardSolution& solution,
                                    const std::string& trajectory_note);
 
-/// max_tracking_error, time_of_max_error, status, message, steps.
+/// passed, max_tracking_error, bound, bound_rule, time_of_max_error, start,
+/// solution_starts_at_rest with the deviations, plant_growth_rate, strategy, segment_length,
+/// segments, forward tolerances, status, message, steps.
 nlohmann::ordered_json VerificationToJson(const Verification& verification);
+
+/// One line: why a verification failed.
+std::string VerificationFailure(const Verification& verification);
 
 }  // namespace servokit

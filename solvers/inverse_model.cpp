@@ -8,79 +8,33 @@
 #include "analysis/operating_point.h"
 #include "models/errors.h"
 #include "solvers/algebraic_inversion.h"
+#include "solvers/dense_output.h"
+#include "solvers/method_choice.h"
 #include "solvers/radau.h"
-#include "solvers/stable_inversion.h"
 #include "solvers/solver_messages.h"
+#include "solvers/stable_inversion.h"
+#include "solvers/sundials_integrators.h"
 
 namespace servokit {
 namespace {
 
-// Radau IIA and Euler backward converge on DAEs of index up to 3 (Hairer & Wanner VII.8);
-// beyond that the Newton iteration of the stages is too ill-conditioned.
-constexpr int kMaxProjectedIndexForRadau = 3;
-// Points of the local interpolant of u_d between samples (degree 5): matches the order of
-// Dormand-Prince and Radau IIA, so interpolation adds less error than the solver made.
-constexpr int kInterpolationPoints = 6;
 // The trajectory counts as at rest at t_start when its derivatives there are below this
 // (they are exactly zero before t0 for rest-to-rest trajectories).
 constexpr double kRestTolerance = 1e-14;
-
-struct MethodDefaults {
-  double rtol;
-  double atol;
-};
-MethodDefaults DefaultTolerances(SolverMethod method) {
-  if (method == SolverMethod::kRadau || method == SolverMethod::kEuler) return {1e-8, 1e-10};
-  // The boundary value problem's collocation residual; its errors come out far smaller.
-  if (method == SolverMethod::kStableInversion) return {1e-8, 1e-10};
-  return {1e-10, 1e-12};
-}
+// A sample time divides a span when the span holds a whole number of samples to this relative
+// precision (0.1 s into 4 s: 40.000000000000003).
+constexpr double kWholeSamplesTolerance = 1e-9;
+// More rows than this is a mistake (a sample time in ms given as s), not a controller's grid.
+constexpr double kMaxSamples = 1e8;
+// Two grid or breakpoint times closer than this, relative to 1 + |t|, are one.
+constexpr double kSameTimeTolerance = 1e-12;
 
 // P = H M^-1 B has full rank at the operating point (an orthogonal realization).
 bool DecouplingRegular(const Classification& classification) {
   return classification.decoupling.rank == classification.decoupling.decoupling_matrix.rows();
 }
 
-// The method to run and why, or NoSolution when the asked method does not fit the class.
-std::pair<SolverMethod, std::string> ChooseMethod(const Classification& classification,
-                                                  const InverseModelOptions& options) {
-  const bool unstable = classification.zero_dynamics.stability == Stability::kUnstable;
-  const bool decoupling_regular = DecouplingRegular(classification);
-  const int projected_index = classification.structure.projected_index;
-  SolverMethod method = options.method;
-  std::string reason = "asked for with --method";
-  if (method == SolverMethod::kAuto) {
-    method = classification.recommended_solver;
-    reason = "auto: recommended for this class (" +
-             (classification.flat
-                  ? std::string("flat")
-                  : std::string(ToString(classification.zero_dynamics.stability)) +
-                        " zero dynamics") +
-             ", projected index " + std::to_string(projected_index) + ")";
-  }
-  if (unstable && !options.force && method != SolverMethod::kAlgebraic &&
-      method != SolverMethod::kStableInversion) {
-    throw NoSolution("the zero dynamics are unstable: --method " + std::string(ToString(method)) +
-                     " integrates the internal dynamics forward, which diverges; use --method "
-                     "stable-inversion (paper Sect. 5.3), or --force to integrate anyway");
-  }
-  if ((method == SolverMethod::kBdf || method == SolverMethod::kNormalForm ||
-       method == SolverMethod::kStableInversion) &&
-      !decoupling_regular) {
-    throw NoSolution("--method " + std::string(ToString(method)) +
-                     " needs P = H M^-1 B regular (an orthogonal realization); this problem is " +
-                     std::string(ToString(classification.decoupling.realization)) +
-                     ": use --method radau" + (classification.flat ? " or algebraic" : ""));
-  }
-  if ((method == SolverMethod::kRadau || method == SolverMethod::kEuler) &&
-      projected_index > kMaxProjectedIndexForRadau) {
-    throw NoSolution("the projected DAE has index " + std::to_string(projected_index) +
-                     ", more than the 3 that --method " + std::string(ToString(method)) +
-                     " handles" +
-                     (classification.flat ? "; the problem is flat: use --method algebraic" : ""));
-  }
-  return {method, reason};
-}
+std::string Seconds(double t) { return FormatNumber(t) + " s"; }
 
 // The start of the motion: at rest at the equilibrium with h(q) = y_d(t_start) when the
 // trajectory rests there; otherwise (orthogonal realizations only) the internal coordinates at
@@ -93,14 +47,14 @@ StartState FindStartState(const Model& model,
                           const OutputTrajectory& trajectory,
                           const Classification& classification,
                           ServoConstraintProblem& problem,
-                          double t_start,
-                          int highest_derivative) {
+                          double t_start) {
   Workspace workspace(model);
   OperatingPointOptions equilibrium_options;
   equilibrium_options.y0 = trajectory.Derivative(t_start, 0);
   equilibrium_options.q_guess = classification.operating_point.q;
   const OperatingPoint equilibrium = FindOperatingPoint(model, workspace, equilibrium_options);
 
+  const int highest_derivative = std::max(classification.structure.differentiation_index - 1, 2);
   bool at_rest = true;
   for (int order = 1; order <= highest_derivative; ++order) {
     at_rest = at_rest && trajectory.Derivative(t_start, order).norm() <= kRestTolerance;
@@ -122,8 +76,69 @@ StartState FindStartState(const Model& model,
   return start;
 }
 
+// The method's name in a message: "bdf (auto's choice)" when auto chose it.
+std::string MethodName(const FeedforwardSolution& solution) {
+  return std::string(ToString(solution.method)) +
+         (solution.method_reason.rfind("auto", 0) == 0 ? " (auto's choice)" : "");
+}
+
+// Settings the method does not read, and tolerances outside its range, are errors.
+void CheckSettingsFor(const FeedforwardSolution& solution,
+                      const InverseModelOptions& options,
+                      const Classification& classification) {
+  const MethodSettings& settings = SettingsOf(solution.method);
+  const std::string method = MethodName(solution);
+  const auto refuse = [&](SolveSetting setting, const std::string& why) {
+    throw SettingError(setting, "the " + std::string(ToString(setting)) + " is not used by " +
+                                    method + ": " + why);
+  };
+  if (options.step && !settings.uses_step) {
+    refuse(SolveSetting::kStep, "it chooses its own steps (a fixed step is euler's)");
+  }
+  if (options.step && solution.method == SolverMethod::kAlgebraic && options.sample_time) {
+    refuse(SolveSetting::kStep,
+           "it is evaluated at the sample times; the step spaces its own points without them");
+  }
+  if (!settings.uses_tolerances && (options.rtol || options.atol)) {
+    refuse(options.rtol ? SolveSetting::kRelativeTolerance : SolveSetting::kAbsoluteTolerance,
+           "it is exact up to round-off and has no tolerance");
+  }
+  if (!settings.uses_actuation && (options.pre_actuation || options.post_actuation)) {
+    refuse(options.pre_actuation ? SolveSetting::kPreActuation : SolveSetting::kPostActuation,
+           "only stable inversion acts before and after the motion");
+  }
+  // Forcing makes a forward method integrate unstable zero dynamics; anywhere else it would
+  // be silently meaningless.
+  if (options.force && !settings.forward) {
+    throw SettingError(SolveSetting::kForce, "nothing to force: " + method +
+                                                 " does not integrate the internal dynamics "
+                                                 "forward");
+  }
+  if (options.force && classification.zero_dynamics.stability != Stability::kUnstable) {
+    throw SettingError(SolveSetting::kForce,
+                       "nothing to force: the zero dynamics are " +
+                           std::string(ToString(classification.zero_dynamics.stability)) +
+                           ", not unstable");
+  }
+  CheckTolerances(solution.method, options.rtol, options.atol);
+}
+
+// The tolerances the method runs with.
+SolveAccuracy AccuracyOf(SolverMethod method, const InverseModelOptions& options) {
+  const MethodSettings& settings = SettingsOf(method);
+  SolveAccuracy accuracy;
+  if (settings.uses_tolerances) {
+    accuracy.rtol = options.rtol.value_or(settings.default_rtol);
+    accuracy.atol = options.atol.value_or(settings.default_atol);
+  }
+  if (method == SolverMethod::kEuler) accuracy.step = options.step.value_or(settings.default_step);
+  return accuracy;
+}
+
 // Sample times of the fixed grid t_start + k step, with the breakpoints in between.
-std::vector<double> FixedGrid(double t_start, double t_end, double step,
+std::vector<double> FixedGrid(double t_start,
+                              double t_end,
+                              double step,
                               const std::vector<double>& breakpoints) {
   std::vector<double> times;
   const long count = long(std::ceil((t_end - t_start) / step - 1e-9));
@@ -134,64 +149,20 @@ std::vector<double> FixedGrid(double t_start, double t_end, double step,
   }
   std::sort(times.begin(), times.end());
   times.erase(std::unique(times.begin(), times.end(),
-                          [](double a, double b) { return std::abs(a - b) <= 1e-12 * (1 + std::abs(a)); }),
+                          [](double a, double b) {
+                            return std::abs(a - b) <= kSameTimeTolerance * (1 + std::abs(a));
+                          }),
               times.end());
   return times;
 }
 
-// u_d between samples: Lagrange interpolation through kInterpolationPoints neighbouring samples
-// of the same smooth piece (never across a breakpoint, where derivatives of u_d jump).
-class SampledFeedforward {
- public:
-  SampledFeedforward(std::vector<double> times,
-                     std::vector<Eigen::VectorXd> values,
-                     const std::vector<double>& breakpoints)
-      : times_(std::move(times)), values_(std::move(values)) {
-    for (double breakpoint : breakpoints) {
-      if (breakpoint > times_.front() && breakpoint < times_.back()) breakpoints_.push_back(breakpoint);
-    }
-  }
-
-  Eigen::VectorXd operator()(double t) const {
-    const double tolerance = 1e-12 * (1.0 + std::abs(t));
-    // The piece [piece_start, piece_end] holding t; at a breakpoint the later piece answers.
-    double piece_start = times_.front(), piece_end = times_.back();
-    for (double breakpoint : breakpoints_) {
-      if (breakpoint <= t + tolerance) piece_start = breakpoint;
-      if (breakpoint > t + tolerance) {
-        piece_end = breakpoint;
-        break;
-      }
-    }
-    const auto first_in_piece =
-        std::lower_bound(times_.begin(), times_.end(), piece_start - tolerance) - times_.begin();
-    const auto last_in_piece =
-        std::upper_bound(times_.begin(), times_.end(), piece_end + tolerance) - times_.begin() - 1;
-    const auto at = std::upper_bound(times_.begin(), times_.end(), t) - times_.begin();
-    const long count = std::min<long>(kInterpolationPoints, long(last_in_piece - first_in_piece) + 1);
-    long first = std::clamp<long>(long(at) - count / 2, long(first_in_piece),
-                                  long(last_in_piece) - count + 1);
-    Eigen::VectorXd value = Eigen::VectorXd::Zero(values_.front().size());
-    for (long i = first; i < first + count; ++i) {
-      double weight = 1.0;
-      for (long j = first; j < first + count; ++j) {
-        if (j != i) weight *= (t - times_[std::size_t(j)]) / (times_[std::size_t(i)] - times_[std::size_t(j)]);
-      }
-      value += weight * values_[std::size_t(i)];
-    }
-    return value;
-  }
-
- private:
-  std::vector<double> times_;
-  std::vector<Eigen::VectorXd> values_;
-  std::vector<double> breakpoints_;
-};
-
-// Appends a sample, replacing one at the same time (an integrator restarting at a breakpoint
+// Appends a row, replacing one at the same time (an integrator restarting at a breakpoint
 // reports that time twice).
-void Record(FeedforwardSolution& solution, double t, const Eigen::VectorXd& q,
-            const Eigen::VectorXd& q_dot, const Eigen::VectorXd& u) {
+void Record(FeedforwardSolution& solution,
+            double t,
+            const Eigen::VectorXd& q,
+            const Eigen::VectorXd& q_dot,
+            const Eigen::VectorXd& u) {
   if (!solution.times.empty() && t <= solution.times.back()) {
     solution.q.back() = q;
     solution.q_dot.back() = q_dot;
@@ -204,81 +175,11 @@ void Record(FeedforwardSolution& solution, double t, const Eigen::VectorXd& q,
   solution.u.push_back(u);
 }
 
-Eigen::MatrixXd OutputDerivatives(const OutputTrajectory& trajectory, double t, int highest) {
-  Eigen::MatrixXd derivatives(trajectory.outputs(), highest + 1);
-  for (int order = 0; order <= highest; ++order) derivatives.col(order) = trajectory.Derivative(t, order);
-  return derivatives;
-}
-
-void SolveAlgebraic(const Model& model,
-                    const OutputTrajectory& trajectory,
-                    const InverseModelOptions& options,
-                    const StartState& start,
-                    std::shared_ptr<const AlgebraicInverse> inverse,
-                    FeedforwardSolution& solution) {
-  const int highest = inverse->highest_output_derivative();
-  Eigen::VectorXd q = start.q, q_dot = start.q_dot, u;
-  std::string why;
-  solution.summary.status = SolveStatus::kConverged;
-  for (double t : FixedGrid(options.t_start, options.t_end, options.step, trajectory.breakpoints())) {
-    if (!inverse->Evaluate(OutputDerivatives(trajectory, t, highest), model.parameters(), q, q_dot, u,
-                           why)) {
-      solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + FormatNumber(t) + " s: " + why;
-      solution.summary.stop_time = t;
-      return;
-    }
-    ++solution.summary.steps;
-    Record(solution, t, q, q_dot, u);
-  }
-  solution.summary.stop_time = options.t_end;
-  solution.summary.message = "evaluated at " + std::to_string(solution.times.size()) + " times";
-  // Exact u_d at any t: the inverse itself, started from the nearest sample's state.
-  const Eigen::VectorXd parameters = model.parameters();
-  const std::vector<double> times = solution.times;
-  const std::vector<Eigen::VectorXd> q_samples = solution.q, q_dot_samples = solution.q_dot;
-  const OutputTrajectory* path = &trajectory;
-  solution.feedforward = [inverse, parameters, times, q_samples, q_dot_samples, path,
-                          highest](double t) {
-    const auto index = std::size_t(std::clamp<long>(
-        long(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1, 0,
-        long(times.size()) - 1));
-    Eigen::VectorXd state_q = q_samples[index], state_q_dot = q_dot_samples[index], input;
-    std::string reason;
-    if (!inverse->Evaluate(OutputDerivatives(*path, t, highest), parameters, state_q, state_q_dot,
-                           input, reason)) {
-      input.setConstant(Eigen::Index(inverse->output_derivative_orders().size()),
-                        std::numeric_limits<double>::quiet_NaN());
-    }
-    return input;
-  };
-}
-
-void SolveProjected(ServoConstraintProblem& problem,
-                    const Classification& classification,
-                    const InverseModelOptions& options,
-                    SolverMethod method,
-                    const StartState& start,
-                    FeedforwardSolution& solution) {
-  const Eigen::Index f = problem.dof();
-  const bool decoupling_regular = DecouplingRegular(classification);
-  ProjectedDae dae(problem, decoupling_regular);
-  Eigen::VectorXd x_start(dae.size());
-  x_start << start.q, start.q_dot, start.u;
-  RadauOptions radau;
-  const MethodDefaults defaults = DefaultTolerances(method);
-  radau.rtol = options.rtol.value_or(defaults.rtol);
-  radau.atol = options.atol.value_or(defaults.atol);
-  if (method == SolverMethod::kEuler) {
-    radau.stages = 1;
-    radau.fixed_step = options.step;
-  }
-  solution.summary = IntegrateRadau(
-      dae, options.t_start, x_start, options.t_end, problem.trajectory().breakpoints(), radau,
-      [&](double t, const Eigen::VectorXd& x) {
-        Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
-        return true;
-      });
+void ClearRows(FeedforwardSolution& solution) {
+  solution.times.clear();
+  solution.q.clear();
+  solution.q_dot.clear();
+  solution.u.clear();
 }
 
 // Watches det P from step to step: a sign change means P passed through singular between two
@@ -290,9 +191,10 @@ class DecouplingWatch {
   bool Check(double t, double determinant) {
     const bool crossed = std::isfinite(previous_) && determinant * previous_ < 0.0;
     if (crossed) {
-      message_ = "P = H M^-1 B is singular between t = " + FormatNumber(previous_time_) + " s and " +
-                 FormatNumber(t) + " s (det P changes sign from " + FormatNumber(previous_) + " to " +
-                 FormatNumber(determinant) + "): u_d has a pole there";
+      message_ = "P = H M^-1 B is singular between t = " + FormatNumber(previous_time_) +
+                 " s and " + FormatNumber(t) + " s (det P changes sign from " +
+                 FormatNumber(previous_) + " to " + FormatNumber(determinant) +
+                 "): u_d has a pole there";
       return false;
     }
     previous_ = determinant;
@@ -313,16 +215,89 @@ class DecouplingWatch {
   std::string message_;
 };
 
+void SolveAlgebraic(const Model& model,
+                    const OutputTrajectory& trajectory,
+                    const std::vector<double>& times,
+                    const StartState& start,
+                    std::shared_ptr<const AlgebraicInverse> inverse,
+                    FeedforwardSolution& solution) {
+  const int highest = inverse->highest_output_derivative();
+  Eigen::VectorXd q = start.q, q_dot = start.q_dot, u;
+  Eigen::MatrixXd derivatives;
+  std::string why;
+  solution.summary.status = SolveStatus::kConverged;
+  for (double t : times) {
+    trajectory.Derivatives(t, highest, derivatives);
+    if (!inverse->Evaluate(derivatives, model.parameters(), q, q_dot, u, why)) {
+      solution.summary.status = SolveStatus::kNoConvergence;
+      solution.summary.message = "at t = " + Seconds(t) + ": " + why;
+      solution.summary.stop_time = t;
+      break;
+    }
+    ++solution.summary.steps;
+    Record(solution, t, q, q_dot, u);
+  }
+  if (solution.summary.IsUsable()) {
+    solution.summary.stop_time = times.back();
+    solution.summary.message = "evaluated at " + std::to_string(solution.times.size()) + " times";
+  }
+  if (!solution.times.empty()) {
+    solution.extension = AlgebraicMotion(inverse, model, trajectory, solution.times, solution.q,
+                                         solution.q_dot);
+  }
+}
+
+void SolveProjected(ServoConstraintProblem& problem,
+                    const Classification& classification,
+                    const StartState& start,
+                    bool keep_extension,
+                    FeedforwardSolution& solution) {
+  const Eigen::Index f = problem.dof();
+  const bool decoupling_regular = DecouplingRegular(classification);
+  ProjectedDae dae(problem, decoupling_regular);
+  Eigen::VectorXd x_start(dae.size());
+  x_start << start.q, start.q_dot, start.u;
+  RadauOptions radau;
+  radau.rtol = solution.accuracy.rtol;
+  radau.atol = solution.accuracy.atol;
+  if (solution.method == SolverMethod::kEuler) {
+    radau.stages = 1;
+    radau.fixed_step = *solution.accuracy.step;
+  }
+  DecouplingWatch watch;
+  DenseOutput states(dae.size());
+  solution.summary = IntegrateRadau(
+      dae, solution.t_start, x_start, solution.t_end, problem.trajectory().breakpoints(), radau,
+      [&](double t, const Eigen::VectorXd& x) {
+        // With P regular at the operating point, u is index 2 and det P must keep its sign:
+        // a pole of u_d between two steps is otherwise stepped over, writing F ~ 1e18 N.
+        if (decoupling_regular) {
+          Eigen::VectorXd input, q_ddot;
+          std::string reason;
+          if (!problem.NormalForm(t, x.head(f), x.segment(f, f), input, q_ddot, reason) ||
+              !watch.Check(t, problem.decoupling_determinant())) {
+            return false;
+          }
+        }
+        Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
+        return true;
+      },
+      keep_extension ? &states : nullptr);
+  watch.Finish(solution.summary);
+  if (!states.empty()) solution.extension = InterpolatedMotion(std::move(states), f);
+}
+
 void SolveBdf(ServoConstraintProblem& problem,
-              const InverseModelOptions& options,
               const StartState& start,
+              bool keep_extension,
               FeedforwardSolution& solution) {
   const Eigen::Index f = problem.dof();
   const Eigen::Index n = 2 * f + problem.num_inputs();
   Eigen::VectorXd x_start(n), x_dot_start(n), u, q_ddot;
   std::string why;
-  if (!problem.NormalForm(options.t_start, start.q, start.q_dot, u, q_ddot, why)) {
-    throw NoSolution("no consistent start at t_start = " + FormatNumber(options.t_start) + ": " + why);
+  if (!problem.NormalForm(solution.t_start, start.q, start.q_dot, u, q_ddot, why)) {
+    throw NoSolution("no consistent start at t_start = " + FormatNumber(solution.t_start) + ": " +
+                     why);
   }
   x_start << start.q, start.q_dot, u;
   x_dot_start << start.q_dot, q_ddot, Eigen::VectorXd::Zero(problem.num_inputs());
@@ -330,19 +305,17 @@ void SolveBdf(ServoConstraintProblem& problem,
   std::vector<bool> differential(std::size_t(n), true);
   for (Eigen::Index i = 2 * f; i < n; ++i) differential[std::size_t(i)] = false;
   IntegratorOptions integrator;
-  const MethodDefaults defaults = DefaultTolerances(SolverMethod::kBdf);
-  integrator.rtol = options.rtol.value_or(defaults.rtol);
-  integrator.atol = options.atol.value_or(defaults.atol);
+  integrator.rtol = solution.accuracy.rtol;
+  integrator.atol = solution.accuracy.atol;
+  DenseOutput states(n);
   solution.summary = IntegrateIda(
       [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd& x_dot,
           Eigen::VectorXd& residual, std::string& reason) {
         return problem.IndexOneResidual(t, x, x_dot, residual, reason);
       },
-      // No breakpoints: a restart there needs IDACalcIC, whose split into differential and
-      // algebraic components must be by component, while here Eq. (15) projected on C and
-      // D^T M v' mix the components. The residual reads y_d'' at most, which is continuous
-      // across the breakpoints (Eq. 65 has 4 continuous derivatives), so BDF steps across.
-      options.t_start, x_start, x_dot_start, differential, options.t_end, {}, integrator,
+      // No breakpoints: the residual reads y_d'' at most, which is continuous across them
+      // (Eq. 65 has 4 continuous derivatives), so BDF steps across.
+      solution.t_start, x_start, x_dot_start, differential, solution.t_end, {}, integrator,
       [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd&) {
         // det P at the step, from the normal form of the same state.
         Eigen::VectorXd input, q_ddot_at_step;
@@ -353,14 +326,17 @@ void SolveBdf(ServoConstraintProblem& problem,
         }
         Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
         return true;
-      });
+      },
+      keep_extension ? &states : nullptr);
   watch.Finish(solution.summary);
+  if (!states.empty()) solution.extension = InterpolatedMotion(std::move(states), f);
 }
 
-void SolveNormalForm(ServoConstraintProblem& problem,
-                     const InverseModelOptions& options,
+void SolveNormalForm(const std::shared_ptr<ServoConstraintProblem>& shared_problem,
                      const StartState& start,
+                     bool keep_extension,
                      FeedforwardSolution& solution) {
+  ServoConstraintProblem& problem = *shared_problem;
   const Eigen::Index internal = problem.num_internal();
   const Eigen::MatrixXd& directions = problem.internal_directions();
   Eigen::VectorXd internal_start(2 * internal);
@@ -384,9 +360,9 @@ void SolveNormalForm(ServoConstraintProblem& problem,
   };
   DecouplingWatch watch;
   IntegratorOptions integrator;
-  const MethodDefaults defaults = DefaultTolerances(SolverMethod::kNormalForm);
-  integrator.rtol = options.rtol.value_or(defaults.rtol);
-  integrator.atol = options.atol.value_or(defaults.atol);
+  integrator.rtol = solution.accuracy.rtol;
+  integrator.atol = solution.accuracy.atol;
+  auto internal_states = std::make_shared<DenseOutput>(2 * internal);
   solution.summary = IntegrateDormandPrince(
       [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& why) {
         if (!state_at(t, y, why)) return false;
@@ -395,75 +371,183 @@ void SolveNormalForm(ServoConstraintProblem& problem,
         y_dot.tail(internal).noalias() = directions.transpose() * q_ddot;  // Eq. (25)
         return true;
       },
-      options.t_start, internal_start, options.t_end, problem.trajectory().breakpoints(),
-      integrator, [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+      solution.t_start, internal_start, solution.t_end, problem.trajectory().breakpoints(),
+      integrator,
+      [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
         std::string why;
         if (!state_at(t, y, why) || !watch.Check(t, problem.decoupling_determinant())) {
           return false;
         }
         Record(solution, t, q, q_dot, u);
         return true;
-      });
+      },
+      keep_extension ? internal_states.get() : nullptr);
   watch.Finish(solution.summary);
+  if (!internal_states->empty()) {
+    solution.extension =
+        InternalMotion(shared_problem, [internal_states](double t) { return (*internal_states)(t); },
+                       start.q, internal_states->start(), internal_states->end());
+  }
+}
+
+// The equilibrium at rest with h(q) = y_d(t).
+OperatingPoint RestAt(const Model& model,
+                      const OutputTrajectory& trajectory,
+                      double t,
+                      const Eigen::VectorXd& q_guess) {
+  Workspace workspace(model);
+  OperatingPointOptions options;
+  options.y0 = trajectory.Derivative(t, 0);
+  options.q_guess = q_guess;
+  return FindOperatingPoint(model, workspace, options);
 }
 
 // Stable inversion on the window the boundary value problem chooses (or the user fixed), from
-// the equilibrium at the start of the motion to the one at its end.
+// the equilibrium at the start of the motion to the one at its end, then cut or padded with
+// the rest states to [t_start, t_end].
 void SolveByStableInversion(const Model& model,
                             const OutputTrajectory& trajectory,
+                            const Classification& classification,
                             const InverseModelOptions& options,
-                            const StartState& start,
                             FeedforwardSolution& solution) {
-  Workspace workspace(model);
-  OperatingPointOptions end_options;
-  end_options.y0 = trajectory.Derivative(trajectory.breakpoints().back(), 0);
-  end_options.q_guess = start.q;
-  const OperatingPoint end = FindOperatingPoint(model, workspace, end_options);
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  const OperatingPoint start =
+      RestAt(model, trajectory, breakpoints.front(), classification.operating_point.q);
+  const OperatingPoint end = RestAt(model, trajectory, breakpoints.back(), start.q);
   StableInversionOptions inversion;
-  inversion.tolerance = options.rtol.value_or(DefaultTolerances(SolverMethod::kStableInversion).rtol);
+  inversion.tolerance = solution.accuracy.rtol;
+  inversion.absolute_tolerance = solution.accuracy.atol;
   inversion.pre_actuation = options.pre_actuation;
   inversion.post_actuation = options.post_actuation;
-  const StableInversionSolution result =
-      SolveStableInversion(model, trajectory, start.q, end.q, inversion);
+  StableInversionSolution result = SolveStableInversion(model, trajectory, start.q, end.q, inversion);
   solution.summary = result.summary;
   solution.summary.steps = long(result.times.size());
-  solution.times = result.times;
-  solution.q = result.q;
-  solution.q_dot = result.q_dot;
-  solution.u = result.u;
-  solution.window_start = result.window_start;
-  solution.window_end = result.window_end;
-  solution.pre_actuation_start = result.pre_actuation_start;
-  solution.post_actuation_end = result.post_actuation_end;
-  solution.boundary_value_residual = result.max_residual;
-  solution.window_widenings = result.widenings;
-  solution.feedforward = result.feedforward;
+  StableInversionWindow window;
+  window.start = result.window_start;
+  window.end = result.window_end;
+  window.pre_actuation_start = result.pre_actuation_start;
+  window.post_actuation_end = result.post_actuation_end;
+  window.boundary_value_residual = result.max_residual;
+  window.widenings = result.widenings;
+  window.mesh_points = result.times.size();
+  solution.window = window;
+  if (!result.extension) return;
+  // The span: unset t_start begins with the window (its pre-actuation).
+  if (!options.t_start) solution.t_start = std::min(window.start, breakpoints.front());
+  solution.extension = PaddedWithRest(result.extension, solution.t_start, solution.t_end,
+                                      {start.q, start.u}, {end.q, end.u});
+  if (window.pre_actuation_start < solution.t_start) {
+    solution.warnings.push_back(
+        "u_d is not at rest at t_start = " + Seconds(solution.t_start) +
+        ": the pre-actuation starts at " + Seconds(window.pre_actuation_start) +
+        "; the motion written starts from a state that is not at rest");
+  }
+  if (window.post_actuation_end > solution.t_end) {
+    solution.warnings.push_back("u_d is not at rest at t_end = " + Seconds(solution.t_end) +
+                                ": the post-actuation goes on until " +
+                                Seconds(window.post_actuation_end));
+  }
+  // The own points: the mesh within the span, and its ends.
+  ClearRows(solution);
+  std::vector<double> times = {solution.t_start};
+  for (const double t : result.times) {
+    if (t > solution.t_start && t < solution.t_end) times.push_back(t);
+  }
+  times.push_back(solution.t_end);
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  for (const double t : times) {
+    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) {
+      solution.summary.status = SolveStatus::kNoConvergence;
+      solution.summary.message = "at t = " + Seconds(t) + ": " + why;
+      solution.summary.stop_time = t;
+      return;
+    }
+    Record(solution, t, q, q_dot, u);
+  }
+  solution.summary.stop_time = solution.t_end;
+}
+
+// Replaces the rows by the extension at the sample times up to where the solve stopped.
+void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) {
+  ClearRows(solution);
+  if (!solution.extension) return;
+  const double reached = solution.extension->end();
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  for (const double t : grid) {
+    if (t > reached + kSameTimeTolerance * (1.0 + std::abs(reached))) break;
+    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) {
+      solution.summary.status = SolveStatus::kNoConvergence;
+      solution.summary.message = "at t = " + Seconds(t) + " (a sample): " + why;
+      solution.summary.stop_time = t;
+      return;
+    }
+    Record(solution, t, q, q_dot, u);
+  }
+}
+
+// The grid of sample_time for a span whose start is only known after a stable inversion:
+// anchored at `anchor` (t_start, or the motion's start) and reaching back to cover t_start.
+std::vector<double> GridCovering(double t_start, double t_end, double anchor, double sample_time) {
+  const double samples_before = std::ceil((anchor - t_start) / sample_time - kWholeSamplesTolerance);
+  return SampleGrid(anchor - std::max(samples_before, 0.0) * sample_time, t_end, sample_time);
 }
 
 }  // namespace
 
 void InverseModelOptions::Validate() const {
-  if (!std::isfinite(t_start) || !std::isfinite(t_end) || !(t_end > t_start)) {
-    throw UsageError("the time span t_start = " + FormatNumber(t_start) + ", t_end = " + FormatNumber(t_end) +
-                     ": needs finite t_start < t_end");
+  const auto require = [](bool valid, SolveSetting setting, const std::string& what) {
+    if (!valid) throw SettingError(setting, what);
+  };
+  require(std::isfinite(t_end), SolveSetting::kEndTime,
+          "the end time " + FormatNumber(t_end) + " is not a finite number");
+  if (t_start) {
+    require(std::isfinite(*t_start), SolveSetting::kStartTime,
+            "the start time " + FormatNumber(*t_start) + " is not a finite number");
+    require(*t_start < t_end, SolveSetting::kStartTime,
+            "the start time " + FormatNumber(*t_start) + " s is not before the end time " +
+                FormatNumber(t_end) + " s");
   }
-  if (!(step > 0.0) || !std::isfinite(step)) {
-    throw UsageError("step = " + FormatNumber(step) + ": must be a finite number > 0");
-  }
-  if (rtol && !(*rtol > 0.0 && *rtol < 1.0)) {
-    throw UsageError("rtol = " + FormatNumber(*rtol) + ": must be in (0, 1)");
-  }
-  if (atol && !(*atol > 0.0 && std::isfinite(*atol))) {
-    throw UsageError("atol = " + FormatNumber(*atol) + ": must be a finite number > 0");
-  }
-  for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
-                                    std::pair{post_actuation, "post_actuation"}}) {
-    if (value && !(*value > 0.0 && std::isfinite(*value))) {
-      throw UsageError(std::string(name) + " = " + FormatNumber(*value) +
-                       ": must be a finite number > 0");
-    }
+  for (const auto& [value, setting] :
+       {std::pair{step, SolveSetting::kStep}, std::pair{sample_time, SolveSetting::kSampleTime},
+        std::pair{pre_actuation, SolveSetting::kPreActuation},
+        std::pair{post_actuation, SolveSetting::kPostActuation}}) {
+    require(!value || (std::isfinite(*value) && *value > 0.0), setting,
+            "the " + std::string(ToString(setting)) + " " + FormatNumber(value.value_or(0.0)) +
+                " s is not a finite number > 0");
   }
   problem.Validate();
+}
+
+std::vector<double> SampleGrid(double t_start, double t_end, double sample_time) {
+  if (!(std::isfinite(sample_time) && sample_time > 0.0)) {
+    throw SettingError(SolveSetting::kSampleTime, "the sample time " + FormatNumber(sample_time) +
+                                                      " s is not a finite number > 0");
+  }
+  const double samples = (t_end - t_start) / sample_time;
+  const double whole = std::round(samples);
+  if (!(std::abs(samples - whole) <= kWholeSamplesTolerance * std::max(1.0, whole)) ||
+      whole < 1.0) {
+    throw SettingError(SolveSetting::kSampleTime,
+                       "the sample time " + FormatNumber(sample_time) +
+                           " s does not divide the span from " + Seconds(t_start) + " to " +
+                           Seconds(t_end) + " (" + FormatNumber(samples) +
+                           " samples): choose the end time " +
+                           FormatNumber(t_start + std::ceil(samples) * sample_time) +
+                           " s or a sample time that divides it");
+  }
+  if (whole > kMaxSamples) {
+    throw SettingError(SolveSetting::kSampleTime,
+                       "the sample time " + FormatNumber(sample_time) + " s gives " +
+                           FormatNumber(whole) + " samples, more than " +
+                           FormatNumber(kMaxSamples));
+  }
+  const auto count = static_cast<std::size_t>(whole);
+  std::vector<double> grid(count + 1);
+  for (std::size_t k = 0; k < count; ++k) grid[k] = t_start + double(k) * sample_time;
+  grid[count] = t_end;
+  return grid;
 }
 
 FeedforwardSolution SolveInverseModel(const Model& model,
@@ -471,113 +555,79 @@ FeedforwardSolution SolveInverseModel(const Model& model,
                                       const Classification& classification,
                                       const InverseModelOptions& options) {
   options.Validate();
+  MethodChooser chooser(model, classification, options.force);
   FeedforwardSolution solution;
-  std::tie(solution.method, solution.method_reason) = ChooseMethod(classification, options);
-  std::shared_ptr<const AlgebraicInverse> inverse;
-  if (solution.method == SolverMethod::kAlgebraic) {
-    try {
-      inverse = std::make_shared<const AlgebraicInverse>(model);
-    } catch (const NoSolution& error) {
-      // Flat at the operating point, yet not invertible by static algebra along the motion
-      // (e.g. a crane, whose outputs see the inputs only through the rope force: it needs a
-      // dynamic extension). Auto falls back to the projected DAE; an explicit ask fails.
-      if (options.method != SolverMethod::kAuto ||
-          classification.structure.projected_index > kMaxProjectedIndexForRadau) {
-        throw;
+  std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);
+  CheckSettingsFor(solution, options, classification);
+  solution.accuracy = AccuracyOf(solution.method, options);
+
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  const double motion_end = breakpoints.back();
+  if (options.t_end < motion_end) {
+    throw SettingError(SolveSetting::kEndTime, "the end time " + Seconds(options.t_end) +
+                                                   " comes before the motion ends, at " +
+                                                   Seconds(motion_end));
+  }
+  solution.t_start = options.t_start.value_or(breakpoints.front());
+  solution.t_end = options.t_end;
+  solution.sample_time = options.sample_time;
+  // The grid's anchor is known now: a sample time that does not divide the span is refused
+  // before any work.
+  const double anchor = solution.t_start;
+  if (options.sample_time) SampleGrid(anchor, solution.t_end, *options.sample_time);
+
+  const auto problem = std::make_shared<ServoConstraintProblem>(
+      model, trajectory, classification.operating_point.q, options.problem);
+  if (solution.method == SolverMethod::kStableInversion) {
+    SolveByStableInversion(model, trajectory, classification, options, solution);
+  } else {
+    const StartState start =
+        FindStartState(model, trajectory, classification, *problem, solution.t_start);
+    const bool keep_extension = options.continuous_extension || options.sample_time;
+    switch (solution.method) {
+      case SolverMethod::kAlgebraic: {
+        const std::vector<double> times =
+            options.sample_time
+                ? SampleGrid(solution.t_start, solution.t_end, *options.sample_time)
+                : FixedGrid(solution.t_start, solution.t_end,
+                            options.step.value_or(SettingsOf(solution.method).default_step),
+                            breakpoints);
+        SolveAlgebraic(model, trajectory, times, start, chooser.algebraic_inverse(), solution);
+        break;
       }
-      solution.method = SolverMethod::kRadau;
-      solution.method_reason += "; Radau IIA instead of algebraic inversion, since " +
-                                std::string(error.what());
+      case SolverMethod::kEuler:
+      case SolverMethod::kRadau:
+        SolveProjected(*problem, classification, start, keep_extension, solution);
+        break;
+      case SolverMethod::kBdf:
+        SolveBdf(*problem, start, keep_extension, solution);
+        break;
+      case SolverMethod::kNormalForm:
+        SolveNormalForm(problem, start, keep_extension, solution);
+        break;
+      case SolverMethod::kStableInversion:
+      case SolverMethod::kAuto:
+        break;  // above; Choose() never returns kAuto
+    }
+    // An integrator that stopped on a refused evaluation knows why only as text; the problem
+    // knows the kind (P or M singular).
+    if (!solution.summary.IsUsable() &&
+        (problem->last_failure() == SolveStatus::kSingularDecoupling ||
+         problem->last_failure() == SolveStatus::kSingularMass)) {
+      solution.summary.status = problem->last_failure();
     }
   }
-  ServoConstraintProblem problem(model, trajectory, classification.operating_point.q,
-                                 options.problem);
-  const int highest_derivative = classification.structure.differentiation_index - 1;
-  const StartState start = FindStartState(model, trajectory, classification, problem,
-                                          options.t_start, std::max(highest_derivative, 2));
-  switch (solution.method) {
-    case SolverMethod::kAlgebraic:
-      SolveAlgebraic(model, trajectory, options, start, inverse, solution);
-      break;
-    case SolverMethod::kEuler:
-    case SolverMethod::kRadau:
-      SolveProjected(problem, classification, options, solution.method, start, solution);
-      break;
-    case SolverMethod::kBdf:
-      SolveBdf(problem, options, start, solution);
-      break;
-    case SolverMethod::kNormalForm:
-      SolveNormalForm(problem, options, start, solution);
-      break;
-    case SolverMethod::kStableInversion:
-      SolveByStableInversion(model, trajectory, options, start, solution);
-      break;
-    case SolverMethod::kAuto:
-      break;  // ChooseMethod() never returns it
-  }
-  // An integrator that stopped on a refused evaluation knows why only as text; the problem
-  // knows the kind (P or M singular).
-  if (!solution.summary.IsUsable() &&
-      (problem.last_failure() == SolveStatus::kSingularDecoupling ||
-       problem.last_failure() == SolveStatus::kSingularMass)) {
-    solution.summary.status = problem.last_failure();
+  if (options.sample_time && solution.method != SolverMethod::kAlgebraic) {
+    SampleRows(GridCovering(solution.t_start, solution.t_end, anchor, *options.sample_time),
+               solution);
+    if (!solution.times.empty()) solution.t_start = solution.times.front();
   }
   solution.max_servo_residual = 0.0;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
-    solution.max_servo_residual =
-        std::max(solution.max_servo_residual, problem.ServoResidual(solution.times[i], solution.q[i]));
-  }
-  if (!solution.feedforward && !solution.times.empty()) {
-    solution.feedforward = SampledFeedforward(solution.times, solution.u, trajectory.breakpoints());
+    solution.max_servo_residual = std::max(
+        solution.max_servo_residual, problem->ServoResidual(solution.times[i], solution.q[i]));
   }
   return solution;
-}
-
-Verification VerifyFeedforward(const Model& model,
-                               const OutputTrajectory& trajectory,
-                               const FeedforwardSolution& solution,
-                               const IntegratorOptions& options) {
-  if (solution.times.empty() || !solution.feedforward) {
-    throw UsageError("nothing to verify: the solution has no samples");
-  }
-  const Eigen::Index f = Eigen::Index(model.dof());
-  Workspace workspace(model);
-  constexpr unsigned kForwardDynamics =
-      Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix;
-  Eigen::VectorXd state(2 * f);
-  state << solution.q.front(), solution.q_dot.front();
-  Verification verification;
-  verification.max_tracking_error = 0.0;
-  verification.time_of_max_error = solution.times.front();
-  const double t_end = solution.times.back();  // where the solve stopped, if it failed
-  verification.summary = IntegrateBdf(
-      [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& why) {
-        Evaluate(model, workspace, y.head(f), y.tail(f), kForwardDynamics);
-        const Eigen::VectorXd u = solution.feedforward(t);
-        if (!u.allFinite()) {
-          why = "u_d is not finite at t = " + FormatNumber(t);
-          return false;
-        }
-        const Eigen::LLT<Eigen::MatrixXd> mass_factor(workspace.mass_matrix);
-        if (mass_factor.info() != Eigen::Success) {
-          why = "M(q) is not positive definite";
-          return false;
-        }
-        y_dot.resize(2 * f);
-        y_dot << y.tail(f), mass_factor.solve(workspace.input_matrix * u - workspace.forces);
-        return true;
-      },
-      solution.times.front(), state, t_end, trajectory.breakpoints(), options,
-      [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
-        Evaluate(model, workspace, y.head(f), y.tail(f), Quantity::kOutput);
-        const double error = (workspace.output - trajectory.Derivative(t, 0)).cwiseAbs().maxCoeff();
-        if (error > verification.max_tracking_error) {
-          verification.max_tracking_error = error;
-          verification.time_of_max_error = t;
-        }
-        return true;
-      });
-  return verification;
 }
 
 }  // namespace servokit

@@ -1,9 +1,11 @@
 #pragma once
 // The inverse model: the feedforward u_d(t) and the motion q_d(t) that make y = h(q) follow a
-// desired y_d(t) (paper Sect. 5), by the method that fits the problem's class, and the forward
-// check of the answer.
+// desired y_d(t) (paper Sect. 5), by the method that fits the problem's class
+// (solvers/method_choice.h), written at the method's own points or on a controller's sample
+// grid from the method's continuous extension (solvers/motion_extension.h).
 #include <Eigen/Dense>
-#include <functional>
+#include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -11,85 +13,106 @@
 #include "analysis/classification.h"
 #include "analysis/types.h"
 #include "models/model.h"
+#include "solvers/motion_extension.h"
 #include "solvers/servo_constraint_problem.h"
+#include "solvers/solve_settings.h"
 #include "solvers/solve_summary.h"
-#include "solvers/sundials_integrators.h"
 #include "solvers/trajectory.h"
 
 namespace servokit {
 
 struct InverseModelOptions {
-  // kAuto takes Classification::recommended_solver (flat -> algebraic, critical -> normal form,
-  // stable with projected index 1 -> BDF, otherwise Radau IIA).
+  // kAuto takes the class's recommended method when it fits, else the next that does
+  // (MethodChooser::Choose).
   SolverMethod method = SolverMethod::kAuto;
   // Unstable zero dynamics make every forward integration diverge (paper Sect. 5.3), so the
-  // forward methods refuse them unless forced.
+  // forward methods refuse them unless forced. Forcing anything else is an error.
   bool force = false;
-  // The time span; t_end must be set (> t_start).
-  double t_start = 0.0;
+  // The span [t_start, t_end]. Unset t_start: the trajectory's first time, or for stable
+  // inversion the start of the window it needs (its pre-actuation, non-causal). t_end must be
+  // set, and not before the motion ends (the trajectory's last time).
+  std::optional<double> t_start;
   double t_end = std::numeric_limits<double>::quiet_NaN();
-  // Step of Euler backward (fixed) and sample spacing of the algebraic inverse. 1 ms is the
-  // paper's finest Euler step (Fig. 10).
-  double step = 1e-3;
-  // Error tolerances of the adaptive methods; unset takes the method's default: 1e-8 / 1e-10
-  // for Radau IIA (u_d of the paper's case 4 to 1.5e-4 relative in 170 steps, 0.6 ms) and
-  // 1e-10 / 1e-12 for Dormand-Prince and BDF (cheap for them, and a forward check of u_d then
-  // tracks to ~1e-8).
+  // Euler backward's fixed step, the algebraic inverse's sample spacing (methods that use
+  // neither refuse it); unset: SettingsOf(method).default_step.
+  std::optional<double> step;
+  // Relative and absolute tolerance of the methods that take them; unset: the method's
+  // default (SettingsOf). Ranges: CheckTolerances.
   std::optional<double> rtol;
   std::optional<double> atol;
-  ServoProblemOptions problem;
+  // Rows at t_start + k sample_time over exactly [t_start, t_end] (which it must divide), from
+  // the method's continuous extension. Unset: the method's own points (accepted steps, the
+  // collocation mesh, the algebraic inverse's samples).
+  std::optional<double> sample_time;
+  // Keep the method's continuous extension (FeedforwardSolution::extension), which the sample
+  // grid and the forward check read (on whenever sample_time is set). Off saves its cost where
+  // only the method's own points are wanted: for Dormand-Prince about five more right-hand
+  // sides per step, since ARKODE evaluates its Hermite interpolant with an extra one per call.
+  bool continuous_extension = true;
   // Stable inversion: time before the motion's start and after its end that the boundary
-  // value problem covers; unset: chosen from the eigenvalues (modes decayed to rtol) and
-  // widened until the answer no longer changes. rtol is the BVP's tolerance (default 1e-8).
-  std::optional<double> pre_actuation, post_actuation;
-  // Throws UsageError naming the field, its value and the rule it breaks.
+  // value problem covers; unset: chosen from the eigenvalues and widened until the answer no
+  // longer changes.
+  std::optional<double> pre_actuation;
+  std::optional<double> post_actuation;
+  ServoProblemOptions problem;
+  // Throws SettingError (or UsageError for `problem`) for a value out of range whatever the
+  // method: non-finite or non-positive steps, times and tolerances.
   void Validate() const;
 };
 
-/// The answer: samples at every step (the adaptive methods' accepted steps, the fixed grid
-/// otherwise; always including t_start, t_end and the trajectory's breakpoints in between).
+/// What the verification's bound is derived from: how accurate the method was asked to be.
+struct SolveAccuracy {
+  double rtol = std::numeric_limits<double>::quiet_NaN();  // NaN: exact (algebraic inverse)
+  double atol = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> step;  // Euler backward: first order in its fixed step
+};
+
+/// Stable inversion's window and where its input departs from rest.
+struct StableInversionWindow {
+  double start = 0.0, end = 0.0;  // of the boundary value problem
+  // First and last time |u_d - u_rest| > rtol max |u_d - u_rest|, located on the interpolant.
+  double pre_actuation_start = 0.0, post_actuation_end = 0.0;
+  double boundary_value_residual = 0.0;
+  int widenings = 0;
+  std::size_t mesh_points = 0;
+};
+
+/// The answer.
 struct FeedforwardSolution {
   SolverMethod method = SolverMethod::kAuto;  // the method that ran (never kAuto)
-  std::string method_reason;                  // why that method (auto's choice, or "asked")
+  std::string method_reason;                  // why that method (auto's choice, or "asked for")
   SolveSummary summary;
+  double t_start = 0.0, t_end = 0.0;  // the span solved (defaults resolved)
+  SolveAccuracy accuracy;
+  // Rows: the method's own points (always including t_start and, when it got there, t_end),
+  // or t_start + k sample_time when sample_time is set; up to where the solve stopped.
+  std::optional<double> sample_time;
   std::vector<double> times;
   std::vector<Eigen::VectorXd> q, q_dot, u;  // one per time: dof, dof, inputs
   double max_servo_residual = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
-  // Stable inversion only: the window [window_start, window_end] of the boundary value problem,
-  // where u_d departs from rest (first and last time |u_d - u_rest| > rtol max |u_d - u_rest|),
-  // the largest collocation residual and the widenings of the window.
-  std::optional<double> window_start, window_end, pre_actuation_start, post_actuation_end;
-  std::optional<double> boundary_value_residual;
-  int window_widenings = 0;
-  // u_d at any t in [t_start, t_end] to drive a forward simulation: exact for the algebraic
-  // inverse, otherwise the degree-5 interpolant of the samples within each smooth piece.
-  std::function<Eigen::VectorXd(double)> feedforward;
+  std::optional<StableInversionWindow> window;  // stable inversion only
+  // Things a user should know that do not stop the solve (the window cut short, ...).
+  std::vector<std::string> warnings;
+  // q_d, q_d' and u_d at any time of [t_start, where the solve stopped]: the method's own
+  // continuous extension. Null when the solve stopped before its first step.
+  std::shared_ptr<const MotionExtension> extension;
 };
 
 /// Solves the inverse model of `model` (with its parameters) for `trajectory`. `classification`
-/// is the model's class at its operating point (Classify()). Throws UsageError for bad options
-/// and NoSolution when the asked method cannot apply (algebraic inversion of a non-flat
-/// problem, BDF or the normal form with singular P, forward integration of unstable internal
-/// dynamics without options.force) or no consistent start exists; numerical failure along the
-/// motion is reported in summary (with the time and the reason), not thrown.
+/// is the model's class at its operating point (Classify()); model and trajectory must outlive
+/// the solution's extension. Throws SettingError/UsageError for bad options (a setting out of
+/// range, one the chosen method does not use, a sample time that does not divide the span),
+/// MethodRefused when the asked method does not fit (naming those that do), NoSolution when no
+/// consistent start exists; numerical failure along the motion is reported in summary (with
+/// the time and the reason), not thrown.
 FeedforwardSolution SolveInverseModel(const Model& model,
                                       const OutputTrajectory& trajectory,
                                       const Classification& classification,
                                       const InverseModelOptions& options);
 
-/// The outcome of driving the model with u_d.
-struct Verification {
-  double max_tracking_error = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
-  double time_of_max_error = std::numeric_limits<double>::quiet_NaN();
-  SolveSummary summary;  // of the forward simulation
-};
-
-/// Drives M q'' + f = B u_d(t) forward with CVODE BDF from (q_d, q_d') at the solution's first
-/// time and reports the largest output error against `trajectory`. Throws UsageError for bad
-/// options or an empty solution.
-Verification VerifyFeedforward(const Model& model,
-                               const OutputTrajectory& trajectory,
-                               const FeedforwardSolution& solution,
-                               const IntegratorOptions& options = {});
+/// The rows t_start + k sample_time, k = 0 .. n, with the last exactly t_end. Throws
+/// SettingError when sample_time is not finite and > 0 or does not divide t_end - t_start
+/// into a whole number of samples (to 1e-9 relative).
+std::vector<double> SampleGrid(double t_start, double t_end, double sample_time);
 
 }  // namespace servokit

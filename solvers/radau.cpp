@@ -265,11 +265,13 @@ class IntegrationRun {
                  const std::vector<double>& breakpoints,
                  const RadauOptions& options,
                  Tolerances tolerances,
-                 const StepObserver& observer)
+                 const StepObserver& observer,
+                 DenseOutput* dense_output)
       : dae_(dae),
         options_(options),
         tolerances_(tolerances),
         observer_(observer),
+        dense_output_(dense_output),
         size_(dae.size()),
         t_start_(t_start),
         t_end_(t_end),
@@ -353,6 +355,12 @@ class IntegrationRun {
     }
   }
 
+  // The accepted step's polynomial (through x_ at t_ and its stage values) as a piece of the
+  // dense output, when one is kept.
+  void RecordPiece(const std::vector<double>& times, const std::vector<VectorXd>& values) {
+    if (dense_output_) dense_output_->AppendPiece(times, values);
+  }
+
   // Moves to (t_new, new_x_) and shows it to the observer; false when the observer says stop.
   bool AcceptStep(double t_new) {
     t_ = t_new;
@@ -408,6 +416,7 @@ class IntegrationRun {
   const RadauOptions& options_;
   const Tolerances tolerances_;  // what scale_ is made of
   const StepObserver& observer_;
+  DenseOutput* dense_output_;
   const Index size_;
   const double t_start_;
   const double t_end_;
@@ -433,7 +442,8 @@ class RadauIIARun : private IntegrationRun {
               double t_end,
               const std::vector<double>& breakpoints,
               const RadauOptions& options,
-              const StepObserver& observer)
+              const StepObserver& observer,
+              DenseOutput* dense_output)
       : IntegrationRun(dae,
                        t_start,
                        x_start,
@@ -441,7 +451,8 @@ class RadauIIARun : private IntegrationRun {
                        breakpoints,
                        options,
                        CalibratedTolerances(options),
-                       observer),
+                       observer,
+                       dense_output),
         tableau_(Tableau()),
         newton_tolerance_(NewtonTolerance(tolerances_.rtol)),
         jacobian_(size_, size_),
@@ -792,6 +803,9 @@ SolveSummary RadauIIARun::Run() {
       continue;
     }
 
+    // The collocation polynomial: x_ at t_, the stage values at t_ + c_i h (the last is new_x_).
+    RecordPiece({t_, t_ + tableau_.nodes(0) * step_, t_ + tableau_.nodes(1) * step_, t_new},
+                {x_, x_ + stages_.col(0), x_ + stages_.col(1), new_x_});
     PrepareNextStep(newton, lands && stop < t_end_, ProposeNextStep(error, quotient));
     if (!AcceptStep(t_new)) return FinishInterrupted();
   }
@@ -809,7 +823,8 @@ class EulerBackwardRun : private IntegrationRun {
                    double t_end,
                    const std::vector<double>& breakpoints,
                    const RadauOptions& options,
-                   const StepObserver& observer)
+                   const StepObserver& observer,
+                   DenseOutput* dense_output)
       : IntegrationRun(dae,
                        t_start,
                        x_start,
@@ -817,7 +832,8 @@ class EulerBackwardRun : private IntegrationRun {
                        breakpoints,
                        options,
                        {options.rtol, options.atol},
-                       observer),
+                       observer,
+                       dense_output),
         newton_tolerance_(NewtonTolerance(options.rtol)),
         slope_(VectorXd::Zero(size_)),
         increment_(size_),
@@ -903,6 +919,7 @@ SolveSummary EulerBackwardRun::Run() {
     }
     halvings = 0;
     slope_ = increment_ / h;
+    RecordPiece({t_, t_new}, {x_, new_x_});  // Euler backward's polynomial: the straight line
     if (!AcceptStep(t_new)) return FinishInterrupted();
   }
   return FinishConverged();
@@ -956,13 +973,20 @@ SolveSummary IntegrateRadau(LinearlyImplicitDae& dae,
                             double t_end,
                             const std::vector<double>& breakpoints,
                             const RadauOptions& options,
-                            const StepObserver& observer) {
+                            const StepObserver& observer,
+                            DenseOutput* dense_output) {
   options.Validate();
   ValidateProblem(dae, t_start, x_start, t_end);
-  if (options.stages == 1) {
-    return EulerBackwardRun(dae, t_start, x_start, t_end, breakpoints, options, observer).Run();
+  if (dense_output && (!dense_output->empty() || dense_output->size() != dae.size())) {
+    throw UsageError("IntegrateRadau: the dense output must be empty and of the DAE's size");
   }
-  return RadauIIARun(dae, t_start, x_start, t_end, breakpoints, options, observer).Run();
+  if (options.stages == 1) {
+    return EulerBackwardRun(dae, t_start, x_start, t_end, breakpoints, options, observer,
+                            dense_output)
+        .Run();
+  }
+  return RadauIIARun(dae, t_start, x_start, t_end, breakpoints, options, observer, dense_output)
+      .Run();
 }
 
 }  // namespace servokit

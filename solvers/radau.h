@@ -10,6 +10,7 @@
 #include <limits>
 #include <vector>
 
+#include "solvers/dense_output.h"
 #include "solvers/linearly_implicit_dae.h"
 #include "solvers/solve_summary.h"
 
@@ -50,13 +51,16 @@ using StepObserver = std::function<bool(double t, const Eigen::VectorXd& x)>;
 /// exactly on every breakpoint inside (t_start, t_end) (where the right-hand side is not smooth)
 /// and on t_end. Never throws for numerical trouble: returns a summary whose status says why it
 /// stopped and when (a failed Evaluate() stops with its `why` when halving the step does not
-/// help). Throws UsageError for invalid options.
+/// help). Throws UsageError for invalid options. `dense_output`, when given (empty, of the DAE's
+/// size), receives each accepted step's collocation polynomial (Radau IIA: degree 3 through x
+/// at the step's start and the three stage values; Euler backward: the straight line).
 SolveSummary IntegrateRadau(LinearlyImplicitDae& dae,
                             double t_start,
                             const Eigen::VectorXd& x_start,
                             double t_end,
                             const std::vector<double>& breakpoints,
                             const RadauOptions& options,
-                            const StepObserver& observer);
+                            const StepObserver& observer,
+                            DenseOutput* dense_output = nullptr);
 
 }  // namespace servokit

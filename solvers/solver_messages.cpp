@@ -1,16 +1,18 @@
 #include "solvers/solver_messages.h"
 
-#include <sstream>
+#include <charconv>
+#include <cmath>
 
 #include "models/errors.h"
 
 namespace servokit {
 
 std::string FormatNumber(double value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
 }
 
 void RequireOption(bool valid,

@@ -5,7 +5,8 @@
 
 namespace servokit {
 
-/// A number in a message: 10 significant digits, enough to tell neighbouring steps apart.
+/// A number in a message, in its shortest form that reads back to the same double (1e-15 as
+/// the user wrote it, a time to every digit that tells it apart).
 std::string FormatNumber(double value);
 
 /// Throws UsageError "<owner>::<field> = <value>: <rule>" unless `valid` (STYLE.md: the message

@@ -44,6 +44,10 @@ void StableInversionOptions::Validate() const {
     throw UsageError("StableInversionOptions::tolerance = " + FormatNumber(tolerance) +
                      ": must be in (0, 1)");
   }
+  if (!(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance))) {
+    throw UsageError("StableInversionOptions::absolute_tolerance = " +
+                     FormatNumber(absolute_tolerance) + ": must be a finite number > 0");
+  }
   for (const auto& [value, name] : {std::pair{pre_actuation, "pre_actuation"},
                                     std::pair{post_actuation, "post_actuation"}}) {
     if (value && !(*value > 0.0 && std::isfinite(*value))) {
@@ -131,6 +135,7 @@ StableInversionSolution SolveStableInversion(const Model& model,
   std::optional<BoundaryValueSolution> previous;
   BoundaryValueOptions bvp_options;
   bvp_options.tolerance = options.tolerance;
+  bvp_options.absolute_tolerance = options.absolute_tolerance;
   bvp_options.collocation_points = kCollocationPoints;
   double fastest = 0.0;
   for (const auto* split : {&start_split, &end_split}) {
@@ -225,8 +230,9 @@ StableInversionSolution SolveStableInversion(const Model& model,
       break;
     }
     previous = std::move(bvp);
-    pre *= kWideningFactor;
-    post *= kWideningFactor;
+    // A side the caller fixed stays as it is.
+    if (!options.pre_actuation) pre *= kWideningFactor;
+    if (!options.post_actuation) post *= kWideningFactor;
   }
 
   // The answer at the mesh points, and where the input departs from rest.
@@ -248,19 +254,17 @@ StableInversionSolution SolveStableInversion(const Model& model,
   for (const auto& input : solution.u) {
     largest = std::max(largest, (input - start.equilibrium_input).cwiseAbs().maxCoeff());
   }
-  // The feedforward between mesh points, through the same problem (kept alive by the closure;
-  // calls of the closure must not overlap, as for any ServoConstraintProblem).
-  auto own_problem = shared_problem;
+  // The motion between mesh points, through the same problem (kept alive by the extension;
+  // its calls must not overlap, as for any ServoConstraintProblem).
   auto collocation = std::make_shared<const BoundaryValueSolution>(std::move(*previous));
-  solution.feedforward = [own_problem, collocation, internal, start_q](double t) {
-    const double clamped = std::clamp(t, collocation->mesh.front(), collocation->mesh.back());
-    const Eigen::VectorXd x = collocation->Evaluate(clamped);
-    Eigen::VectorXd coordinates = start_q, velocities, input, accelerations;
+  solution.extension = InternalMotion(
+      shared_problem, [collocation](double t) { return collocation->Evaluate(t); }, start_q,
+      collocation->mesh.front(), collocation->mesh.back());
+  const auto input_at = [&](double t) {
+    Eigen::VectorXd coordinates, velocities, input;
     std::string reason;
-    if (!own_problem->StateFromInternal(clamped, x.head(internal), x.tail(internal), coordinates,
-                                        velocities, reason) ||
-        !own_problem->NormalForm(clamped, coordinates, velocities, input, accelerations, reason)) {
-      input.setConstant(own_problem->num_inputs(), std::numeric_limits<double>::quiet_NaN());
+    if (!solution.extension->Evaluate(t, coordinates, velocities, input, reason)) {
+      input.setConstant(problem.num_inputs(), std::numeric_limits<double>::quiet_NaN());
     }
     return input;
   };
@@ -274,7 +278,7 @@ StableInversionSolution SolveStableInversion(const Model& model,
   const auto crossing = [&](double quiet, double active) {
     for (int halving = 0; halving < kCrossingBisections; ++halving) {
       const double middle = 0.5 * (quiet + active);
-      (departs(middle, solution.feedforward(middle)) ? active : quiet) = middle;
+      (departs(middle, input_at(middle)) ? active : quiet) = middle;
     }
     return active;
   };

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "models/model.h"
+#include "solvers/motion_extension.h"
 #include "solvers/solve_summary.h"
 #include "solvers/trajectory.h"
 
@@ -27,6 +28,9 @@ struct StableInversionOptions {
   // solution, BoundaryValueOptions with 7 Lobatto points) and of the window:
   // modes outside the window are below tolerance times their size.
   double tolerance = 1e-8;
+  // Absolute level of the collocation's error test (BoundaryValueOptions::absolute_tolerance):
+  // components below it count as converged whatever their relative error.
+  double absolute_tolerance = 1e-10;
   // Time before the trajectory's first breakpoint and after its last; unset: chosen from the
   // slowest unstable (before) and stable (after) eigenvalue, ln(1/tolerance) / |Re lambda|.
   std::optional<double> pre_actuation, post_actuation;
@@ -45,10 +49,10 @@ struct StableInversionSolution {
   double post_actuation_end = 0.0;   // last such time
   double max_residual = 0.0;         // of the boundary value problem
   int widenings = 0;
-  // u_d at any t of the window: the collocation solution's C1 interpolant of the internal state
-  // mapped through the normal form (Eq. 24), as accurate as the solution itself. Keeps
-  // references to the model and the trajectory, which must outlive it.
-  std::function<Eigen::VectorXd(double)> feedforward;
+  // q_d, q_d', u_d at any t of the window: the collocation solution's interpolant of the
+  // internal state mapped through the servo constraint and Eq. (24), as accurate as the
+  // solution itself. Keeps references to the model and the trajectory, which must outlive it.
+  std::shared_ptr<const MotionExtension> extension;
 };
 
 /// Solves the stable inversion of `model` along `trajectory` (at rest before its first and

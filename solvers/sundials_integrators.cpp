@@ -233,6 +233,8 @@ class OneStepIntegrator {
   virtual bool UpdateDerivative(double t) = 0;
   virtual const CallbackGuard& guard() const = 0;
   virtual CallbackGuard& guard() = 0;
+  // The package's own interpolant of the last step at t (within that step) into `value`.
+  virtual void Interpolate(double t, Eigen::VectorXd& value) = 0;
 
   // Starts afresh at (t, solution()) towards `stop_time`, forgetting the step history:
   // derivatives may jump at a breakpoint, and a multistep or FSAL history from before it
@@ -297,6 +299,8 @@ class OneStepIntegrator {
 // ARKODE's ERKStep with the Dormand-Prince 5(4) pair.
 class DormandPrinceIntegrator final : public OneStepIntegrator {
  public:
+  static constexpr int kHermiteDegree = 4;
+
   DormandPrinceIntegrator(const OdeRightHandSide& rhs,
                           double t_start,
                           const Eigen::VectorXd& y_start,
@@ -313,6 +317,9 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
     Check(ERKStepSetErrHandlerFn(erk, KeepLastError, &last_error_), "ERKStepSetErrHandlerFn");
     Check(ERKStepSetUserData(erk, &ode_), "ERKStepSetUserData");
     Check(ERKStepSetTableNum(erk, ARKODE_DORMAND_PRINCE_7_4_5), "ERKStepSetTableNum");
+    // Dense output: the Hermite interpolant of degree 4, whose error is of the method's local
+    // order (h^5); degree 5 would cost a second extra right-hand side per step.
+    Check(ERKStepSetInterpolantDegree(erk, kHermiteDegree), "ERKStepSetInterpolantDegree");
     Check(ERKStepSStolerances(erk, options.rtol, options.atol), "ERKStepSStolerances");
     Check(ERKStepSetInitStep(erk, options.initial_step), "ERKStepSetInitStep");
     if (std::isfinite(options.max_step)) {
@@ -347,6 +354,13 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
   const CallbackGuard& guard() const override { return ode_.guard; }
   CallbackGuard& guard() override { return ode_.guard; }
 
+  // ARKODE's Hermite interpolant of the step (degree up to 5).
+  void Interpolate(double t, Eigen::VectorXd& value) override {
+    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
+    Check(ERKStepGetDky(memory_.get(), t, 0, interpolated_.get()), "ERKStepGetDky");
+    value = AsEigen(interpolated_.get());
+  }
+
  private:
   int ReInit(double t) override {
     return ERKStepReInit(memory_.get(), OdeRightHandSideCallback, t, state_.get());
@@ -361,6 +375,7 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
 
   OdeCallbacks ode_;
   NVectorPtr state_;
+  NVectorPtr interpolated_;
   ErkStepMemory memory_;
 };
 
@@ -426,6 +441,13 @@ class BdfIntegrator final : public OneStepIntegrator {
   const CallbackGuard& guard() const override { return ode_.guard; }
   CallbackGuard& guard() override { return ode_.guard; }
 
+  // CVODE's Nordsieck polynomial of the step (degree = the order used, at most 5).
+  void Interpolate(double t, Eigen::VectorXd& value) override {
+    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
+    Check(CVodeGetDky(memory_.get(), t, 0, interpolated_.get()), "CVodeGetDky");
+    value = AsEigen(interpolated_.get());
+  }
+
  private:
   int ReInit(double t) override { return CVodeReInit(memory_.get(), t, state_.get()); }
 
@@ -446,6 +468,7 @@ class BdfIntegrator final : public OneStepIntegrator {
 
   OdeCallbacks ode_;
   NVectorPtr state_;
+  NVectorPtr interpolated_;
   SUNMatrixPtr matrix_;
   SUNLinearSolverPtr linear_solver_;
   CvodeMemory memory_;
@@ -528,6 +551,14 @@ class IdaIntegrator final : public OneStepIntegrator {
   const CallbackGuard& guard() const override { return dae_.guard; }
   CallbackGuard& guard() override { return dae_.guard; }
 
+  // IDA's interpolating polynomial of the step (degree = the order used, at most 5), which
+  // covers the algebraic components too.
+  void Interpolate(double t, Eigen::VectorXd& value) override {
+    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
+    Check(IDAGetDky(memory_.get(), t, 0, interpolated_.get()), "IDAGetDky");
+    value = AsEigen(interpolated_.get());
+  }
+
  private:
   int ReInit(double t) override {
     return IDAReInit(memory_.get(), t, state_.get(), state_derivative_.get());
@@ -556,6 +587,7 @@ class IdaIntegrator final : public OneStepIntegrator {
 
   DaeCallbacks dae_;
   NVectorPtr state_;
+  NVectorPtr interpolated_;
   NVectorPtr state_derivative_;
   NVectorPtr differential_ids_;
   SUNMatrixPtr matrix_;
@@ -589,12 +621,15 @@ class IntegrationRun {
   IntegrationRun(OneStepIntegrator& integrator,
                  double t_start,
                  const IntegratorOptions& options,
-                 const IntegratorObserver& observer)
+                 const IntegratorObserver& observer,
+                 DenseOutput* dense_output)
       : integrator_(integrator),
         guard_(integrator.guard()),
         options_(options),
         observer_(observer),
-        t_(t_start) {}
+        dense_output_(dense_output),
+        t_(t_start),
+        step_start_solution_(integrator.solution()) {}
 
   SolveSummary Run(double t_end, const std::vector<double>& breakpoints) {
     const double t_start = t_;
@@ -645,6 +680,7 @@ class IntegrationRun {
         return StepSizeTooSmall();
       }
       ++summary_.steps;
+      if (dense_output_) RecordStep(step_start);
       guard_.ForgetRefusalsUpTo(t_);
       if (step_cap_ < kNoCap && !guard_.HasRefusal()) {
         step_cap_ = kNoCap;  // past the trouble: the error control decides again
@@ -669,6 +705,18 @@ class IntegrationRun {
     integrator_.SetMaxStep(std::min(step_cap_, options_.max_step));
     integrator_.SetStopTime(segment_end);
     return true;
+  }
+
+  // The step just taken as a piece of the dense output: the interpolant at Lobatto nodes, with
+  // the exact solution at both ends so that the pieces join continuously.
+  void RecordStep(double step_start) {
+    const std::vector<double> nodes = LobattoNodes(step_start, t_, kDenseOutputNodes);
+    std::vector<Eigen::VectorXd> values(nodes.size());  // (two for a step of a few ulps)
+    values.front() = step_start_solution_;
+    values.back() = integrator_.solution();
+    for (std::size_t j = 1; j + 1 < nodes.size(); ++j) integrator_.Interpolate(nodes[j], values[j]);
+    dense_output_->AppendPiece(nodes, values);
+    step_start_solution_ = integrator_.solution();
   }
 
   // Shows the observer the solution at t_; returns the summary if the run stops there.
@@ -702,6 +750,9 @@ class IntegrationRun {
   }
 
   static constexpr double kNoCap = std::numeric_limits<double>::infinity();
+  // Nodes per step of the dense output: 6 reproduce a polynomial of degree 5, the highest any
+  // of the three packages interpolates with (BDF order 5, ARKODE's Hermite degree 5).
+  static constexpr int kDenseOutputNodes = 6;
   // Retries of RetryShorter() end when the cap falls below this, relative to |t|: the
   // singularity is then located to round-off.
   static constexpr double kMinRelativeCap = 1e-12;
@@ -710,8 +761,10 @@ class IntegrationRun {
   CallbackGuard& guard_;
   const IntegratorOptions& options_;
   const IntegratorObserver& observer_;
+  DenseOutput* dense_output_;
   SolveSummary summary_;
   double t_;
+  Eigen::VectorXd step_start_solution_;
 };
 
 void CheckInterval(double t_start, double t_end, const std::vector<double>& breakpoints) {
@@ -745,6 +798,13 @@ void CheckOdeArguments(const OdeRightHandSide& rhs,
   CheckInterval(t_start, t_end, breakpoints);
 }
 
+void CheckDenseOutput(const DenseOutput* dense_output, Eigen::Index size) {
+  if (dense_output && (!dense_output->empty() || dense_output->size() != size)) {
+    throw UsageError("the dense output must be empty and of the state's size " +
+                     std::to_string(size));
+  }
+}
+
 }  // namespace
 
 void IntegratorOptions::Validate() const {
@@ -764,11 +824,14 @@ SolveSummary IntegrateDormandPrince(const OdeRightHandSide& rhs,
                                     double t_end,
                                     const std::vector<double>& breakpoints,
                                     const IntegratorOptions& options,
-                                    const IntegratorObserver& observer) {
+                                    const IntegratorObserver& observer,
+                                    DenseOutput* dense_output) {
   options.Validate();
   CheckOdeArguments(rhs, t_start, y_start, t_end, breakpoints);
+  CheckDenseOutput(dense_output, y_start.size());
   DormandPrinceIntegrator integrator(rhs, t_start, y_start, options);
-  return IntegrationRun(integrator, t_start, options, observer).Run(t_end, breakpoints);
+  return IntegrationRun(integrator, t_start, options, observer, dense_output)
+      .Run(t_end, breakpoints);
 }
 
 SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
@@ -777,11 +840,14 @@ SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
                           double t_end,
                           const std::vector<double>& breakpoints,
                           const IntegratorOptions& options,
-                          const IntegratorObserver& observer) {
+                          const IntegratorObserver& observer,
+                          DenseOutput* dense_output) {
   options.Validate();
   CheckOdeArguments(rhs, t_start, y_start, t_end, breakpoints);
+  CheckDenseOutput(dense_output, y_start.size());
   BdfIntegrator integrator(rhs, t_start, y_start, options);
-  return IntegrationRun(integrator, t_start, options, observer).Run(t_end, breakpoints);
+  return IntegrationRun(integrator, t_start, options, observer, dense_output)
+      .Run(t_end, breakpoints);
 }
 
 SolveSummary IntegrateIda(const DaeResidual& residual,
@@ -792,7 +858,8 @@ SolveSummary IntegrateIda(const DaeResidual& residual,
                           double t_end,
                           const std::vector<double>& breakpoints,
                           const IntegratorOptions& options,
-                          const IntegratorObserver& observer) {
+                          const IntegratorObserver& observer,
+                          DenseOutput* dense_output) {
   options.Validate();
   if (!residual) throw UsageError("the residual is empty");
   if (x_start.size() == 0) throw UsageError("x_start is empty: must have at least one value");
@@ -804,8 +871,10 @@ SolveSummary IntegrateIda(const DaeResidual& residual,
                      std::to_string(x_start.size()) + ")");
   }
   CheckInterval(t_start, t_end, breakpoints);
+  CheckDenseOutput(dense_output, x_start.size());
   IdaIntegrator integrator(residual, t_start, x_start, x_dot_start, differential, options);
-  return IntegrationRun(integrator, t_start, options, observer).Run(t_end, breakpoints);
+  return IntegrationRun(integrator, t_start, options, observer, dense_output)
+      .Run(t_end, breakpoints);
 }
 
 }  // namespace servokit

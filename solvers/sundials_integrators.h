@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "solvers/dense_output.h"
 #include "solvers/solve_summary.h"
 
 namespace servokit {
@@ -66,13 +67,17 @@ using IntegratorObserver = std::function<bool(
     double t, const Eigen::VectorXd& y, const Eigen::VectorXd& y_dot)>;
 
 /// y' = g(t, y) from (t_start, y_start) to t_end with ARKODE's explicit Dormand-Prince 5(4).
+/// `dense_output`, when given (empty, of the state's size), receives every accepted step's
+/// interpolant (ERKStepGetDky, CVodeGetDky, IDAGetDky) as one piece: the method's own
+/// continuous extension over [t_start, where it stopped].
 SolveSummary IntegrateDormandPrince(const OdeRightHandSide& rhs,
                                     double t_start,
                                     const Eigen::VectorXd& y_start,
                                     double t_end,
                                     const std::vector<double>& breakpoints,
                                     const IntegratorOptions& options,
-                                    const IntegratorObserver& observer);
+                                    const IntegratorObserver& observer,
+                                    DenseOutput* dense_output = nullptr);
 
 /// The same ODE with CVODE's BDF (orders 1-5), Newton with a dense difference Jacobian.
 SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
@@ -81,7 +86,8 @@ SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
                           double t_end,
                           const std::vector<double>& breakpoints,
                           const IntegratorOptions& options,
-                          const IntegratorObserver& observer);
+                          const IntegratorObserver& observer,
+                          DenseOutput* dense_output = nullptr);
 
 /// F(t, x, x') = 0 of index 1 with IDA from consistent (x_start, x_dot_start), which the caller
 /// computes (F(t_start, x_start, x_dot_start) = 0 to round-off). `differential[i]` says whether
@@ -95,6 +101,7 @@ SolveSummary IntegrateIda(const DaeResidual& residual,
                           double t_end,
                           const std::vector<double>& breakpoints,
                           const IntegratorOptions& options,
-                          const IntegratorObserver& observer);
+                          const IntegratorObserver& observer,
+                          DenseOutput* dense_output = nullptr);
 
 }  // namespace servokit

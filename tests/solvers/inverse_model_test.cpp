@@ -9,6 +9,7 @@
 
 #include "models/errors.h"
 #include "solvers/radau.h"
+#include "solvers/verification.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -44,8 +45,20 @@ FeedforwardSolution Solve(const Case& problem,
   InverseModelOptions options;
   options.method = method;
   options.t_end = kTEnd;
-  options.step = step;
+  // Only Euler backward and the algebraic inverse take a step; auto picks the latter here.
+  if (method == SolverMethod::kEuler || method == SolverMethod::kAlgebraic ||
+      (method == SolverMethod::kAuto && problem.classification.flat)) {
+    options.step = step;
+  }
   return SolveInverseModel(problem.model, trajectory, problem.classification, options);
+}
+
+// u_d(t) from the solution's continuous extension.
+double InputAt(const FeedforwardSolution& solution, double t) {
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  REQUIRE(solution.extension->Evaluate(t, q, q_dot, u, why));
+  return u(0);
 }
 
 // Eq. (47): F_d = (m1 + m2) y'' + (m1 m2 / k) y''''.
@@ -75,8 +88,7 @@ TEST_CASE("case 4: algebraic inversion reproduces Eq. (47) and Eq. (45)", "[solv
   CHECK(max_error <= 1e-10 * max_force);
   CHECK(solution.max_servo_residual <= 1e-13);
   // The feedforward between samples is the inverse itself: exact at any t.
-  CHECK(solution.feedforward(3.14159)(0) ==
-        Approx(PaperForceCase4(trajectory, 3.14159)).epsilon(1e-12));
+  CHECK(InputAt(solution, 3.14159) == Approx(PaperForceCase4(trajectory, 3.14159)).epsilon(1e-12));
 }
 
 // Radau IIA on the projected DAE (index 3 in case 4). The input u is the index-3 component,
@@ -219,7 +231,7 @@ double MaxDifference(const FeedforwardSolution& a, const FeedforwardSolution& b,
   scale = 0.0;
   for (int k = 0; k <= 2000; ++k) {
     const double t = kTEnd * k / 2000.0;
-    const double ua = a.feedforward(t)(0), ub = b.feedforward(t)(0);
+    const double ua = InputAt(a, t), ub = InputAt(b, t);
     difference = std::max(difference, std::abs(ua - ub));
     scale = std::max(scale, std::abs(ua));
   }
@@ -289,7 +301,7 @@ TEST_CASE("case 2 undamped: the internal vibration goes on after tf (Fig. 13), a
   CHECK(measured == Approx(predicted).epsilon(1e-8));
 }
 
-TEST_CASE("--verify: u_d from the accurate methods drives the model along y_d to 1e-6",
+TEST_CASE("--verify: u_d from the accurate methods drives the model along y_d and passes",
           "[solvers][paper]") {
   const RestToRestTrajectory trajectory = PaperTrajectory();
   struct Run {
@@ -298,6 +310,7 @@ TEST_CASE("--verify: u_d from the accurate methods drives the model along y_d to
     SolverMethod method;
   };
   for (const Run& run : {Run{"0", "0", SolverMethod::kAlgebraic},
+                         Run{"0", "0", SolverMethod::kRadau},
                          Run{"5 deg", "1", SolverMethod::kBdf},
                          Run{"5 deg", "1", SolverMethod::kNormalForm},
                          Run{"5 deg", "0", SolverMethod::kBdf},
@@ -309,8 +322,13 @@ TEST_CASE("--verify: u_d from the accurate methods drives the model along y_d to
     const Verification verification = VerifyFeedforward(problem.model, trajectory, solution);
     WARN("verify alpha = " << run.alpha << ", d = " << run.damping << ", "
                            << ToString(run.method) << ": max tracking error "
-                           << verification.max_tracking_error);
+                           << verification.max_tracking_error << ", bound "
+                           << verification.bound);
     CHECK(verification.summary.IsUsable());
+    CHECK(verification.passed);
+    CHECK(verification.start == "rest");
+    CHECK(verification.solution_starts_at_rest);
+    CHECK(verification.segments == 1);  // the car is a stable plant
     CHECK(verification.max_tracking_error < 1e-6);
   }
 }
@@ -320,7 +338,7 @@ TEST_CASE("forward methods refuse what does not fit the class, with the method t
   const RestToRestTrajectory trajectory = PaperTrajectory();
   const Case tangential = LoadCase("0", "1");
   CHECK_THROWS_WITH(Solve(tangential, trajectory, SolverMethod::kBdf),
-                    Catch::Contains("use --method radau"));
+                    Catch::Contains("use radau"));
   CHECK_THROWS_WITH(Solve(tangential, trajectory, SolverMethod::kAlgebraic),
                     Catch::Contains("internal dynamics"));
 }
@@ -340,8 +358,9 @@ TEST_CASE("unstable zero dynamics: auto picks stable inversion, forward methods 
       SolveInverseModel(model, trajectory, classification, options);
   CHECK(automatic.method == SolverMethod::kStableInversion);
   REQUIRE(automatic.summary.IsUsable());
-  REQUIRE(automatic.pre_actuation_start.has_value());
-  CHECK(*automatic.pre_actuation_start < 1.0);  // non-causal: the torque starts before t0
+  REQUIRE(automatic.window.has_value());
+  CHECK(automatic.window->pre_actuation_start < 1.0);  // non-causal: the torque starts before t0
+  CHECK(automatic.t_start == automatic.window->start);  // the span starts with the window
   options.method = SolverMethod::kNormalForm;
   CHECK_THROWS_WITH(SolveInverseModel(model, trajectory, classification, options),
                     Catch::Contains("stable-inversion"));
@@ -353,14 +372,14 @@ TEST_CASE("unstable zero dynamics: auto picks stable inversion, forward methods 
 
 TEST_CASE("inverse model options: defaults need only t_end, bad fields are named", "[solvers]") {
   InverseModelOptions options;
-  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("t_end"));
+  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("end time"));
   options.t_end = 1.0;
   CHECK_NOTHROW(options.Validate());
   options.step = 0.0;
   CHECK_THROWS_WITH(options.Validate(), Catch::Contains("step"));
-  options.step = 1e-3;
-  options.rtol = -1.0;
-  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("rtol"));
+  options.step.reset();
+  options.sample_time = -1.0;
+  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("sample time -1"));
 }
 
 }  // namespace
@@ -463,7 +482,9 @@ TEST_CASE("P becoming singular along the motion stops with status singular-decou
                                         0.0, 2.0);
   InverseModelOptions options;
   options.t_end = 3.0;
-  for (const SolverMethod method : {SolverMethod::kNormalForm, SolverMethod::kBdf}) {
+  // Radau IIA and Euler backward watch det P as BDF and the normal form do.
+  for (const SolverMethod method : {SolverMethod::kNormalForm, SolverMethod::kBdf,
+                                    SolverMethod::kRadau, SolverMethod::kEuler}) {
     options.method = method;
     const FeedforwardSolution solution =
         SolveInverseModel(model, trajectory, classification, options);

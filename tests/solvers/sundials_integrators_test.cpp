@@ -55,7 +55,8 @@ using OdeIntegrator = std::function<SolveSummary(const OdeRightHandSide&,
                                                  double,
                                                  const std::vector<double>&,
                                                  const IntegratorOptions&,
-                                                 const IntegratorObserver&)>;
+                                                 const IntegratorObserver&,
+                                                 DenseOutput*)>;
 
 // ---------------------------------------------------------------------------------------------
 // Harmonic oscillator q'' = -w^2 q with w = 2 pi 2.887 rad/s (the undamped mass on car's zero
@@ -403,7 +404,7 @@ TEST_CASE("an observer returning false interrupts the integration where it said 
        {OdeIntegrator(IntegrateDormandPrince), OdeIntegrator(IntegrateBdf)}) {
     calls = 0;
     const SolveSummary summary =
-        integrate(decay, 0.0, Vector({1.0}), 10.0, {}, IntegratorOptions{}, stop_at_fifth);
+        integrate(decay, 0.0, Vector({1.0}), 10.0, {}, IntegratorOptions{}, stop_at_fifth, nullptr);
     CHECK(summary.status == SolveStatus::kInterrupted);
     CHECK(summary.steps == 4);
     CHECK(summary.stop_time == last_time);

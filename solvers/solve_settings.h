@@ -1,0 +1,76 @@
+#pragma once
+// The settings a user chooses for a solve, and the one table of what each method reads, its
+// default tolerances and the range it supports. Every default and limit of the inverse-model
+// solvers is written here and nowhere else; messages name a setting in the toolkit's words
+// ("relative tolerance"), and SettingError lets an application name its own flag for it.
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "analysis/types.h"
+#include "models/errors.h"
+
+namespace servokit {
+
+/// What a user sets for a solve (InverseModelOptions).
+enum class SolveSetting {
+  kMethod,
+  kForce,              // integrate unstable internal dynamics forward anyway
+  kStartTime,          // t_start
+  kEndTime,            // t_end
+  kStep,               // Euler backward's fixed step; the algebraic inverse's sample spacing
+  kRelativeTolerance,  // rtol
+  kAbsoluteTolerance,  // atol
+  kSampleTime,         // the output grid t_start + k sample_time
+  kPreActuation,       // stable inversion: time covered before the motion
+  kPostActuation,      // stable inversion: time covered after it
+};
+
+/// The setting in words ("relative tolerance", "sample time").
+std::string_view ToString(SolveSetting setting);
+
+/// A setting out of its range, or one that the chosen method does not use. what() speaks the
+/// toolkit's words; setting() tells an application which of its own options it was.
+class SettingError : public UsageError {
+ public:
+  SettingError(SolveSetting setting, const std::string& message)
+      : UsageError(message), setting_(setting) {}
+  SolveSetting setting() const { return setting_; }
+
+ private:
+  SolveSetting setting_;
+};
+
+/// What a method reads and what it accepts.
+struct MethodSettings {
+  bool uses_step = false;        // Euler backward's step; the algebraic inverse's spacing
+  bool uses_tolerances = false;  // rtol and atol
+  bool uses_actuation = false;   // pre- and post-actuation (stable inversion)
+  bool forward = false;          // integrates the internal dynamics forward (can be forced)
+  // Defaults, chosen per method (see the README's table):
+  //  - Radau IIA and Euler backward 1e-8 / 1e-10: u_d of the paper's case 4 to 1.5e-4
+  //    relative in 170 steps (u is the index-3 component, resolved to low order);
+  //  - Dormand-Prince and BDF 1e-10 / 1e-12: cheap for them, and the forward check then
+  //    tracks to ~1e-8;
+  //  - stable inversion 1e-8 / 1e-10: the collocation's error estimate and absolute level.
+  double default_rtol = 0.0;
+  double default_atol = 0.0;
+  // The smallest relative tolerance the method reaches: round-off of the state after a step
+  // (RADAU5 asks rtol > 10 eps; SUNDIALS likewise), and for the boundary value problem
+  // Newton's stopping test at 1e-2 of it, which must stay above round-off.
+  double min_rtol = 0.0;
+  // Euler backward: the paper's finest step (Fig. 10); algebraic inverse: its sample spacing.
+  double default_step = 0.0;
+};
+
+/// The table's row for `method` (not kAuto).
+const MethodSettings& SettingsOf(SolverMethod method);
+
+/// The largest relative tolerance any method accepts: beyond it an answer has no digit left.
+inline constexpr double kMaxRelativeTolerance = 0.1;
+
+/// Throws SettingError unless `rtol` is within [SettingsOf(method).min_rtol,
+/// kMaxRelativeTolerance] and `atol` is finite and > 0 (either may be unset).
+void CheckTolerances(SolverMethod method, std::optional<double> rtol, std::optional<double> atol);
+
+}  // namespace servokit

@@ -1,0 +1,305 @@
+#include "solvers/verification.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "analysis/operating_point.h"
+#include "models/errors.h"
+#include "solvers/solver_messages.h"
+#include "solvers/sundials_integrators.h"
+
+namespace servokit {
+namespace {
+
+constexpr unsigned kForwardDynamics =
+    Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix;
+// The forward runs are held to this fraction of the solve's relative tolerance, within
+// [kMinForwardRtol, kMaxForwardRtol]: tight enough that their own error stays far below the
+// bound, and no tighter than CVODE's BDF reliably gets in double precision. An exact solve
+// (the algebraic inverse) is checked at kExactForwardRtol.
+constexpr double kForwardToleranceRatio = 1e-2;
+constexpr double kMinForwardRtol = 1e-13;
+constexpr double kMaxForwardRtol = 1e-10;
+constexpr double kExactForwardRtol = 1e-12;
+// CVODE's absolute tolerance in units of its relative one (states of size 1e-2 and up are
+// held to the relative tolerance).
+constexpr double kForwardAbsoluteScale = 1e-2;
+// The solution starts at rest when its distance from the rest state is within this many times
+// the solve's tolerance.
+constexpr double kRestFactor = 10.0;
+// y_d counts as at rest at t_start when its derivatives there are below this (they are exactly
+// zero before t0 for rest-to-rest trajectories).
+constexpr double kTrajectoryRestTolerance = 1e-14;
+// Central differences of the forward dynamics: step relative to 1 + |x_j| (about eps^(1/3)).
+constexpr double kDifferenceStep = 1e-5;
+
+// M q'' + f(q, q') = B u solved for q'': the plant the feedforward drives.
+class Plant {
+ public:
+  explicit Plant(const Model& model) : model_(model), workspace_(model) {}
+
+  bool Acceleration(const Eigen::VectorXd& q,
+                    const Eigen::VectorXd& q_dot,
+                    const Eigen::VectorXd& u,
+                    Eigen::VectorXd& q_ddot,
+                    std::string& why) {
+    Evaluate(model_, workspace_, q, q_dot, kForwardDynamics);
+    mass_factor_.compute(workspace_.mass_matrix);
+    if (mass_factor_.info() != Eigen::Success) {
+      why = "M(q) is not positive definite";
+      return false;
+    }
+    q_ddot = mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
+    return true;
+  }
+
+  Eigen::VectorXd Output(const Eigen::VectorXd& q) {
+    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(q.size()), Quantity::kOutput);
+    return workspace_.output;
+  }
+
+  // The largest real part of the eigenvalues of d(q', q'')/d(q, q') at (q, q', u): how fast
+  // nearby motions move apart there (central differences; NaN where M is singular).
+  double GrowthRate(const Eigen::VectorXd& q, const Eigen::VectorXd& q_dot, const Eigen::VectorXd& u) {
+    const Eigen::Index f = q.size();
+    Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(2 * f, 2 * f);
+    jacobian.topRightCorner(f, f).setIdentity();
+    Eigen::VectorXd state(2 * f), plus, minus;
+    state << q, q_dot;
+    std::string why;
+    for (Eigen::Index j = 0; j < 2 * f; ++j) {
+      const double step = kDifferenceStep * (1.0 + std::abs(state(j)));
+      Eigen::VectorXd shifted = state;
+      shifted(j) += step;
+      if (!Acceleration(shifted.head(f), shifted.tail(f), u, plus, why)) return NAN;
+      shifted(j) = state(j) - step;
+      if (!Acceleration(shifted.head(f), shifted.tail(f), u, minus, why)) return NAN;
+      jacobian.block(f, j, f, 1) = (plus - minus) / (2.0 * step);
+    }
+    if (!jacobian.allFinite()) return NAN;
+    return Eigen::EigenSolver<Eigen::MatrixXd>(jacobian, false).eigenvalues().real().maxCoeff();
+  }
+
+ private:
+  const Model& model_;
+  Workspace workspace_;
+  Eigen::LLT<Eigen::MatrixXd> mass_factor_;
+};
+
+bool TrajectoryAtRest(const OutputTrajectory& trajectory, double t) {
+  for (int order = 1; order <= std::max(trajectory.continuous_derivatives(), 2); ++order) {
+    if (trajectory.Derivative(t, order).lpNorm<Eigen::Infinity>() > kTrajectoryRestTolerance) {
+      return false;
+    }
+  }
+  return true;
+}
+
+struct Scales {
+  double output = 0.0;    // max |y_d| over the span
+  double velocity = 0.0;  // max |y_d'|
+};
+
+Scales OutputScales(const OutputTrajectory& trajectory, const FeedforwardSolution& solution) {
+  std::vector<double> times = solution.times;
+  for (const double t : trajectory.breakpoints()) times.push_back(t);
+  Scales scales;
+  for (const double t : times) {
+    scales.output = std::max(scales.output, trajectory.Derivative(t, 0).lpNorm<Eigen::Infinity>());
+    scales.velocity =
+        std::max(scales.velocity, trajectory.Derivative(t, 1).lpNorm<Eigen::Infinity>());
+  }
+  return scales;
+}
+
+std::string Number(double value) { return FormatNumber(value); }
+
+}  // namespace
+
+void VerificationOptions::Validate() const {
+  RequireOption(bound_factor > 0.0 && std::isfinite(bound_factor), "VerificationOptions",
+                "bound_factor", bound_factor, "must be a finite number > 0");
+  RequireOption(segment_growth > 1.0 && std::isfinite(segment_growth), "VerificationOptions",
+                "segment_growth", segment_growth, "must be a finite number > 1");
+  RequireOption(stable_growth_rate >= 0.0 && std::isfinite(stable_growth_rate),
+                "VerificationOptions", "stable_growth_rate", stable_growth_rate,
+                "must be a finite number >= 0");
+  RequireOption(growth_samples >= 0, "VerificationOptions", "growth_samples",
+                double(growth_samples), "must be >= 0");
+}
+
+Verification VerifyFeedforward(const Model& model,
+                               const OutputTrajectory& trajectory,
+                               const FeedforwardSolution& solution,
+                               const VerificationOptions& options) {
+  options.Validate();
+  if (!solution.extension || solution.times.empty()) {
+    throw UsageError("nothing to verify: the solution has no continuous extension");
+  }
+  const MotionExtension& motion = *solution.extension;
+  const double t_start = solution.t_start;
+  const double t_stop = std::min(solution.t_end, motion.end());
+  Verification verification;
+  Plant plant(model);
+
+  // The bound, from the solve's tolerances and the output's size.
+  const SolveAccuracy& accuracy = solution.accuracy;
+  const Scales scales = OutputScales(trajectory, solution);
+  const bool exact = std::isnan(accuracy.rtol);
+  verification.forward_rtol =
+      exact ? kExactForwardRtol
+            : std::clamp(kForwardToleranceRatio * accuracy.rtol, kMinForwardRtol, kMaxForwardRtol);
+  verification.forward_atol = kForwardAbsoluteScale * verification.forward_rtol;
+  const double forward_term =
+      verification.forward_rtol * scales.output + verification.forward_atol;
+  double term = forward_term;
+  std::string rule;
+  if (accuracy.step) {
+    term = *accuracy.step * scales.velocity + accuracy.atol;
+    rule = "step max|y_d'| + atol = " + Number(*accuracy.step) + " * " + Number(scales.velocity) +
+           " + " + Number(accuracy.atol) + " (first order: about one step of delay)";
+  } else if (!exact) {
+    term = accuracy.rtol * scales.output + accuracy.atol;
+    rule = "rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " + Number(scales.output) +
+           " + " + Number(accuracy.atol);
+  }
+  if (exact || forward_term > term) {
+    term = forward_term;
+    rule = "the forward check's own resolution, rtol max|y_d| + atol = " +
+           Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
+           Number(verification.forward_atol) + (exact ? " (the inverse is exact)" : "");
+  }
+  verification.bound = options.bound_factor * term;
+  verification.bound_rule = Number(options.bound_factor) + " x (" + rule + ")";
+
+  // Where the physical system is at t_start.
+  Eigen::VectorXd q_solution, q_dot_solution, u_solution;
+  std::string why;
+  if (!motion.Evaluate(t_start, q_solution, q_dot_solution, u_solution, why)) {
+    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) + " s: " +
+                     why);
+  }
+  Eigen::VectorXd q_start = q_solution, q_dot_start = q_dot_solution, u_start = u_solution;
+  if (TrajectoryAtRest(trajectory, t_start)) {
+    Workspace workspace(model);
+    OperatingPointOptions rest;
+    rest.y0 = trajectory.Derivative(t_start, 0);
+    rest.q_guess = q_solution;
+    const OperatingPoint rest_point = FindOperatingPoint(model, workspace, rest);
+    q_start = rest_point.q;
+    u_start = rest_point.u;
+    q_dot_start = Eigen::VectorXd::Zero(q_start.size());
+    verification.start = "rest";
+    verification.start_position_deviation =
+        (q_solution - q_start).lpNorm<Eigen::Infinity>();
+    verification.start_velocity_deviation = q_dot_solution.lpNorm<Eigen::Infinity>();
+    double largest_velocity = 0.0;
+    for (const Eigen::VectorXd& velocity : solution.q_dot) {
+      largest_velocity = std::max(largest_velocity, velocity.lpNorm<Eigen::Infinity>());
+    }
+    const double rtol = exact ? verification.forward_rtol : accuracy.rtol;
+    const double atol = exact ? verification.forward_atol : accuracy.atol;
+    verification.solution_starts_at_rest =
+        verification.start_position_deviation <=
+            kRestFactor * (rtol * std::max(1.0, q_start.lpNorm<Eigen::Infinity>()) + atol) &&
+        verification.start_velocity_deviation <=
+            kRestFactor * (rtol * std::max(1.0, largest_velocity) + atol);
+    if (!verification.solution_starts_at_rest) {
+      verification.warnings.push_back(
+          "the solution does not start at rest at t_start = " + Number(t_start) +
+          " s (|q - q_rest| = " + Number(verification.start_position_deviation) + ", |q'| = " +
+          Number(verification.start_velocity_deviation) +
+          "); the forward check starts from rest, where the physical system is");
+    }
+  } else {
+    verification.start = "solution";
+  }
+
+  // The plant's fastest growth, at rest and along the solution.
+  verification.plant_growth_rate = plant.GrowthRate(q_start, q_dot_start, u_start);
+  const std::size_t rows = solution.times.size();
+  const std::size_t samples = std::min<std::size_t>(rows, std::size_t(options.growth_samples));
+  for (std::size_t k = 0; k < samples; ++k) {
+    const std::size_t i = samples == 1 ? 0 : k * (rows - 1) / (samples - 1);
+    const double rate = plant.GrowthRate(solution.q[i], solution.q_dot[i], solution.u[i]);
+    if (std::isfinite(rate)) {
+      verification.plant_growth_rate = std::max(verification.plant_growth_rate, rate);
+    }
+  }
+  const double span = t_stop - t_start;
+  if (verification.plant_growth_rate > options.stable_growth_rate) {
+    verification.segment_length =
+        std::log(options.segment_growth) / verification.plant_growth_rate;
+  }
+  verification.segments =
+      verification.segment_length >= span
+          ? 1
+          : int(std::ceil(span / verification.segment_length - 1e-9));
+
+  // The forward runs, segment by segment.
+  IntegratorOptions integrator;
+  integrator.rtol = verification.forward_rtol;
+  integrator.atol = verification.forward_atol;
+  const Eigen::Index f = Eigen::Index(model.dof());
+  verification.max_tracking_error = 0.0;
+  verification.time_of_max_error = t_start;
+  Eigen::VectorXd q, q_dot, u, q_ddot;
+  verification.summary.status = SolveStatus::kConverged;
+  for (int segment = 0; segment < verification.segments; ++segment) {
+    const double from = t_start + segment * (span / verification.segments);
+    const double to = segment + 1 == verification.segments
+                          ? t_stop
+                          : t_start + (segment + 1) * (span / verification.segments);
+    Eigen::VectorXd state(2 * f);
+    if (segment == 0) {
+      state << q_start, q_dot_start;
+    } else {
+      if (!motion.Evaluate(from, q, q_dot, u, why)) {
+        verification.summary.status = SolveStatus::kNoConvergence;
+        verification.summary.message = "at t = " + Number(from) + " s: " + why;
+        break;
+      }
+      state << q, q_dot;
+    }
+    const SolveSummary run = IntegrateBdf(
+        [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& reason) {
+          if (!motion.Evaluate(t, q, q_dot, u, reason)) return false;
+          if (!plant.Acceleration(y.head(f), y.tail(f), u, q_ddot, reason)) return false;
+          y_dot.resize(2 * f);
+          y_dot << y.tail(f), q_ddot;
+          return true;
+        },
+        from, state, to, trajectory.breakpoints(), integrator,
+        [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+          const double error =
+              (plant.Output(y.head(f)) - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
+          if (error > verification.max_tracking_error) {
+            verification.max_tracking_error = error;
+            verification.time_of_max_error = t;
+          }
+          return true;
+        });
+    verification.summary.steps += run.steps;
+    verification.summary.rejected_steps += run.rejected_steps;
+    verification.summary.newton_iterations += run.newton_iterations;
+    verification.summary.function_evaluations += run.function_evaluations;
+    verification.summary.jacobian_evaluations += run.jacobian_evaluations;
+    verification.summary.stop_time = run.stop_time;
+    if (!run.IsUsable()) {
+      verification.summary.status = run.status;
+      verification.summary.message = run.message;
+      break;
+    }
+  }
+  if (verification.summary.IsUsable()) {
+    verification.summary.message =
+        "reached t = " + Number(t_stop) + " s in " + std::to_string(verification.segments) +
+        (verification.segments == 1 ? " run" : " runs") + ", " +
+        std::to_string(verification.summary.steps) + " steps";
+  }
+  verification.passed = verification.summary.IsUsable() &&
+                        verification.max_tracking_error <= verification.bound;
+  return verification;
+}
+
+}  // namespace servokit

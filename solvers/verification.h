@@ -1,0 +1,78 @@
+#pragma once
+// The forward check of a solve (servokit solve --verify): u_d, from the method's own continuous
+// extension, drives the model M q'' + f = B u_d forward, and the output must follow y_d within
+// a bound derived from the solve's tolerances and the output's size. It proves that the
+// feedforward reproduces y_d on the model, to the stated bound, starting where the physical
+// system is: at rest with h(q) = y_d(t_start).
+//
+// An open-loop unstable plant (an inverted pendulum on a cart) amplifies any error, the
+// forward integrator's included, exponentially: a single run from t_start diverges whatever
+// u_d is. There the run is restarted from the solution's own state (q_d, q_d') at the start of
+// each segment, with the segment length chosen from the plant's fastest growth rate so that
+// errors grow by at most a fixed factor within a segment. A wrong u_d still shows within every
+// segment; a right one is no longer drowned by the plant's own instability.
+#include <Eigen/Dense>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "models/model.h"
+#include "solvers/inverse_model.h"
+#include "solvers/solve_summary.h"
+#include "solvers/trajectory.h"
+
+namespace servokit {
+
+struct VerificationOptions {
+  // The bound on the largest output error |h(q) - y_d| is bound_factor times the solve's own
+  // tolerance in output units: rtol max|y_d| + atol for the tolerance-controlled methods,
+  // step max|y_d'| for Euler backward (first order: about one step of delay), and never
+  // below the forward simulation's own resolution. 100 covers the growth of local errors
+  // into a global one measured on the shipped and literature models, and fails a u_d off by
+  // a percent by orders of magnitude.
+  double bound_factor = 100.0;
+  // On an unstable plant the error may grow by at most this factor within a segment: the
+  // segment lasts ln(segment_growth) / (fastest growth rate).
+  double segment_growth = 10.0;
+  // Growth rates below this (1/s) count as a stable plant: one run from t_start, no restart.
+  double stable_growth_rate = 1e-6;
+  // States along the solution at which the plant's growth rate is taken (plus the rest state).
+  int growth_samples = 100;
+  // Throws UsageError naming the field, its value and the rule it breaks.
+  void Validate() const;
+};
+
+struct Verification {
+  double max_tracking_error = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
+  double time_of_max_error = std::numeric_limits<double>::quiet_NaN();
+  double bound = std::numeric_limits<double>::quiet_NaN();
+  std::string bound_rule;  // how the bound was derived, with the numbers
+  bool passed = false;     // the forward runs reached the end and stayed within the bound
+  // The start: at rest at the equilibrium with h(q) = y_d(t_start) when y_d rests there
+  // ("rest"), else the solution's own state ("solution": the system must already move).
+  std::string start;
+  // How far the solution's own state at t_start is from that rest state, and whether that is
+  // within the solve's tolerance (false: e.g. a pre-actuation cut short).
+  double start_position_deviation = 0.0;
+  double start_velocity_deviation = 0.0;
+  bool solution_starts_at_rest = true;
+  // The plant's fastest growth rate (largest real part of the linearized forward dynamics at
+  // the rest state and along q_d), and what the check did about it.
+  double plant_growth_rate = 0.0;
+  double segment_length = std::numeric_limits<double>::infinity();  // inf: one run
+  int segments = 1;
+  double forward_rtol = 0.0;  // CVODE's tolerances in the forward runs
+  double forward_atol = 0.0;
+  SolveSummary summary;  // of the forward runs (steps summed)
+  std::vector<std::string> warnings;
+};
+
+/// Drives the model with `solution`'s u_d from its continuous extension and compares the output
+/// with `trajectory` (see the file comment). Throws UsageError for bad options or a solution
+/// without a continuous extension, NoSolution when the rest state at t_start cannot be found.
+Verification VerifyFeedforward(const Model& model,
+                               const OutputTrajectory& trajectory,
+                               const FeedforwardSolution& solution,
+                               const VerificationOptions& options = {});
+
+}  // namespace servokit
