@@ -30,7 +30,7 @@ class LinearlyImplicitDae {
                         std::string& why) = 0;
 
   /// d phi / dx at (t, x) (n x n), where `rhs` = phi(t, x) is already known. The default uses
-  /// forward differences with steps sqrt(eps) * max(|x_i|, 1e-5).
+  /// forward differences with RADAU5's steps sqrt(eps max(|x_i|, 1e-5)).
   virtual bool RhsJacobian(double t,
                            const Eigen::VectorXd& x,
                            const Eigen::VectorXd& rhs,

@@ -30,6 +30,7 @@ struct RadauOptions {
   double initial_step = 0.0;
   // Required for stages = 1 (no error estimate, so no step-size control); ignored otherwise.
   // The grid is t_start + k fixed_step; a breakpoint shortens the step that would cross it.
+  // A step whose Newton iteration fails stops the run: it is never halved (see radau.cpp).
   double fixed_step = 0.0;
   // Upper bound of the step size; infinity leaves it to the error control.
   double max_step = std::numeric_limits<double>::infinity();

@@ -119,6 +119,12 @@ std::string Number(double value) { return FormatNumber(value); }
 void VerificationOptions::Validate() const {
   RequireOption(bound_factor > 0.0 && std::isfinite(bound_factor), "VerificationOptions",
                 "bound_factor", bound_factor, "must be a finite number > 0");
+  RequireOption(resolution_factor > 0.0 && std::isfinite(resolution_factor),
+                "VerificationOptions", "resolution_factor", resolution_factor,
+                "must be a finite number > 0");
+  RequireOption(step_bound_factor > 0.0 && std::isfinite(step_bound_factor),
+                "VerificationOptions", "step_bound_factor", step_bound_factor,
+                "must be a finite number > 0");
   RequireOption(segment_growth > 1.0 && std::isfinite(segment_growth), "VerificationOptions",
                 "segment_growth", segment_growth, "must be a finite number > 1");
   RequireOption(stable_growth_rate >= 0.0 && std::isfinite(stable_growth_rate),
@@ -152,25 +158,28 @@ Verification VerifyFeedforward(const Model& model,
   verification.forward_atol = kForwardAbsoluteScale * verification.forward_rtol;
   const double forward_term =
       verification.forward_rtol * scales.output + verification.forward_atol;
-  double term = forward_term;
-  std::string rule;
+  const double resolution = options.resolution_factor * forward_term;
+  const std::string resolution_rule =
+      Number(options.resolution_factor) + " x (the forward check's own resolution, rtol max|y_d| + "
+      "atol = " + Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
+      Number(verification.forward_atol) + (exact ? "; the inverse is exact)" : ")");
   if (accuracy.step) {
-    term = *accuracy.step * scales.velocity + accuracy.atol;
-    rule = "step max|y_d'| + atol = " + Number(*accuracy.step) + " * " + Number(scales.velocity) +
-           " + " + Number(accuracy.atol) + " (first order: about one step of delay)";
+    verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
+    verification.bound_rule = Number(options.step_bound_factor) + " x step max|y_d'| = " +
+                              Number(options.step_bound_factor) + " x " +
+                              Number(*accuracy.step) + " * " + Number(scales.velocity) +
+                              " (first order: about one step of delay)";
   } else if (!exact) {
-    term = accuracy.rtol * scales.output + accuracy.atol;
-    rule = "rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " + Number(scales.output) +
-           " + " + Number(accuracy.atol);
+    verification.bound =
+        options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
+    verification.bound_rule = Number(options.bound_factor) + " x (rtol max|y_d| + atol = " +
+                              Number(accuracy.rtol) + " * " + Number(scales.output) + " + " +
+                              Number(accuracy.atol) + ")";
   }
-  if (exact || forward_term > term) {
-    term = forward_term;
-    rule = "the forward check's own resolution, rtol max|y_d| + atol = " +
-           Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
-           Number(verification.forward_atol) + (exact ? " (the inverse is exact)" : "");
+  if (exact || !(verification.bound >= resolution)) {
+    verification.bound = resolution;
+    verification.bound_rule = resolution_rule;
   }
-  verification.bound = options.bound_factor * term;
-  verification.bound_rule = Number(options.bound_factor) + " x (" + rule + ")";
 
   // Where the physical system is at t_start.
   Eigen::VectorXd q_solution, q_dot_solution, u_solution;

@@ -1,0 +1,221 @@
+// The forward check (solvers/verification.h): it passes what is right, fails what is wrong, and
+// an unstable plant or a solution that does not start at rest cannot fool it (issue #14).
+//   - Radau IIA on a flat flexible-joint arm (Spong's, tests/data/flexible_joint_arm.yaml): the
+//     tracking error is of the size of Radau's own input error, measured against the exact
+//     algebraic inverse, not the 8e-3 rad a polynomial through uneven steps gave.
+//   - Stable inversion of an inverted pendulum on a cart, output the cart
+//     (tests/data/cart_pole.yaml): the plant grows like e^(5.9 t), so one forward run diverges
+//     whatever u_d is; restarted on segments it reports the inverse's accuracy.
+//   - u_d spoiled by 1 % fails every method's check by orders of magnitude.
+//   - A pre-actuation cut short: the solution does not start at rest; the check says so and
+//     starts from rest, where the physical system is.
+#include "solvers/verification.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <memory>
+
+#include "solvers/inverse_model.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::TestDataPath;
+
+struct Problem {
+  Model model;
+  Classification classification;
+};
+
+Problem Load(const std::string& path, const std::vector<ParameterOverride>& set = {}) {
+  Problem problem{LoadModel(path, set), {}};
+  Workspace workspace(problem.model);
+  problem.classification = Classify(problem.model, workspace);
+  return problem;
+}
+
+FeedforwardSolution Solve(const Problem& problem,
+                          const OutputTrajectory& trajectory,
+                          SolverMethod method,
+                          double t_end,
+                          InverseModelOptions options = {}) {
+  options.method = method;
+  options.t_end = t_end;
+  FeedforwardSolution solution =
+      SolveInverseModel(problem.model, trajectory, problem.classification, options);
+  INFO(ToString(method) << ": " << solution.summary.message);
+  REQUIRE(solution.summary.IsUsable());
+  return solution;
+}
+
+Eigen::VectorXd InputAt(const FeedforwardSolution& solution, double t) {
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  REQUIRE(solution.extension->Evaluate(t, q, q_dot, u, why));
+  return u;
+}
+
+// The solution's motion with u_d scaled by `factor`: a wrong answer the check must fail.
+class ScaledInput final : public MotionExtension {
+ public:
+  ScaledInput(std::shared_ptr<const MotionExtension> inner, double factor)
+      : MotionExtension(inner->start(), inner->end()), inner_(std::move(inner)), factor_(factor) {}
+  bool Evaluate(double t,
+                Eigen::VectorXd& q,
+                Eigen::VectorXd& q_dot,
+                Eigen::VectorXd& u,
+                std::string& why) const override {
+    if (!inner_->Evaluate(t, q, q_dot, u, why)) return false;
+    u *= factor_;
+    return true;
+  }
+
+ private:
+  std::shared_ptr<const MotionExtension> inner_;
+  double factor_;
+};
+
+FeedforwardSolution Spoiled(FeedforwardSolution solution) {
+  solution.extension = std::make_shared<const ScaledInput>(solution.extension, 1.01);
+  return solution;
+}
+
+TEST_CASE("Radau IIA on a flat flexible-joint arm: the check reports the size of its own error",
+          "[solvers]") {
+  const Problem arm = Load(TestDataPath("flexible_joint_arm.yaml"));
+  REQUIRE(arm.classification.flat);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        1.5, 4);
+  const FeedforwardSolution radau = Solve(arm, trajectory, SolverMethod::kRadau, 3.0);
+  const FeedforwardSolution exact = Solve(arm, trajectory, SolverMethod::kAlgebraic, 3.0);
+  // Radau's own input error, against the exact inverse, on a grid 100 times finer than its steps.
+  double input_error = 0.0, largest_input = 0.0;
+  for (int k = 0; k <= 30000; ++k) {
+    const double t = 3.0 * k / 30000;
+    input_error = std::max(input_error, std::abs(InputAt(radau, t)(0) - InputAt(exact, t)(0)));
+    largest_input = std::max(largest_input, std::abs(InputAt(exact, t)(0)));
+  }
+  const Verification check = VerifyFeedforward(arm.model, trajectory, radau);
+  const Verification exact_check = VerifyFeedforward(arm.model, trajectory, exact);
+  WARN("flexible-joint arm, Radau IIA (" << radau.summary.steps << " steps): max |u - u_exact| / "
+       "max |u| = " << input_error / largest_input << "; tracking error " << check.max_tracking_error
+       << " rad (bound " << check.bound << "); the exact inverse's: " << exact_check.max_tracking_error);
+  CHECK(check.passed);
+  CHECK(exact_check.passed);
+  // The output moves by 1 rad: its relative error is no larger than the input's. (A degree-5
+  // polynomial through Radau's uneven steps gave 8e-3 rad here.)
+  CHECK(check.max_tracking_error <= input_error / largest_input);
+  CHECK(check.max_tracking_error > 10 * exact_check.max_tracking_error);  // it sees Radau's error
+}
+
+TEST_CASE("stable inversion of an inverted pendulum on a cart: the unstable plant cannot hide "
+          "the answer", "[solvers]") {
+  const Problem cart = Load(TestDataPath("cart_pole.yaml"));
+  REQUIRE(cart.classification.zero_dynamics.stability == Stability::kUnstable);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        2.0);
+  const FeedforwardSolution solution = Solve(cart, trajectory, SolverMethod::kAuto, 5.0);
+  CHECK(solution.method == SolverMethod::kStableInversion);
+  const Verification check = VerifyFeedforward(cart.model, trajectory, solution);
+  // The plant's poles at rest: det(M lambda^2 + K) = lambda^2 mp l [((mc + mp) l / 3 - mp l / 4)
+  // lambda^2 - (mc + mp) g / 2] for the uniform rod, so lambda = +-sqrt(6 g (mc + mp) / (l (4 mc
+  // + mp))) = +-5.799 /s; along the motion the tilted rod grows a little faster.
+  const double g = 9.81, mc = 1.0, mp = 0.2, l = 0.5;
+  const double growth = std::sqrt(6 * g * (mc + mp) / (l * (4 * mc + mp)));
+  VerificationOptions at_rest_only;
+  at_rest_only.growth_samples = 0;
+  CHECK(VerifyFeedforward(cart.model, trajectory, solution, at_rest_only).plant_growth_rate ==
+        Approx(growth).epsilon(1e-6));
+  WARN("cart-pole: tracking error " << check.max_tracking_error << " m over " << check.segments
+                                    << " segments of " << check.segment_length << " s");
+  CHECK(check.plant_growth_rate >= growth * (1 - 1e-6));
+  CHECK(check.plant_growth_rate <= 1.05 * growth);
+  CHECK(check.segments > 1);
+  CHECK(check.segment_length == Approx(std::log(10.0) / check.plant_growth_rate));
+  CHECK(check.passed);
+  CHECK(check.max_tracking_error <= 1e-6);
+  // One run from t_start diverges whatever u_d is: what the old check reported (0.19 m).
+  VerificationOptions one_run;
+  one_run.stable_growth_rate = 1e9;
+  const Verification diverging = VerifyFeedforward(cart.model, trajectory, solution, one_run);
+  CHECK(diverging.segments == 1);
+  CHECK_FALSE(diverging.passed);
+  CHECK(diverging.max_tracking_error > 1e3 * check.max_tracking_error);
+}
+
+TEST_CASE("a u_d spoiled by 1 % fails every method's check", "[solvers]") {
+  const Problem case2 = Load(ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "1"}});
+  const Problem case4 = Load(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  const Problem arm = Load(TestDataPath("flexible_joint_arm.yaml"));
+  const Problem cart = Load(TestDataPath("cart_pole.yaml"));
+  const RestToRestTrajectory paper(Eigen::VectorXd::Constant(1, 0.5),
+                                   Eigen::VectorXd::Constant(1, 2.5), 0.0, 6.0);
+  const RestToRestTrajectory turn(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0, 1.5, 4);
+  const RestToRestTrajectory move(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0, 2.0);
+  InverseModelOptions euler_step;
+  euler_step.step = 1e-3;
+  struct Run {
+    const Problem& problem;
+    const OutputTrajectory& trajectory;
+    SolverMethod method;
+    double t_end;
+    InverseModelOptions options;
+  };
+  for (const Run& run : {Run{case2, paper, SolverMethod::kNormalForm, 10.0, {}},
+                         Run{case2, paper, SolverMethod::kBdf, 10.0, {}},
+                         Run{case4, paper, SolverMethod::kAlgebraic, 10.0, {}},
+                         Run{case4, paper, SolverMethod::kEuler, 10.0, euler_step},
+                         Run{arm, turn, SolverMethod::kRadau, 3.0, {}},
+                         Run{cart, move, SolverMethod::kStableInversion, 5.0, {}}}) {
+    const FeedforwardSolution solution =
+        Solve(run.problem, run.trajectory, run.method, run.t_end, run.options);
+    const Verification right = VerifyFeedforward(run.problem.model, run.trajectory, solution);
+    const Verification wrong =
+        VerifyFeedforward(run.problem.model, run.trajectory, Spoiled(solution));
+    INFO(ToString(run.method) << ": right " << right.max_tracking_error << ", spoiled "
+                              << wrong.max_tracking_error << ", bound " << right.bound);
+    CHECK(right.passed);
+    CHECK_FALSE(wrong.passed);
+    CHECK(wrong.max_tracking_error > 10 * wrong.bound);
+  }
+}
+
+TEST_CASE("a pre-actuation cut short: the solution does not start at rest, and the check says "
+          "so and starts from rest", "[solvers]") {
+  const Problem cart = Load(TestDataPath("cart_pole.yaml"));
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        2.0);
+  const FeedforwardSolution full = Solve(cart, trajectory, SolverMethod::kStableInversion, 5.0);
+  const Verification full_check = VerifyFeedforward(cart.model, trajectory, full);
+  CHECK(full_check.start == "rest");
+  CHECK(full_check.solution_starts_at_rest);
+  CHECK(full_check.warnings.empty());
+  InverseModelOptions short_window;
+  short_window.pre_actuation = 0.3;
+  const FeedforwardSolution cut =
+      Solve(cart, trajectory, SolverMethod::kStableInversion, 5.0, short_window);
+  CHECK(cut.t_start == Approx(-0.3));
+  const Verification check = VerifyFeedforward(cart.model, trajectory, cut);
+  WARN("cart-pole, pre-actuation 0.3 s: the solution starts " << check.start_position_deviation
+       << " m from rest; the check from rest: " << check.max_tracking_error << " m");
+  CHECK_FALSE(check.solution_starts_at_rest);
+  CHECK(check.start_position_deviation > 1e-3);
+  REQUIRE(check.warnings.size() == 1);
+  CHECK_THAT(check.warnings.front(), Catch::Contains("does not start at rest"));
+  // From rest, the cut-off pre-actuation is missing: the cart leaves y_d by millimetres, where
+  // the same check of the solution's own (moving) start would see only the inverse's error.
+  CHECK_FALSE(check.passed);
+  CHECK(check.max_tracking_error > 1e-4);
+}
+
+TEST_CASE("verification options: defaults are valid, bad fields are named", "[solvers]") {
+  VerificationOptions options;
+  CHECK_NOTHROW(options.Validate());
+  options.segment_growth = 1.0;
+  CHECK_THROWS_WITH(options.Validate(), Catch::Contains("segment_growth = 1"));
+}
+
+}  // namespace
+}  // namespace servokit
