@@ -178,13 +178,13 @@ void RunKinsol(EquilibriumProblem& problem,
                                   : "after a Newton step overflowed q";
     throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
                      ": the equilibrium equations became NaN or Inf " + where +
-                     " (is y0 within the model's range?); try --q0 near the equilibrium");
+                     " (is y0 within the model's range?); try a starting point q0 near the equilibrium");
   }
   if (flag < 0) {
     throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
                      ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
                      (last_message.empty() ? "" : " (" + last_message + ")") +
-                     "; try --q0 near the equilibrium");
+                     "; try a starting point q0 near the equilibrium");
   }
   unknowns = AsEigen(solution.get());
 }
@@ -242,7 +242,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
     Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
     problem.y0 = workspace.output;
     if (!problem.y0.allFinite()) {
-      throw NoSolution("the output h(0) is not finite: give y0 (--y0)");
+      throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
     }
   }
 

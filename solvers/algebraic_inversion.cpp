@@ -240,16 +240,6 @@ OutputChain DifferentiateUntilInputsAppear(std::size_t output,
                    std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
 }
 
-std::string MethodsFor(bool has_internal_dynamics) {
-  std::string methods = "use --method " + std::string(ToString(SolverMethod::kRadau)) + " or " +
-                        std::string(ToString(SolverMethod::kBdf));
-  if (has_internal_dynamics) {
-    methods += " (or " + std::string(ToString(SolverMethod::kStableInversion)) +
-               " if the internal dynamics are unstable)";
-  }
-  return methods;
-}
-
 // 1 / the largest |entry| of each row and then of each column of the scaled matrix (1 for a
 // zero row or column): the units in which the matrix is judged singular.
 std::pair<Eigen::VectorXd, Eigen::VectorXd> EquilibrationScales(const Eigen::MatrixXd& matrix) {
@@ -391,8 +381,7 @@ void RequireRegularCoefficients(const Eigen::MatrixXd& coefficients,
       std::to_string(RegularRank(lu)) + " of " + std::to_string(coefficients.rows()) +
       "): the outputs have no vector relative degree there, so u does not follow from them "
       "algebraically (if the system is flat, as the gantry crane with the load position as "
-      "output is, only a dynamic extension would invert it); " +
-      MethodsFor(false));
+      "output is, only a dynamic extension would invert it)");
 }
 
 // Throws NoSolution unless the relative degrees add up to 2 dof (paper Sect. 2.4: r = n).
@@ -407,12 +396,12 @@ void RequireFlat(const std::vector<int>& orders, std::size_t dof) {
                                           " add up to " + std::to_string(order_sum);
     throw NoSolution("algebraic inversion needs a flat problem: " + degrees +
                      ", not 2 dof = " + std::to_string(states) + " (internal dynamics of order " +
-                     std::to_string(states - order_sum) + " remain); " + MethodsFor(true));
+                     std::to_string(states - order_sum) + " remain)");
   }
   if (order_sum > states) {  // excluded by a regular u-coefficient matrix; kept as a guard
     throw NoSolution("algebraic inversion: the outputs' relative degrees " + JoinOrders(orders) +
                      " add up to " + std::to_string(order_sum) + ", more than the 2 dof = " +
-                     std::to_string(states) + " states they would fix; " + MethodsFor(false));
+                     std::to_string(states) + " states they would fix");
   }
 }
 
@@ -423,8 +412,7 @@ void RequireStateFixed(const Eigen::MatrixXd& jacobian,
   if (jacobian.allFinite() && IsRegular(ScaledLu(jacobian, row_scale, column_scale))) return;
   throw NoSolution(
       "algebraic inversion: the outputs and their derivatives do not fix the state at q = 0 "
-      "(the Jacobian of the constraints is singular there); " +
-      MethodsFor(false));
+      "(the Jacobian of the constraints is singular there)");
 }
 
 // Y[i][k] for y_i_d^(k), k = 0..r_i, named "y<i+1>_d" and k primes.

@@ -4,13 +4,17 @@
 // Trajectory of Fig. 9: y from 0.5 m to 2.5 m in 0-6 s by Eq. (65), 10 s in all.
 #include "solvers/inverse_model.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <sstream>
 
 #include "models/errors.h"
 #include "solvers/radau.h"
 #include "solvers/verification.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
+#include "tests/test_process.h"
 
 namespace servokit {
 namespace {
@@ -502,6 +506,163 @@ TEST_CASE("P becoming singular along the motion stops with status singular-decou
     // The solve stops at the last step before t*; it reports the interval holding t*.
     CHECK(solution.summary.stop_time <= low);
     CHECK(solution.times.back() <= low);
+  }
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// The rows of a solve on the sample grid t_start + k sample_time.
+void CheckGrid(const FeedforwardSolution& solution, double t_start, double t_end, double sample) {
+  const auto count = std::size_t(std::llround((t_end - t_start) / sample)) + 1;
+  REQUIRE(solution.times.size() == count);
+  for (std::size_t k = 0; k + 1 < count; ++k) {
+    CHECK(solution.times[k] == t_start + double(k) * sample);
+  }
+  CHECK(solution.times.back() == t_end);
+}
+
+TEST_CASE("--sample-time: every method writes rows at t_start + k DT over exactly "
+          "[t_start, t_end], from its continuous extension", "[solvers]") {
+  const RestToRestTrajectory trajectory = PaperTrajectory();
+  const Case flat = LoadCase("0", "0");
+  const Case stable = LoadCase("5 deg", "1");
+  for (const SolverMethod method : {SolverMethod::kAlgebraic, SolverMethod::kEuler,
+                                    SolverMethod::kRadau}) {
+    InverseModelOptions options;
+    options.method = method;
+    options.t_end = kTEnd;
+    options.sample_time = 0.01;
+    const FeedforwardSolution solution =
+        SolveInverseModel(flat.model, trajectory, flat.classification, options);
+    INFO(ToString(method));
+    REQUIRE(solution.summary.IsUsable());
+    CheckGrid(solution, 0.0, kTEnd, 0.01);
+    // The rows keep the method's own accuracy against Eq. (47): exact, one step late (Euler
+    // at its default 1 ms), Radau's index-3 input to 3e-4 at rtol 1e-8.
+    double error = 0.0, largest = 0.0;
+    for (std::size_t i = 0; i < solution.times.size(); ++i) {
+      const double exact = PaperForceCase4(trajectory, solution.times[i]);
+      error = std::max(error, std::abs(solution.u[i](0) - exact));
+      largest = std::max(largest, std::abs(exact));
+    }
+    CHECK(error <= (method == SolverMethod::kAlgebraic ? 1e-10
+                    : method == SolverMethod::kEuler   ? 1e-2
+                                                       : 3e-4) *
+                       largest);
+  }
+  for (const SolverMethod method : {SolverMethod::kBdf, SolverMethod::kNormalForm}) {
+    InverseModelOptions options;
+    options.method = method;
+    options.t_start = 1.0;  // moving already: the internal coordinates start at rest there
+    options.t_end = 7.5;
+    options.sample_time = 0.25;
+    const FeedforwardSolution solution =
+        SolveInverseModel(stable.model, trajectory, stable.classification, options);
+    INFO(ToString(method));
+    REQUIRE(solution.summary.IsUsable());
+    CheckGrid(solution, 1.0, 7.5, 0.25);
+    CHECK(solution.max_servo_residual <= 1e-9);
+  }
+}
+
+TEST_CASE("--sample-time must divide the span", "[solvers]") {
+  const RestToRestTrajectory trajectory = PaperTrajectory();
+  const Case flat = LoadCase("0", "0");
+  InverseModelOptions options;
+  options.t_end = kTEnd;
+  options.sample_time = 0.3;
+  CHECK_THROWS_MATCHES(
+      SolveInverseModel(flat.model, trajectory, flat.classification, options), SettingError,
+      Catch::Message("the sample time 0.3 s does not divide the span from 0 s to 10 s "
+                     "(33.333333333333336 samples): choose the end time 10.2 s or a sample time "
+                     "that divides it"));
+  CHECK(SampleGrid(0.0, 1.0, 0.1).size() == 11);  // 10.000000000000002 samples: a whole number
+}
+
+TEST_CASE("stable inversion on a sample grid: cut to a narrower span with a warning, padded "
+          "with the rest states where the span is wider", "[solvers]") {
+  const Model model = LoadModel(testing::TestDataPath("cart_pole.yaml"));
+  Workspace workspace(model);
+  const Classification classification = Classify(model, workspace);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        2.0);
+  InverseModelOptions options;
+  options.method = SolverMethod::kStableInversion;
+  options.sample_time = 0.01;
+  options.t_end = 8.0;
+  // Unset t_start: the grid, anchored at the motion's start t0 = 0, reaches back over the
+  // pre-actuation.
+  const FeedforwardSolution automatic =
+      SolveInverseModel(model, trajectory, classification, options);
+  REQUIRE(automatic.summary.IsUsable());
+  REQUIRE(automatic.window.has_value());
+  CHECK(automatic.t_start <= automatic.window->start);
+  CHECK(automatic.t_start > automatic.window->start - 0.01);
+  CHECK(std::find(automatic.times.begin(), automatic.times.end(), 0.0) != automatic.times.end());
+  CHECK(automatic.warnings.empty());
+  // Wider than the window: the rows beyond it are the rest states, exactly.
+  options.t_start = -6.0;
+  const FeedforwardSolution padded = SolveInverseModel(model, trajectory, classification, options);
+  REQUIRE(padded.summary.IsUsable());
+  CheckGrid(padded, -6.0, 8.0, 0.01);
+  CHECK(padded.window->start > -6.0);
+  CHECK(padded.u.front()(0) == 0.0);
+  CHECK(padded.q.front().isZero(0.0));
+  CHECK(padded.u.back()(0) == 0.0);
+  CHECK(padded.q.back()(0) == 1.0);  // the cart at rest at its end position
+  // Narrower: cut at t_start and t_end, each with a warning, since u_d is not at rest there.
+  options.t_start = -0.5;
+  options.t_end = 2.5;
+  const FeedforwardSolution cut = SolveInverseModel(model, trajectory, classification, options);
+  REQUIRE(cut.summary.IsUsable());
+  CheckGrid(cut, -0.5, 2.5, 0.01);
+  REQUIRE(cut.warnings.size() == 2);
+  CHECK_THAT(cut.warnings[0], Catch::Contains("not at rest at t_start = -0.5 s"));
+  CHECK_THAT(cut.warnings[1], Catch::Contains("not at rest at t_end = 2.5 s"));
+}
+
+TEST_CASE("BDF on a pendubot-type arm: u_d within 1e-7 of the normal form in every one of 20 "
+          "separate runs", "[solvers][slow]") {
+  // A two-link arm hanging in gravity, passive damped elbow, output q1 + 0.2 q2 (stable zero
+  // dynamics, -1.2 +- 6.76i). Its BDF solve once oscillated with errors growing by about -2
+  // per step (a leading term whose null space moved with q) and differed from run to run with
+  // the addresses GiNaC's term order depends on; each run is a separate process here.
+  const testing::TemporaryDirectory scratch;
+  const auto solve = [&](const std::string& method, const std::string& out) {
+    const testing::ProcessResult run = testing::RunProcess(
+        scratch.path(), {SERVOKIT_BINARY, "solve", testing::TestDataPath("two_link_arm_gravity.yaml"),
+                         "--trajectory", "rest-to-rest", "--y0", "0", "--yf", "1", "--t0", "0",
+                         "--tf", "1.5", "--t-end", "4", "--method", method, "--sample-time",
+                         "0.005", "--out", out});
+    INFO(run.err);
+    REQUIRE(run.status == 0);
+    std::vector<double> inputs;  // the column tau
+    const std::vector<std::string> lines = testing::Lines(testing::ReadFile(scratch / out));
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+      std::vector<std::string> cells;
+      std::stringstream row(lines[i]);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      inputs.push_back(std::stod(cells.at(5)));
+    }
+    return inputs;
+  };
+  const std::vector<double> reference = solve("normal-form", "reference.csv");
+  double largest = 0.0;
+  for (const double value : reference) largest = std::max(largest, std::abs(value));
+  REQUIRE(largest > 1.0);  // N m: the arm is lifted against gravity
+  for (int run = 0; run < 20; ++run) {
+    const std::vector<double> bdf = solve("bdf", "bdf.csv");
+    REQUIRE(bdf.size() == reference.size());
+    double difference = 0.0;
+    for (std::size_t i = 0; i < bdf.size(); ++i) {
+      difference = std::max(difference, std::abs(bdf[i] - reference[i]));
+    }
+    INFO("run " << run);
+    CHECK(difference <= 1e-7 * largest);
   }
 }
 

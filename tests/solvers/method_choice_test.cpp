@@ -1,0 +1,181 @@
+// No dead ends (issue #14): for every shipped model and every class the analysis knows, each
+// refusal names methods that do accept the problem, or says that no method of servokit solves
+// it and why; auto never picks a method that refuses. The loop covers flat problems (the paper's
+// case 4, the six-mass chain, a flexible-joint arm, the gantry and double-pendulum cranes),
+// stable, undamped and unstable zero dynamics, orthogonal, tangential and mixed realizations.
+#include "solvers/method_choice.h"
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <string>
+#include <vector>
+
+#include "models/errors.h"
+#include "solvers/inverse_model.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::TestDataPath;
+
+struct Case {
+  std::string path;
+  std::vector<ParameterOverride> set;
+};
+
+const std::vector<SolverMethod> kMethods = {
+    SolverMethod::kAlgebraic, SolverMethod::kEuler,      SolverMethod::kRadau,
+    SolverMethod::kBdf,       SolverMethod::kNormalForm, SolverMethod::kStableInversion};
+
+std::vector<Case> Cases() {
+  return {
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "1"}}},  // case 2: stable
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "0"}}},  // critical
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "1"}}},      // case 3: tangential
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}}},      // case 4: flat
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "-1"}}},     // tangential, unstable
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "90 deg"}, {"d", "1"}}},  // ideal orthogonal
+      {ModelPath("rotational_arm.yaml"), {{"s", "0.5"}}},                 // stable
+      {ModelPath("rotational_arm.yaml"), {}},                             // unstable (s = l)
+      {ModelPath("rotational_arm_tip.yaml"), {}},
+      {ModelPath("mass_spring_chain.yaml"), {}},  // flat, relative degree 12
+      {ModelPath("gantry_crane.yaml"), {}},       // mixed, flat only by a dynamic extension
+      {ModelPath("three_link_arm.yaml"), {}},     // unstable, two internal coordinates
+      {TestDataPath("two_link_arm_gravity.yaml"), {}},
+      {TestDataPath("cart_pole.yaml"), {}},
+      {TestDataPath("flexible_joint_arm.yaml"), {}},
+      {TestDataPath("double_pendulum_crane.yaml"), {}},
+      {TestDataPath("three_mass_chain.yaml"), {}},
+      {TestDataPath("chain_output_x3.yaml"), {}},
+      {TestDataPath("two_input_singular_decoupling.yaml"), {}},
+      {TestDataPath("decoupling_vanishes.yaml"), {}},
+  };
+}
+
+std::string Name(SolverMethod method) { return std::string(ToString(method)); }
+
+std::vector<SolverMethod> Sorted(std::vector<SolverMethod> methods) {
+  std::sort(methods.begin(), methods.end());
+  return methods;
+}
+
+TEST_CASE("every refusal names a method that fits, or says that none does; auto never refuses "
+          "when one fits", "[solvers][slow]") {
+  for (const Case& test : Cases()) {
+    const Model model = LoadModel(test.path, test.set);
+    Workspace workspace(model);
+    const Classification classification = Classify(model, workspace);
+    MethodChooser chooser(model, classification, /*force=*/false);
+    std::vector<SolverMethod> accepting;
+    for (const SolverMethod method : kMethods) {
+      if (chooser.Assess(method).accepts) accepting.push_back(method);
+    }
+    for (const SolverMethod method : kMethods) {
+      INFO(model.name() << " " << (test.set.empty() ? "" : test.set.back().value) << ": "
+                        << Name(method));
+      if (chooser.Assess(method).accepts) {
+        CHECK(chooser.Choose(method).first == method);
+        continue;
+      }
+      try {
+        chooser.Choose(method);
+        FAIL("a refused method was chosen");
+      } catch (const MethodRefused& refusal) {
+        const std::string message = refusal.what();
+        INFO(message);
+        if (accepting.empty()) {
+          CHECK_THAT(message, Catch::Contains("no method of servokit solves it"));
+          CHECK(refusal.alternatives().empty());
+        } else {
+          CHECK(Sorted(refusal.alternatives()) == accepting);
+          for (const SolverMethod alternative : refusal.alternatives()) {
+            CHECK_THAT(message, Catch::Contains(Name(alternative)));
+          }
+        }
+      }
+    }
+    INFO(model.name() << ": auto");
+    if (accepting.empty()) {
+      CHECK_THROWS_WITH(chooser.Choose(SolverMethod::kAuto),
+                        Catch::Contains("no method of servokit solves this problem"));
+    } else {
+      const SolverMethod chosen = chooser.Choose(SolverMethod::kAuto).first;
+      CHECK(chooser.Assess(chosen).accepts);
+      CHECK(chosen != SolverMethod::kEuler);
+    }
+  }
+}
+
+TEST_CASE("no method of servokit solves the double-pendulum crane yet, nor a tangential problem "
+          "with unstable zero dynamics, and the refusal says why for each", "[solvers]") {
+  for (const Case& test : {Case{TestDataPath("double_pendulum_crane.yaml"), {}},
+                           Case{ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "-1"}}}}) {
+    const Model model = LoadModel(test.path, test.set);
+    Workspace workspace(model);
+    const Classification classification = Classify(model, workspace);
+    MethodChooser chooser(model, classification, false);
+    INFO(model.name());
+    for (const SolverMethod method : kMethods) CHECK_FALSE(chooser.Assess(method).accepts);
+    try {
+      chooser.Choose(SolverMethod::kAuto);
+      FAIL("auto chose a method");
+    } catch (const MethodRefused& refusal) {
+      for (const SolverMethod method : kMethods) {
+        CHECK_THAT(refusal.what(), Catch::Contains(Name(method) + ": "));
+      }
+    }
+  }
+}
+
+TEST_CASE("auto's choice runs: no refusal at the start of the solve on any of the models",
+          "[solvers][slow]") {
+  for (const Case& test : Cases()) {
+    const Model model = LoadModel(test.path, test.set);
+    Workspace workspace(model);
+    const Classification classification = Classify(model, workspace);
+    MethodChooser chooser(model, classification, false);
+    bool any = false;
+    for (const SolverMethod method : kMethods) any = any || chooser.Assess(method).accepts;
+    if (!any) continue;
+    // A small rest-to-rest move of every output from the operating point, smooth enough for
+    // the derivatives the inverse reads.
+    const Eigen::VectorXd y0 = classification.operating_point.y;
+    const RestToRestTrajectory trajectory(
+        y0, y0 + Eigen::VectorXd::Constant(y0.size(), 0.01), 0.0, 2.0,
+        RestToRestOrderFor(classification.structure.differentiation_index - 1));
+    InverseModelOptions options;
+    options.t_end = 3.0;
+    INFO(model.name());
+    FeedforwardSolution solution;
+    CHECK_NOTHROW(solution = SolveInverseModel(model, trajectory, classification, options));
+    CHECK(chooser.Assess(solution.method).accepts);
+  }
+}
+
+TEST_CASE("forced, the forward methods accept unstable zero dynamics; forcing anything else is "
+          "an error", "[solvers]") {
+  const Model arm = LoadModel(ModelPath("rotational_arm.yaml"));
+  Workspace workspace(arm);
+  const Classification classification = Classify(arm, workspace);
+  REQUIRE(classification.zero_dynamics.stability == Stability::kUnstable);
+  MethodChooser unforced(arm, classification, false);
+  CHECK(unforced.Assess(SolverMethod::kNormalForm).forceable);
+  CHECK_FALSE(unforced.Assess(SolverMethod::kNormalForm).accepts);
+  MethodChooser forced(arm, classification, true);
+  for (const SolverMethod method : {SolverMethod::kNormalForm, SolverMethod::kBdf,
+                                    SolverMethod::kRadau, SolverMethod::kEuler}) {
+    CHECK(forced.Assess(method).accepts);
+  }
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 0.1),
+                                        0.0, 1.0);
+  InverseModelOptions options;
+  options.t_end = 2.0;
+  options.force = true;
+  options.method = SolverMethod::kStableInversion;
+  CHECK_THROWS_AS(SolveInverseModel(arm, trajectory, classification, options), SettingError);
+}
+
+}  // namespace
+}  // namespace servokit
