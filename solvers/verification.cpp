@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "analysis/operating_point.h"
 #include "models/errors.h"
@@ -112,7 +113,12 @@ Scales OutputScales(const OutputTrajectory& trajectory, const FeedforwardSolutio
   return scales;
 }
 
-std::string Number(double value) { return FormatNumber(value); }
+// Numbers in the bound's explanation, to 6 digits (the bound itself is exact in its field).
+std::string Number(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  return buffer;
+}
 
 }  // namespace
 
