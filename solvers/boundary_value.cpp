@@ -36,9 +36,8 @@ constexpr double kRoundoff = std::numeric_limits<double>::epsilon();
 
 // Newton stops when its next (simplified) correction is below this fraction of the tolerance
 // (|dy| <= fraction (atol + tol |y|)), so that its error is negligible against the residual
-// test. With tolerance >= kMinTolerance this stays above round-off of y.
+// test. With tolerance >= kBoundaryValueMinTolerance this stays above round-off of y.
 constexpr double kNewtonFraction = 1e-2;
-constexpr double kMinTolerance = 1e-12;
 // Beyond this many Lobatto points per interval the monomial-free Lagrange formulas here still
 // work, but an interval that needs more accuracy is better split.
 constexpr int kMaxCollocationPoints = 10;
@@ -986,8 +985,8 @@ class LobattoSolver final : public CollocationSolver {
 }  // namespace
 
 void BoundaryValueOptions::Validate() const {
-  RequireOption(tolerance >= kMinTolerance && tolerance < 1.0, "BoundaryValueOptions", "tolerance", tolerance,
-                "must be >= " + FormatNumber(kMinTolerance) + " and < 1");
+  RequireOption(tolerance >= kBoundaryValueMinTolerance && tolerance < 1.0, "BoundaryValueOptions", "tolerance", tolerance,
+                "must be >= " + FormatNumber(kBoundaryValueMinTolerance) + " and < 1");
   RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance), "BoundaryValueOptions", "absolute_tolerance", absolute_tolerance, "must be finite and > 0");
   RequireOption(max_mesh_points >= 2, "BoundaryValueOptions", "max_mesh_points", double(max_mesh_points), "must be >= 2");
   RequireOption(collocation_points >= 3 && collocation_points <= kMaxCollocationPoints,

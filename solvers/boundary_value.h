@@ -18,6 +18,10 @@
 
 namespace servokit {
 
+/// The smallest BoundaryValueOptions::tolerance: Newton stops at 1e-2 of the tolerance, which
+/// must stay above round-off of y.
+inline constexpr double kBoundaryValueMinTolerance = 1e-12;
+
 struct BoundaryValueOptions {
   // With collocation_points = 3: the largest relative residual of the interpolant S allowed on
   // any mesh interval, as bvp4c's RelTol: |S'(t) - f(t, S(t))| <= max(tolerance |f|,

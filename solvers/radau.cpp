@@ -28,10 +28,6 @@ using Complex = std::complex<double>;
 
 constexpr double kRoundoff = std::numeric_limits<double>::epsilon();
 
-// rtol below this asks for more digits than a double carries once x is rounded after each step
-// (RADAU5 demands rtol > 10 eps for the same reason).
-constexpr double kMinRelativeTolerance = 1e-14;
-
 // Step-size control of RADAU5: the new step is h / quotient with quotient = err^(1/4) / safety
 // (the estimate is O(h^4), hence kErrorExponent), kept within [1 / kMaxStepGrowth,
 // kMaxStepShrink]. Growth is capped so that one lucky error
@@ -80,6 +76,11 @@ constexpr double kSlowNewtonSafety = 0.8;
 constexpr double kSlowNewtonMinExcess = 1e-4;
 constexpr double kSlowNewtonMaxExcess = 20.0;
 
+// Euler backward accepts a Newton iteration that has stalled (an increment at least this
+// fraction of the previous one) with increments within this many Newton tolerances: at most
+// a few percent of the scaled tolerance, far below the method's own first-order error.
+constexpr double kEulerRoundoffAcceptance = 100.0;
+constexpr double kEulerStallRatio = 0.5;
 // Steps shorter than this fraction of fixed_step are merged into their neighbour (a breakpoint
 // within it of a grid point replaces the grid point): a tiny step adds nothing, and the Newton
 // matrix A / h - J of an index-3 problem has a condition number ~ h^-3.
@@ -875,6 +876,7 @@ bool EulerBackwardRun::SolveStep(double t_new, double h) {
   ComputeScale(x_, h, scale_);
   increment_ = h * slope_;
   NewtonMonitor monitor(newton_tolerance_, options_.max_newton_iterations, newton_rate_);
+  double previous_norm = std::numeric_limits<double>::infinity();
   for (;;) {
     new_x_ = x_ + increment_;
     if (!EvaluateDae(t_new, new_x_, mass_, rhs_) ||
@@ -888,10 +890,21 @@ bool EulerBackwardRun::SolveStep(double t_new, double h) {
     lu_.compute(newton_matrix_);
     correction_ = lu_.solve(residual_);
     ++summary_.newton_iterations;
-    const NewtonMonitor::Verdict verdict =
-        HasRegularPivots(lu_) ? monitor.Judge(ScaledRms(correction_, scale_))
-                              : monitor.Judge(std::numeric_limits<double>::infinity());
+    const double norm = HasRegularPivots(lu_) ? ScaledRms(correction_, scale_)
+                                              : std::numeric_limits<double>::infinity();
+    NewtonMonitor::Verdict verdict = monitor.Judge(norm);
     newton_rate_ = monitor.rate();
+    // Stalled at round-off: increments that no longer shrink, yet are a small fraction of the
+    // tolerance (near rest, where |x| ~ 0 leaves atol / h^(k-1) as the scale, the solve's own
+    // round-off reaches the Newton tolerance). Euler backward has no error estimate that a
+    // further digit would serve, and keeps its step, so it takes the iterate.
+    if (verdict == NewtonMonitor::Verdict::kFailed && monitor.iterations() >= 2 &&
+        norm <= kEulerRoundoffAcceptance * newton_tolerance_ &&
+        norm >= kEulerStallRatio * previous_norm) {
+      verdict = NewtonMonitor::Verdict::kConverged;
+      newton_rate_ = 1.0;  // no rate to carry over from a stalled iteration
+    }
+    previous_norm = norm;
     if (verdict == NewtonMonitor::Verdict::kFailed) {
       RecordFailure(FailureKind::kNewton, t_new, h);
       return false;
@@ -953,8 +966,8 @@ void ValidateProblem(const LinearlyImplicitDae& dae,
 void RadauOptions::Validate() const {
   RequireOption(stages == 1 || stages == 3, "RadauOptions", "stages", double(stages),
                 "must be 1 (Euler backward) or 3 (Radau IIA)");
-  RequireOption(rtol >= kMinRelativeTolerance && rtol < 1.0, "RadauOptions", "rtol", rtol,
-                "must be >= " + FormatNumber(kMinRelativeTolerance) + " and < 1");
+  RequireOption(rtol >= kRadauMinRelativeTolerance && rtol < 1.0, "RadauOptions", "rtol", rtol,
+                "must be >= " + FormatNumber(kRadauMinRelativeTolerance) + " and < 1");
   RequireOption(atol >= 0.0 && std::isfinite(atol), "RadauOptions", "atol", atol, "must be finite and >= 0");
   RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), "RadauOptions", "initial_step", initial_step,
                 "must be finite and >= 0 (0: chosen by the integrator)");

@@ -3,7 +3,11 @@
 #include <cassert>
 #include <cmath>
 
+#include "solvers/boundary_value.h"
+#include "solvers/radau.h"
 #include "solvers/solver_messages.h"
+#include "solvers/stable_inversion.h"
+#include "solvers/sundials_integrators.h"
 
 namespace servokit {
 
@@ -34,34 +38,35 @@ std::string_view ToString(SolveSetting setting) {
 }
 
 const MethodSettings& SettingsOf(SolverMethod method) {
-  // Radau's and SUNDIALS' floor: 10 eps relative is lost to rounding x after each step.
-  constexpr double kIntegratorMinRtol = 1e-14;
-  // The boundary value problem's floor (BoundaryValueOptions::tolerance >= 1e-12).
-  constexpr double kCollocationMinRtol = 1e-12;
-  constexpr double kPaperStep = 1e-3;
+  // The defaults are the solvers' own (their options structs say why); the table only collects
+  // them. SUNDIALS' BDF and Dormand-Prince lose digits below Radau's floor for the same reason.
+  static const RadauOptions radau;
+  static const IntegratorOptions sundials;
+  static const StableInversionOptions collocation;
+  constexpr double kPaperStep = 1e-3;  // the paper's finest Euler step (Fig. 10)
   static const MethodSettings kAlgebraic = {.uses_step = true, .default_step = kPaperStep};
   static const MethodSettings kEuler = {.uses_step = true,
                                         .uses_tolerances = true,
                                         .forward = true,
-                                        .default_rtol = 1e-8,
-                                        .default_atol = 1e-10,
-                                        .min_rtol = kIntegratorMinRtol,
+                                        .default_rtol = radau.rtol,
+                                        .default_atol = radau.atol,
+                                        .min_rtol = kRadauMinRelativeTolerance,
                                         .default_step = kPaperStep};
   static const MethodSettings kRadau = {.uses_tolerances = true,
                                         .forward = true,
-                                        .default_rtol = 1e-8,
-                                        .default_atol = 1e-10,
-                                        .min_rtol = kIntegratorMinRtol};
+                                        .default_rtol = radau.rtol,
+                                        .default_atol = radau.atol,
+                                        .min_rtol = kRadauMinRelativeTolerance};
   static const MethodSettings kSundials = {.uses_tolerances = true,
                                            .forward = true,
-                                           .default_rtol = 1e-10,
-                                           .default_atol = 1e-12,
-                                           .min_rtol = kIntegratorMinRtol};
+                                           .default_rtol = sundials.rtol,
+                                           .default_atol = sundials.atol,
+                                           .min_rtol = kRadauMinRelativeTolerance};
   static const MethodSettings kStableInversion = {.uses_tolerances = true,
                                                   .uses_actuation = true,
-                                                  .default_rtol = 1e-8,
-                                                  .default_atol = 1e-10,
-                                                  .min_rtol = kCollocationMinRtol};
+                                                  .default_rtol = collocation.tolerance,
+                                                  .default_atol = collocation.absolute_tolerance,
+                                                  .min_rtol = kBoundaryValueMinTolerance};
   switch (method) {
     case SolverMethod::kAlgebraic:
       return kAlgebraic;

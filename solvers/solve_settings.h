@@ -1,8 +1,10 @@
 #pragma once
 // The settings a user chooses for a solve, and the one table of what each method reads, its
-// default tolerances and the range it supports. Every default and limit of the inverse-model
-// solvers is written here and nowhere else; messages name a setting in the toolkit's words
-// ("relative tolerance"), and SettingError lets an application name its own flag for it.
+// default tolerances and the range it supports. Each default and limit is owned by the solver
+// it belongs to (RadauOptions, IntegratorOptions, StableInversionOptions and their floors);
+// this table collects them for the inverse model and nothing else writes them. Messages name
+// a setting in the toolkit's words ("relative tolerance"), and SettingError lets an
+// application name its own flag for it.
 #include <optional>
 #include <string>
 #include <string_view>
@@ -47,17 +49,13 @@ struct MethodSettings {
   bool uses_tolerances = false;  // rtol and atol
   bool uses_actuation = false;   // pre- and post-actuation (stable inversion)
   bool forward = false;          // integrates the internal dynamics forward (can be forced)
-  // Defaults, chosen per method (see the README's table):
-  //  - Radau IIA and Euler backward 1e-8 / 1e-10: u_d of the paper's case 4 to 1.5e-4
-  //    relative in 170 steps (u is the index-3 component, resolved to low order);
-  //  - Dormand-Prince and BDF 1e-10 / 1e-12: cheap for them, and the forward check then
-  //    tracks to ~1e-8;
-  //  - stable inversion 1e-8 / 1e-10: the collocation's error estimate and absolute level.
+  // Defaults, the solvers' own (see the README's table): Radau IIA and Euler backward 1e-8 /
+  // 1e-10 (RadauOptions), Dormand-Prince and BDF 1e-10 / 1e-12 (IntegratorOptions), stable
+  // inversion 1e-8 / 1e-10 (StableInversionOptions).
   double default_rtol = 0.0;
   double default_atol = 0.0;
-  // The smallest relative tolerance the method reaches: round-off of the state after a step
-  // (RADAU5 asks rtol > 10 eps; SUNDIALS likewise), and for the boundary value problem
-  // Newton's stopping test at 1e-2 of it, which must stay above round-off.
+  // The smallest relative tolerance the method reaches (kRadauMinRelativeTolerance,
+  // kBoundaryValueMinTolerance).
   double min_rtol = 0.0;
   // Euler backward: the paper's finest step (Fig. 10); algebraic inverse: its sample spacing.
   double default_step = 0.0;

@@ -59,34 +59,43 @@ RestToRestTrajectory::RestToRestTrajectory(
     throw UsageError("rest-to-rest: continuous derivatives = " +
                      std::to_string(continuous_derivatives) + ": must be >= 1");
   }
-  coefficients_ = RestToRestCoefficients(continuous_derivatives);
-  for (int order = 0; order < kTabulatedOrders; ++order) {
-    std::vector<double> scaled;
-    const double scale = std::pow(tf_ - t0_, -order);
-    for (std::size_t i = std::size_t(order); i < coefficients_.size(); ++i) {
-      double falling = 1.0;  // i (i-1) ... (i-order+1)
-      for (int j = 0; j < order; ++j) falling *= double(i) - double(j);
-      scaled.push_back(coefficients_[i] * falling * scale);
-    }
-    scaled_derivative_coefficients_.push_back(std::move(scaled));
+  const int k = continuous_derivatives_;
+  falling_.resize(std::size_t(k + 1));
+  value_weights_.resize(std::size_t(k + 1));
+  for (int j = 0; j <= k; ++j) {
+    falling_[std::size_t(j)] = j == 0 ? 1.0 : falling_[std::size_t(j - 1)] * double(k - j + 1);
+    value_weights_[std::size_t(j)] = Binomial(k + j, j);
   }
+  slope_factor_ = double(2 * k + 1) * Binomial(2 * k, k);  // 1 / B(k + 1, k + 1)
 }
 
+// p(tau) = tau^(k+1) sum_j C(k+j, j) (1 - tau)^j has positive terms only. Its derivatives come
+// from p'(tau) = tau^k (1 - tau)^k / B(k+1, k+1) by Leibniz's rule:
+//   p^(n) = 1/B sum_j C(n-1, j) (k!/(k-j)!) tau^(k-j) (-1)^m (k!/(k-m)!) (1 - tau)^(k-m),
+// m = n - 1 - j: a few terms of moderate size. The monomial coefficients of p, which alternate
+// in sign and reach 1e7 for k = 12, cancelled to 1e-5 of the result near tau = 1 (the six-mass
+// chain's u_d was noisy there).
 double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) const {
-  if (order < kTabulatedOrders) {
-    const std::vector<double>& coefficients = scaled_derivative_coefficients_[std::size_t(order)];
-    double value = 0.0;
-    for (auto c = coefficients.rbegin(); c != coefficients.rend(); ++c) value = value * tau + *c;
-    return value;
+  const int k = continuous_derivatives_;
+  const double rest = 1.0 - tau;
+  if (order == 0) {
+    double sum = 0.0, power = 1.0;  // (1 - tau)^j
+    for (int j = 0; j <= k; ++j, power *= rest) sum += value_weights_[std::size_t(j)] * power;
+    return std::pow(tau, k + 1) * sum;
   }
-  // d^order/dtau^order of sum c_i tau^i, by Horner on the differentiated coefficients.
-  double value = 0.0;
-  for (int i = int(coefficients_.size()) - 1; i >= order; --i) {
-    double falling = 1.0;  // i (i-1) ... (i-order+1)
-    for (int j = 0; j < order; ++j) falling *= double(i - j);
-    value = value * tau + coefficients_[std::size_t(i)] * falling;
+  const int n = order;
+  double sum = 0.0;
+  double binomial = 1.0;  // C(n - 1, j)
+  for (int j = 0; j <= n - 1; ++j) {
+    const int m = n - 1 - j;
+    if (j <= k && m <= k) {
+      const double term = binomial * falling_[std::size_t(j)] * falling_[std::size_t(m)] *
+                          std::pow(tau, k - j) * std::pow(rest, k - m);
+      sum += m % 2 == 0 ? term : -term;
+    }
+    binomial = binomial * double(n - 1 - j) / double(j + 1);
   }
-  return value * std::pow(tf_ - t0_, -order);
+  return slope_factor_ * sum * std::pow(tf_ - t0_, -order);
 }
 
 Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {
@@ -110,7 +119,12 @@ void RestToRestTrajectory::Derivatives(double t, int highest, Eigen::MatrixXd& d
   const bool moving = t >= t0_ && t <= tf_;
   for (int order = 0; order <= highest; ++order) {
     if (order == 0) {
-      derivatives.col(0) = y0_ + (yf_ - y0_) * ScaledPolynomialDerivative(tau, 0);
+      // From the nearer end (p(tau) + p(1 - tau) = 1), so that y_d(tf) = yf exactly.
+      if (tau > 0.5) {
+        derivatives.col(0) = yf_ - (yf_ - y0_) * ScaledPolynomialDerivative(1.0 - tau, 0);
+      } else {
+        derivatives.col(0) = y0_ + (yf_ - y0_) * ScaledPolynomialDerivative(tau, 0);
+      }
     } else if (moving) {
       derivatives.col(order) = (yf_ - y0_) * ScaledPolynomialDerivative(tau, order);
     } else {

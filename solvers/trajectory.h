@@ -61,11 +61,9 @@ class RestToRestTrajectory final : public OutputTrajectory {
   Eigen::VectorXd y0_, yf_;
   double t0_, tf_;
   int continuous_derivatives_;
-  std::vector<double> coefficients_;
-  // For the orders right-hand sides read most (0..kTabulatedOrders-1): the coefficients of
-  // d^order p / dtau^order times (tf - t0)^-order, so that Derivatives() is one Horner loop.
-  static constexpr int kTabulatedOrders = 5;
-  std::vector<std::vector<double>> scaled_derivative_coefficients_;
+  // k! / (k - j)!, C(k + j, j) for j = 0..k, and 1 / B(k + 1, k + 1) = (2k + 1) C(2k, k).
+  std::vector<double> falling_, value_weights_;
+  double slope_factor_ = 0.0;
   // d^order p / dtau^order at tau, scaled by (tf - t0)^-order; the one place this is evaluated.
   double ScaledPolynomialDerivative(double tau, int order) const;
 };

@@ -31,6 +31,9 @@ constexpr double kRestFactor = 10.0;
 // y_d counts as at rest at t_start when its derivatives there are below this (they are exactly
 // zero before t0 for rest-to-rest trajectories).
 constexpr double kTrajectoryRestTolerance = 1e-14;
+// Steps allowed in all forward runs: a smooth u_d on the shipped models needs a few thousand;
+// one that is not smooth (noise in a high derivative of y_d) would otherwise crawl for minutes.
+constexpr long kMaxForwardSteps = 1000000;
 // Central differences of the forward dynamics: step relative to 1 + |x_j| (about eps^(1/3)).
 constexpr double kDifferenceStep = 1e-5;
 
@@ -255,6 +258,7 @@ Verification VerifyFeedforward(const Model& model,
   IntegratorOptions integrator;
   integrator.rtol = verification.forward_rtol;
   integrator.atol = verification.forward_atol;
+  integrator.max_steps = kMaxForwardSteps;
   const Eigen::Index f = Eigen::Index(model.dof());
   verification.max_tracking_error = 0.0;
   verification.time_of_max_error = t_start;

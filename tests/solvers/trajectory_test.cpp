@@ -2,6 +2,8 @@
 // against independent numerical checks.
 #include "solvers/trajectory.h"
 
+#include <ginac/ginac.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 
@@ -54,6 +56,38 @@ TEST_CASE("derivatives of the paper's trajectory match finite differences", "[so
   CHECK(trajectory.Derivative(3.0, 0)(0) == Approx(1.5));  // half way by symmetry
   CHECK(trajectory.Derivative(8.0, 0)(0) == Approx(2.5));  // at rest after tf
   CHECK(trajectory.Derivative(8.0, 2)(0) == 0.0);
+}
+
+TEST_CASE("high derivatives of a high-order rest-to-rest polynomial are accurate up to tf",
+          "[solvers]") {
+  // p_12 (the six-mass chain needs 12 continuous derivatives): its monomial coefficients
+  // alternate in sign up to 1e7, and summed near tau = 1 they cancelled to 1e-5 of the result,
+  // which made the chain's u_d noisy before tf. Against exact rational arithmetic (GiNaC):
+  // p_k(tau) = tau^(k+1) sum_j C(k+j, j) (1 - tau)^j, differentiated exactly.
+  const int k = 12;
+  const GiNaC::realsymbol tau("tau");
+  GiNaC::ex polynomial = 0;
+  for (int j = 0; j <= k; ++j) {
+    polynomial += GiNaC::binomial(k + j, j) * GiNaC::pow(1 - tau, j);
+  }
+  polynomial = (GiNaC::pow(tau, k + 1) * polynomial).expand();
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.0),
+                                        Eigen::VectorXd::Constant(1, 1.0), 0.0, 1.0, k);
+  for (const int thousandths : {30, 250, 500, 750, 970, 999}) {
+    const GiNaC::numeric point(thousandths, 1000);
+    for (int order = 0; order <= k + 1; ++order) {
+      const double exact = GiNaC::ex_to<GiNaC::numeric>(
+                               polynomial.diff(tau, unsigned(order)).subs(tau == point))
+                               .to_double();
+      const double scale = GiNaC::ex_to<GiNaC::numeric>(
+                               GiNaC::factorial(k + order) / GiNaC::factorial(k))
+                               .to_double();  // the size of the order-th derivative's terms
+      INFO("tau = " << thousandths / 1000.0 << ", order " << order);
+      CHECK(trajectory.Derivative(thousandths / 1000.0, order)(0) ==
+            Approx(exact).margin(1e-13 * scale));
+    }
+  }
+  CHECK(trajectory.Derivative(1.0, 0)(0) == 1.0);  // y_d(tf) = yf exactly
 }
 
 TEST_CASE("the order is raised when the problem needs more derivatives", "[solvers]") {
