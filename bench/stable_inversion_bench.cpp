@@ -78,8 +78,8 @@ int main(int argc, char** argv) {
       "\"window_start\": %.15e, \"window_end\": %.15e, \"max_abs_T\": %.12e, "
       "\"max_residual\": %.6e, \"function_evaluations\": %ld, \"newton_iterations\": %ld, "
       "\"T_grid\": %s}\n",
-      tolerance, best, solution.times.size(), solution.window_start, solution.window_end, largest,
-      solution.max_residual, solution.summary.function_evaluations,
+      tolerance, best, solution.times.size(), solution.window.start, solution.window.end, largest,
+      solution.window.boundary_value_residual, solution.summary.function_evaluations,
       solution.summary.newton_iterations, InputGrid(solution, kGridPoints).c_str());
   return 0;
 }

@@ -390,6 +390,25 @@ void SolveNormalForm(const std::shared_ptr<ServoConstraintProblem>& shared_probl
   }
 }
 
+// Replaces the rows by the extension at the sample times up to where the solve stopped.
+void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) {
+  ClearRows(solution);
+  if (!solution.extension) return;
+  const double reached = solution.extension->end();
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  for (const double t : grid) {
+    if (t > reached + kSameTimeTolerance * (1.0 + std::abs(reached))) break;
+    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) {
+      solution.summary.status = SolveStatus::kNoConvergence;
+      solution.summary.message = "at t = " + Seconds(t) + ": " + why;
+      solution.summary.stop_time = t;
+      return;
+    }
+    Record(solution, t, q, q_dot, u);
+  }
+}
+
 // The equilibrium at rest with h(q) = y_d(t).
 OperatingPoint RestAt(const Model& model,
                       const OutputTrajectory& trajectory,
@@ -419,18 +438,12 @@ void SolveByStableInversion(const Model& model,
   inversion.absolute_tolerance = solution.accuracy.atol;
   inversion.pre_actuation = options.pre_actuation;
   inversion.post_actuation = options.post_actuation;
-  StableInversionSolution result = SolveStableInversion(model, trajectory, start.q, end.q, inversion);
+  const StableInversionSolution result =
+      SolveStableInversion(model, trajectory, start.q, end.q, inversion);
   solution.summary = result.summary;
   solution.summary.steps = long(result.times.size());
-  StableInversionWindow window;
-  window.start = result.window_start;
-  window.end = result.window_end;
-  window.pre_actuation_start = result.pre_actuation_start;
-  window.post_actuation_end = result.post_actuation_end;
-  window.boundary_value_residual = result.max_residual;
-  window.widenings = result.widenings;
-  window.mesh_points = result.times.size();
-  solution.window = window;
+  solution.window = result.window;
+  const StableInversionWindow& window = result.window;
   if (!result.extension) return;
   // The span: unset t_start begins with the window (its pre-actuation).
   if (!options.t_start) solution.t_start = std::min(window.start, breakpoints.front());
@@ -448,43 +461,13 @@ void SolveByStableInversion(const Model& model,
                                 Seconds(window.post_actuation_end));
   }
   // The own points: the mesh within the span, and its ends.
-  ClearRows(solution);
   std::vector<double> times = {solution.t_start};
   for (const double t : result.times) {
     if (t > solution.t_start && t < solution.t_end) times.push_back(t);
   }
   times.push_back(solution.t_end);
-  Eigen::VectorXd q, q_dot, u;
-  std::string why;
-  for (const double t : times) {
-    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) {
-      solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + Seconds(t) + ": " + why;
-      solution.summary.stop_time = t;
-      return;
-    }
-    Record(solution, t, q, q_dot, u);
-  }
-  solution.summary.stop_time = solution.t_end;
-}
-
-// Replaces the rows by the extension at the sample times up to where the solve stopped.
-void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) {
-  ClearRows(solution);
-  if (!solution.extension) return;
-  const double reached = solution.extension->end();
-  Eigen::VectorXd q, q_dot, u;
-  std::string why;
-  for (const double t : grid) {
-    if (t > reached + kSameTimeTolerance * (1.0 + std::abs(reached))) break;
-    if (!solution.extension->Evaluate(t, q, q_dot, u, why)) {
-      solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + Seconds(t) + " (a sample): " + why;
-      solution.summary.stop_time = t;
-      return;
-    }
-    Record(solution, t, q, q_dot, u);
-  }
+  SampleRows(times, solution);
+  if (solution.summary.IsUsable()) solution.summary.stop_time = solution.t_end;
 }
 
 // The grid of sample_time for a span whose start is only known after a stable inversion:
@@ -492,6 +475,69 @@ void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) 
 std::vector<double> GridCovering(double t_start, double t_end, double anchor, double sample_time) {
   const double samples_before = std::ceil((anchor - t_start) / sample_time - kWholeSamplesTolerance);
   return SampleGrid(anchor - std::max(samples_before, 0.0) * sample_time, t_end, sample_time);
+}
+
+// The span [t_start, t_end]: t_end not before the motion ends, t_start the trajectory's start
+// unless set (stable inversion moves it to its window later). A sample time that does not
+// divide the span is refused here, before any work.
+void ResolveSpan(const OutputTrajectory& trajectory,
+                 const InverseModelOptions& options,
+                 FeedforwardSolution& solution) {
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  if (options.t_end < breakpoints.back()) {
+    throw SettingError(SolveSetting::kEndTime, "the end time " + Seconds(options.t_end) +
+                                                   " comes before the motion ends, at " +
+                                                   Seconds(breakpoints.back()));
+  }
+  solution.t_start = options.t_start.value_or(breakpoints.front());
+  solution.t_end = options.t_end;
+  solution.sample_time = options.sample_time;
+  if (options.sample_time) SampleGrid(solution.t_start, solution.t_end, *options.sample_time);
+}
+
+// Every method but stable inversion: from the start state at t_start forward to t_end.
+void SolveForward(const Model& model,
+                  const OutputTrajectory& trajectory,
+                  const Classification& classification,
+                  const InverseModelOptions& options,
+                  const MethodChooser& chooser,
+                  const std::shared_ptr<ServoConstraintProblem>& problem,
+                  FeedforwardSolution& solution) {
+  const StartState start =
+      FindStartState(model, trajectory, classification, *problem, solution.t_start);
+  const bool keep_extension = options.continuous_extension || options.sample_time;
+  switch (solution.method) {
+    case SolverMethod::kAlgebraic: {
+      const std::vector<double> times =
+          options.sample_time
+              ? SampleGrid(solution.t_start, solution.t_end, *options.sample_time)
+              : FixedGrid(solution.t_start, solution.t_end,
+                          options.step.value_or(SettingsOf(solution.method).default_step),
+                          trajectory.breakpoints());
+      SolveAlgebraic(model, trajectory, times, start, chooser.algebraic_inverse(), solution);
+      break;
+    }
+    case SolverMethod::kEuler:
+    case SolverMethod::kRadau:
+      SolveProjected(*problem, classification, start, keep_extension, solution);
+      break;
+    case SolverMethod::kBdf:
+      SolveBdf(*problem, start, keep_extension, solution);
+      break;
+    case SolverMethod::kNormalForm:
+      SolveNormalForm(problem, start, keep_extension, solution);
+      break;
+    case SolverMethod::kStableInversion:
+    case SolverMethod::kAuto:
+      break;  // not forward; Choose() never returns kAuto
+  }
+  // An integrator that stopped on a refused evaluation knows why only as text; the problem
+  // knows the kind (P or M singular).
+  if (!solution.summary.IsUsable() &&
+      (problem->last_failure() == SolveStatus::kSingularDecoupling ||
+       problem->last_failure() == SolveStatus::kSingularMass)) {
+    solution.summary.status = problem->last_failure();
+  }
 }
 
 }  // namespace
@@ -560,65 +606,18 @@ FeedforwardSolution SolveInverseModel(const Model& model,
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);
   CheckSettingsFor(solution, options, classification);
   solution.accuracy = AccuracyOf(solution.method, options);
-
-  const std::vector<double> breakpoints = trajectory.breakpoints();
-  const double motion_end = breakpoints.back();
-  if (options.t_end < motion_end) {
-    throw SettingError(SolveSetting::kEndTime, "the end time " + Seconds(options.t_end) +
-                                                   " comes before the motion ends, at " +
-                                                   Seconds(motion_end));
-  }
-  solution.t_start = options.t_start.value_or(breakpoints.front());
-  solution.t_end = options.t_end;
-  solution.sample_time = options.sample_time;
-  // The grid's anchor is known now: a sample time that does not divide the span is refused
-  // before any work.
-  const double anchor = solution.t_start;
-  if (options.sample_time) SampleGrid(anchor, solution.t_end, *options.sample_time);
+  ResolveSpan(trajectory, options, solution);
+  const double grid_anchor = solution.t_start;
 
   const auto problem = std::make_shared<ServoConstraintProblem>(
       model, trajectory, classification.operating_point.q, options.problem);
   if (solution.method == SolverMethod::kStableInversion) {
     SolveByStableInversion(model, trajectory, classification, options, solution);
   } else {
-    const StartState start =
-        FindStartState(model, trajectory, classification, *problem, solution.t_start);
-    const bool keep_extension = options.continuous_extension || options.sample_time;
-    switch (solution.method) {
-      case SolverMethod::kAlgebraic: {
-        const std::vector<double> times =
-            options.sample_time
-                ? SampleGrid(solution.t_start, solution.t_end, *options.sample_time)
-                : FixedGrid(solution.t_start, solution.t_end,
-                            options.step.value_or(SettingsOf(solution.method).default_step),
-                            breakpoints);
-        SolveAlgebraic(model, trajectory, times, start, chooser.algebraic_inverse(), solution);
-        break;
-      }
-      case SolverMethod::kEuler:
-      case SolverMethod::kRadau:
-        SolveProjected(*problem, classification, start, keep_extension, solution);
-        break;
-      case SolverMethod::kBdf:
-        SolveBdf(*problem, start, keep_extension, solution);
-        break;
-      case SolverMethod::kNormalForm:
-        SolveNormalForm(problem, start, keep_extension, solution);
-        break;
-      case SolverMethod::kStableInversion:
-      case SolverMethod::kAuto:
-        break;  // above; Choose() never returns kAuto
-    }
-    // An integrator that stopped on a refused evaluation knows why only as text; the problem
-    // knows the kind (P or M singular).
-    if (!solution.summary.IsUsable() &&
-        (problem->last_failure() == SolveStatus::kSingularDecoupling ||
-         problem->last_failure() == SolveStatus::kSingularMass)) {
-      solution.summary.status = problem->last_failure();
-    }
+    SolveForward(model, trajectory, classification, options, chooser, problem, solution);
   }
   if (options.sample_time && solution.method != SolverMethod::kAlgebraic) {
-    SampleRows(GridCovering(solution.t_start, solution.t_end, anchor, *options.sample_time),
+    SampleRows(GridCovering(solution.t_start, solution.t_end, grid_anchor, *options.sample_time),
                solution);
     if (!solution.times.empty()) solution.t_start = solution.times.front();
   }

@@ -17,6 +17,7 @@
 #include "solvers/servo_constraint_problem.h"
 #include "solvers/solve_settings.h"
 #include "solvers/solve_summary.h"
+#include "solvers/stable_inversion.h"
 #include "solvers/trajectory.h"
 
 namespace servokit {
@@ -65,16 +66,6 @@ struct SolveAccuracy {
   double rtol = std::numeric_limits<double>::quiet_NaN();  // NaN: exact (algebraic inverse)
   double atol = std::numeric_limits<double>::quiet_NaN();
   std::optional<double> step;  // Euler backward: first order in its fixed step
-};
-
-/// Stable inversion's window and where its input departs from rest.
-struct StableInversionWindow {
-  double start = 0.0, end = 0.0;  // of the boundary value problem
-  // First and last time |u_d - u_rest| > rtol max |u_d - u_rest|, located on the interpolant.
-  double pre_actuation_start = 0.0, post_actuation_end = 0.0;
-  double boundary_value_residual = 0.0;
-  int widenings = 0;
-  std::size_t mesh_points = 0;
 };
 
 /// The answer.

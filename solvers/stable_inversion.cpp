@@ -200,10 +200,10 @@ StableInversionSolution SolveStableInversion(const Model& model,
       }
     }
     solution.summary = bvp.summary;
-    solution.max_residual = bvp.max_residual;
-    solution.window_start = t_a;
-    solution.window_end = t_b;
-    solution.widenings = widening;
+    solution.window.boundary_value_residual = bvp.max_residual;
+    solution.window.start = t_a;
+    solution.window.end = t_b;
+    solution.window.widenings = widening;
     if (!bvp.summary.IsUsable()) return solution;
     // Unchanged when widened: compare the input on the previous window's mesh.
     bool settled = false;
@@ -288,20 +288,21 @@ StableInversionSolution SolveStableInversion(const Model& model,
     if (!first_active) first_active = i;
     last_active = i;
   }
-  solution.pre_actuation_start = solution.times.front();
-  solution.post_actuation_end = solution.times.back();
+  solution.window.pre_actuation_start = solution.times.front();
+  solution.window.post_actuation_end = solution.times.back();
   if (first_active && *first_active > 0) {
-    solution.pre_actuation_start =
+    solution.window.pre_actuation_start =
         crossing(solution.times[*first_active - 1], solution.times[*first_active]);
   }
   if (last_active && *last_active + 1 < solution.times.size()) {
-    solution.post_actuation_end =
+    solution.window.post_actuation_end =
         crossing(solution.times[*last_active + 1], solution.times[*last_active]);
   }
-  solution.summary.message = "boundary value problem on [" + FormatNumber(solution.window_start) +
-                             ", " + FormatNumber(solution.window_end) + "] s, " +
+  solution.window.mesh_points = solution.times.size();
+  solution.summary.message = "boundary value problem on [" + FormatNumber(solution.window.start) +
+                             ", " + FormatNumber(solution.window.end) + "] s, " +
                              std::to_string(solution.times.size()) + " mesh points, residual " +
-                             FormatNumber(solution.max_residual);
+                             FormatNumber(solution.window.boundary_value_residual);
   return solution;
 }
 

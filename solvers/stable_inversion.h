@@ -40,15 +40,22 @@ struct StableInversionOptions {
   void Validate() const;
 };
 
+/// The window of the boundary value problem and where its input departs from rest.
+struct StableInversionWindow {
+  double start = 0.0, end = 0.0;
+  // First and last time |u_d - u_rest| > tolerance max |u_d - u_rest|, located on the
+  // interpolant.
+  double pre_actuation_start = 0.0, post_actuation_end = 0.0;
+  double boundary_value_residual = 0.0;  // the largest collocation residual
+  int widenings = 0;
+  std::size_t mesh_points = 0;
+};
+
 struct StableInversionSolution {
   SolveSummary summary;
   std::vector<double> times;                 // the final mesh
   std::vector<Eigen::VectorXd> q, q_dot, u;  // at each time
-  double window_start = 0.0, window_end = 0.0;
-  double pre_actuation_start = 0.0;  // first time |u - u_rest| > tolerance * max |u - u_rest|
-  double post_actuation_end = 0.0;   // last such time
-  double max_residual = 0.0;         // of the boundary value problem
-  int widenings = 0;
+  StableInversionWindow window;
   // q_d, q_d', u_d at any t of the window: the collocation solution's interpolant of the
   // internal state mapped through the servo constraint and Eq. (24), as accurate as the
   // solution itself. Keeps references to the model and the trajectory, which must outlive it.

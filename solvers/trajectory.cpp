@@ -12,6 +12,16 @@ namespace {
 // The paper's Eq. (65) is p_4.
 constexpr int kPaperContinuousDerivatives = 4;
 
+// x^n for n >= 0 by repeated squaring: exact for the small powers here, and far cheaper than
+// std::pow, which right-hand sides would call at every evaluation.
+double IntegerPower(double x, int n) {
+  double result = 1.0;
+  for (; n > 0; n >>= 1, x *= x) {
+    if (n & 1) result *= x;
+  }
+  return result;
+}
+
 double Binomial(int n, int k) {
   double value = 1.0;
   for (int i = 1; i <= k; ++i) value = value * double(n - k + i) / double(i);
@@ -81,7 +91,7 @@ double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) c
   if (order == 0) {
     double sum = 0.0, power = 1.0;  // (1 - tau)^j
     for (int j = 0; j <= k; ++j, power *= rest) sum += value_weights_[std::size_t(j)] * power;
-    return std::pow(tau, k + 1) * sum;
+    return IntegerPower(tau, k + 1) * sum;
   }
   const int n = order;
   double sum = 0.0;
@@ -90,12 +100,12 @@ double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) c
     const int m = n - 1 - j;
     if (j <= k && m <= k) {
       const double term = binomial * falling_[std::size_t(j)] * falling_[std::size_t(m)] *
-                          std::pow(tau, k - j) * std::pow(rest, k - m);
+                          IntegerPower(tau, k - j) * IntegerPower(rest, k - m);
       sum += m % 2 == 0 ? term : -term;
     }
     binomial = binomial * double(n - 1 - j) / double(j + 1);
   }
-  return slope_factor_ * sum * std::pow(tf_ - t0_, -order);
+  return slope_factor_ * sum / IntegerPower(tf_ - t0_, order);
 }
 
 Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {

@@ -3,7 +3,8 @@
 // canonical form of models/canonical_expression.h, two identical commands gave different closed
 // forms, sweep rows and solve CSVs. So the commands run here as separate processes of the real
 // binary, five times each, in the same directory (paths in the JSON are then the same), on a
-// model with trigonometric and product terms: the two-link arm hanging in gravity.
+// model with trigonometric and product terms (the two-link arm hanging in gravity) and, for
+// every method, on the shipped models.
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <map>
@@ -72,6 +73,10 @@ TEST_CASE("threshold prints the same closed forms and values in every process", 
 TEST_CASE("sweep writes the same files in every process", "[reports][slow]") {
   RequireSameBytesEveryRun({"sweep", kArm, "--vary", "kappa=-1:2:61", "--vary", "d2=0:0.1:3",
                             "--threads", "2", "--out", "sweep"});
+}
+
+TEST_CASE("report writes the same files in every process", "[reports][slow]") {
+  RequireSameBytesEveryRun({"report", kArm, "--vary", "kappa=-1:2:31", "--out", "report"});
 }
 
 TEST_CASE("solve writes the same CSV and JSON in every process, by every method",

@@ -68,20 +68,20 @@ TEST_CASE("arm end point 0 to 270 deg: bounded, pre-actuated, unchanged when the
     largest = std::max(largest, std::abs(solution.u[i](0)));
     largest_beta = std::max(largest_beta, std::abs(solution.q[i](1)));
   }
-  WARN("stable inversion 270 deg: window [" << solution.window_start << ", " << solution.window_end
+  WARN("stable inversion 270 deg: window [" << solution.window.start << ", " << solution.window.end
        << "] s, " << solution.times.size() << " mesh points, max |T| = " << largest
        << " N m, max |beta| = " << largest_beta << " rad, pre-actuation from "
-       << solution.pre_actuation_start << " s, until " << solution.post_actuation_end << " s");
+       << solution.window.pre_actuation_start << " s, until " << solution.window.post_actuation_end << " s");
   CHECK(std::isfinite(largest));
   CHECK(largest_beta < 1.0);  // bounded: the passive joint stays within a radian
-  CHECK(solution.pre_actuation_start < kT0);  // T nonzero before t0 (Fig. 15)
-  CHECK(solution.post_actuation_end > kTf);
-  CHECK(solution.max_residual <= 1e-8);
+  CHECK(solution.window.pre_actuation_start < kT0);  // T nonzero before t0 (Fig. 15)
+  CHECK(solution.window.post_actuation_end > kTf);
+  CHECK(solution.window.boundary_value_residual <= 1e-8);
 
   // Widened window: the same answer to the tolerance.
   StableInversionOptions wider;
-  wider.pre_actuation = 2.0 * (kT0 - solution.window_start);
-  wider.post_actuation = 2.0 * (solution.window_end - kTf);
+  wider.pre_actuation = 2.0 * (kT0 - solution.window.start);
+  wider.post_actuation = 2.0 * (solution.window.end - kTf);
   const StableInversionSolution widened =
       SolveStableInversion(model, trajectory, ArmAt(0.0), ArmAt(angle), wider);
   REQUIRE(widened.summary.IsUsable());
@@ -113,7 +113,7 @@ TEST_CASE("a linear model: the boundary value problem equals linear stable inver
       SolveStableInversion(model, trajectory, ArmAt(0.0), ArmAt(angle));
   REQUIRE(solution.summary.IsUsable());
   const std::vector<double> reference =
-      LinearInput(model, trajectory, solution.times, solution.window_start, solution.window_end);
+      LinearInput(model, trajectory, solution.times, solution.window.start, solution.window.end);
   double difference = 0.0, scale = 0.0;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
     difference = std::max(difference, std::abs(solution.u[i](0) - reference[i]));
@@ -132,7 +132,7 @@ TEST_CASE("a small motion: nonlinear and linear stable inversion agree to what l
       SolveStableInversion(model, trajectory, ArmAt(0.0), ArmAt(angle));
   REQUIRE(solution.summary.IsUsable());
   const std::vector<double> reference =
-      LinearInput(model, trajectory, solution.times, solution.window_start, solution.window_end);
+      LinearInput(model, trajectory, solution.times, solution.window.start, solution.window.end);
   double difference = 0.0, scale = 0.0, largest_beta = 0.0;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
     difference = std::max(difference, std::abs(solution.u[i](0) - reference[i]));
@@ -184,10 +184,10 @@ TEST_CASE("a three-link arm with two passive joints (two internal coordinates) i
   }
   WARN("three-link arm 90 deg: " << solution.times.size() << " mesh points, max |T| = "
        << largest << " N m, max |beta| = " << largest_passive << " rad, pre-actuation from "
-       << solution.pre_actuation_start << " s");
+       << solution.window.pre_actuation_start << " s");
   CHECK(std::isfinite(largest));
   CHECK(largest_passive < 1.0);
-  CHECK(solution.pre_actuation_start < kT0);
+  CHECK(solution.window.pre_actuation_start < kT0);
   CHECK(servo <= 1e-12);  // the servo constraint holds along the solution (Eq. 19)
 }
 
