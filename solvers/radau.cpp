@@ -354,9 +354,9 @@ class IntegrationRun {
   }
 
   // The accepted step's polynomial (through x_ at t_ and its stage values) as a piece of the
-  // dense output, when one is kept.
+  // dense output; callers check dense_output_ first, so that a run without one builds nothing.
   void RecordPiece(const std::vector<double>& times, const std::vector<VectorXd>& values) {
-    if (dense_output_) dense_output_->AppendPiece(times, values);
+    dense_output_->AppendPiece(times, values);
   }
 
   // Moves to (t_new, new_x_) and shows it to the observer; false when the observer says stop.
@@ -806,8 +806,10 @@ SolveSummary RadauIIARun::Run() {
     }
 
     // The collocation polynomial: x_ at t_, the stage values at t_ + c_i h (the last is new_x_).
-    RecordPiece({t_, t_ + tableau_.nodes(0) * step_, t_ + tableau_.nodes(1) * step_, t_new},
-                {x_, x_ + stages_.col(0), x_ + stages_.col(1), new_x_});
+    if (dense_output_) {
+      RecordPiece({t_, t_ + tableau_.nodes(0) * step_, t_ + tableau_.nodes(1) * step_, t_new},
+                  {x_, x_ + stages_.col(0), x_ + stages_.col(1), new_x_});
+    }
     PrepareNextStep(newton, lands && stop < t_end_, ProposeNextStep(error, quotient));
     if (!AcceptStep(t_new)) return FinishInterrupted();
   }
@@ -933,7 +935,7 @@ SolveSummary EulerBackwardRun::Run() {
       return FinishAfterFailure();
     }
     slope_ = increment_ / h;
-    RecordPiece({t_, t_new}, {x_, new_x_});  // Euler backward's polynomial: the straight line
+    if (dense_output_) RecordPiece({t_, t_new}, {x_, new_x_});  // Euler's: the straight line
     if (!AcceptStep(t_new)) return FinishInterrupted();
   }
   return FinishConverged();

@@ -70,13 +70,26 @@ RestToRestTrajectory::RestToRestTrajectory(
                      std::to_string(continuous_derivatives) + ": must be >= 1");
   }
   const int k = continuous_derivatives_;
-  falling_.resize(std::size_t(k + 1));
+  std::vector<double> falling(std::size_t(k + 1));  // k! / (k - j)!
   value_weights_.resize(std::size_t(k + 1));
   for (int j = 0; j <= k; ++j) {
-    falling_[std::size_t(j)] = j == 0 ? 1.0 : falling_[std::size_t(j - 1)] * double(k - j + 1);
+    falling[std::size_t(j)] = j == 0 ? 1.0 : falling[std::size_t(j - 1)] * double(k - j + 1);
     value_weights_[std::size_t(j)] = Binomial(k + j, j);
   }
-  slope_factor_ = double(2 * k + 1) * Binomial(2 * k, k);  // 1 / B(k + 1, k + 1)
+  // The Leibniz terms' factors for each order n = 1 .. 2k + 1 (beyond, p^(n) = 0), with
+  // 1 / B(k + 1, k + 1) = (2k + 1) C(2k, k), the sign (-1)^m and the time scale folded in.
+  const double slope_factor = double(2 * k + 1) * Binomial(2 * k, k);
+  derivative_terms_.resize(std::size_t(2 * k + 2));
+  for (int n = 1; n <= 2 * k + 1; ++n) {
+    const double scale = slope_factor / std::pow(tf_ - t0_, n);
+    for (int j = std::max(0, n - 1 - k); j <= std::min(n - 1, k); ++j) {
+      const int m = n - 1 - j;
+      const double sign = m % 2 == 0 ? 1.0 : -1.0;
+      derivative_terms_[std::size_t(n)].push_back(
+          {j, m, sign * scale * Binomial(n - 1, j) * falling[std::size_t(j)] *
+                     falling[std::size_t(m)]});
+    }
+  }
 }
 
 // p(tau) = tau^(k+1) sum_j C(k+j, j) (1 - tau)^j has positive terms only. Its derivatives come
@@ -93,19 +106,13 @@ double RestToRestTrajectory::ScaledPolynomialDerivative(double tau, int order) c
     for (int j = 0; j <= k; ++j, power *= rest) sum += value_weights_[std::size_t(j)] * power;
     return IntegerPower(tau, k + 1) * sum;
   }
-  const int n = order;
+  if (order > 2 * k + 1) return 0.0;
   double sum = 0.0;
-  double binomial = 1.0;  // C(n - 1, j)
-  for (int j = 0; j <= n - 1; ++j) {
-    const int m = n - 1 - j;
-    if (j <= k && m <= k) {
-      const double term = binomial * falling_[std::size_t(j)] * falling_[std::size_t(m)] *
-                          IntegerPower(tau, k - j) * IntegerPower(rest, k - m);
-      sum += m % 2 == 0 ? term : -term;
-    }
-    binomial = binomial * double(n - 1 - j) / double(j + 1);
+  for (const LeibnizTerm& term : derivative_terms_[std::size_t(order)]) {
+    sum += term.factor * IntegerPower(tau, k - term.tau_order) *
+           IntegerPower(rest, k - term.rest_order);
   }
-  return slope_factor_ * sum / IntegerPower(tf_ - t0_, order);
+  return sum;
 }
 
 Eigen::VectorXd RestToRestTrajectory::Derivative(double t, int order) const {

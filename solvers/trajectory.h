@@ -61,9 +61,16 @@ class RestToRestTrajectory final : public OutputTrajectory {
   Eigen::VectorXd y0_, yf_;
   double t0_, tf_;
   int continuous_derivatives_;
-  // k! / (k - j)!, C(k + j, j) for j = 0..k, and 1 / B(k + 1, k + 1) = (2k + 1) C(2k, k).
-  std::vector<double> falling_, value_weights_;
-  double slope_factor_ = 0.0;
+  // C(k + j, j), j = 0..k: the weights of p's value.
+  std::vector<double> value_weights_;
+  // p^(n) = sum of factor tau^(k - tau_order) (1 - tau)^(k - rest_order), per order n (see the
+  // .cpp), already scaled by (tf - t0)^-n.
+  struct LeibnizTerm {
+    int tau_order;
+    int rest_order;
+    double factor;
+  };
+  std::vector<std::vector<LeibnizTerm>> derivative_terms_;
   // d^order p / dtau^order at tau, scaled by (tf - t0)^-order; the one place this is evaluated.
   double ScaledPolynomialDerivative(double tau, int order) const;
 };
