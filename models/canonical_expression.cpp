@@ -62,27 +62,50 @@ CanonicalExpressions::CanonicalExpressions(const std::vector<GiNaC::ex>& ordered
   }
 }
 
-CanonicalExpressions::NodeId CanonicalExpressions::Intern(Node node) {
-  std::string key;
-  key += char('a' + static_cast<int>(node.kind));
-  key += node.name;
-  key += '|';
-  if (node.kind == Kind::kSymbol) {
-    // Distinct symbols of one name stay distinct nodes: their ordinal or, for a symbol not in
-    // the ordered list, its name alone (two such of one name were refused by Convert()).
-    const auto ordinal = symbol_ordinals_.find(node.original);
-    if (ordinal != symbol_ordinals_.end()) key += std::to_string(ordinal->second);
-  }
-  if (node.kind == Kind::kOpaque) key += GinacText(node.original);
+std::size_t CanonicalExpressions::NodeHash::operator()(NodeId id) const {
+  // GiNaC's hashes are seeded with addresses, but this table only looks nodes up within one
+  // run and is never iterated, so its order cannot reach any output.
+  const Node& node = self->nodes_[id];
+  std::size_t hash = std::hash<int>()(static_cast<int>(node.kind));
+  const auto mix = [&hash](std::size_t value) {
+    hash ^= value + 0x9e3779b97f4a7c15ull + (hash << 6) + (hash >> 2);
+  };
+  mix(std::hash<std::string>()(node.name));
+  if (node.kind == Kind::kSymbol || node.kind == Kind::kOpaque) mix(node.original.gethash());
   for (const Scaled& operand : node.operands) {
-    key += std::to_string(operand.node);
-    key += '*';
-    key += NumberText(operand.coefficient);
-    key += ';';
+    mix(operand.node);
+    mix(operand.coefficient.gethash());
   }
-  const auto [found, inserted] = interned_.emplace(std::move(key), NodeId(nodes_.size()));
-  if (inserted) nodes_.push_back(std::move(node));
-  return found->second;
+  return hash;
+}
+
+bool CanonicalExpressions::NodeEqual::operator()(NodeId a, NodeId b) const {
+  const Node& x = self->nodes_[a];
+  const Node& y = self->nodes_[b];
+  if (x.kind != y.kind || x.name != y.name || x.operands.size() != y.operands.size()) {
+    return false;
+  }
+  // Distinct symbols of one name stay distinct nodes (Convert() refuses two of one name that
+  // are not both in the ordered list).
+  if ((x.kind == Kind::kSymbol || x.kind == Kind::kOpaque) && !x.original.is_equal(y.original)) {
+    return false;
+  }
+  for (std::size_t i = 0; i < x.operands.size(); ++i) {
+    if (x.operands[i].node != y.operands[i].node ||
+        !x.operands[i].coefficient.is_equal(y.operands[i].coefficient)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+CanonicalExpressions::NodeId CanonicalExpressions::Intern(Node node) {
+  // The candidate goes in last; if an equal node is known, the candidate is taken back out.
+  nodes_.push_back(std::move(node));
+  const auto id = NodeId(nodes_.size() - 1);
+  const auto [found, inserted] = interned_.insert(id);
+  if (!inserted) nodes_.pop_back();
+  return *found;
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::Add(const GiNaC::ex& expression) {

@@ -24,7 +24,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
-#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace servokit {
@@ -61,6 +61,9 @@ class CanonicalExpressions {
   /// `ordered_symbols` breaks ties between distinct symbols of the same name (their order in
   /// the list); two distinct symbols of one name that are not both in it are a logic error.
   explicit CanonicalExpressions(const std::vector<GiNaC::ex>& ordered_symbols = {});
+  // The hash-consing table refers to this object.
+  CanonicalExpressions(const CanonicalExpressions&) = delete;
+  CanonicalExpressions& operator=(const CanonicalExpressions&) = delete;
 
   /// The canonical form of `expression` (GiNaC's automatic evaluation having happened).
   Scaled Add(const GiNaC::ex& expression);
@@ -86,10 +89,18 @@ class CanonicalExpressions {
                   int context,
                   std::string& out) const;
 
+  // Hash-consing: nodes by their structure (kind, name, symbol, operand ids and
+  // coefficients), looked up through their ids.
+  struct NodeHash {
+    const CanonicalExpressions* self;
+    std::size_t operator()(NodeId id) const;
+  };
+  struct NodeEqual {
+    const CanonicalExpressions* self;
+    bool operator()(NodeId a, NodeId b) const;
+  };
   std::vector<Node> nodes_;
-  // Hash-consing: a node's structural key (kind, name, number, operand ids and coefficients)
-  // to its id. Lookups only; never iterated, so its order does not matter.
-  std::unordered_map<std::string, NodeId> interned_;
+  std::unordered_set<NodeId, NodeHash, NodeEqual> interned_{16, NodeHash{this}, NodeEqual{this}};
   // Expressions already converted (GiNaC's own order serves for lookups within one run).
   std::map<GiNaC::ex, Scaled, GiNaC::ex_is_less> converted_;
   std::map<GiNaC::ex, std::size_t, GiNaC::ex_is_less> symbol_ordinals_;

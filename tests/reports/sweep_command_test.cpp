@@ -416,9 +416,16 @@ TEST_CASE("SIGINT stops a sweep with status 130 at a checkpoint; the same comman
   const TemporaryDirectory work;
   const fs::path out = work / "out";
   const pid_t child = Spawn(LongSweep(out), work / "stderr.txt");
+  // Ctrl-C during the sweep, at a random moment after its first checkpoint: the handler is in
+  // place by then. (Before, the process is still loading the model; under the sanitizers that
+  // alone takes 0.3 to 0.6 s, longer than a fixed delay allowed for.)
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(out / ".sweep-checkpoint") && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   std::mt19937 random(std::random_device{}());
   std::this_thread::sleep_for(
-      std::chrono::milliseconds(std::uniform_int_distribution<int>(100, 600)(random)));
+      std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 300)(random)));
   ::kill(child, SIGINT);
   const int status = WaitFor(child);
   REQUIRE(WIFEXITED(status));
