@@ -31,6 +31,9 @@ constexpr double kRestFactor = 10.0;
 // y_d counts as at rest at t_start when its derivatives there are below this (they are exactly
 // zero before t0 for rest-to-rest trajectories).
 constexpr double kTrajectoryRestTolerance = 1e-14;
+// Restarted segments at most: a plant growing so fast that more would be needed leaves no
+// meaningful check (each segment is a CVODE start); the check then says so.
+constexpr int kMaxSegments = 100000;
 // Steps allowed in all forward runs: a smooth u_d on the shipped models needs a few thousand;
 // one that is not smooth (noise in a high derivative of y_d) would otherwise crawl for minutes.
 constexpr long kMaxForwardSteps = 1000000;
@@ -234,7 +237,8 @@ Verification VerifyFeedforward(const Model& model,
   }
 
   // The plant's fastest growth, at rest and along the solution.
-  verification.plant_growth_rate = plant.GrowthRate(q_start, q_dot_start, u_start);
+  const double rate_at_rest = plant.GrowthRate(q_start, q_dot_start, u_start);
+  verification.plant_growth_rate = std::isfinite(rate_at_rest) ? rate_at_rest : 0.0;
   const std::size_t rows = solution.times.size();
   const std::size_t samples = std::min<std::size_t>(rows, std::size_t(options.growth_samples));
   for (std::size_t k = 0; k < samples; ++k) {
@@ -249,10 +253,18 @@ Verification VerifyFeedforward(const Model& model,
     verification.segment_length =
         std::log(options.segment_growth) / verification.plant_growth_rate;
   }
-  verification.segments =
-      verification.segment_length >= span
-          ? 1
-          : int(std::ceil(span / verification.segment_length - 1e-9));
+  if (verification.segment_length >= span) {
+    verification.segments = 1;
+  } else if (span / verification.segment_length > kMaxSegments) {
+    verification.segments = kMaxSegments;
+    verification.warnings.push_back(
+        "the plant grows so fast (" + Number(verification.plant_growth_rate) +
+        " /s) that the forward check's " + std::to_string(kMaxSegments) +
+        " segments let errors grow by more than " + Number(options.segment_growth) +
+        " within one");
+  } else {
+    verification.segments = int(std::ceil(span / verification.segment_length - 1e-9));
+  }
 
   // The forward runs, segment by segment.
   IntegratorOptions integrator;
