@@ -181,6 +181,11 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
     verification = VerifyFeedforward(model, *trajectory, solution);
     report["verification"] = VerificationToJson(*verification);
     warnings.insert(warnings.end(), verification->warnings.begin(), verification->warnings.end());
+    // An answer that fails its check is not within its tolerances: it is not "converged".
+    if (solution.summary.IsUsable() && !verification->passed) {
+      report["status"] = ToString(SolveStatus::kVerificationFailed);
+      report["message"] = "the verification failed: " + VerificationFailure(*verification);
+    }
   }
   report["warnings"] = warnings;
   report["out"] = arguments.out;

@@ -6,7 +6,7 @@
 namespace servokit {
 namespace {
 
-constexpr std::array<std::pair<SolveStatus, std::string_view>, 9> kSolveStatusNames{{
+constexpr std::array<std::pair<SolveStatus, std::string_view>, 10> kSolveStatusNames{{
     {SolveStatus::kConverged, "converged"},
     {SolveStatus::kNoConvergence, "no-convergence"},
     {SolveStatus::kSingularDecoupling, "singular-decoupling"},
@@ -16,6 +16,7 @@ constexpr std::array<std::pair<SolveStatus, std::string_view>, 9> kSolveStatusNa
     {SolveStatus::kIntegratorFailure, "integrator-failure"},
     {SolveStatus::kNotApplicable, "not-applicable"},
     {SolveStatus::kInterrupted, "interrupted"},
+    {SolveStatus::kVerificationFailed, "verification-failed"},
 }};
 
 }  // namespace

@@ -18,6 +18,9 @@ enum class SolveStatus {
   kIntegratorFailure,   // a SUNDIALS integrator failed (its flag is in the message)
   kNotApplicable,       // the method does not fit the problem's class (message says which does)
   kInterrupted,         // the observer asked to stop (e.g. Ctrl-C)
+  // The solver reached the end, but its u_d, driving the model, leaves y_d by more than the
+  // bound its tolerances allow (solvers/verification.h): the answer is not within them.
+  kVerificationFailed,
 };
 
 /// The status as a word for JSON ("converged", "singular-decoupling", ...).

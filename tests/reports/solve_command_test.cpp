@@ -155,5 +155,39 @@ TEST_CASE("solve with a method that does not fit the class says which does (exit
   CHECK_THAT(run.err, Catch::Contains("use algebraic or radau"));
 }
 
+TEST_CASE("solve --sample-time writes the controller's grid; --verify that fails is exit 4 and "
+          "never 'converged'", "[reports]") {
+  const auto csv = TemporaryFile("cart.csv");
+  const std::vector<std::string> cart = {
+      "solve", testing::TestDataPath("cart_pole.yaml"), "--trajectory", "rest-to-rest", "--y0",
+      "0",     "--yf",  "1", "--t0", "0", "--tf", "2", "--t-end", "5", "--sample-time", "0.002",
+      "--verify", "--out", csv.string()};
+  const auto good = RunServokit(With(cart, {"--t-start", "-3"}));
+  INFO(good.err);
+  REQUIRE(good.status == 0);
+  const auto json = nlohmann::json::parse(good.out);
+  CHECK(json["status"] == "converged");
+  CHECK(json["sample_time"].get<double>() == 0.002);
+  CHECK(json["verification"]["passed"] == true);
+  CHECK(json["verification"]["segments"].get<int>() > 1);  // the inverted pendulum
+  const auto rows = ReadCsv(csv);
+  REQUIRE(rows.size() == 1 + 4001);  // header, -3, -2.998, ..., 5
+  CHECK(rows[1][0] == "-3");
+  CHECK(rows[2][0] == "-2.998");
+  CHECK(rows.back()[0] == "5");
+  // The pre-actuation cut to 0.3 s: the cart cannot follow from rest.
+  const auto cut = RunServokit(With(cart, {"--pre-actuation", "0.3", "--t-start", "-0.3"}));
+  INFO(cut.err);
+  CHECK(cut.status == 4);
+  const auto failed = nlohmann::json::parse(cut.out);
+  CHECK(failed["status"] == "verification-failed");
+  CHECK(failed["verification"]["passed"] == false);
+  CHECK(failed["verification"]["solution_starts_at_rest"] == false);
+  CHECK_THAT(cut.err, Catch::Contains("servokit: warning: the solution does not start at rest"));
+  CHECK_THAT(cut.err, Catch::EndsWith("\n") &&
+                          Catch::Contains("servokit: error: the verification failed: "));
+  std::filesystem::remove(csv);
+}
+
 }  // namespace
 }  // namespace servokit
