@@ -15,7 +15,10 @@ SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index
     case Stability::kNone:
       break;
   }
-  return projected_index <= 1 ? SolverMethod::kBdf : SolverMethod::kRadau;
+  // P regular (projected index 1): BDF on the projected DAE; otherwise the input-output
+  // normal form of any vector relative degree, whose input is exact up to the tolerance
+  // (Radau IIA resolves the index-3 input only to O(h^2)).
+  return projected_index <= 1 ? SolverMethod::kBdf : SolverMethod::kNormalForm;
 }
 
 Classification Classify(const Model& model,

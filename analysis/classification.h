@@ -43,7 +43,9 @@ Classification Classify(const Model& model,
 /// The solver that fits a class (paper Sect. 5): flat -> algebraic inversion; unstable zero
 /// dynamics -> stable inversion; undamped (critical) -> the normal form with Dormand-Prince,
 /// which adds no numerical damping; asymptotically stable -> BDF when the projected DAE has
-/// index 1, Radau IIA (index up to 3) otherwise.
+/// index 1, the input-output normal form of any vector relative degree otherwise. (The
+/// solvers fall back to the next method that fits when this one does not: see
+/// solvers/method_choice.h.)
 SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index);
 
 }  // namespace servokit

@@ -384,12 +384,13 @@ void RequireRegularCoefficients(const Eigen::MatrixXd& coefficients,
       "output is, only a dynamic extension would invert it)");
 }
 
-// Throws NoSolution unless the relative degrees add up to 2 dof (paper Sect. 2.4: r = n).
-void RequireFlat(const std::vector<int>& orders, std::size_t dof) {
+// Throws NoSolution unless the relative degrees add up to 2 dof (paper Sect. 2.4: r = n), or,
+// with internal dynamics allowed, to at most 2 dof.
+void RequireOrders(const std::vector<int>& orders, std::size_t dof, bool internal_dynamics) {
   int order_sum = 0;
   for (int order : orders) order_sum += order;
   const int states = 2 * static_cast<int>(dof);
-  if (order_sum < states) {
+  if (order_sum < states && !internal_dynamics) {
     const std::string degrees = orders.size() == 1
                                     ? "the output's relative degree is " + std::to_string(order_sum)
                                     : "the outputs' relative degrees " + JoinOrders(orders) +
@@ -405,11 +406,26 @@ void RequireFlat(const std::vector<int>& orders, std::size_t dof) {
   }
 }
 
+// W: an orthonormal basis of the null space of the constraints' Jacobian at the reference
+// state (its last right singular vectors), which completes the constraints to a chart of the
+// state; none when they fix the state alone. A Jacobian of lower row rank leaves the null space
+// too large, and [J; W^T] singular: RequireStateFixed() then refuses.
+Eigen::MatrixXd InternalDirections(const Eigen::MatrixXd& jacobian) {
+  const Eigen::Index states = jacobian.cols();
+  const Eigen::Index internal = states - jacobian.rows();
+  if (internal == 0) return Eigen::MatrixXd(states, 0);
+  if (jacobian.rows() == 0) return Eigen::MatrixXd::Identity(states, states);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jacobian, Eigen::ComputeFullV);
+  return svd.matrixV().rightCols(internal);
+}
+
 // Throws NoSolution unless the constraints' Jacobian at the nominal point is regular.
-void RequireStateFixed(const Eigen::MatrixXd& jacobian,
+void RequireStateFixed(const Eigen::MatrixXd& newton_matrix,
                        const Eigen::VectorXd& row_scale,
                        const Eigen::VectorXd& column_scale) {
-  if (jacobian.allFinite() && IsRegular(ScaledLu(jacobian, row_scale, column_scale))) return;
+  if (newton_matrix.allFinite() && IsRegular(ScaledLu(newton_matrix, row_scale, column_scale))) {
+    return;
+  }
   throw NoSolution(
       "algebraic inversion: the outputs and their derivatives do not fix the state at q = 0 "
       "(the Jacobian of the constraints is singular there)");
@@ -481,8 +497,10 @@ struct AlgebraicInverse::Programs {
   ExpressionProgram input_equations;
   std::vector<std::size_t> constraint_output;
   std::vector<int> constraint_order;
-  // Units in which the Jacobian and the u-coefficient matrix are judged singular: their
-  // equilibration at the nominal point.
+  // W: z = W^T x are the internal coordinates (2 dof x internal order; no columns when flat).
+  Eigen::MatrixXd internal_directions;
+  // Units in which Newton's matrix [constraint Jacobian; W^T] and the u-coefficient matrix are
+  // judged singular: their equilibration at the reference state.
   Eigen::VectorXd jacobian_row_scale, jacobian_column_scale;
   Eigen::VectorXd coefficient_row_scale, coefficient_column_scale;
   // Parameters whose nominal value the derivation relies on (substituted because they are 0,
@@ -498,9 +516,10 @@ struct AlgebraicInverse::Programs {
 
   // Throws UsageError when a pinned parameter differs from its nominal value.
   void CheckPinned(const Eigen::VectorXd& parameters) const;
-  // Newton's method on the constraints for x from its starting value; false and `why` when it
-  // fails.
+  // Newton's method on the constraints (and W^T x = internal, when there are internal
+  // coordinates) for x from its starting value; false and `why` when it fails.
   bool SolveState(const Eigen::MatrixXd& output_derivatives,
+                  const Eigen::VectorXd& internal,
                   Scratch& scratch,
                   Eigen::VectorXd& x,
                   std::string& why) const;
@@ -513,8 +532,14 @@ struct AlgebraicInverse::Programs {
                    std::string& why) const;
 };
 
-AlgebraicInverse::AlgebraicInverse(const Model& model) {
+AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOptions& options) {
   assert(model.num_outputs() == model.num_inputs());  // the loader insists
+  if (options.reference_q.size() != 0 &&
+      options.reference_q.size() != static_cast<Eigen::Index>(model.dof())) {
+    throw UsageError("AlgebraicInverseOptions::reference_q has " +
+                     std::to_string(options.reference_q.size()) + " values, the model " +
+                     std::to_string(model.dof()) + " coordinates");
+  }
   try {
     Derivation derivation;
     derivation.dynamics = BuildDynamics(model);
@@ -533,8 +558,11 @@ AlgebraicInverse::AlgebraicInverse(const Model& model) {
     programs->num_parameters = model.num_parameters();
     programs->parameter_names = model.parameter_names();
     const std::vector<ex> program_inputs = model.symbolic().ProgramInputs();
-    std::vector<double> nominal_inputs(program_inputs.size(), 0.0);  // q = 0, q_dot = 0
+    // The reference state: q as given (default 0), q_dot = 0.
+    std::vector<double> nominal_inputs(program_inputs.size(), 0.0);
     std::copy(model.parameters().begin(), model.parameters().end(), nominal_inputs.begin());
+    std::copy(options.reference_q.begin(), options.reference_q.end(),
+              nominal_inputs.begin() + static_cast<long>(model.num_parameters()));
 
     // The u-equations first: their matrix decides whether the outputs fix u at all.
     programs->input_equations = CompileExpressions(InputEquations(derivation), program_inputs);
@@ -545,7 +573,7 @@ AlgebraicInverse::AlgebraicInverse(const Model& model) {
         EquilibrationScales(nominal_coefficients);
     RequireRegularCoefficients(nominal_coefficients, programs->coefficient_row_scale,
                                programs->coefficient_column_scale, orders_);
-    RequireFlat(orders_, model.dof());
+    RequireOrders(orders_, model.dof(), options.internal_dynamics);
 
     const StateConstraints constraints = CollectStateConstraints(derivation);
     std::vector<ex> constraint_outputs = constraints.values;
@@ -555,11 +583,15 @@ AlgebraicInverse::AlgebraicInverse(const Model& model) {
     programs->constraint_output = constraints.output;
     programs->constraint_order = constraints.order;
     const auto states = static_cast<Eigen::Index>(2 * model.dof());
+    const auto rows = static_cast<Eigen::Index>(constraints.values.size());
     const Eigen::MatrixXd nominal_jacobian = EvaluateMatrix(
-        programs->constraints, nominal_inputs, states, states, static_cast<std::size_t>(states));
+        programs->constraints, nominal_inputs, rows, states, static_cast<std::size_t>(rows));
+    programs->internal_directions = InternalDirections(nominal_jacobian);
+    Eigen::MatrixXd newton_matrix(states, states);
+    newton_matrix << nominal_jacobian, programs->internal_directions.transpose();
     std::tie(programs->jacobian_row_scale, programs->jacobian_column_scale) =
-        EquilibrationScales(nominal_jacobian);
-    RequireStateFixed(nominal_jacobian, programs->jacobian_row_scale,
+        EquilibrationScales(newton_matrix);
+    RequireStateFixed(newton_matrix, programs->jacobian_row_scale,
                       programs->jacobian_column_scale);
 
     std::set<std::size_t> pinned(derivation.dynamics.zero_parameters.begin(),
@@ -572,7 +604,7 @@ AlgebraicInverse::AlgebraicInverse(const Model& model) {
     }
 
     derivative_symbols_ = DerivativeSymbols(orders_);
-    input_formulas_ = ClosedForms(derivation, constraints, derivative_symbols_);
+    if (rows == states) input_formulas_ = ClosedForms(derivation, constraints, derivative_symbols_);
     programs_ = std::move(programs);
   } catch (const Error&) {
     throw;
@@ -626,34 +658,45 @@ void AlgebraicInverse::Programs::CheckPinned(const Eigen::VectorXd& parameters) 
 }
 
 bool AlgebraicInverse::Programs::SolveState(const Eigen::MatrixXd& output_derivatives,
+                                            const Eigen::VectorXd& internal,
                                             Scratch& scratch,
                                             Eigen::VectorXd& x,
                                             std::string& why) const {
   const Eigen::Index states = x.size();
+  const auto constraint_rows = static_cast<Eigen::Index>(constraint_output.size());
+  const Eigen::Index internal_rows = internal_directions.cols();
   Eigen::VectorXd residual(states), step(states);
   Eigen::MatrixXd jacobian(states, states);
+  if (internal_rows > 0) jacobian.bottomRows(internal_rows) = internal_directions.transpose();
   double worst = 0;  // largest residual relative to the size of its terms
   bool last_step_at_round_off = false;
   double previous_worst = std::numeric_limits<double>::infinity();
   for (int iteration = 0;; ++iteration) {
     std::copy(x.begin(), x.end(), scratch.inputs.begin() + static_cast<long>(num_parameters));
     constraints.Evaluate(scratch.inputs.data(), scratch.registers.data(), scratch.outputs.data());
-    for (Eigen::Index r = 0; r < states; ++r) {
+    for (Eigen::Index r = 0; r < constraint_rows; ++r) {
       for (Eigen::Index c = 0; c < states; ++c) {
-        jacobian(r, c) = scratch.outputs[static_cast<std::size_t>(states + r * states + c)];
+        jacobian(r, c) =
+            scratch.outputs[static_cast<std::size_t>(constraint_rows + r * states + c)];
       }
     }
     worst = 0;
+    const double state_size = x.cwiseAbs().maxCoeff();
     for (Eigen::Index r = 0; r < states; ++r) {
       const auto row = static_cast<std::size_t>(r);
-      const double target = output_derivatives(static_cast<Eigen::Index>(constraint_output[row]),
-                                               constraint_order[row]);
-      const double value = scratch.outputs[row];
+      const bool constraint = r < constraint_rows;
+      const double target =
+          constraint ? output_derivatives(static_cast<Eigen::Index>(constraint_output[row]),
+                                          constraint_order[row])
+                     : internal[r - constraint_rows];
+      const double value = constraint
+                               ? scratch.outputs[row]
+                               : internal_directions.col(r - constraint_rows).dot(x);
       residual[r] = value - target;
       // Each coefficient counts with the size of the whole state, not just its own entry:
       // near rest the entries vanish while round-off of the others does not.
       const double size = std::abs(target) + std::abs(value) +
-                          jacobian.row(r).cwiseAbs().sum() * x.cwiseAbs().maxCoeff();
+                          jacobian.row(r).cwiseAbs().sum() * state_size;
       if (!std::isfinite(residual[r]) || !std::isfinite(size)) {
         why = "the output constraints are not finite at " + StateText(x);
         return false;
@@ -714,12 +757,35 @@ bool AlgebraicInverse::Programs::SolveInputs(const Eigen::MatrixXd& output_deriv
   return true;
 }
 
+Eigen::Index AlgebraicInverse::internal_order() const {
+  return programs_->internal_directions.cols();
+}
+
+const Eigen::MatrixXd& AlgebraicInverse::internal_directions() const {
+  return programs_->internal_directions;
+}
+
 bool AlgebraicInverse::Evaluate(const Eigen::MatrixXd& output_derivatives,
                                 const Eigen::VectorXd& parameters,
                                 Eigen::VectorXd& q,
                                 Eigen::VectorXd& q_dot,
                                 Eigen::VectorXd& u,
                                 std::string& why) const {
+  if (internal_order() > 0) {
+    throw UsageError("AlgebraicInverse::Evaluate: " + std::to_string(internal_order()) +
+                     " internal coordinates remain; use EvaluateWithInternal");
+  }
+  return EvaluateWithInternal(output_derivatives, Eigen::VectorXd(), parameters, q, q_dot, u,
+                              why);
+}
+
+bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
+                                            const Eigen::VectorXd& internal,
+                                            const Eigen::VectorXd& parameters,
+                                            Eigen::VectorXd& q,
+                                            Eigen::VectorXd& q_dot,
+                                            Eigen::VectorXd& u,
+                                            std::string& why) const {
   const Programs& programs = *programs_;
   const auto dof = static_cast<Eigen::Index>(programs.dof);
   const auto m = static_cast<Eigen::Index>(programs.num_inputs);
@@ -733,6 +799,7 @@ bool AlgebraicInverse::Evaluate(const Eigen::MatrixXd& output_derivatives,
   };
   check_size("output_derivatives", output_derivatives.rows(), output_derivatives.cols(), m,
              highest_output_derivative() + 1);
+  check_size("internal", internal.size(), 1, internal_order(), 1);
   check_size("parameters", parameters.size(), 1, num_parameters, 1);
   check_size("q", q.size(), 1, dof, 1);
   check_size("q_dot", q_dot.size(), 1, dof, 1);
@@ -741,7 +808,7 @@ bool AlgebraicInverse::Evaluate(const Eigen::MatrixXd& output_derivatives,
   Programs::Scratch scratch = programs.MakeScratch(parameters);
   Eigen::VectorXd x(2 * dof), inputs;
   x << q, q_dot;
-  if (!programs.SolveState(output_derivatives, scratch, x, why) ||
+  if (!programs.SolveState(output_derivatives, internal, scratch, x, why) ||
       !programs.SolveInputs(output_derivatives, orders_, scratch, x, inputs, why)) {
     return false;
   }

@@ -34,14 +34,25 @@ namespace servokit {
 
 class ExpressionProgram;
 
+struct AlgebraicInverseOptions {
+  // Accept internal dynamics: the relative degrees may add up to less than 2 dof. Internal
+  // coordinates z = W^T (q, q') then complete the state (the input-output normal form, Isidori
+  // Ch. 4-5), W an orthonormal basis of the null space of the constraints' Jacobian at the
+  // reference state; EvaluateWithInternal() recovers the state from y_d's derivatives and z.
+  bool internal_dynamics = false;
+  // The reference state (q here, q' = 0) where W is chosen and the structure is decided: the
+  // operating point. Empty: q = 0.
+  Eigen::VectorXd reference_q;
+};
+
 class AlgebraicInverse {
  public:
   /// Derives the inverse from model.symbolic() (GiNaC: call from one thread). Throws NoSolution
   /// naming the reason when the problem is not flat in the sense above (internal dynamics
-  /// remain, an output never depends on the inputs within 2 dof derivatives, or the
-  /// u-coefficient matrix or the constraint Jacobian is singular at the model's nominal
-  /// q = 0, q' = 0), or when the symbolic derivation fails.
-  explicit AlgebraicInverse(const Model& model);
+  /// remain, unless options.internal_dynamics; an output never depends on the inputs within
+  /// 2 dof derivatives; the u-coefficient matrix or the constraint Jacobian is singular at the
+  /// reference state), or when the symbolic derivation fails.
+  explicit AlgebraicInverse(const Model& model, const AlgebraicInverseOptions& options = {});
   ~AlgebraicInverse();
   AlgebraicInverse(AlgebraicInverse&&) noexcept;
   AlgebraicInverse& operator=(AlgebraicInverse&&) noexcept;
@@ -59,13 +70,29 @@ class AlgebraicInverse {
   /// within 20 iterations or the constraint Jacobian or the u-coefficient matrix is singular
   /// there. Throws UsageError when a size is wrong or when a parameter the structure depends
   /// on (one that was 0 at construction, or one in a u-coefficient that vanished there)
-  /// differs from its value at construction. Thread-safe (const, no GiNaC, local scratch).
+  /// differs from its value at construction, and when internal_order() > 0 (use
+  /// EvaluateWithInternal). Thread-safe (const, no GiNaC, local scratch).
   bool Evaluate(const Eigen::MatrixXd& output_derivatives,
                 const Eigen::VectorXd& parameters,
                 Eigen::VectorXd& q,
                 Eigen::VectorXd& q_dot,
                 Eigen::VectorXd& u,
                 std::string& why) const;
+
+  /// 2 dof minus the sum of the relative degrees: the dimension of the internal coordinates.
+  Eigen::Index internal_order() const;
+  /// W (2 dof x internal_order()): z = W^T (q, q') are the internal coordinates.
+  const Eigen::MatrixXd& internal_directions() const;
+
+  /// As Evaluate(), with the internal coordinates z (size internal_order()) fixing the rest of
+  /// the state: Newton on the constraints and W^T (q, q') = z.
+  bool EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
+                            const Eigen::VectorXd& internal,
+                            const Eigen::VectorXd& parameters,
+                            Eigen::VectorXd& q,
+                            Eigen::VectorXd& q_dot,
+                            Eigen::VectorXd& u,
+                            std::string& why) const;
 
   /// u_d as closed forms in the parameters and the symbols of y_d^(k) when the state
   /// constraints are linear in (q, q'), one per input; empty otherwise. For mass on car case 4:

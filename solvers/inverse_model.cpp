@@ -409,6 +409,127 @@ void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) 
   }
 }
 
+// The input-output normal form of any vector relative degree (Isidori Ch. 4-5) at one time:
+// q and q' from y_d's derivatives and the internal coordinates z = W^T (q, q') by Newton, u
+// from the outputs' derivatives of order r_i, and z' = W^T (q', M^-1 (B u - f)). Keeps the
+// last state as the next Newton start. Model and trajectory must outlive it.
+class OutputNormalFormMap {
+ public:
+  OutputNormalFormMap(const Model& model,
+                      const OutputTrajectory& trajectory,
+                      std::shared_ptr<const AlgebraicInverse> form,
+                      const StartState& start)
+      : model_(model),
+        trajectory_(trajectory),
+        form_(std::move(form)),
+        workspace_(model),
+        q_(start.q),
+        q_dot_(start.q_dot) {}
+
+  bool State(double t,
+             const Eigen::VectorXd& internal,
+             Eigen::VectorXd& q,
+             Eigen::VectorXd& q_dot,
+             Eigen::VectorXd& u,
+             std::string& why) {
+    trajectory_.Derivatives(t, form_->highest_output_derivative(), derivatives_);
+    if (!form_->EvaluateWithInternal(derivatives_, internal, model_.parameters(), q_, q_dot_,
+                                     u, why)) {
+      return false;
+    }
+    q = q_;
+    q_dot = q_dot_;
+    return true;
+  }
+
+  // z' at the state State() found last, driven by u.
+  bool InternalDerivative(const Eigen::VectorXd& u, Eigen::VectorXd& internal_dot, std::string& why) {
+    Evaluate(model_, workspace_, q_, q_dot_,
+             Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix);
+    mass_factor_.compute(workspace_.mass_matrix);
+    if (mass_factor_.info() != Eigen::Success) {
+      why = "M(q) is not positive definite";
+      return false;
+    }
+    const Eigen::Index f = q_.size();
+    velocity_.resize(2 * f);
+    velocity_ << q_dot_, mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
+    internal_dot.noalias() = form_->internal_directions().transpose() * velocity_;
+    return true;
+  }
+
+ private:
+  const Model& model_;
+  const OutputTrajectory& trajectory_;
+  std::shared_ptr<const AlgebraicInverse> form_;
+  Workspace workspace_;
+  Eigen::LLT<Eigen::MatrixXd> mass_factor_;
+  Eigen::MatrixXd derivatives_;
+  Eigen::VectorXd q_, q_dot_, velocity_;
+};
+
+// The normal form of any vector relative degree: the internal coordinates integrated with
+// Dormand-Prince. With none left (a flat problem) it is the algebraic inverse itself.
+void SolveOutputNormalForm(const Model& model,
+                           const OutputTrajectory& trajectory,
+                           const std::shared_ptr<const AlgebraicInverse>& form,
+                           const StartState& start,
+                           bool keep_extension,
+                           FeedforwardSolution& solution) {
+  const Eigen::Index internal = form->internal_order();
+  if (internal == 0) {
+    SolveAlgebraic(model, trajectory,
+                   FixedGrid(solution.t_start, solution.t_end,
+                             SettingsOf(SolverMethod::kAlgebraic).default_step,
+                             trajectory.breakpoints()),
+                   start, form, solution);
+    return;
+  }
+  Eigen::VectorXd state_start(2 * start.q.size());
+  state_start << start.q, start.q_dot;
+  const Eigen::VectorXd internal_start = form->internal_directions().transpose() * state_start;
+  OutputNormalFormMap map(model, trajectory, form, start);
+  Eigen::VectorXd q, q_dot, u;
+  // Where q, q_dot and u were last computed: Dormand-Prince evaluates its last stage at the
+  // step's end (FSAL), so the observer finds them there without a second Newton solve.
+  double evaluated_t = std::numeric_limits<double>::quiet_NaN();
+  Eigen::VectorXd evaluated_z;
+  const auto state_at = [&](double t, const Eigen::VectorXd& z, std::string& why) {
+    if (t == evaluated_t && z == evaluated_z) return true;
+    evaluated_t = std::numeric_limits<double>::quiet_NaN();
+    if (!map.State(t, z, q, q_dot, u, why)) return false;
+    evaluated_t = t;
+    evaluated_z = z;
+    return true;
+  };
+  IntegratorOptions integrator;
+  integrator.rtol = solution.accuracy.rtol;
+  integrator.atol = solution.accuracy.atol;
+  auto internal_states = std::make_shared<DenseOutput>(internal);
+  solution.summary = IntegrateDormandPrince(
+      [&](double t, const Eigen::VectorXd& z, Eigen::VectorXd& z_dot, std::string& why) {
+        return state_at(t, z, why) && map.InternalDerivative(u, z_dot, why);
+      },
+      solution.t_start, internal_start, solution.t_end, trajectory.breakpoints(), integrator,
+      [&](double t, const Eigen::VectorXd& z, const Eigen::VectorXd&) {
+        std::string why;
+        if (!state_at(t, z, why)) return false;
+        Record(solution, t, q, q_dot, u);
+        return true;
+      },
+      keep_extension ? internal_states.get() : nullptr);
+  if (internal_states->empty()) return;
+  // The extension maps the dense output through a map of its own (its own Newton starts).
+  auto extension_map = std::make_shared<OutputNormalFormMap>(model, trajectory, form, start);
+  solution.extension = MappedMotion(
+      [extension_map](double t, const Eigen::VectorXd& z, Eigen::VectorXd& q_at,
+                      Eigen::VectorXd& q_dot_at, Eigen::VectorXd& u_at, std::string& why) {
+        return extension_map->State(t, z, q_at, q_dot_at, u_at, why);
+      },
+      [internal_states](double t) { return (*internal_states)(t); }, internal_states->start(),
+      internal_states->end());
+}
+
 // The equilibrium at rest with h(q) = y_d(t).
 OperatingPoint RestAt(const Model& model,
                       const OutputTrajectory& trajectory,
@@ -525,7 +646,12 @@ void SolveForward(const Model& model,
       SolveBdf(*problem, start, keep_extension, solution);
       break;
     case SolverMethod::kNormalForm:
-      SolveNormalForm(problem, start, keep_extension, solution);
+      if (chooser.output_normal_form()) {
+        SolveOutputNormalForm(model, trajectory, chooser.output_normal_form(), start,
+                              keep_extension, solution);
+      } else {
+        SolveNormalForm(problem, start, keep_extension, solution);
+      }
       break;
     case SolverMethod::kStableInversion:
     case SolverMethod::kAuto:

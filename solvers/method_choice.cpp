@@ -101,9 +101,29 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
       }
       break;
     case SolverMethod::kBdf:
-    case SolverMethod::kNormalForm:
       if (!decoupling_regular) return refuse(p_singular);
       if (structure.internal_dynamics_order == 0) return refuse(no_internal_dynamics);
+      if (unstable && !force_) {
+        verdict.forceable = true;
+        return refuse(diverges);
+      }
+      break;
+    case SolverMethod::kNormalForm:
+      if (decoupling_regular) {
+        // Eq. (25): relative degree 2 in every output.
+        if (structure.internal_dynamics_order == 0) return refuse(no_internal_dynamics);
+      } else {
+        // Any vector relative degree: the outputs differentiated until the inputs appear,
+        // internal coordinates completing the state (Isidori Ch. 4-5).
+        try {
+          AlgebraicInverseOptions options;
+          options.internal_dynamics = true;
+          options.reference_q = classification_.operating_point.q;
+          output_normal_form_ = std::make_shared<const AlgebraicInverse>(model_, options);
+        } catch (const NoSolution& error) {
+          return refuse("no input-output normal form: " + std::string(error.what()));
+        }
+      }
       if (unstable && !force_) {
         verdict.forceable = true;
         return refuse(diverges);

@@ -67,6 +67,12 @@ class MethodChooser {
 
   /// The inverse Assess(kAlgebraic) derived; null before or when it refused.
   std::shared_ptr<const AlgebraicInverse> algebraic_inverse() const { return algebraic_inverse_; }
+  /// The input-output normal form of any vector relative degree (internal coordinates allowed)
+  /// that Assess(kNormalForm) derived for a problem with P singular; null before, when it
+  /// refused, or when P is regular (the normal form of Eq. 25 serves then).
+  std::shared_ptr<const AlgebraicInverse> output_normal_form() const {
+    return output_normal_form_;
+  }
 
  private:
   MethodVerdict Judge(SolverMethod method);
@@ -79,6 +85,7 @@ class MethodChooser {
   bool force_;
   std::vector<std::pair<SolverMethod, MethodVerdict>> verdicts_;
   std::shared_ptr<const AlgebraicInverse> algebraic_inverse_;
+  std::shared_ptr<const AlgebraicInverse> output_normal_form_;
 };
 
 }  // namespace servokit

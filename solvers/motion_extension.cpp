@@ -29,17 +29,15 @@ class Interpolated final : public MotionExtension {
   mutable Eigen::VectorXd x_;
 };
 
-class Internal final : public MotionExtension {
+class Mapped final : public MotionExtension {
  public:
-  Internal(std::shared_ptr<ServoConstraintProblem> problem,
-           std::function<Eigen::VectorXd(double)> internal_state,
-           const Eigen::VectorXd& q_guess,
-           double start,
-           double end)
+  Mapped(InternalStateMap map,
+         std::function<Eigen::VectorXd(double)> internal_state,
+         double start,
+         double end)
       : MotionExtension(start, end),
-        problem_(std::move(problem)),
-        internal_state_(std::move(internal_state)),
-        last_q_(q_guess) {}
+        map_(std::move(map)),
+        internal_state_(std::move(internal_state)) {}
 
   bool Evaluate(double t,
                 Eigen::VectorXd& q,
@@ -47,22 +45,12 @@ class Internal final : public MotionExtension {
                 Eigen::VectorXd& u,
                 std::string& why) const override {
     t = std::clamp(t, start(), end());
-    const Eigen::VectorXd x = internal_state_(t);
-    const Eigen::Index internal = problem_->num_internal();
-    q = last_q_;
-    Eigen::VectorXd q_ddot;
-    if (!problem_->StateFromInternal(t, x.head(internal), x.tail(internal), q, q_dot, why) ||
-        !problem_->NormalForm(t, q, q_dot, u, q_ddot, why)) {
-      return false;
-    }
-    last_q_ = q;
-    return true;
+    return map_(t, internal_state_(t), q, q_dot, u, why);
   }
 
  private:
-  std::shared_ptr<ServoConstraintProblem> problem_;
+  InternalStateMap map_;
   std::function<Eigen::VectorXd(double)> internal_state_;
-  mutable Eigen::VectorXd last_q_;
 };
 
 class Algebraic final : public MotionExtension {
@@ -143,14 +131,36 @@ std::shared_ptr<const MotionExtension> InterpolatedMotion(DenseOutput states, Ei
   return std::make_shared<const Interpolated>(std::move(states), dof);
 }
 
+std::shared_ptr<const MotionExtension> MappedMotion(InternalStateMap map,
+                                                    std::function<Eigen::VectorXd(double)>
+                                                        internal_state,
+                                                    double start,
+                                                    double end) {
+  return std::make_shared<const Mapped>(std::move(map), std::move(internal_state), start, end);
+}
+
 std::shared_ptr<const MotionExtension> InternalMotion(
     std::shared_ptr<ServoConstraintProblem> problem,
     std::function<Eigen::VectorXd(double)> internal_state,
     const Eigen::VectorXd& q_guess,
     double start,
     double end) {
-  return std::make_shared<const Internal>(std::move(problem), std::move(internal_state), q_guess,
-                                          start, end);
+  // The last q found starts the next Newton iteration (the motion is smooth).
+  auto last_q = std::make_shared<Eigen::VectorXd>(q_guess);
+  InternalStateMap map = [problem, last_q](double t, const Eigen::VectorXd& x,
+                                           Eigen::VectorXd& q, Eigen::VectorXd& q_dot,
+                                           Eigen::VectorXd& u, std::string& why) {
+    const Eigen::Index internal = problem->num_internal();
+    q = *last_q;
+    Eigen::VectorXd q_ddot;
+    if (!problem->StateFromInternal(t, x.head(internal), x.tail(internal), q, q_dot, why) ||
+        !problem->NormalForm(t, q, q_dot, u, q_ddot, why)) {
+      return false;
+    }
+    *last_q = q;
+    return true;
+  };
+  return MappedMotion(std::move(map), std::move(internal_state), start, end);
 }
 
 std::shared_ptr<const MotionExtension> AlgebraicMotion(

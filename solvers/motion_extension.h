@@ -46,10 +46,26 @@ class MotionExtension {
 /// x = (q, v, u) of the projected DAE, from `states` (size 2 dof + inputs).
 std::shared_ptr<const MotionExtension> InterpolatedMotion(DenseOutput states, Eigen::Index dof);
 
-/// The internal state (z, z') at t from `internal_state`, on [start, end], mapped to q and q'
-/// by the servo constraint (Eqs. 19-20) and to u by Eq. (24) through `problem`, which keeps
-/// the model and trajectory it refers to (they must outlive the extension). `q_guess` starts
-/// the first Newton iteration for q; later ones start from the last q found.
+/// Maps the internal state at t to q, q' and u (false with `why` where it cannot).
+using InternalStateMap = std::function<bool(double t,
+                                            const Eigen::VectorXd& internal,
+                                            Eigen::VectorXd& q,
+                                            Eigen::VectorXd& q_dot,
+                                            Eigen::VectorXd& u,
+                                            std::string& why)>;
+
+/// The internal state at t from `internal_state` on [start, end], mapped by `map`.
+std::shared_ptr<const MotionExtension> MappedMotion(InternalStateMap map,
+                                                    std::function<Eigen::VectorXd(double)>
+                                                        internal_state,
+                                                    double start,
+                                                    double end);
+
+/// MappedMotion with the map of the normal form for r = 2 (P regular): the internal state
+/// (z, z') mapped to q and q' by the servo constraint (Eqs. 19-20) and to u by Eq. (24) through
+/// `problem`, which keeps the model and trajectory it refers to (they must outlive the
+/// extension). `q_guess` starts the first Newton iteration for q; later ones start from the
+/// last q found.
 std::shared_ptr<const MotionExtension> InternalMotion(
     std::shared_ptr<ServoConstraintProblem> problem,
     std::function<Eigen::VectorXd(double)> internal_state,

@@ -120,7 +120,7 @@ TEST_CASE("case 3, horizontal and damped: P = 0, tangential, index 4, Eq. (40)",
   CHECK(c.structure.internal_dynamics_order == 1);
   CheckEigenvalues(c, {{-kK / 1.0, 0.0}});  // Eq. (40): k s + d s' = 0
   CHECK_FALSE(c.flat);
-  CHECK(c.recommended_solver == SolverMethod::kRadau);
+  CHECK(c.recommended_solver == SolverMethod::kNormalForm);
 }
 
 TEST_CASE("case 4, horizontal and undamped: tangential, index 5, flat", "[analysis][paper]") {

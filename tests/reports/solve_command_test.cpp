@@ -152,7 +152,7 @@ TEST_CASE("solve with a method that does not fit the class says which does (exit
   const auto csv = TemporaryFile("bdf.csv").string();
   const auto run = RunServokit(With(kCase4, {"--method", "bdf", "--out", csv}));
   CHECK(run.status == 3);
-  CHECK_THAT(run.err, Catch::Contains("use algebraic or radau"));
+  CHECK_THAT(run.err, Catch::Contains("use algebraic or normal-form"));
 }
 
 TEST_CASE("solve --sample-time writes the controller's grid; --verify that fails is exit 4 and "
