@@ -43,6 +43,7 @@ Classification Classify(const Model& model,
   result.flat = result.structure.internal_dynamics_order == 0;
   result.recommended_solver = RecommendSolver(result.flat, result.zero_dynamics.stability,
                                               result.structure.projected_index);
+  result.rank_tolerance = options.rank_tolerance;
   return result;
 }
 

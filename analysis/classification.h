@@ -7,6 +7,7 @@
 
 #include "analysis/decoupling_matrix.h"
 #include "analysis/linearization.h"
+#include "analysis/nonlinear_structure.h"
 #include "analysis/operating_point.h"
 #include "analysis/options.h"
 #include "analysis/output_structure.h"
@@ -32,6 +33,12 @@ struct Classification {
   std::optional<ZeroDynamicsCrossCheck> cross_check;  // when options.cross_check
   bool flat = false;                                  // no internal dynamics remain
   SolverMethod recommended_solver = SolverMethod::kAuto;
+  // The ClassificationOptions::rank_tolerance this was decided with: the solvers' symbolic
+  // inverses decide their relative degrees with the same, so that the two never disagree.
+  double rank_tolerance = ClassificationOptions{}.rank_tolerance;
+  // The structure algorithm on the nonlinear model (symbolic, so not part of Classify(): a
+  // sweep does not pay for it); `analyze` fills it in.
+  std::optional<NonlinearStructureSummary> nonlinear_structure;
 };
 
 /// Classifies the model at its operating point. Throws UsageError for bad options and

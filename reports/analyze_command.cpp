@@ -51,7 +51,11 @@ int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::
   if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
   if (!arguments.q0.empty()) options.operating_point.q_guess = ParseValues("--q0", arguments.q0);
   Workspace workspace(model);
-  const Classification classification = Classify(model, workspace, options);
+  Classification classification = Classify(model, workspace, options);
+  NonlinearStructureOptions structure_options;
+  structure_options.rank_tolerance = options.rank_tolerance;
+  structure_options.reference_q = classification.operating_point.q;
+  classification.nonlinear_structure = SummarizeNonlinearStructure(model, structure_options);
   out << FormatClassification(model, classification, options, *format);
   return static_cast<int>(ExitCode::kSuccess);
 }

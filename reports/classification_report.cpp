@@ -122,6 +122,19 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
                         ": invariant zeros " + EigenvaluesToText(c.cross_check->invariant_zeros) +
                         ", largest difference " + FormatShort(c.cross_check->max_difference)});
   }
+  if (c.nonlinear_structure) {
+    const NonlinearStructureSummary& nonlinear = *c.nonlinear_structure;
+    std::string text = "not derived";
+    if (nonlinear.derived) {
+      text = "relative degree " + IntsToText(nonlinear.relative_degree);
+      if (nonlinear.extended) {
+        text += ", extended to " + IntsToText(nonlinear.extended_relative_degree);
+      }
+      text += ", internal dynamics order " + std::to_string(nonlinear.internal_order);
+    }
+    rows.push_back({"nonlinear structure", text});
+    if (!nonlinear.note.empty()) rows.push_back({"note", nonlinear.note});
+  }
   return rows;
 }
 
@@ -149,6 +162,27 @@ std::optional<ReportFormat> ReportFormatFromString(std::string_view text) {
   return std::nullopt;
 }
 
+namespace {
+
+nlohmann::ordered_json NonlinearStructureToJson(const NonlinearStructureSummary& nonlinear) {
+  nlohmann::ordered_json json = {{"derived", nonlinear.derived}};
+  if (nonlinear.derived) {
+    json["relative_degree"] = nonlinear.relative_degree;
+    json["defined_at_operating_point"] = nonlinear.defined_at_operating_point;
+    json["dynamic_extension"] = {
+        {"needed", nonlinear.extended},
+        {"delayed_inputs", nonlinear.delayed_inputs},
+        {"integrators", nonlinear.integrators},
+        {"relative_degree", nonlinear.extended_relative_degree},
+    };
+    json["internal_dynamics_order"] = nonlinear.internal_order;
+  }
+  json["note"] = nonlinear.note;
+  return json;
+}
+
+}  // namespace
+
 nlohmann::ordered_json ClassificationToJson(const Model& model,
                                             const Classification& c,
                                             const ClassificationOptions& options) {
@@ -174,7 +208,7 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
         {"agrees", c.cross_check->agrees},
     };
   }
-  return {
+  nlohmann::ordered_json json = {
       {"model", model.name()},
       {"parameters", parameters},
       {"dof", model.dof()},
@@ -204,6 +238,10 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
        {{"rank_tolerance", options.rank_tolerance},
         {"imaginary_axis_tolerance", options.imaginary_axis_tolerance}}},
   };
+  if (c.nonlinear_structure) {
+    json["nonlinear_structure"] = NonlinearStructureToJson(*c.nonlinear_structure);
+  }
+  return json;
 }
 
 namespace {

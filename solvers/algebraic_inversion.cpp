@@ -18,6 +18,7 @@
 #include "analysis/types.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
+#include "analysis/nonlinear_structure.h"
 #include "models/symbolic_model.h"
 
 namespace servokit {
@@ -25,11 +26,6 @@ namespace {
 
 using GiNaC::ex;
 
-// A u-coefficient whose numerator is below this fraction of the sum of its terms' magnitudes
-// (sines and cosines counted as 1) at every decision point is zero. Coefficients that vanish
-// only through the round-off of a parameter value, such as cos(90 deg) = 6e-17, come out near
-// 1e-16 of their terms; a coefficient that does not vanish comes out at O(1) of them.
-constexpr double kZeroCoefficientTolerance = 1e-12;
 // A matrix (constraint Jacobian or u-coefficients), with rows and columns scaled as at the
 // nominal point (so that its entries are O(1) there), is singular when a pivot of its
 // full-pivoting LU falls below this fraction of max(1, largest pivot): the solution would have
@@ -54,190 +50,12 @@ constexpr double kStagnationTolerance = 1e-6;
 // that value to this relative precision when Evaluate() is called.
 constexpr double kPinnedParameterTolerance = 1e-12;
 
-std::string OutputName(std::size_t output) { return "y" + std::to_string(output + 1); }
-
 std::string JoinOrders(const std::vector<int>& orders) {
   std::string text;
   for (std::size_t i = 0; i < orders.size(); ++i) {
     text += (i ? ", " : "") + std::to_string(orders[i]);
   }
   return orders.size() == 1 ? text : "(" + text + ")";
-}
-
-// The value of a GiNaC expression at `point` (every symbol in it replaced by a number), or
-// nullopt when it is not a finite real number there (a pole, the root of a negative number).
-std::optional<double> ValueAt(const ex& expression, const GiNaC::exmap& point) {
-  try {
-    const ex value = expression.subs(point).evalf();
-    if (!GiNaC::is_a<GiNaC::numeric>(value)) return std::nullopt;
-    const GiNaC::numeric number = GiNaC::ex_to<GiNaC::numeric>(value);
-    if (!number.is_real()) return std::nullopt;
-    const double result = number.to_double();
-    if (!std::isfinite(result)) return std::nullopt;
-    return result;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
-
-// The model's equations ready for differentiation: q'' = drift + sum_k u_k acceleration_input[k]
-// (q'' = M^-1 (B u - f), paper Eq. 1), with the parameters whose nominal value is 0
-// substituted exactly, so that sin(alpha) and d s_dot vanish identically in mass on car case 4.
-struct Dynamics {
-  std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
-  std::vector<ex> outputs;                          // h_i(q)
-  std::vector<ex> acceleration_drift;               // -M^-1 f, one per coordinate
-  std::vector<std::vector<ex>> acceleration_input;  // [input][coordinate]: M^-1 B
-  std::vector<std::size_t> zero_parameters;         // substituted by 0
-};
-
-Dynamics BuildDynamics(const Model& model) {
-  const SymbolicModel& symbolic = model.symbolic();
-  Dynamics dynamics;
-  dynamics.parameters = symbolic.parameters();
-  dynamics.coordinates = symbolic.coordinates();
-  dynamics.velocities = symbolic.velocities();
-  GiNaC::exmap zero;
-  for (std::size_t p = 0; p < dynamics.parameters.size(); ++p) {
-    if (model.parameters()[static_cast<Eigen::Index>(p)] == 0.0) {
-      zero[dynamics.parameters[p]] = 0;
-      dynamics.zero_parameters.push_back(p);
-    }
-  }
-  const auto substitute = [&zero](const GiNaC::matrix& matrix) {
-    return GiNaC::ex_to<GiNaC::matrix>(matrix.subs(zero));
-  };
-  const GiNaC::matrix mass_inverse = substitute(symbolic.mass_matrix()).inverse();
-  const GiNaC::matrix drift = mass_inverse.mul(substitute(symbolic.forces())).mul_scalar(-1);
-  const GiNaC::matrix input = mass_inverse.mul(substitute(symbolic.input_matrix()));
-  const GiNaC::matrix output = substitute(symbolic.output());
-  const unsigned dof = static_cast<unsigned>(symbolic.dof());
-  for (unsigned j = 0; j < dof; ++j) {
-    dynamics.acceleration_drift.push_back(GiNaC::normal(drift(j, 0)));
-  }
-  for (unsigned k = 0; k < input.cols(); ++k) {
-    std::vector<ex> column;
-    for (unsigned j = 0; j < dof; ++j) column.push_back(GiNaC::normal(input(j, k)));
-    dynamics.acceleration_input.push_back(std::move(column));
-  }
-  for (unsigned i = 0; i < output.rows(); ++i) dynamics.outputs.push_back(output(i, 0));
-  return dynamics;
-}
-
-// The time derivative of a u-free state function phi(q, q_dot) along the motion:
-// drift + sum_k u_k input_coefficients[k].
-struct TimeDerivative {
-  ex drift;
-  std::vector<ex> input_coefficients;
-};
-
-TimeDerivative Differentiate(const ex& state_function, const Dynamics& dynamics) {
-  TimeDerivative derivative;
-  derivative.input_coefficients.assign(dynamics.acceleration_input.size(), 0);
-  ex drift = 0;
-  for (std::size_t j = 0; j < dynamics.coordinates.size(); ++j) {
-    drift += state_function.diff(dynamics.coordinates[j]) * dynamics.velocities[j];
-    const ex by_velocity = state_function.diff(dynamics.velocities[j]);
-    if (by_velocity.is_zero()) continue;
-    drift += by_velocity * dynamics.acceleration_drift[j];
-    for (std::size_t k = 0; k < dynamics.acceleration_input.size(); ++k) {
-      derivative.input_coefficients[k] += by_velocity * dynamics.acceleration_input[k][j];
-    }
-  }
-  derivative.drift = GiNaC::normal(drift);
-  for (ex& coefficient : derivative.input_coefficients) coefficient = GiNaC::normal(coefficient);
-  return derivative;
-}
-
-// Where "this u-coefficient is zero" is decided: the nominal parameters at the nominal point
-// q = 0, q_dot = 0 and at two generic states. Generic states, because a coefficient that
-// vanishes at q = 0 only (the gantry crane's y1'' has one proportional to sin(theta)) still
-// puts u into that derivative everywhere else, so that derivative is not a state constraint.
-std::vector<GiNaC::exmap> DecisionPoints(const Dynamics& dynamics, const Eigen::VectorXd& values) {
-  GiNaC::exmap nominal;
-  for (std::size_t p = 0; p < dynamics.parameters.size(); ++p) {
-    nominal[dynamics.parameters[p]] = GiNaC::numeric(values[static_cast<Eigen::Index>(p)]);
-  }
-  std::vector<GiNaC::exmap> points(3, nominal);
-  for (std::size_t j = 0; j < dynamics.coordinates.size(); ++j) {
-    const double jj = static_cast<double>(j);
-    points[0][dynamics.coordinates[j]] = 0;
-    points[0][dynamics.velocities[j]] = 0;
-    // Small, unrelated values: no multiple of pi/2, no symmetry between coordinates.
-    points[1][dynamics.coordinates[j]] = GiNaC::numeric(0.137 + 0.071 * jj);
-    points[1][dynamics.velocities[j]] = GiNaC::numeric(0.093 - 0.041 * jj);
-    points[2][dynamics.coordinates[j]] = GiNaC::numeric(-0.211 + 0.053 * jj);
-    points[2][dynamics.velocities[j]] = GiNaC::numeric(0.177 + 0.029 * jj);
-  }
-  return points;
-}
-
-// True when `coefficient` (normal form) vanishes at every decision point within
-// kZeroCoefficientTolerance of the size of its numerator's terms.
-bool VanishesAtDecisionPoints(const ex& coefficient, const std::vector<GiNaC::exmap>& points) {
-  const ex numerator = GiNaC::numer(coefficient).expand();
-  if (numerator.is_zero()) return true;
-  // The size a term would have if no sine or cosine in it were (numerically) zero.
-  const GiNaC::lst unit_trigonometry{GiNaC::sin(GiNaC::wild()) == 1,
-                                     GiNaC::cos(GiNaC::wild()) == 1};
-  ex scale = 0;
-  if (GiNaC::is_a<GiNaC::add>(numerator)) {
-    for (const ex& term : numerator) scale += GiNaC::abs(term.subs(unit_trigonometry));
-  } else {
-    scale = GiNaC::abs(numerator.subs(unit_trigonometry));
-  }
-  bool decided = false;
-  for (const GiNaC::exmap& point : points) {
-    const std::optional<double> value = ValueAt(numerator, point);
-    const std::optional<double> size = ValueAt(scale, point);
-    if (!value || !size) continue;
-    decided = true;
-    if (std::abs(*value) > kZeroCoefficientTolerance * *size) return false;
-  }
-  return decided;
-}
-
-// One output differentiated until the inputs appear: state_functions[k] = y_i^(k) along the
-// motion for k < r_i (u-free), and y_i^(r_i) = drift + sum_k u_k input_coefficients[k].
-struct OutputChain {
-  std::vector<ex> state_functions;
-  TimeDerivative last;
-  std::set<std::size_t> pinned_parameters;  // in a u-coefficient dropped as zero
-};
-
-OutputChain DifferentiateUntilInputsAppear(std::size_t output,
-                                           const Dynamics& dynamics,
-                                           const std::vector<GiNaC::exmap>& points) {
-  const int max_order = 2 * static_cast<int>(dynamics.coordinates.size());
-  OutputChain chain;
-  ex state_function = dynamics.outputs[output];
-  for (int order = 1; order <= max_order; ++order) {
-    chain.state_functions.push_back(state_function);
-    TimeDerivative derivative = Differentiate(state_function, dynamics);
-    bool inputs_appear = false;
-    for (const ex& coefficient : derivative.input_coefficients) {
-      if (coefficient.is_zero()) continue;
-      if (!VanishesAtDecisionPoints(coefficient, points)) {
-        inputs_appear = true;
-        break;
-      }
-    }
-    if (inputs_appear) {
-      chain.last = std::move(derivative);
-      return chain;
-    }
-    // Coefficients that are zero only numerically are dropped: the derivation then holds for
-    // the nominal values of the parameters in them, which Evaluate() insists on.
-    for (const ex& coefficient : derivative.input_coefficients) {
-      for (std::size_t p = 0; p < dynamics.parameters.size(); ++p) {
-        if (coefficient.has(dynamics.parameters[p])) chain.pinned_parameters.insert(p);
-      }
-    }
-    state_function = derivative.drift;
-  }
-  throw NoSolution("algebraic inversion: output " + OutputName(output) +
-                   " never depends on the inputs (checked up to its derivative of order " +
-                   std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
 }
 
 // 1 / the largest |entry| of each row and then of each column of the scaled matrix (1 for a
@@ -302,48 +120,30 @@ std::string StateText(const Eigen::VectorXd& x) {
   return "q = " + FormatVector(x.head(dof)) + ", q_dot = " + FormatVector(x.tail(dof));
 }
 
-// The symbolic results the constructor hands on to the compiler and the closed forms.
-struct Derivation {
-  Dynamics dynamics;
-  std::vector<OutputChain> chains;
-  std::vector<int> orders;
-};
-
-// The 2 dof state constraints phi_ik(q, q_dot) = y_i_d^(k), k < r_i, output by output, and
-// their Jacobian by x = (q, q_dot), row-major.
-struct StateConstraints {
-  std::vector<ex> values, jacobian;
-  std::vector<std::size_t> output;  // for each row: which output
-  std::vector<int> order;           // and which derivative of y_d it matches
-};
-
-StateConstraints CollectStateConstraints(const Derivation& derivation) {
-  StateConstraints constraints;
-  for (std::size_t i = 0; i < derivation.chains.size(); ++i) {
-    const std::vector<ex>& functions = derivation.chains[i].state_functions;
-    for (std::size_t k = 0; k < functions.size(); ++k) {
-      constraints.values.push_back(functions[k]);
-      constraints.output.push_back(i);
-      constraints.order.push_back(static_cast<int>(k));
+// The compiled programs' outputs: the constraints' values, their Jacobian by x = (q, q_dot)
+// and by Y (row-major), for Newton and for the size of each residual's terms.
+std::vector<ex> ConstraintPrograms(const NonlinearStructure& structure) {
+  std::vector<ex> outputs = structure.constraints;
+  for (const ex& value : structure.constraints) {
+    for (const auto& q : structure.coordinates) outputs.push_back(value.diff(q));
+    for (const auto& v : structure.velocities) outputs.push_back(value.diff(v));
+  }
+  for (const ex& value : structure.constraints) {
+    for (const auto& symbols : structure.output_derivatives) {
+      for (const auto& symbol : symbols) outputs.push_back(value.diff(symbol));
     }
   }
-  const Dynamics& dynamics = derivation.dynamics;
-  for (const ex& value : constraints.values) {
-    for (const auto& q : dynamics.coordinates) constraints.jacobian.push_back(value.diff(q));
-    for (const auto& v : dynamics.velocities) constraints.jacobian.push_back(value.diff(v));
-  }
-  return constraints;
+  return outputs;
 }
 
-// The u-coefficient matrix (row i: output i at order r_i), row-major, then the u-free part
-// of each y_i^(r_i).
-std::vector<ex> InputEquations(const Derivation& derivation) {
+// The u-coefficient matrix (row i: input equation i), row-major, then the u-free part of each
+// input equation, 0 = drift + coefficients u.
+std::vector<ex> InputEquations(const NonlinearStructure& structure) {
   std::vector<ex> equations;
-  for (const OutputChain& chain : derivation.chains) {
-    equations.insert(equations.end(), chain.last.input_coefficients.begin(),
-                     chain.last.input_coefficients.end());
+  for (const auto& row : structure.input_coefficients) {
+    equations.insert(equations.end(), row.begin(), row.end());
   }
-  for (const OutputChain& chain : derivation.chains) equations.push_back(chain.last.drift);
+  equations.insert(equations.end(), structure.input_drift.begin(), structure.input_drift.end());
   return equations;
 }
 
@@ -364,45 +164,49 @@ Eigen::MatrixXd EvaluateMatrix(const ExpressionProgram& program,
   return matrix;
 }
 
-// Throws NoSolution unless the u-coefficient matrix at the nominal point is regular.
+// Throws NoSolution unless the u-coefficient matrix at the reference state is regular. It is
+// regular on a neighbourhood (the structure algorithm saw to that), so a singular one here is
+// singular at the reference only.
 void RequireRegularCoefficients(const Eigen::MatrixXd& coefficients,
                                 const Eigen::VectorXd& row_scale,
                                 const Eigen::VectorXd& column_scale,
                                 const std::vector<int>& orders) {
-  const std::string which =
-      "the inputs' coefficients in the outputs' derivatives of order " + JoinOrders(orders);
+  const std::string which = "the inputs' coefficients in the input equations (outputs read to "
+                            "order " + JoinOrders(orders) + ")";
   if (!coefficients.allFinite()) {
-    throw NoSolution("algebraic inversion: " + which + " are not finite at q = 0");
+    throw NoSolution("algebraic inversion: " + which + " are not finite at the reference state");
   }
   const Eigen::FullPivLU<Eigen::MatrixXd> lu = ScaledLu(coefficients, row_scale, column_scale);
   if (IsRegular(lu)) return;
   throw NoSolution(
-      "algebraic inversion: " + which + " form a singular matrix at q = 0 (rank " +
+      "algebraic inversion: " + which + " form a singular matrix at the reference state (rank " +
       std::to_string(RegularRank(lu)) + " of " + std::to_string(coefficients.rows()) +
-      "): the outputs have no vector relative degree there, so u does not follow from them "
-      "algebraically (if the system is flat, as the gantry crane with the load position as "
-      "output is, only a dynamic extension would invert it)");
+      ") but not near it: the relative degree is not defined at the operating point, and no "
+      "exact inverse passes through it");
 }
 
 // Throws NoSolution unless the relative degrees add up to 2 dof (paper Sect. 2.4: r = n), or,
 // with internal dynamics allowed, to at most 2 dof.
-void RequireOrders(const std::vector<int>& orders, std::size_t dof, bool internal_dynamics) {
-  int order_sum = 0;
-  for (int order : orders) order_sum += order;
-  const int states = 2 * static_cast<int>(dof);
-  if (order_sum < states && !internal_dynamics) {
-    const std::string degrees = orders.size() == 1
-                                    ? "the output's relative degree is " + std::to_string(order_sum)
-                                    : "the outputs' relative degrees " + JoinOrders(orders) +
-                                          " add up to " + std::to_string(order_sum);
+void RequireOrders(const NonlinearStructure& structure, bool internal_dynamics) {
+  const std::size_t states = 2 * structure.coordinates.size();
+  const std::size_t constraints = structure.constraints.size();
+  if (constraints < states && !internal_dynamics) {
+    const std::vector<int>& orders = structure.relative_degree;
+    std::string degrees;
+    if (structure.extended()) {
+      degrees = "after a dynamic extension (relative degrees " +
+                JoinOrders(structure.highest_derivative) + ") the outputs fix " +
+                std::to_string(constraints) + " of the " + std::to_string(states) + " states";
+    } else if (orders.size() == 1) {
+      degrees = "the output's relative degree is " + std::to_string(orders[0]) + ", not 2 dof = " +
+                std::to_string(states);
+    } else {
+      degrees = "the outputs' relative degrees " + JoinOrders(orders) + " add up to " +
+                std::to_string(constraints) + ", not 2 dof = " + std::to_string(states);
+    }
     throw NoSolution("algebraic inversion needs a flat problem: " + degrees +
-                     ", not 2 dof = " + std::to_string(states) + " (internal dynamics of order " +
-                     std::to_string(states - order_sum) + " remain)");
-  }
-  if (order_sum > states) {  // excluded by a regular u-coefficient matrix; kept as a guard
-    throw NoSolution("algebraic inversion: the outputs' relative degrees " + JoinOrders(orders) +
-                     " add up to " + std::to_string(order_sum) + ", more than the 2 dof = " +
-                     std::to_string(states) + " states they would fix");
+                     " (internal dynamics of order " + std::to_string(states - constraints) +
+                     " remain)");
   }
 }
 
@@ -431,51 +235,36 @@ void RequireStateFixed(const Eigen::MatrixXd& newton_matrix,
       "(the Jacobian of the constraints is singular there)");
 }
 
-// Y[i][k] for y_i_d^(k), k = 0..r_i, named "y<i+1>_d" and k primes.
-std::vector<std::vector<GiNaC::realsymbol>> DerivativeSymbols(const std::vector<int>& orders) {
-  std::vector<std::vector<GiNaC::realsymbol>> symbols(orders.size());
-  for (std::size_t i = 0; i < orders.size(); ++i) {
-    std::string name = OutputName(i) + "_d";
-    for (int k = 0; k <= orders[i]; ++k, name += "'") symbols[i].emplace_back(name);
-  }
-  return symbols;
-}
-
-// u_d in closed form when every state constraint is affine in (q, q_dot): solve them for the
-// state, substitute into the order-r_i equations and solve those for u. Empty otherwise.
-std::vector<ex> ClosedForms(const Derivation& derivation,
-                            const StateConstraints& constraints,
-                            const std::vector<std::vector<GiNaC::realsymbol>>& symbols) {
-  const Dynamics& dynamics = derivation.dynamics;
+// u_d in closed form when every constraint is affine in (q, q_dot): solve them for the state,
+// substitute into the input equations and solve those for u. Empty otherwise.
+std::vector<ex> ClosedForms(const NonlinearStructure& structure) {
   GiNaC::lst state;
-  for (const auto& q : dynamics.coordinates) state.append(q);
-  for (const auto& v : dynamics.velocities) state.append(v);
-  for (const ex& entry : constraints.jacobian) {
+  for (const auto& q : structure.coordinates) state.append(q);
+  for (const auto& v : structure.velocities) state.append(v);
+  for (const ex& constraint : structure.constraints) {
     for (const ex& variable : state) {
-      if (entry.has(variable)) return {};
+      const ex slope = constraint.diff(GiNaC::ex_to<GiNaC::symbol>(variable));
+      for (const ex& other : state) {
+        if (slope.has(other)) return {};
+      }
     }
   }
   GiNaC::lst equations;
-  for (std::size_t row = 0; row < constraints.values.size(); ++row) {
-    const auto order = static_cast<std::size_t>(constraints.order[row]);
-    equations.append(constraints.values[row] == symbols[constraints.output[row]][order]);
-  }
+  for (const ex& constraint : structure.constraints) equations.append(constraint == 0);
   const ex solution = GiNaC::lsolve(equations, state);
   if (solution.nops() != state.nops()) return {};
   GiNaC::exmap state_values;
   for (const ex& equation : solution) state_values[equation.lhs()] = equation.rhs();
 
-  const auto m = static_cast<unsigned>(derivation.chains.size());
+  const auto m = static_cast<unsigned>(structure.input_drift.size());
   GiNaC::matrix coefficients(m, m), right_hand_side(m, 1);
   GiNaC::lst all_symbols;
   for (unsigned i = 0; i < m; ++i) {
-    const OutputChain& chain = derivation.chains[i];
     for (unsigned j = 0; j < m; ++j) {
-      coefficients(i, j) = GiNaC::normal(chain.last.input_coefficients[j].subs(state_values));
+      coefficients(i, j) = GiNaC::normal(structure.input_coefficients[i][j].subs(state_values));
     }
-    right_hand_side(i, 0) = symbols[i][static_cast<std::size_t>(derivation.orders[i])] -
-                            chain.last.drift.subs(state_values);
-    for (const auto& symbol : symbols[i]) all_symbols.append(symbol);
+    right_hand_side(i, 0) = -structure.input_drift[i].subs(state_values);
+    for (const auto& symbol : structure.output_derivatives[i]) all_symbols.append(symbol);
   }
   const GiNaC::matrix inputs = coefficients.inverse().mul(right_hand_side);
   std::vector<ex> formulas;
@@ -487,16 +276,18 @@ std::vector<ex> ClosedForms(const Derivation& derivation,
 
 }  // namespace
 
-// The compiled inverse and its numerics. Both programs read [parameters, q, q_dot]
-// (SymbolicModel::ProgramInputs); x = (q, q_dot) is Newton's unknown.
+// The compiled inverse and its numerics. Both programs read [parameters, q, q_dot, Y]
+// (NonlinearStructure::ProgramInputs); x = (q, q_dot) is Newton's unknown.
 struct AlgebraicInverse::Programs {
   std::size_t dof = 0, num_inputs = 0, num_parameters = 0;
-  // The state constraints' values, then their Jacobian, row-major (StateConstraints).
+  // How many derivatives of each output the programs read (highest + 1), in input order.
+  std::vector<int> derivative_counts;
+  std::size_t num_derivatives = 0;
+  // ConstraintPrograms(): values, Jacobian by x, Jacobian by Y.
   ExpressionProgram constraints;
-  // InputEquations(): y_i_d^(r_i) = coefficients u + drift.
+  std::size_t num_constraints = 0;
+  // InputEquations(): 0 = drift + coefficients u.
   ExpressionProgram input_equations;
-  std::vector<std::size_t> constraint_output;
-  std::vector<int> constraint_order;
   // W: z = W^T x are the internal coordinates (2 dof x internal order; no columns when flat).
   Eigen::MatrixXd internal_directions;
   // Units in which Newton's matrix [constraint Jacobian; W^T] and the u-coefficient matrix are
@@ -512,21 +303,19 @@ struct AlgebraicInverse::Programs {
   struct Scratch {
     std::vector<double> inputs, registers, outputs;
   };
-  Scratch MakeScratch(const Eigen::VectorXd& parameters) const;
+  Scratch MakeScratch(const Eigen::VectorXd& parameters,
+                      const Eigen::MatrixXd& output_derivatives) const;
 
   // Throws UsageError when a pinned parameter differs from its nominal value.
   void CheckPinned(const Eigen::VectorXd& parameters) const;
   // Newton's method on the constraints (and W^T x = internal, when there are internal
   // coordinates) for x from its starting value; false and `why` when it fails.
-  bool SolveState(const Eigen::MatrixXd& output_derivatives,
-                  const Eigen::VectorXd& internal,
+  bool SolveState(const Eigen::VectorXd& internal,
                   Scratch& scratch,
                   Eigen::VectorXd& x,
                   std::string& why) const;
-  // u from the order-r_i equations at x; false and `why` when their matrix is singular.
-  bool SolveInputs(const Eigen::MatrixXd& output_derivatives,
-                   const std::vector<int>& orders,
-                   Scratch& scratch,
+  // u from the input equations at x; false and `why` when their matrix is singular.
+  bool SolveInputs(Scratch& scratch,
                    const Eigen::VectorXd& x,
                    Eigen::VectorXd& u,
                    std::string& why) const;
@@ -541,31 +330,46 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
                      std::to_string(model.dof()) + " coordinates");
   }
   try {
-    Derivation derivation;
-    derivation.dynamics = BuildDynamics(model);
-    const std::vector<GiNaC::exmap> points =
-        DecisionPoints(derivation.dynamics, model.parameters());
-    for (std::size_t i = 0; i < model.num_outputs(); ++i) {
-      derivation.chains.push_back(DifferentiateUntilInputsAppear(i, derivation.dynamics, points));
-      derivation.orders.push_back(
-          static_cast<int>(derivation.chains.back().state_functions.size()));
-    }
-    orders_ = derivation.orders;
+    NonlinearStructureOptions structure_options;
+    structure_options.rank_tolerance = options.rank_tolerance;
+    structure_options.reference_q = options.reference_q;
+    NonlinearStructure structure = DeriveNonlinearStructure(model, structure_options);
+    orders_ = structure.highest_derivative;
+    relative_degree_ = structure.relative_degree;
+    extension_steps_ = structure.extension_steps;
+    integrators_ = structure.integrators();
 
     auto programs = std::make_unique<Programs>();
     programs->dof = model.dof();
     programs->num_inputs = model.num_inputs();
     programs->num_parameters = model.num_parameters();
     programs->parameter_names = model.parameter_names();
-    const std::vector<ex> program_inputs = model.symbolic().ProgramInputs();
-    // The reference state: q as given (default 0), q_dot = 0.
+    for (const auto& symbols : structure.output_derivatives) {
+      programs->derivative_counts.push_back(static_cast<int>(symbols.size()));
+      programs->num_derivatives += symbols.size();
+    }
+    const std::vector<ex> program_inputs = structure.ProgramInputs();
+    // The reference state: q as given (default 0), q_dot = 0, y_d at rest there.
     std::vector<double> nominal_inputs(program_inputs.size(), 0.0);
     std::copy(model.parameters().begin(), model.parameters().end(), nominal_inputs.begin());
     std::copy(options.reference_q.begin(), options.reference_q.end(),
               nominal_inputs.begin() + static_cast<long>(model.num_parameters()));
+    {
+      const GiNaC::matrix& output = model.symbolic().output();
+      std::vector<ex> output_expressions;
+      for (unsigned i = 0; i < output.rows(); ++i) output_expressions.push_back(output(i, 0));
+      const ExpressionProgram outputs = CompileExpressions(output_expressions, program_inputs);
+      std::vector<double> registers(outputs.num_registers()), values(outputs.num_outputs());
+      outputs.Evaluate(nominal_inputs.data(), registers.data(), values.data());
+      std::size_t slot = model.num_parameters() + 2 * model.dof();
+      for (std::size_t i = 0; i < values.size(); ++i) {
+        nominal_inputs[slot] = values[i];
+        slot += static_cast<std::size_t>(programs->derivative_counts[i]);
+      }
+    }
 
-    // The u-equations first: their matrix decides whether the outputs fix u at all.
-    programs->input_equations = CompileExpressions(InputEquations(derivation), program_inputs);
+    // The input equations first: their matrix decides whether the outputs fix u at all.
+    programs->input_equations = CompileExpressions(InputEquations(structure), program_inputs);
     const auto m = static_cast<Eigen::Index>(model.num_inputs());
     const Eigen::MatrixXd nominal_coefficients =
         EvaluateMatrix(programs->input_equations, nominal_inputs, m, m, 0);
@@ -573,17 +377,12 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
         EquilibrationScales(nominal_coefficients);
     RequireRegularCoefficients(nominal_coefficients, programs->coefficient_row_scale,
                                programs->coefficient_column_scale, orders_);
-    RequireOrders(orders_, model.dof(), options.internal_dynamics);
+    RequireOrders(structure, options.internal_dynamics);
 
-    const StateConstraints constraints = CollectStateConstraints(derivation);
-    std::vector<ex> constraint_outputs = constraints.values;
-    constraint_outputs.insert(constraint_outputs.end(), constraints.jacobian.begin(),
-                              constraints.jacobian.end());
-    programs->constraints = CompileExpressions(constraint_outputs, program_inputs);
-    programs->constraint_output = constraints.output;
-    programs->constraint_order = constraints.order;
+    programs->constraints = CompileExpressions(ConstraintPrograms(structure), program_inputs);
+    programs->num_constraints = structure.constraints.size();
     const auto states = static_cast<Eigen::Index>(2 * model.dof());
-    const auto rows = static_cast<Eigen::Index>(constraints.values.size());
+    const auto rows = static_cast<Eigen::Index>(structure.constraints.size());
     const Eigen::MatrixXd nominal_jacobian = EvaluateMatrix(
         programs->constraints, nominal_inputs, rows, states, static_cast<std::size_t>(rows));
     programs->internal_directions = InternalDirections(nominal_jacobian);
@@ -594,17 +393,11 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     RequireStateFixed(newton_matrix, programs->jacobian_row_scale,
                       programs->jacobian_column_scale);
 
-    std::set<std::size_t> pinned(derivation.dynamics.zero_parameters.begin(),
-                                 derivation.dynamics.zero_parameters.end());
-    for (const OutputChain& chain : derivation.chains) {
-      pinned.insert(chain.pinned_parameters.begin(), chain.pinned_parameters.end());
-    }
-    for (std::size_t p : pinned) {
+    for (std::size_t p : structure.pinned_parameters) {
       programs->pinned.emplace_back(p, model.parameters()[static_cast<Eigen::Index>(p)]);
     }
-
-    derivative_symbols_ = DerivativeSymbols(orders_);
-    if (rows == states) input_formulas_ = ClosedForms(derivation, constraints, derivative_symbols_);
+    derivative_symbols_ = structure.output_derivatives;
+    if (rows == states) input_formulas_ = ClosedForms(structure);
     programs_ = std::move(programs);
   } catch (const Error&) {
     throw;
@@ -635,10 +428,16 @@ const GiNaC::realsymbol& AlgebraicInverse::output_derivative_symbol(std::size_t 
 }
 
 AlgebraicInverse::Programs::Scratch AlgebraicInverse::Programs::MakeScratch(
-    const Eigen::VectorXd& parameters) const {
+    const Eigen::VectorXd& parameters, const Eigen::MatrixXd& output_derivatives) const {
   Scratch scratch;
-  scratch.inputs.assign(num_parameters + 2 * dof, 0.0);
+  scratch.inputs.assign(num_parameters + 2 * dof + num_derivatives, 0.0);
   std::copy(parameters.begin(), parameters.end(), scratch.inputs.begin());
+  std::size_t slot = num_parameters + 2 * dof;
+  for (std::size_t i = 0; i < derivative_counts.size(); ++i) {
+    for (int k = 0; k < derivative_counts[i]; ++k) {
+      scratch.inputs[slot++] = output_derivatives(static_cast<Eigen::Index>(i), k);
+    }
+  }
   scratch.registers.resize(std::max(constraints.num_registers(), input_equations.num_registers()));
   scratch.outputs.resize(std::max(constraints.num_outputs(), input_equations.num_outputs()));
   return scratch;
@@ -657,14 +456,16 @@ void AlgebraicInverse::Programs::CheckPinned(const Eigen::VectorXd& parameters) 
   }
 }
 
-bool AlgebraicInverse::Programs::SolveState(const Eigen::MatrixXd& output_derivatives,
-                                            const Eigen::VectorXd& internal,
+bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
                                             Scratch& scratch,
                                             Eigen::VectorXd& x,
                                             std::string& why) const {
   const Eigen::Index states = x.size();
-  const auto constraint_rows = static_cast<Eigen::Index>(constraint_output.size());
+  const auto constraint_rows = static_cast<Eigen::Index>(num_constraints);
   const Eigen::Index internal_rows = internal_directions.cols();
+  const auto derivatives = static_cast<Eigen::Index>(num_derivatives);
+  const std::size_t by_derivative = num_constraints * (1 + static_cast<std::size_t>(states));
+  const double* derivative_values = scratch.inputs.data() + num_parameters + 2 * dof;
   Eigen::VectorXd residual(states), step(states);
   Eigen::MatrixXd jacobian(states, states);
   if (internal_rows > 0) jacobian.bottomRows(internal_rows) = internal_directions.transpose();
@@ -685,18 +486,23 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::MatrixXd& output_deriva
     for (Eigen::Index r = 0; r < states; ++r) {
       const auto row = static_cast<std::size_t>(r);
       const bool constraint = r < constraint_rows;
-      const double target =
-          constraint ? output_derivatives(static_cast<Eigen::Index>(constraint_output[row]),
-                                          constraint_order[row])
-                     : internal[r - constraint_rows];
-      const double value = constraint
-                               ? scratch.outputs[row]
-                               : internal_directions.col(r - constraint_rows).dot(x);
-      residual[r] = value - target;
-      // Each coefficient counts with the size of the whole state, not just its own entry:
-      // near rest the entries vanish while round-off of the others does not.
-      const double size = std::abs(target) + std::abs(value) +
-                          jacobian.row(r).cwiseAbs().sum() * state_size;
+      double size = 0;
+      if (constraint) {
+        residual[r] = scratch.outputs[row];
+        // The size of the terms: y_d's through the Jacobian by Y, the state's through the
+        // Jacobian by x, each coefficient with the size of the whole state, since near rest the
+        // entries vanish while round-off of the others does not.
+        for (Eigen::Index k = 0; k < derivatives; ++k) {
+          size += std::abs(scratch.outputs[by_derivative + row * num_derivatives +
+                                           static_cast<std::size_t>(k)] *
+                           derivative_values[k]);
+        }
+      } else {
+        const Eigen::Index column = r - constraint_rows;
+        residual[r] = internal_directions.col(column).dot(x) - internal[column];
+        size = std::abs(internal[column]);
+      }
+      size += std::abs(residual[r]) + jacobian.row(r).cwiseAbs().sum() * state_size;
       if (!std::isfinite(residual[r]) || !std::isfinite(size)) {
         why = "the output constraints are not finite at " + StateText(x);
         return false;
@@ -730,9 +536,7 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::MatrixXd& output_deriva
   return false;
 }
 
-bool AlgebraicInverse::Programs::SolveInputs(const Eigen::MatrixXd& output_derivatives,
-                                             const std::vector<int>& orders,
-                                             Scratch& scratch,
+bool AlgebraicInverse::Programs::SolveInputs(Scratch& scratch,
                                              const Eigen::VectorXd& x,
                                              Eigen::VectorXd& u,
                                              std::string& why) const {
@@ -745,8 +549,7 @@ bool AlgebraicInverse::Programs::SolveInputs(const Eigen::MatrixXd& output_deriv
     for (Eigen::Index j = 0; j < m; ++j) {
       coefficients(i, j) = scratch.outputs[static_cast<std::size_t>(i * m + j)];
     }
-    right_hand_side[i] = output_derivatives(i, orders[static_cast<std::size_t>(i)]) -
-                         scratch.outputs[static_cast<std::size_t>(m * m + i)];
+    right_hand_side[i] = -scratch.outputs[static_cast<std::size_t>(m * m + i)];
   }
   if (!coefficients.allFinite() || !right_hand_side.allFinite() ||
       !SolveScaled(coefficients, coefficient_row_scale, coefficient_column_scale, right_hand_side,
@@ -805,11 +608,11 @@ bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_deriva
   check_size("q_dot", q_dot.size(), 1, dof, 1);
   programs.CheckPinned(parameters);
 
-  Programs::Scratch scratch = programs.MakeScratch(parameters);
+  Programs::Scratch scratch = programs.MakeScratch(parameters, output_derivatives);
   Eigen::VectorXd x(2 * dof), inputs;
   x << q, q_dot;
-  if (!programs.SolveState(output_derivatives, internal, scratch, x, why) ||
-      !programs.SolveInputs(output_derivatives, orders_, scratch, x, inputs, why)) {
+  if (!programs.SolveState(internal, scratch, x, why) ||
+      !programs.SolveInputs(scratch, x, inputs, why)) {
     return false;
   }
   q = x.head(dof);

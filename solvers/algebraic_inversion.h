@@ -2,25 +2,26 @@
 // Algebraic inversion of a flat servo-constraint problem (paper Sect. 5.1): u_d and q_d from the
 // desired output and its derivatives alone, without integrating anything.
 //
-// Derived symbolically once (GiNaC): each output y_i = h_i(q) is differentiated along the
-// motion, q'' = M^-1 (B u - f), until the inputs appear. The derivatives before that are
-// constraints on the state (q, q') alone:  c_ik(q, q', Y) = 0  for k < r_i, where Y holds the
-// desired y_d^(k) as symbols; the derivative of order r_i is affine in u. A problem is flat in
-// this sense when the r_i add up to 2 dof (the constraints fix the whole state) and the matrix
-// of u-coefficients at the orders r_i is invertible. At each time the state follows from the
-// 2 dof constraints by Newton's method (one step when they are linear, e.g. for linear
-// models) and u from the order-r_i equations. For the mass on car, case 4 (alpha = 0, d = 0),
-// this gives Eq. (47) without being told it.
+// Derived symbolically once (GiNaC) by the structure algorithm (analysis/nonlinear_structure.h):
+// each output y_i = h_i(q) is differentiated along the motion, q'' = M^-1 (B u - f), until the
+// inputs appear; the derivatives before are constraints on the state (q, q') given the desired
+// y_d^(k). Where the inputs' coefficient matrix is singular on a neighbourhood (mixed
+// realizations: the gantry crane, a PVTOL aircraft) the algorithm performs a dynamic extension:
+// the equations that repeat the kept rows' inputs are combined with them into new, u-free
+// constraints and differentiated further. A problem is flat in this sense when the constraints
+// number 2 dof (they fix the whole state) and the final input equations have a regular matrix.
+// At each time the state follows from the constraints by Newton's method (one step when they
+// are linear, e.g. for linear models) and u from the input equations. For the mass on car,
+// case 4 (alpha = 0, d = 0), this gives Eq. (47) without being told it.
 //
 // The structure is decided for the model's parameter values (after overrides): parameters
 // that are 0 are substituted exactly before differentiating (alpha = 0 makes sin(alpha)
-// vanish identically), and a u-coefficient counts as zero only when it vanishes, up to
-// round-off, at q = 0, q' = 0 and at generic states too. A coefficient that vanishes at rest
-// only (the gantry crane's y1'' has one proportional to sin(theta)) still puts u into that
-// derivative, which then cannot serve as a state constraint. The relative degrees are
-// therefore those of the nonlinear model, which can be lower than those of its linearization
-// at rest: the crane's are (2, 2) with a singular u-coefficient matrix, not (4, 2), and it is
-// refused (it is flat only through a dynamic extension, which this class does not do).
+// vanish identically), and a u-coefficient counts as zero by analyze's rank rule
+// (AlgebraicInverseOptions::rank_tolerance) at the reference state and at generic states.
+// A coefficient that vanishes at rest only (the gantry crane's y1'' has one proportional to
+// sin(theta)) still puts u into that derivative. The relative degrees are therefore those of
+// the nonlinear model, which can differ from those of its linearization at rest: the crane's
+// are (2, 2) with a singular coefficient matrix, extended to (4, 4), not (4, 2).
 #include <ginac/ginac.h>
 
 #include <Eigen/Dense>
@@ -28,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/nonlinear_structure.h"
 #include "models/model.h"
 
 namespace servokit {
@@ -43,6 +45,8 @@ struct AlgebraicInverseOptions {
   // The reference state (q here, q' = 0) where W is chosen and the structure is decided: the
   // operating point. Empty: q = 0.
   Eigen::VectorXd reference_q;
+  // Rank decisions, as ClassificationOptions::rank_tolerance (the solvers pass analyze's).
+  double rank_tolerance = 1e-10;
 };
 
 class AlgebraicInverse {
@@ -57,9 +61,17 @@ class AlgebraicInverse {
   AlgebraicInverse(AlgebraicInverse&&) noexcept;
   AlgebraicInverse& operator=(AlgebraicInverse&&) noexcept;
 
-  /// r_i: the derivative of output i at which the inputs appear (its relative degree).
+  /// The highest derivative of output i that the inverse reads: its relative degree, or after
+  /// a dynamic extension its extended relative degree (the gantry crane's (4, 4)).
   const std::vector<int>& output_derivative_orders() const { return orders_; }
-  /// max r_i: how many derivatives of y_d the inverse reads (4 for mass on car case 4).
+  /// The first derivative of output i in which the inputs appear (nonlinear relative degree).
+  const std::vector<int>& relative_degree() const { return relative_degree_; }
+  /// The steps of the dynamic extension; empty when the coefficient matrix was regular at once.
+  const std::vector<StructureStep>& extension_steps() const { return extension_steps_; }
+  /// Integrators the dynamic extension adds (0 without one).
+  int integrators() const { return integrators_; }
+  /// max over output_derivative_orders(): how many derivatives of y_d the inverse reads (4 for
+  /// mass on car case 4).
   int highest_output_derivative() const;
 
   /// q, q' and u at one instant. `output_derivatives` is outputs x (r + 1), column k holding
@@ -106,6 +118,9 @@ class AlgebraicInverse {
  private:
   struct Programs;  // the compiled constraints, their Jacobian and the u-equations
   std::vector<int> orders_;
+  std::vector<int> relative_degree_;
+  std::vector<StructureStep> extension_steps_;
+  int integrators_ = 0;
   std::vector<std::vector<GiNaC::realsymbol>> derivative_symbols_;  // [output][order]
   std::vector<GiNaC::ex> input_formulas_;
   std::unique_ptr<const Programs> programs_;

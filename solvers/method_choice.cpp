@@ -83,7 +83,10 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
                       std::to_string(structure.internal_dynamics_order) + " remain");
       }
       try {
-        algebraic_inverse_ = std::make_shared<const AlgebraicInverse>(model_);
+        AlgebraicInverseOptions options;
+        options.reference_q = classification_.operating_point.q;
+        options.rank_tolerance = classification_.rank_tolerance;
+        algebraic_inverse_ = std::make_shared<const AlgebraicInverse>(model_, options);
       } catch (const NoSolution& error) {
         return refuse(error.what());
       }
@@ -119,6 +122,7 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
           AlgebraicInverseOptions options;
           options.internal_dynamics = true;
           options.reference_q = classification_.operating_point.q;
+          options.rank_tolerance = classification_.rank_tolerance;
           output_normal_form_ = std::make_shared<const AlgebraicInverse>(model_, options);
         } catch (const NoSolution& error) {
           return refuse("no input-output normal form: " + std::string(error.what()));

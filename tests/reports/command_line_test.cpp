@@ -120,5 +120,31 @@ TEST_CASE("--help of servokit and of every subcommand exits 0 with an example of
   }
 }
 
+// The structure algorithm's verdict in analyze's JSON (nonlinear_structure): the gantry crane's
+// hoist is delayed by two integrators (tests/analysis/nonlinear_structure_test.cpp derives why);
+// the double-pendulum crane's relative degree is not defined at rest.
+TEST_CASE("analyze reports the dynamic extension and a relative degree undefined at rest",
+          "[reports]") {
+  const Run crane = RunServokit({"analyze", ModelPath("gantry_crane.yaml"), "--format", "json"});
+  REQUIRE(crane.status == 0);
+  const auto structure = nlohmann::json::parse(crane.out)["nonlinear_structure"];
+  CHECK(structure["derived"] == true);
+  CHECK(structure["relative_degree"] == nlohmann::json({2, 2}));
+  CHECK(structure["dynamic_extension"]["needed"] == true);
+  CHECK(structure["dynamic_extension"]["delayed_inputs"] == nlohmann::json({"W"}));
+  CHECK(structure["dynamic_extension"]["integrators"] == 2);
+  CHECK(structure["dynamic_extension"]["relative_degree"] == nlohmann::json({4, 4}));
+
+  const Run pendulum =
+      RunServokit({"analyze", TestDataPath("double_pendulum_crane.yaml"), "--format", "json"});
+  REQUIRE(pendulum.status == 0);
+  const auto at_rest = nlohmann::json::parse(pendulum.out)["nonlinear_structure"];
+  CHECK(at_rest["defined_at_operating_point"] == false);
+  CHECK_THAT(at_rest["note"].get<std::string>(),
+             Catch::Matchers::Contains("vanishes at the operating point only"));
+  const Run text = RunServokit({"analyze", TestDataPath("double_pendulum_crane.yaml")});
+  CHECK_THAT(text.out, Catch::Matchers::Contains("vanishes at the operating point only"));
+}
+
 }  // namespace
 }  // namespace servokit
