@@ -8,6 +8,7 @@
 #include "analysis/operating_point.h"
 #include "models/errors.h"
 #include "solvers/algebraic_inversion.h"
+#include "solvers/output_normal_form.h"
 #include "solvers/dense_output.h"
 #include "solvers/method_choice.h"
 #include "solvers/radau.h"
@@ -409,65 +410,6 @@ void SampleRows(const std::vector<double>& grid, FeedforwardSolution& solution) 
   }
 }
 
-// The input-output normal form of any vector relative degree (Isidori Ch. 4-5) at one time:
-// q and q' from y_d's derivatives and the internal coordinates z = W^T (q, q') by Newton, u
-// from the outputs' derivatives of order r_i, and z' = W^T (q', M^-1 (B u - f)). Keeps the
-// last state as the next Newton start. Model and trajectory must outlive it.
-class OutputNormalFormMap {
- public:
-  OutputNormalFormMap(const Model& model,
-                      const OutputTrajectory& trajectory,
-                      std::shared_ptr<const AlgebraicInverse> form,
-                      const StartState& start)
-      : model_(model),
-        trajectory_(trajectory),
-        form_(std::move(form)),
-        workspace_(model),
-        q_(start.q),
-        q_dot_(start.q_dot) {}
-
-  bool State(double t,
-             const Eigen::VectorXd& internal,
-             Eigen::VectorXd& q,
-             Eigen::VectorXd& q_dot,
-             Eigen::VectorXd& u,
-             std::string& why) {
-    trajectory_.Derivatives(t, form_->highest_output_derivative(), derivatives_);
-    if (!form_->EvaluateWithInternal(derivatives_, internal, model_.parameters(), q_, q_dot_,
-                                     u, why)) {
-      return false;
-    }
-    q = q_;
-    q_dot = q_dot_;
-    return true;
-  }
-
-  // z' at the state State() found last, driven by u.
-  bool InternalDerivative(const Eigen::VectorXd& u, Eigen::VectorXd& internal_dot, std::string& why) {
-    Evaluate(model_, workspace_, q_, q_dot_,
-             Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix);
-    mass_factor_.compute(workspace_.mass_matrix);
-    if (mass_factor_.info() != Eigen::Success) {
-      why = "M(q) is not positive definite";
-      return false;
-    }
-    const Eigen::Index f = q_.size();
-    velocity_.resize(2 * f);
-    velocity_ << q_dot_, mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
-    internal_dot.noalias() = form_->internal_directions().transpose() * velocity_;
-    return true;
-  }
-
- private:
-  const Model& model_;
-  const OutputTrajectory& trajectory_;
-  std::shared_ptr<const AlgebraicInverse> form_;
-  Workspace workspace_;
-  Eigen::LLT<Eigen::MatrixXd> mass_factor_;
-  Eigen::MatrixXd derivatives_;
-  Eigen::VectorXd q_, q_dot_, velocity_;
-};
-
 // The normal form of any vector relative degree: the internal coordinates integrated with
 // Dormand-Prince. With none left (a flat problem) it is the algebraic inverse itself.
 void SolveOutputNormalForm(const Model& model,
@@ -488,7 +430,7 @@ void SolveOutputNormalForm(const Model& model,
   Eigen::VectorXd state_start(2 * start.q.size());
   state_start << start.q, start.q_dot;
   const Eigen::VectorXd internal_start = form->internal_directions().transpose() * state_start;
-  OutputNormalFormMap map(model, trajectory, form, start);
+  OutputNormalFormMap map(model, trajectory, form, start.q, start.q_dot);
   Eigen::VectorXd q, q_dot, u;
   // Where q, q_dot and u were last computed: Dormand-Prince evaluates its last stage at the
   // step's end (FSAL), so the observer finds them there without a second Newton solve.
@@ -520,7 +462,8 @@ void SolveOutputNormalForm(const Model& model,
       keep_extension ? internal_states.get() : nullptr);
   if (internal_states->empty()) return;
   // The extension maps the dense output through a map of its own (its own Newton starts).
-  auto extension_map = std::make_shared<OutputNormalFormMap>(model, trajectory, form, start);
+  auto extension_map =
+      std::make_shared<OutputNormalFormMap>(model, trajectory, form, start.q, start.q_dot);
   solution.extension = MappedMotion(
       [extension_map](double t, const Eigen::VectorXd& z, Eigen::VectorXd& q_at,
                       Eigen::VectorXd& q_dot_at, Eigen::VectorXd& u_at, std::string& why) {
@@ -549,6 +492,7 @@ void SolveByStableInversion(const Model& model,
                             const OutputTrajectory& trajectory,
                             const Classification& classification,
                             const InverseModelOptions& options,
+                            const std::shared_ptr<const AlgebraicInverse>& output_normal_form,
                             FeedforwardSolution& solution) {
   const std::vector<double> breakpoints = trajectory.breakpoints();
   const OperatingPoint start =
@@ -559,8 +503,12 @@ void SolveByStableInversion(const Model& model,
   inversion.absolute_tolerance = solution.accuracy.atol;
   inversion.pre_actuation = options.pre_actuation;
   inversion.post_actuation = options.post_actuation;
+  // P regular: the normal form of Eq. (25); otherwise the input-output normal form.
   const StableInversionSolution result =
-      SolveStableInversion(model, trajectory, start.q, end.q, inversion);
+      output_normal_form
+          ? SolveOutputStableInversion(model, trajectory, output_normal_form, start.q, end.q,
+                                       inversion)
+          : SolveStableInversion(model, trajectory, start.q, end.q, inversion);
   solution.summary = result.summary;
   solution.summary.steps = long(result.times.size());
   solution.window = result.window;
@@ -738,7 +686,8 @@ FeedforwardSolution SolveInverseModel(const Model& model,
   const auto problem = std::make_shared<ServoConstraintProblem>(
       model, trajectory, classification.operating_point.q, options.problem);
   if (solution.method == SolverMethod::kStableInversion) {
-    SolveByStableInversion(model, trajectory, classification, options, solution);
+    SolveByStableInversion(model, trajectory, classification, options,
+                           chooser.output_normal_form(), solution);
   } else {
     SolveForward(model, trajectory, classification, options, chooser, problem, solution);
   }

@@ -115,18 +115,8 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
       if (decoupling_regular) {
         // Eq. (25): relative degree 2 in every output.
         if (structure.internal_dynamics_order == 0) return refuse(no_internal_dynamics);
-      } else {
-        // Any vector relative degree: the outputs differentiated until the inputs appear,
-        // internal coordinates completing the state (Isidori Ch. 4-5).
-        try {
-          AlgebraicInverseOptions options;
-          options.internal_dynamics = true;
-          options.reference_q = classification_.operating_point.q;
-          options.rank_tolerance = classification_.rank_tolerance;
-          output_normal_form_ = std::make_shared<const AlgebraicInverse>(model_, options);
-        } catch (const NoSolution& error) {
-          return refuse("no input-output normal form: " + std::string(error.what()));
-        }
+      } else if (const std::string why = DeriveOutputNormalForm(); !why.empty()) {
+        return refuse(why);
       }
       if (unstable && !force_) {
         verdict.forceable = true;
@@ -134,8 +124,10 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
       }
       break;
     case SolverMethod::kStableInversion:
-      if (!decoupling_regular) return refuse(p_singular);
       if (structure.internal_dynamics_order == 0) return refuse(no_internal_dynamics);
+      if (!decoupling_regular) {
+        if (const std::string why = DeriveOutputNormalForm(); !why.empty()) return refuse(why);
+      }
       if (zero_dynamics.stability == Stability::kCritical) {
         return refuse("the zero dynamics are not hyperbolic: eigenvalues on the imaginary axis (" +
                       Eigenvalues(zero_dynamics) +
@@ -147,6 +139,25 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
   }
   verdict.accepts = true;
   return verdict;
+}
+
+std::string MethodChooser::DeriveOutputNormalForm() {
+  if (output_normal_form_) return "";
+  if (!output_normal_form_refusal_.empty()) return output_normal_form_refusal_;
+  // Any vector relative degree: the outputs differentiated until the inputs appear (with a
+  // dynamic extension where needed), internal coordinates completing the state (Isidori
+  // Ch. 4-5).
+  try {
+    AlgebraicInverseOptions options;
+    options.internal_dynamics = true;
+    options.reference_q = classification_.operating_point.q;
+    options.rank_tolerance = classification_.rank_tolerance;
+    output_normal_form_ = std::make_shared<const AlgebraicInverse>(model_, options);
+    return "";
+  } catch (const NoSolution& error) {
+    output_normal_form_refusal_ = "no input-output normal form: " + std::string(error.what());
+    return output_normal_form_refusal_;
+  }
 }
 
 std::string MethodChooser::Alternatives(SolverMethod refused,

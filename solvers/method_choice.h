@@ -68,14 +68,17 @@ class MethodChooser {
   /// The inverse Assess(kAlgebraic) derived; null before or when it refused.
   std::shared_ptr<const AlgebraicInverse> algebraic_inverse() const { return algebraic_inverse_; }
   /// The input-output normal form of any vector relative degree (internal coordinates allowed)
-  /// that Assess(kNormalForm) derived for a problem with P singular; null before, when it
-  /// refused, or when P is regular (the normal form of Eq. 25 serves then).
+  /// that Assess(kNormalForm) or Assess(kStableInversion) derived for a problem with P
+  /// singular; null before, when it refused, or when P is regular (the normal form of Eq. 25
+  /// serves then).
   std::shared_ptr<const AlgebraicInverse> output_normal_form() const {
     return output_normal_form_;
   }
 
  private:
   MethodVerdict Judge(SolverMethod method);
+  // Derives output_normal_form_ once; "" when it exists, else why not (kept).
+  std::string DeriveOutputNormalForm();
   std::string Alternatives(SolverMethod refused,
                            std::vector<SolverMethod>& accepting,
                            std::vector<SolverMethod>& forceable);
@@ -86,6 +89,7 @@ class MethodChooser {
   std::vector<std::pair<SolverMethod, MethodVerdict>> verdicts_;
   std::shared_ptr<const AlgebraicInverse> algebraic_inverse_;
   std::shared_ptr<const AlgebraicInverse> output_normal_form_;
+  std::string output_normal_form_refusal_;
 };
 
 }  // namespace servokit

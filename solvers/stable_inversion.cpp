@@ -10,6 +10,7 @@
 #include "solvers/boundary_value.h"
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"
+#include "solvers/output_normal_form.h"
 #include "solvers/servo_constraint_problem.h"
 #include "solvers/solver_messages.h"
 
@@ -30,6 +31,10 @@ constexpr int kMinIntervalsPerPiece = 4;
 // Bisections locating where the input departs from rest between two mesh points (2^-40 of
 // their spacing: below any digit a user reads).
 constexpr int kCrossingBisections = 40;
+
+// Central-difference step of the rest Jacobian, relative to max(1, |x_j|): about the cube root
+// of the machine epsilon, where truncation and round-off errors balance (1e-11 relative).
+constexpr double kRestJacobianStep = 6e-6;
 
 // Each widening grows the pre- and post-actuation windows by this factor.
 constexpr double kWideningFactor = 1.5;
@@ -61,20 +66,43 @@ void StableInversionOptions::Validate() const {
   }
 }
 
-StableInversionSolution SolveStableInversion(const Model& model,
-                                             const OutputTrajectory& trajectory,
-                                             const Eigen::VectorXd& start_q,
-                                             const Eigen::VectorXd& end_q,
-                                             const StableInversionOptions& options) {
-  options.Validate();
-  const LinearInternalDynamics start = LinearizeInternalDynamics(model, start_q);
-  const LinearInternalDynamics end = LinearizeInternalDynamics(model, end_q);
-  if (!start.internal_directions.isApprox(end.internal_directions)) {
-    throw NoSolution("stable inversion: the internal coordinates chosen at the start and end "
-                     "equilibria differ (H_a singular there); not supported yet");
-  }
-  const HyperbolicSplit start_split = SplitHyperbolic(start.state_matrix);
-  const HyperbolicSplit end_split = SplitHyperbolic(end.state_matrix);
+namespace {
+
+// A rest state of the internal dynamics and their linearization there.
+struct InternalRest {
+  Eigen::VectorXd state;  // x at rest
+  Eigen::VectorXd input;  // u at rest
+  HyperbolicSplit split;  // of the linearization's matrix
+};
+
+// Internal dynamics x' = f(t, x) as the boundary value problem needs them, whichever normal
+// form they come from (Eq. 25 for P regular, the input-output normal form otherwise).
+struct InternalBoundaryValueProblem {
+  Eigen::Index size = 0;
+  // f, and the input u at (t, x).
+  std::function<bool(double t, const Eigen::VectorXd& x, Eigen::VectorXd& x_dot,
+                     Eigen::VectorXd& u, std::string& why)>
+      rhs;
+  InternalRest start, end;
+  // Optional second start for Newton on `mesh` over [t_a, t_b] (the linear stable inversion);
+  // false when there is none.
+  std::function<bool(const std::vector<double>& mesh, double t_a, double t_b,
+                     std::vector<Eigen::VectorXd>& guess)>
+      linear_guess;
+  // The motion on [start, end] from the collocation solution's interpolant.
+  std::function<std::shared_ptr<const MotionExtension>(
+      std::function<Eigen::VectorXd(double)> internal_state, double start, double end)>
+      extension;
+};
+
+StableInversionSolution SolveInternalBoundaryValue(const InternalBoundaryValueProblem& problem,
+                                                   const std::vector<double>& breakpoints,
+                                                   const StableInversionOptions& options) {
+  const InternalRest& start = problem.start;
+  const InternalRest& end = problem.end;
+  const HyperbolicSplit& start_split = start.split;
+  const HyperbolicSplit& end_split = end.split;
+  const Eigen::Index size = problem.size;
 
   // The slowest unstable mode at the start sets the pre-actuation, the slowest stable mode at
   // the end the post-actuation.
@@ -85,51 +113,35 @@ StableInversionSolution SolveStableInversion(const Model& model,
   for (const auto& value : end_split.eigenvalues) {
     if (value.real() < 0) slowest_stable = std::min(slowest_stable, -value.real());
   }
-  const std::vector<double> breakpoints = trajectory.breakpoints();
   const double t0 = breakpoints.front(), tf = breakpoints.back();
   double pre = options.pre_actuation.value_or(
       std::isfinite(slowest_unstable) ? DecayTime(slowest_unstable, options.tolerance) : 0.1 * (tf - t0));
   double post = options.post_actuation.value_or(
       std::isfinite(slowest_stable) ? DecayTime(slowest_stable, options.tolerance) : 0.1 * (tf - t0));
 
-  // Shared with the feedforward closure returned at the end (one problem, built once).
-  const auto shared_problem = std::make_shared<ServoConstraintProblem>(model, trajectory, start_q);
-  ServoConstraintProblem& problem = *shared_problem;
-  const Eigen::Index internal = problem.num_internal();
-  const Eigen::MatrixXd& directions = problem.internal_directions();
-  Eigen::VectorXd q = start_q, q_dot, u, q_ddot;
+  Eigen::VectorXd u;
   const BvpRightHandSide rhs = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& x_dot,
-                                   std::string& why) {
-    if (!problem.StateFromInternal(t, x.head(internal), x.tail(internal), q, q_dot, why) ||
-        !problem.NormalForm(t, q, q_dot, u, q_ddot, why)) {
-      return false;
-    }
-    x_dot.resize(2 * internal);
-    x_dot.head(internal) = x.tail(internal);
-    x_dot.tail(internal).noalias() = directions.transpose() * q_ddot;  // Eq. (25)
-    return true;
-  };
+                                   std::string& why) { return problem.rhs(t, x, x_dot, u, why); };
   const Eigen::Index stable_count = start_split.stable_basis.cols();
+  if (end_split.unstable_basis.cols() != size - stable_count) {
+    throw NoSolution("stable inversion: the start and end equilibria have different numbers of "
+                     "unstable modes (" + std::to_string(size - stable_count) + " and " +
+                     std::to_string(end_split.unstable_basis.cols()) + ")");
+  }
   BoundaryConditions conditions;
   conditions.residual = [&](const Eigen::VectorXd& at_start, const Eigen::VectorXd& at_end,
                             Eigen::VectorXd& residual) {
-    residual.resize(2 * internal);
-    residual.head(stable_count) = start_split.stable_left * (at_start - start.equilibrium_state);
-    residual.tail(2 * internal - stable_count) =
-        end_split.unstable_left * (at_end - end.equilibrium_state);
+    residual.resize(size);
+    residual.head(stable_count) = start_split.stable_left * (at_start - start.state);
+    residual.tail(size - stable_count) = end_split.unstable_left * (at_end - end.state);
   };
   conditions.jacobians = [&](const Eigen::VectorXd&, const Eigen::VectorXd&,
                              Eigen::MatrixXd& d_start, Eigen::MatrixXd& d_end) {
-    d_start = Eigen::MatrixXd::Zero(2 * internal, 2 * internal);
-    d_end = Eigen::MatrixXd::Zero(2 * internal, 2 * internal);
+    d_start = Eigen::MatrixXd::Zero(size, size);
+    d_end = Eigen::MatrixXd::Zero(size, size);
     d_start.topRows(stable_count) = start_split.stable_left;
-    d_end.bottomRows(2 * internal - stable_count) = end_split.unstable_left;
+    d_end.bottomRows(size - stable_count) = end_split.unstable_left;
   };
-  if (end_split.unstable_basis.cols() != 2 * internal - stable_count) {
-    throw NoSolution("stable inversion: the start and end equilibria have different numbers of "
-                     "unstable modes (" + std::to_string(2 * internal - stable_count) + " and " +
-                     std::to_string(end_split.unstable_basis.cols()) + ")");
-  }
 
   StableInversionSolution solution;
   std::optional<BoundaryValueSolution> previous;
@@ -141,10 +153,6 @@ StableInversionSolution SolveStableInversion(const Model& model,
   for (const auto* split : {&start_split, &end_split}) {
     for (const auto& value : split->eigenvalues) fastest = std::max(fastest, std::abs(value));
   }
-  // The linear solution is only Newton's starting point: a few digits suffice.
-  IntegratorOptions guess_accuracy;
-  guess_accuracy.rtol = 1e-4;
-  guess_accuracy.atol = 1e-7;
   for (int widening = 0;; ++widening) {
     const double t_a = t0 - pre, t_b = tf + post;
     // The first mesh: the window cut at the breakpoints, each piece into equal intervals.
@@ -170,34 +178,15 @@ StableInversionSolution SolveStableInversion(const Model& model,
     std::vector<Eigen::VectorXd> guess;
     for (const double t : mesh) {
       const double progress = std::clamp((t - t0) / (tf - t0), 0.0, 1.0);
-      guess.push_back((1.0 - progress) * start.equilibrium_state +
-                      progress * end.equilibrium_state);
+      guess.push_back((1.0 - progress) * start.state + progress * end.state);
     }
     BoundaryValueSolution bvp =
         SolveBoundaryValueProblem(rhs, {}, conditions, mesh, guess, bvp_options);
-    if (bvp.summary.status == SolveStatus::kNoConvergence) {
-      // Steps as long as the accuracy allows (a finite cap, so that
-      // SolveLinearStableInversion does not impose its own fine one).
-      guess_accuracy.max_step = t_b - t_a;
-      const LinearStableInversion linear = SolveLinearStableInversion(
-          start_split,
-          [&](double t) -> Eigen::VectorXd {
-            Eigen::VectorXd outputs(start.equilibrium_output.size());
-            const Eigen::Index m = outputs.size() / 3;
-            for (int order = 0; order < 3; ++order) {
-              outputs.segment(order * m, m) = trajectory.Derivative(t, order);
-            }
-            return start.drive_matrix * (outputs - start.equilibrium_output);
-          },
-          t_a, t_b, mesh, breakpoints, guess_accuracy);
-      if (linear.summary.IsUsable()) {
-        for (std::size_t i = 0; i < mesh.size(); ++i) {
-          guess[i] = start.equilibrium_state + linear.states[i];
-        }
-        const long earlier_evaluations = bvp.summary.function_evaluations;
-        bvp = SolveBoundaryValueProblem(rhs, {}, conditions, mesh, guess, bvp_options);
-        bvp.summary.function_evaluations += earlier_evaluations;
-      }
+    if (bvp.summary.status == SolveStatus::kNoConvergence && problem.linear_guess &&
+        problem.linear_guess(mesh, t_a, t_b, guess)) {
+      const long earlier_evaluations = bvp.summary.function_evaluations;
+      bvp = SolveBoundaryValueProblem(rhs, {}, conditions, mesh, guess, bvp_options);
+      bvp.summary.function_evaluations += earlier_evaluations;
     }
     solution.summary = bvp.summary;
     solution.window.boundary_value_residual = bvp.max_residual;
@@ -235,36 +224,33 @@ StableInversionSolution SolveStableInversion(const Model& model,
     if (!options.post_actuation) post *= kWideningFactor;
   }
 
-  // The answer at the mesh points, and where the input departs from rest.
-  const BoundaryValueSolution& bvp = *previous;
+  // The motion at the mesh points and between them, from the interpolant.
+  auto collocation = std::make_shared<const BoundaryValueSolution>(std::move(*previous));
+  solution.extension = problem.extension([collocation](double t) { return collocation->Evaluate(t); },
+                                         collocation->mesh.front(), collocation->mesh.back());
   std::string why;
-  Eigen::VectorXd x_dot;
-  for (std::size_t i = 0; i < bvp.mesh.size(); ++i) {
-    if (!rhs(bvp.mesh[i], bvp.y[i], x_dot, why)) {
+  for (const double t : collocation->mesh) {
+    Eigen::VectorXd q, q_dot, input;
+    if (!solution.extension->Evaluate(t, q, q_dot, input, why)) {
       solution.summary.status = SolveStatus::kNoConvergence;
-      solution.summary.message = "at t = " + FormatNumber(bvp.mesh[i]) + " s: " + why;
+      solution.summary.message = "at t = " + FormatNumber(t) + " s: " + why;
+      solution.extension.reset();
       return solution;
     }
-    solution.times.push_back(bvp.mesh[i]);
+    solution.times.push_back(t);
     solution.q.push_back(q);
     solution.q_dot.push_back(q_dot);
-    solution.u.push_back(u);
+    solution.u.push_back(input);
   }
   double largest = 0.0;
   for (const auto& input : solution.u) {
-    largest = std::max(largest, (input - start.equilibrium_input).cwiseAbs().maxCoeff());
+    largest = std::max(largest, (input - start.input).cwiseAbs().maxCoeff());
   }
-  // The motion between mesh points, through the same problem (kept alive by the extension;
-  // its calls must not overlap, as for any ServoConstraintProblem).
-  auto collocation = std::make_shared<const BoundaryValueSolution>(std::move(*previous));
-  solution.extension = InternalMotion(
-      shared_problem, [collocation](double t) { return collocation->Evaluate(t); }, start_q,
-      collocation->mesh.front(), collocation->mesh.back());
   const auto input_at = [&](double t) {
     Eigen::VectorXd coordinates, velocities, input;
     std::string reason;
     if (!solution.extension->Evaluate(t, coordinates, velocities, input, reason)) {
-      input.setConstant(problem.num_inputs(), std::numeric_limits<double>::quiet_NaN());
+      input.setConstant(start.input.size(), std::numeric_limits<double>::quiet_NaN());
     }
     return input;
   };
@@ -273,7 +259,7 @@ StableInversionSolution SolveStableInversion(const Model& model,
   // by bisection, since the high-order mesh is coarse where u is smooth.
   const double threshold = options.tolerance * largest;
   const auto departs = [&](double t, const Eigen::VectorXd& input) {
-    return (input - (t < t0 ? start : end).equilibrium_input).cwiseAbs().maxCoeff() > threshold;
+    return (input - (t < t0 ? start : end).input).cwiseAbs().maxCoeff() > threshold;
   };
   const auto crossing = [&](double quiet, double active) {
     for (int halving = 0; halving < kCrossingBisections; ++halving) {
@@ -304,6 +290,154 @@ StableInversionSolution SolveStableInversion(const Model& model,
                              std::to_string(solution.times.size()) + " mesh points, residual " +
                              FormatNumber(solution.window.boundary_value_residual);
   return solution;
+}
+
+// df/dx at a rest state by central differences of f itself (as LinearizeInternalDynamics
+// does for Eq. 25): the linearization of exactly what the boundary value problem solves.
+bool RestJacobian(const InternalBoundaryValueProblem& problem,
+                  double t,
+                  const Eigen::VectorXd& state,
+                  Eigen::MatrixXd& jacobian,
+                  std::string& why) {
+  const Eigen::Index n = state.size();
+  jacobian.resize(n, n);
+  Eigen::VectorXd plus, minus, u;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double step = kRestJacobianStep * std::max(1.0, std::abs(state[j]));
+    Eigen::VectorXd shifted = state;
+    shifted[j] += step;
+    if (!problem.rhs(t, shifted, plus, u, why)) return false;
+    shifted[j] = state[j] - step;
+    if (!problem.rhs(t, shifted, minus, u, why)) return false;
+    jacobian.col(j) = (plus - minus) / (2 * step);
+  }
+  return true;
+}
+
+}  // namespace
+
+StableInversionSolution SolveStableInversion(const Model& model,
+                                             const OutputTrajectory& trajectory,
+                                             const Eigen::VectorXd& start_q,
+                                             const Eigen::VectorXd& end_q,
+                                             const StableInversionOptions& options) {
+  options.Validate();
+  const LinearInternalDynamics start = LinearizeInternalDynamics(model, start_q);
+  const LinearInternalDynamics end = LinearizeInternalDynamics(model, end_q);
+  if (!start.internal_directions.isApprox(end.internal_directions)) {
+    throw NoSolution("stable inversion: the internal coordinates chosen at the start and end "
+                     "equilibria differ (H_a singular there); not supported yet");
+  }
+  // Shared with the extension (one problem, built once; its calls must not overlap).
+  const auto shared_problem = std::make_shared<ServoConstraintProblem>(model, trajectory, start_q);
+  ServoConstraintProblem& servo = *shared_problem;
+  const Eigen::Index internal = servo.num_internal();
+  const Eigen::MatrixXd& directions = servo.internal_directions();
+  Eigen::VectorXd q = start_q, q_dot, q_ddot;
+
+  InternalBoundaryValueProblem problem;
+  problem.size = 2 * internal;
+  problem.rhs = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& x_dot,
+                    Eigen::VectorXd& u, std::string& why) {
+    if (!servo.StateFromInternal(t, x.head(internal), x.tail(internal), q, q_dot, why) ||
+        !servo.NormalForm(t, q, q_dot, u, q_ddot, why)) {
+      return false;
+    }
+    x_dot.resize(2 * internal);
+    x_dot.head(internal) = x.tail(internal);
+    x_dot.tail(internal).noalias() = directions.transpose() * q_ddot;  // Eq. (25)
+    return true;
+  };
+  problem.start = {start.equilibrium_state, start.equilibrium_input,
+                   SplitHyperbolic(start.state_matrix)};
+  problem.end = {end.equilibrium_state, end.equilibrium_input, SplitHyperbolic(end.state_matrix)};
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  problem.linear_guess = [&](const std::vector<double>& mesh, double t_a, double t_b,
+                             std::vector<Eigen::VectorXd>& guess) {
+    // The linear solution is only Newton's starting point: a few digits suffice, with steps
+    // as long as the accuracy allows (a finite cap, so that SolveLinearStableInversion does
+    // not impose its own fine one).
+    IntegratorOptions guess_accuracy;
+    guess_accuracy.rtol = 1e-4;
+    guess_accuracy.atol = 1e-7;
+    guess_accuracy.max_step = t_b - t_a;
+    const LinearStableInversion linear = SolveLinearStableInversion(
+        problem.start.split,
+        [&](double t) -> Eigen::VectorXd {
+          Eigen::VectorXd outputs(start.equilibrium_output.size());
+          const Eigen::Index m = outputs.size() / 3;
+          for (int order = 0; order < 3; ++order) {
+            outputs.segment(order * m, m) = trajectory.Derivative(t, order);
+          }
+          return start.drive_matrix * (outputs - start.equilibrium_output);
+        },
+        t_a, t_b, mesh, breakpoints, guess_accuracy);
+    if (!linear.summary.IsUsable()) return false;
+    for (std::size_t i = 0; i < mesh.size(); ++i) {
+      guess[i] = start.equilibrium_state + linear.states[i];
+    }
+    return true;
+  };
+  problem.extension = [&](std::function<Eigen::VectorXd(double)> internal_state, double from,
+                          double to) {
+    return InternalMotion(shared_problem, std::move(internal_state), start_q, from, to);
+  };
+  return SolveInternalBoundaryValue(problem, breakpoints, options);
+}
+
+StableInversionSolution SolveOutputStableInversion(const Model& model,
+                                                   const OutputTrajectory& trajectory,
+                                                   std::shared_ptr<const AlgebraicInverse> form,
+                                                   const Eigen::VectorXd& start_q,
+                                                   const Eigen::VectorXd& end_q,
+                                                   const StableInversionOptions& options) {
+  options.Validate();
+  const Eigen::Index dof = start_q.size();
+  const Eigen::Index internal = form->internal_order();
+  if (internal == 0) {
+    throw NoSolution("stable inversion: there are no internal dynamics (the problem is flat)");
+  }
+  const auto map = std::make_shared<OutputNormalFormMap>(model, trajectory, form, start_q,
+                                                         Eigen::VectorXd::Zero(dof));
+  InternalBoundaryValueProblem problem;
+  problem.size = internal;
+  problem.rhs = [map](double t, const Eigen::VectorXd& z, Eigen::VectorXd& z_dot,
+                      Eigen::VectorXd& u, std::string& why) {
+    return map->RightHandSide(t, z, z_dot, u, why);
+  };
+  const std::vector<double> breakpoints = trajectory.breakpoints();
+  // The rest states, and the linearization there at a time when y_d is at rest.
+  const auto rest = [&](const Eigen::VectorXd& q, double t) {
+    Eigen::VectorXd state(2 * dof);
+    state << q, Eigen::VectorXd::Zero(dof);
+    InternalRest result;
+    result.state = form->internal_directions().transpose() * state;
+    Eigen::VectorXd z_dot;
+    Eigen::MatrixXd jacobian;
+    std::string why;
+    if (!problem.rhs(t, result.state, z_dot, result.input, why) ||
+        !RestJacobian(problem, t, result.state, jacobian, why)) {
+      throw NoSolution("stable inversion: the input-output normal form cannot be evaluated at "
+                       "rest (t = " + FormatNumber(t) + " s): " + why);
+    }
+    result.split = SplitHyperbolic(jacobian);
+    return result;
+  };
+  const double span = breakpoints.back() - breakpoints.front();
+  problem.start = rest(start_q, breakpoints.front() - span);
+  problem.end = rest(end_q, breakpoints.back() + span);
+  problem.extension = [&](std::function<Eigen::VectorXd(double)> internal_state, double from,
+                          double to) {
+    auto extension_map = std::make_shared<OutputNormalFormMap>(model, trajectory, form, start_q,
+                                                               Eigen::VectorXd::Zero(dof));
+    return MappedMotion(
+        [extension_map](double t, const Eigen::VectorXd& z, Eigen::VectorXd& q,
+                        Eigen::VectorXd& q_dot, Eigen::VectorXd& u, std::string& why) {
+          return extension_map->State(t, z, q, q_dot, u, why);
+        },
+        std::move(internal_state), from, to);
+  };
+  return SolveInternalBoundaryValue(problem, breakpoints, options);
 }
 
 }  // namespace servokit

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "models/model.h"
+#include "solvers/algebraic_inversion.h"
 #include "solvers/motion_extension.h"
 #include "solvers/solve_summary.h"
 #include "solvers/trajectory.h"
@@ -72,5 +73,18 @@ StableInversionSolution SolveStableInversion(const Model& model,
                                              const Eigen::VectorXd& start_q,
                                              const Eigen::VectorXd& end_q,
                                              const StableInversionOptions& options = {});
+
+/// Stable inversion of the input-output normal form of any vector relative degree (tangential
+/// and mixed realizations): the internal coordinates z = W^T (q, q') of `form` (an
+/// AlgebraicInverse with internal dynamics) as the same boundary value problem, their
+/// linearization at the rest states taken by central differences of z' = f(t, z) itself.
+/// Throws NoSolution when there are no internal dynamics, when the normal form cannot be
+/// evaluated at rest or its linearization there is not hyperbolic.
+StableInversionSolution SolveOutputStableInversion(const Model& model,
+                                                   const OutputTrajectory& trajectory,
+                                                   std::shared_ptr<const AlgebraicInverse> form,
+                                                   const Eigen::VectorXd& start_q,
+                                                   const Eigen::VectorXd& end_q,
+                                                   const StableInversionOptions& options = {});
 
 }  // namespace servokit

@@ -144,9 +144,11 @@ TEST_CASE("every error in the README's catalogue is what its example command pri
       const testing::Run run = RunServokit(Arguments(row.command, scratch.path()));
       INFO("stderr: " << run.err);
       CHECK(run.status == row.status);
-      // Warnings may come first; then the one error line.
+      // Warnings and notes may come first; then the one error line.
       std::string error = run.err;
-      while (error.rfind("servokit: warning: ", 0) == 0 && error.find('\n') != std::string::npos) {
+      while ((error.rfind("servokit: warning: ", 0) == 0 ||
+              error.rfind("servokit: note: ", 0) == 0) &&
+             error.find('\n') != std::string::npos) {
         error.erase(0, error.find('\n') + 1);
       }
       CHECK(std::count(error.begin(), error.end(), '\n') == 1);

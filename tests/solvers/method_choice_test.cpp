@@ -108,10 +108,11 @@ TEST_CASE("every refusal names a method that fits, or says that none does; auto 
   }
 }
 
-TEST_CASE("no method of servokit solves the double-pendulum crane yet, nor a tangential problem "
-          "with unstable zero dynamics, and the refusal says why for each", "[solvers]") {
-  for (const Case& test : {Case{TestDataPath("double_pendulum_crane.yaml"), {}},
-                           Case{ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "-1"}}}}) {
+// The double-pendulum crane's P vanishes at rest only: its relative degree is not defined
+// there, so no exact inverse passes through it.
+TEST_CASE("no method of servokit solves the double-pendulum crane at rest, and the refusal says "
+          "why for each", "[solvers]") {
+  for (const Case& test : {Case{TestDataPath("double_pendulum_crane.yaml"), {}}}) {
     const Model model = LoadModel(test.path, test.set);
     Workspace workspace(model);
     const Classification classification = Classify(model, workspace);

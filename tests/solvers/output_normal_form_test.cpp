@@ -8,6 +8,8 @@
 //   3, against the exact solution of its internal dynamics (below).
 // - A flexible-joint arm (tests/data/flexible_joint_arm.yaml): flat, relative degree 4, through
 //   every method that accepts it, against its closed form.
+// - The chain observed at x2 - 2 x3: unstable internal dynamics, stable inversion of the
+//   input-output normal form against the exact bounded inverse.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
@@ -229,6 +231,123 @@ TEST_CASE("flexible-joint arm through every method that accepts it", "[solvers]"
   }
   CHECK(accepted == std::vector<SolverMethod>{SolverMethod::kAlgebraic, SolverMethod::kNormalForm,
                                               SolverMethod::kRadau, SolverMethod::kEuler});
+}
+
+// The three-mass chain observed at y = x2 + gamma x3 with gamma = -2
+// (tests/data/three_mass_chain_unstable_output.yaml): tangential, relative degree 3, internal
+// dynamics xi = (x1, x3, x3') with x2 = y - gamma x3:
+//   m3 x3'' = k (y - (1 + gamma) x3) + c (y' - (1 + gamma) x3'),
+//   c x1'   = m2 (y'' - gamma x3'') - k x1 + 2 k (y - gamma x3) + 2 c (y' - gamma x3') - k x3 - c x3',
+// i.e. xi' = A xi + G w, w = (y, y', y''). Its bounded solution, mode by mode in A's
+// eigenvectors (eta' = lambda eta + g): on each piece of w (rest before t0, the polynomial, rest
+// after tf) the polynomial particular solution p = -sum_j lambda^-(j+1) g^(j), joined by
+// e^(lambda (t - a)) to the value at the piece's end from which the mode is bounded: stable
+// modes forward from rest at -infinity, unstable ones backward from rest at +infinity. Then
+// F = m1 x1'' + k (x1 - x2) + c (x1' - x2'), x1'' = A_0 xi' + G_0 w'. Eigen only.
+struct UnstableChainReference {
+  double m1 = 1.0, m2 = 2.0, m3 = 1.5, k = 50.0, c = 2.0, gamma = -2.0;
+  const RestToRestTrajectory& trajectory;
+  double t0, tf;
+  Eigen::Matrix3d a, g;
+  Eigen::Matrix3cd v, v_inverse;
+  Eigen::Vector3cd lambda;
+
+  UnstableChainReference(const RestToRestTrajectory& y, double start, double end)
+      : trajectory(y), t0(start), tf(end) {
+    const Eigen::RowVector3d a2(0.0, -k * (1 + gamma) / m3, -c * (1 + gamma) / m3);
+    const Eigen::RowVector3d g2(k / m3, c / m3, 0.0);
+    a.row(2) = a2;
+    g.row(2) = g2;
+    a.row(1) << 0.0, 0.0, 1.0;
+    g.row(1).setZero();
+    a.row(0) = Eigen::RowVector3d(-k, -2 * k * gamma - k, -2 * c * gamma - c) / c - m2 * gamma / c * a2;
+    g.row(0) = Eigen::RowVector3d(2 * k, 2 * c, m2) / c - m2 * gamma / c * g2;
+    const Eigen::EigenSolver<Eigen::Matrix3d> solver(a);
+    v = solver.eigenvectors();
+    v_inverse = v.inverse();
+    lambda = solver.eigenvalues();
+  }
+  // w^(order) at t inside the motion (the polynomial), or at rest outside it.
+  Eigen::Vector3d W(double t, int order) const {
+    Eigen::Vector3d w;
+    for (int i = 0; i < 3; ++i) w[i] = trajectory.Derivative(t, order + i)(0);
+    return w;
+  }
+  // The particular solution of mode i on the motion's piece at t.
+  std::complex<double> Particular(int i, double t) const {
+    std::complex<double> sum = 0, power = 1.0 / lambda[i];
+    for (int j = 0; j <= 14; ++j, power /= lambda[i]) {
+      sum -= power * (v_inverse.row(i) * (g * W(t, j)).cast<std::complex<double>>())(0);
+    }
+    return sum;
+  }
+  std::complex<double> RestParticular(int i, double y) const {
+    return -(v_inverse.row(i) * (g * Eigen::Vector3d(y, 0, 0)).cast<std::complex<double>>())(0) /
+           lambda[i];
+  }
+  Eigen::Vector3d State(double t) const {
+    const double y0 = trajectory.Derivative(t0 - 1, 0)(0), yf = trajectory.Derivative(tf + 1, 0)(0);
+    Eigen::Vector3cd eta;
+    for (int i = 0; i < 3; ++i) {
+      const std::complex<double> before = RestParticular(i, y0), after = RestParticular(i, yf);
+      if (lambda[i].real() < 0) {
+        const std::complex<double> at_tf =
+            Particular(i, tf) + std::exp(lambda[i] * (tf - t0)) * (before - Particular(i, t0));
+        eta[i] = t <= t0 ? before
+                 : t <= tf ? Particular(i, t) + std::exp(lambda[i] * (t - t0)) * (before - Particular(i, t0))
+                           : after + std::exp(lambda[i] * (t - tf)) * (at_tf - after);
+      } else {
+        const std::complex<double> at_t0 =
+            Particular(i, t0) + std::exp(lambda[i] * (t0 - tf)) * (after - Particular(i, tf));
+        eta[i] = t >= tf ? after
+                 : t >= t0 ? Particular(i, t) + std::exp(lambda[i] * (t - tf)) * (after - Particular(i, tf))
+                           : before + std::exp(lambda[i] * (t - t0)) * (at_t0 - before);
+      }
+    }
+    return (v * eta).real();
+  }
+  double Force(double t) const {
+    const bool moving = t > t0 && t < tf;
+    const Eigen::Vector3d xi = State(t);
+    const Eigen::Vector3d w = moving ? W(t, 0) : Eigen::Vector3d(trajectory.Derivative(t, 0)(0), 0, 0);
+    const Eigen::Vector3d w_dot = moving ? W(t, 1) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d xi_dot = a * xi + g * w;
+    const double x1_ddot = a.row(0).dot(xi_dot) + g.row(0).dot(w_dot);
+    const double x2 = w[0] - gamma * xi[1], x2_dot = w[1] - gamma * xi[2];
+    return m1 * x1_ddot + k * (xi[0] - x2) + c * (xi_dot[0] - x2_dot);
+  }
+};
+
+TEST_CASE("tangential chain with unstable internal dynamics: stable inversion is bounded, "
+          "non-causal and within 1e-8 of the exact bounded inverse", "[solvers]") {
+  const Problem problem = Load(TestDataPath("three_mass_chain_unstable_output.yaml"));
+  REQUIRE(problem.classification.decoupling.rank == 0);  // tangential
+  REQUIRE(problem.classification.zero_dynamics.stability == Stability::kUnstable);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        2.0);
+  InverseModelOptions options;
+  options.t_end = 8.0;
+  const FeedforwardSolution solution =
+      SolveInverseModel(problem.model, trajectory, problem.classification, options);
+  REQUIRE(solution.summary.IsUsable());
+  CHECK(solution.method == SolverMethod::kStableInversion);
+  REQUIRE(solution.window);
+  // Non-causal: the force starts before the motion (the unstable mode 6.48/s needs
+  // ln(1e8)/6.48 = 2.8 s of pre-actuation to start from rest at the tolerance).
+  CHECK(solution.window->pre_actuation_start < -1.0);
+  const UnstableChainReference reference(trajectory, 0.0, 2.0);
+  const double error = RelativeInputError(
+      solution, [&](double t) { return reference.Force(t); }, solution.t_start, 8.0);
+  double largest = 0;
+  for (const Eigen::VectorXd& u : solution.u) largest = std::max(largest, u.cwiseAbs().maxCoeff());
+  WARN("unstable chain, stable inversion: " << solution.summary.steps << " mesh points, window ["
+                                            << solution.window->start << ", "
+                                            << solution.window->end
+                                            << "], max |u - exact| / max |u| = " << error
+                                            << ", max |u| = " << largest);
+  CHECK(error <= 1e-8);
+  CHECK(std::abs(reference.Force(solution.t_start)) <= 1e-6 * largest);  // bounded, at rest
+  CHECK(VerifyFeedforward(problem.model, trajectory, solution).passed);
 }
 
 }  // namespace
