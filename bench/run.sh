@@ -12,6 +12,9 @@ echo
 echo "== inverse-model solves against SciPy solve_ivp (issue #4) =="
 "$root/bench/compare_solve.sh" "$build"
 echo
+echo "== paper case 3 (tangential) against SciPy solve_ivp on Eq. (40), equal accuracy (issue #15) =="
+"$root/bench/compare_case3.sh" "$build"
+echo
 echo "== stable inversion against SciPy solve_bvp (issue #5) =="
 "$root/bench/compare_stable_inversion.sh" "$build"
 echo

@@ -1,12 +1,15 @@
 // Issue #4 benchmark: the inverse-model solves of the paper's mass on car (Sect. 5.1-5.2).
 //   - normal form (Eqs. 24-25) with Dormand-Prince, case 2 (alpha = 5 deg, d = 1 and d = 0),
 //     rtol 1e-10, atol 1e-12: compared with SciPy's solve_ivp(RK45) by bench/compare_solve.sh;
-//   - Radau IIA on the projected DAE, case 4 (alpha = 0, d = 0): goal under 1 ms.
+//   - Radau IIA on the projected DAE, case 4 (alpha = 0, d = 0): goal under 1 ms;
+//   - with `case3`: case 3 (alpha = 0, d = 1, tangential) through auto (the input-output
+//     normal form) at several rtol, with u at every row, for bench/compare_case3.sh to compare
+//     with SciPy's solve_ivp on the hand-written Eq. (40) at equal accuracy.
 // Trajectory of Fig. 9: y from 0.5 m to 2.5 m in 0-6 s (Eq. 65), 10 s in all.
 // Times the solve alone (model loaded and classified once, as a user sweeping trajectories
 // would), best of several runs. Prints one JSON object per line.
 //
-// Usage: bench_solve MODELS_DIR [repetitions]
+// Usage: bench_solve MODELS_DIR [repetitions] [case3]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -55,6 +58,43 @@ void Measure(const std::string& path, const char* alpha, const char* damping,
       solution.summary.function_evaluations, solution.q.back()(1), solution.u.back()(0));
 }
 
+// Case 3 through auto at `rtol`: the rows at the steps (no continuous extension, as SciPy's
+// solve_ivp without dense_output), printed with their times for the accuracy check.
+void MeasureCase3(const std::string& path, double rtol, int repetitions) {
+  const Model model = LoadModel(path, {{"alpha", "0"}, {"d", "1"}});
+  Workspace workspace(model);
+  const Classification classification = Classify(model, workspace);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.5),
+                                        Eigen::VectorXd::Constant(1, 2.5), 0.0, 6.0);
+  InverseModelOptions options;
+  options.t_end = 10.0;
+  options.continuous_extension = false;
+  options.rtol = rtol;
+  options.atol = rtol * 1e-2;
+  double best = 1e300;
+  FeedforwardSolution solution;
+  for (int i = 0; i < repetitions; ++i) {
+    const auto start = Clock::now();
+    solution = SolveInverseModel(model, trajectory, classification, options);
+    best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+  }
+  if (!solution.summary.IsUsable()) {
+    std::fprintf(stderr, "bench_solve: case 3 failed: %s\n", solution.summary.message.c_str());
+    std::exit(1);
+  }
+  std::printf("{\"method\": \"%s\", \"rtol\": %.1e, \"seconds\": %.6e, \"steps\": %ld, "
+              "\"t\": [",
+              std::string(ToString(solution.method)).c_str(), rtol, best, solution.summary.steps);
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    std::printf("%s%.17g", i ? ", " : "", solution.times[i]);
+  }
+  std::printf("], \"u\": [");
+  for (std::size_t i = 0; i < solution.u.size(); ++i) {
+    std::printf("%s%.17g", i ? ", " : "", solution.u[i](0));
+  }
+  std::printf("]}\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -64,6 +104,12 @@ int main(int argc, char** argv) {
   }
   const std::string path = std::string(argv[1]) + "/mass_on_car.yaml";
   const int repetitions = argc > 2 ? std::atoi(argv[2]) : 20;
+  if (argc > 3 && std::string(argv[3]) == "case3") {
+    for (const double rtol : {1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10}) {
+      MeasureCase3(path, rtol, repetitions);
+    }
+    return 0;
+  }
   Measure(path, "5 deg", "1", SolverMethod::kNormalForm, repetitions);
   Measure(path, "5 deg", "0", SolverMethod::kNormalForm, repetitions);
   Measure(path, "0", "0", SolverMethod::kRadau, repetitions);

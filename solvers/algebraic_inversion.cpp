@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <cstddef>
 #include <exception>
 #include <optional>
@@ -92,16 +93,18 @@ Eigen::Index RegularRank(const Eigen::FullPivLU<Eigen::MatrixXd>& lu) {
 
 bool IsRegular(const Eigen::FullPivLU<Eigen::MatrixXd>& lu) { return RegularRank(lu) == lu.rows(); }
 
-// Solves A x = b through ScaledLu; false when A is singular or the answer is not finite.
-bool SolveScaled(const Eigen::MatrixXd& matrix,
-                 const Eigen::VectorXd& row_scale,
-                 const Eigen::VectorXd& column_scale,
-                 const Eigen::VectorXd& right_hand_side,
-                 Eigen::VectorXd& solution) {
-  const Eigen::FullPivLU<Eigen::MatrixXd> lu = ScaledLu(matrix, row_scale, column_scale);
+// Solves A x = b through the LU of D_row A D_column, factored into `lu` (kept by the caller,
+// so that no call allocates once it has the size); false when A is singular or the answer is
+// not finite.
+bool SolveScaledInto(const Eigen::MatrixXd& matrix,
+                     const Eigen::VectorXd& row_scale,
+                     const Eigen::VectorXd& column_scale,
+                     const Eigen::VectorXd& right_hand_side,
+                     Eigen::FullPivLU<Eigen::MatrixXd>& lu,
+                     Eigen::VectorXd& solution) {
+  lu.compute(row_scale.asDiagonal() * matrix * column_scale.asDiagonal());
   if (!IsRegular(lu)) return false;
-  solution = column_scale.asDiagonal() *
-             Eigen::VectorXd(lu.solve(Eigen::VectorXd(row_scale.asDiagonal() * right_hand_side)));
+  solution = column_scale.asDiagonal() * lu.solve(row_scale.asDiagonal() * right_hand_side);
   return solution.allFinite();
 }
 
@@ -276,6 +279,18 @@ std::vector<ex> ClosedForms(const NonlinearStructure& structure) {
 
 }  // namespace
 
+// Per-call scratch: the programs' inputs, registers and outputs, Newton's vectors and
+// matrices (a Workspace keeps them between calls, so that no call allocates).
+struct AlgebraicInverseScratch {
+  std::vector<double> inputs, registers, outputs;
+  Eigen::VectorXd x, residual, step, scaled, u;
+  Eigen::MatrixXd jacobian, coefficients;
+  Eigen::VectorXd right_hand_side;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu;
+  bool constant_matrix = false;        // affine constraints at the nominal parameters
+  bool constant_coefficients = false;  // constant u-coefficients at the nominal parameters
+};
+
 // The compiled inverse and its numerics. Both programs read [parameters, q, q_dot, Y]
 // (NonlinearStructure::ProgramInputs); x = (q, q_dot) is Newton's unknown.
 struct AlgebraicInverse::Programs {
@@ -283,8 +298,9 @@ struct AlgebraicInverse::Programs {
   // How many derivatives of each output the programs read (highest + 1), in input order.
   std::vector<int> derivative_counts;
   std::size_t num_derivatives = 0;
-  // ConstraintPrograms(): values, Jacobian by x, Jacobian by Y.
+  // ConstraintPrograms(): values, Jacobian by x, Jacobian by Y; and the values alone.
   ExpressionProgram constraints;
+  ExpressionProgram constraint_values;
   std::size_t num_constraints = 0;
   // InputEquations(): 0 = drift + coefficients u.
   ExpressionProgram input_equations;
@@ -298,13 +314,20 @@ struct AlgebraicInverse::Programs {
   // or in a u-coefficient dropped as zero): index and value.
   std::vector<std::pair<std::size_t, double>> pinned;
   std::vector<std::string> parameter_names;
+  // Constraints affine in x with a constant Jacobian: Newton's matrix factored once, valid for
+  // these parameter values.
+  Eigen::VectorXd nominal_parameters;  // the model's at construction
+  bool affine = false;
+  Eigen::FullPivLU<Eigen::MatrixXd> affine_lu;
+  // The same for a u-coefficient matrix free of the state and y_d, valid for the nominal
+  // parameters.
+  bool constant_coefficients = false;
+  Eigen::FullPivLU<Eigen::MatrixXd> coefficient_lu;
 
-  // Per-call scratch: the programs' inputs, registers and outputs (local to one Evaluate()).
-  struct Scratch {
-    std::vector<double> inputs, registers, outputs;
-  };
-  Scratch MakeScratch(const Eigen::VectorXd& parameters,
-                      const Eigen::MatrixXd& output_derivatives) const;
+  using Scratch = AlgebraicInverseScratch;
+  void PrepareScratch(const Eigen::VectorXd& parameters,
+                      const Eigen::MatrixXd& output_derivatives,
+                      Scratch& scratch) const;
 
   // Throws UsageError when a pinned parameter differs from its nominal value.
   void CheckPinned(const Eigen::VectorXd& parameters) const;
@@ -392,6 +415,45 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
         EquilibrationScales(newton_matrix);
     RequireStateFixed(newton_matrix, programs->jacobian_row_scale,
                       programs->jacobian_column_scale);
+    // Constraints affine in the state with a Jacobian free of y_d (linear models, the
+    // mass on car at alpha = 0): Newton's matrix is constant for the nominal parameters, so it
+    // is factored once here and one step from any start is exact.
+    programs->affine = std::none_of(
+        structure.constraints.begin(), structure.constraints.end(), [&](const ex& constraint) {
+          for (const auto* symbols : {&structure.coordinates, &structure.velocities}) {
+            for (const auto& variable : *symbols) {
+              const ex slope = constraint.diff(variable);
+              for (const ex& input : program_inputs) {
+                if (GiNaC::is_a<GiNaC::symbol>(input) &&
+                    std::find(structure.parameters.begin(), structure.parameters.end(), input) ==
+                        structure.parameters.end() &&
+                    slope.has(input)) {
+                  return true;
+                }
+              }
+            }
+          }
+          return false;
+        });
+    programs->nominal_parameters = model.parameters();
+    // A u-coefficient matrix free of the state and of y_d is factored once as well.
+    const std::vector<ex> equations = InputEquations(structure);
+    programs->constant_coefficients = std::none_of(
+        equations.begin(), equations.begin() + m * m, [&](const ex& coefficient) {
+          for (std::size_t k = structure.parameters.size(); k < program_inputs.size(); ++k) {
+            if (coefficient.has(program_inputs[k])) return true;
+          }
+          return false;
+        });
+    if (programs->constant_coefficients) {
+      programs->coefficient_lu = ScaledLu(nominal_coefficients, programs->coefficient_row_scale,
+                                          programs->coefficient_column_scale);
+    }
+    if (programs->affine) {
+      programs->constraint_values = CompileExpressions(structure.constraints, program_inputs);
+      programs->affine_lu = ScaledLu(newton_matrix, programs->jacobian_row_scale,
+                                     programs->jacobian_column_scale);
+    }
 
     for (std::size_t p : structure.pinned_parameters) {
       programs->pinned.emplace_back(p, model.parameters()[static_cast<Eigen::Index>(p)]);
@@ -427,10 +489,10 @@ const GiNaC::realsymbol& AlgebraicInverse::output_derivative_symbol(std::size_t 
   return derivative_symbols_[output][static_cast<std::size_t>(order)];
 }
 
-AlgebraicInverse::Programs::Scratch AlgebraicInverse::Programs::MakeScratch(
-    const Eigen::VectorXd& parameters, const Eigen::MatrixXd& output_derivatives) const {
-  Scratch scratch;
-  scratch.inputs.assign(num_parameters + 2 * dof + num_derivatives, 0.0);
+void AlgebraicInverse::Programs::PrepareScratch(const Eigen::VectorXd& parameters,
+                                                const Eigen::MatrixXd& output_derivatives,
+                                                Scratch& scratch) const {
+  scratch.inputs.resize(num_parameters + 2 * dof + num_derivatives);
   std::copy(parameters.begin(), parameters.end(), scratch.inputs.begin());
   std::size_t slot = num_parameters + 2 * dof;
   for (std::size_t i = 0; i < derivative_counts.size(); ++i) {
@@ -438,9 +500,12 @@ AlgebraicInverse::Programs::Scratch AlgebraicInverse::Programs::MakeScratch(
       scratch.inputs[slot++] = output_derivatives(static_cast<Eigen::Index>(i), k);
     }
   }
-  scratch.registers.resize(std::max(constraints.num_registers(), input_equations.num_registers()));
-  scratch.outputs.resize(std::max(constraints.num_outputs(), input_equations.num_outputs()));
-  return scratch;
+  scratch.registers.resize(std::max({constraints.num_registers(), input_equations.num_registers(),
+                                     constraint_values.num_registers()}));
+  scratch.outputs.resize(std::max({constraints.num_outputs(), input_equations.num_outputs(),
+                                   constraint_values.num_outputs()}));
+  scratch.constant_matrix = affine && parameters == nominal_parameters;
+  scratch.constant_coefficients = constant_coefficients && parameters == nominal_parameters;
 }
 
 void AlgebraicInverse::Programs::CheckPinned(const Eigen::VectorXd& parameters) const {
@@ -466,9 +531,34 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
   const auto derivatives = static_cast<Eigen::Index>(num_derivatives);
   const std::size_t by_derivative = num_constraints * (1 + static_cast<std::size_t>(states));
   const double* derivative_values = scratch.inputs.data() + num_parameters + 2 * dof;
-  Eigen::VectorXd residual(states), step(states);
-  Eigen::MatrixXd jacobian(states, states);
+  Eigen::VectorXd& residual = scratch.residual;
+  Eigen::VectorXd& step = scratch.step;
+  Eigen::MatrixXd& jacobian = scratch.jacobian;
+  residual.resize(states);
+  step.resize(states);
+  jacobian.resize(states, states);
   if (internal_rows > 0) jacobian.bottomRows(internal_rows) = internal_directions.transpose();
+  if (scratch.constant_matrix) {
+    // Affine constraints: one step with the matrix factored at construction is exact, from any
+    // start; only the constraints' values are needed.
+    std::copy(x.begin(), x.end(), scratch.inputs.begin() + static_cast<long>(num_parameters));
+    constraint_values.Evaluate(scratch.inputs.data(), scratch.registers.data(),
+                               scratch.outputs.data());
+    for (Eigen::Index r = 0; r < constraint_rows; ++r) {
+      residual[r] = scratch.outputs[static_cast<std::size_t>(r)];
+    }
+    for (Eigen::Index r = constraint_rows; r < states; ++r) {
+      residual[r] = internal_directions.col(r - constraint_rows).dot(x) - internal[r - constraint_rows];
+    }
+    scratch.scaled = jacobian_row_scale.asDiagonal() * residual;
+    step = jacobian_column_scale.asDiagonal() * affine_lu.solve(scratch.scaled);
+    x -= step;
+    if (!x.allFinite()) {
+      why = "the output constraints are not finite";
+      return false;
+    }
+    return true;
+  }
   double worst = 0;  // largest residual relative to the size of its terms
   bool last_step_at_round_off = false;
   double previous_worst = std::numeric_limits<double>::infinity();
@@ -519,7 +609,8 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
     previous_worst = worst;
     if (iteration == kMaxNewtonIterations) break;
     if (!jacobian.allFinite() ||
-        !SolveScaled(jacobian, jacobian_row_scale, jacobian_column_scale, residual, step)) {
+        !SolveScaledInto(jacobian, jacobian_row_scale, jacobian_column_scale, residual,
+                         scratch.lu, step)) {
       why = "the Jacobian of the output constraints is singular at " + StateText(x);
       return false;
     }
@@ -543,17 +634,24 @@ bool AlgebraicInverse::Programs::SolveInputs(Scratch& scratch,
   std::copy(x.begin(), x.end(), scratch.inputs.begin() + static_cast<long>(num_parameters));
   input_equations.Evaluate(scratch.inputs.data(), scratch.registers.data(), scratch.outputs.data());
   const auto m = static_cast<Eigen::Index>(num_inputs);
-  Eigen::MatrixXd coefficients(m, m);
-  Eigen::VectorXd right_hand_side(m);
+  Eigen::MatrixXd& coefficients = scratch.coefficients;
+  Eigen::VectorXd& right_hand_side = scratch.right_hand_side;
+  coefficients.resize(m, m);
+  right_hand_side.resize(m);
   for (Eigen::Index i = 0; i < m; ++i) {
     for (Eigen::Index j = 0; j < m; ++j) {
       coefficients(i, j) = scratch.outputs[static_cast<std::size_t>(i * m + j)];
     }
     right_hand_side[i] = -scratch.outputs[static_cast<std::size_t>(m * m + i)];
   }
+  if (scratch.constant_coefficients && right_hand_side.allFinite()) {
+    u = coefficient_column_scale.asDiagonal() *
+        coefficient_lu.solve(coefficient_row_scale.asDiagonal() * right_hand_side);
+    if (u.allFinite()) return true;
+  }
   if (!coefficients.allFinite() || !right_hand_side.allFinite() ||
-      !SolveScaled(coefficients, coefficient_row_scale, coefficient_column_scale, right_hand_side,
-                   u)) {
+      !SolveScaledInto(coefficients, coefficient_row_scale, coefficient_column_scale,
+                       right_hand_side, scratch.lu, u)) {
     why = "the inputs' coefficient matrix is singular at " + StateText(x);
     return false;
   }
@@ -589,6 +687,25 @@ bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_deriva
                                             Eigen::VectorXd& q_dot,
                                             Eigen::VectorXd& u,
                                             std::string& why) const {
+  Workspace workspace;
+  return EvaluateWithInternal(output_derivatives, internal, parameters, q, q_dot, u, why,
+                              workspace);
+}
+
+AlgebraicInverse::Workspace::Workspace() : scratch_(std::make_unique<AlgebraicInverseScratch>()) {}
+AlgebraicInverse::Workspace::~Workspace() = default;
+AlgebraicInverse::Workspace::Workspace(Workspace&&) noexcept = default;
+AlgebraicInverse::Workspace& AlgebraicInverse::Workspace::operator=(Workspace&&) noexcept =
+    default;
+
+bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
+                                            const Eigen::VectorXd& internal,
+                                            const Eigen::VectorXd& parameters,
+                                            Eigen::VectorXd& q,
+                                            Eigen::VectorXd& q_dot,
+                                            Eigen::VectorXd& u,
+                                            std::string& why,
+                                            Workspace& workspace) const {
   const Programs& programs = *programs_;
   const auto dof = static_cast<Eigen::Index>(programs.dof);
   const auto m = static_cast<Eigen::Index>(programs.num_inputs);
@@ -608,18 +725,67 @@ bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_deriva
   check_size("q_dot", q_dot.size(), 1, dof, 1);
   programs.CheckPinned(parameters);
 
-  Programs::Scratch scratch = programs.MakeScratch(parameters, output_derivatives);
-  Eigen::VectorXd x(2 * dof), inputs;
+  Programs::Scratch& scratch = *workspace.scratch_;
+  programs.PrepareScratch(parameters, output_derivatives, scratch);
+  Eigen::VectorXd& x = scratch.x;
+  x.resize(2 * dof);
   x << q, q_dot;
   if (!programs.SolveState(internal, scratch, x, why) ||
-      !programs.SolveInputs(scratch, x, inputs, why)) {
+      !programs.SolveInputs(scratch, x, scratch.u, why)) {
     return false;
   }
   q = x.head(dof);
   q_dot = x.tail(dof);
-  u = inputs;
+  u = scratch.u;
   why.clear();
   return true;
+}
+
+namespace {
+
+// The derivations of this process, most recent last: solving many trajectories of one model
+// derives its inverse once. Keyed by everything the derivation depends on.
+struct CachedInverse {
+  std::string key;
+  std::shared_ptr<const AlgebraicInverse> inverse;
+};
+constexpr std::size_t kCachedInverses = 8;
+
+std::string CacheKey(const Model& model, const AlgebraicInverseOptions& options) {
+  std::string key = model.content_hash() + "|" + model.name();
+  const auto append = [&key](double value) {
+    key.append(reinterpret_cast<const char*>(&value), sizeof value);
+  };
+  for (const double value : model.parameters()) append(value);
+  key += "|";
+  for (const double value : options.reference_q) append(value);
+  append(options.rank_tolerance);
+  key += options.internal_dynamics ? "i" : "f";
+  return key;
+}
+
+}  // namespace
+
+std::shared_ptr<const AlgebraicInverse> DeriveAlgebraicInverse(
+    const Model& model, const AlgebraicInverseOptions& options) {
+  static std::mutex mutex;
+  static std::vector<CachedInverse> cache;
+  const std::string key = CacheKey(model, options);
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (auto entry = cache.begin(); entry != cache.end(); ++entry) {
+      if (entry->key != key) continue;
+      CachedInverse found = std::move(*entry);
+      cache.erase(entry);
+      cache.push_back(found);
+      return found.inverse;
+    }
+  }
+  auto inverse = std::make_shared<const AlgebraicInverse>(model, options);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() == kCachedInverses) cache.erase(cache.begin());
+  cache.push_back({key, inverse});
+  return inverse;
 }
 
 }  // namespace servokit

@@ -35,6 +35,7 @@
 namespace servokit {
 
 class ExpressionProgram;
+struct AlgebraicInverseScratch;
 
 struct AlgebraicInverseOptions {
   // Accept internal dynamics: the relative degrees may add up to less than 2 dof. Internal
@@ -106,6 +107,29 @@ class AlgebraicInverse {
                             Eigen::VectorXd& u,
                             std::string& why) const;
 
+  /// Scratch space of one caller (one thread): keeps the programs' registers and Newton's
+  /// matrices between calls, so that a right-hand side does not allocate.
+  class Workspace {
+   public:
+    Workspace();
+    ~Workspace();
+    Workspace(Workspace&&) noexcept;
+    Workspace& operator=(Workspace&&) noexcept;
+
+   private:
+    friend class AlgebraicInverse;
+    std::unique_ptr<AlgebraicInverseScratch> scratch_;
+  };
+  /// As above, with the caller's workspace.
+  bool EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
+                            const Eigen::VectorXd& internal,
+                            const Eigen::VectorXd& parameters,
+                            Eigen::VectorXd& q,
+                            Eigen::VectorXd& q_dot,
+                            Eigen::VectorXd& u,
+                            std::string& why,
+                            Workspace& workspace) const;
+
   /// u_d as closed forms in the parameters and the symbols of y_d^(k) when the state
   /// constraints are linear in (q, q'), one per input; empty otherwise. For mass on car case 4:
   /// (m1 + m2) y1_d'' + m1 m2 / k y1_d'''' (Eq. 47). Parameters that were 0 at construction
@@ -125,5 +149,12 @@ class AlgebraicInverse {
   std::vector<GiNaC::ex> input_formulas_;
   std::unique_ptr<const Programs> programs_;
 };
+
+/// The inverse of `model` (with its parameters) for `options`, derived once per process for
+/// the same model file, parameter values and options (the last few are kept), so that solving
+/// many trajectories of one model pays for the symbolic derivation once. Throws as the
+/// constructor. Thread-safe; the derivation itself runs in the calling thread (GiNaC).
+std::shared_ptr<const AlgebraicInverse> DeriveAlgebraicInverse(
+    const Model& model, const AlgebraicInverseOptions& options = {});
 
 }  // namespace servokit

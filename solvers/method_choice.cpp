@@ -86,7 +86,7 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
         AlgebraicInverseOptions options;
         options.reference_q = classification_.operating_point.q;
         options.rank_tolerance = classification_.rank_tolerance;
-        algebraic_inverse_ = std::make_shared<const AlgebraicInverse>(model_, options);
+        algebraic_inverse_ = DeriveAlgebraicInverse(model_, options);
       } catch (const NoSolution& error) {
         return refuse(error.what());
       }
@@ -152,7 +152,7 @@ std::string MethodChooser::DeriveOutputNormalForm() {
     options.internal_dynamics = true;
     options.reference_q = classification_.operating_point.q;
     options.rank_tolerance = classification_.rank_tolerance;
-    output_normal_form_ = std::make_shared<const AlgebraicInverse>(model_, options);
+    output_normal_form_ = DeriveAlgebraicInverse(model_, options);
     return "";
   } catch (const NoSolution& error) {
     output_normal_form_refusal_ = "no input-output normal form: " + std::string(error.what());

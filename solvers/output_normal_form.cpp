@@ -24,7 +24,7 @@ bool OutputNormalFormMap::State(double t,
                                 std::string& why) {
   trajectory_.Derivatives(t, form_->highest_output_derivative(), derivatives_);
   if (!form_->EvaluateWithInternal(derivatives_, internal, model_.parameters(), q_, q_dot_, u,
-                                   why)) {
+                                   why, inverse_workspace_)) {
     return false;
   }
   q = q_;
@@ -44,7 +44,11 @@ bool OutputNormalFormMap::InternalDerivative(const Eigen::VectorXd& u,
   }
   const Eigen::Index f = q_.size();
   velocity_.resize(2 * f);
-  velocity_ << q_dot_, mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
+  velocity_.head(f) = q_dot_;
+  force_.noalias() = workspace_.input_matrix * u;
+  force_ -= workspace_.forces;
+  velocity_.tail(f) = force_;
+  mass_factor_.solveInPlace(velocity_.tail(f));
   internal_dot.noalias() = form_->internal_directions().transpose() * velocity_;
   return true;
 }

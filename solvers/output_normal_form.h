@@ -50,9 +50,10 @@ class OutputNormalFormMap {
   const OutputTrajectory& trajectory_;
   std::shared_ptr<const AlgebraicInverse> form_;
   Workspace workspace_;
+  AlgebraicInverse::Workspace inverse_workspace_;
   Eigen::LLT<Eigen::MatrixXd> mass_factor_;
   Eigen::MatrixXd derivatives_;
-  Eigen::VectorXd q_, q_dot_, velocity_, scratch_q_, scratch_q_dot_;
+  Eigen::VectorXd q_, q_dot_, velocity_, force_, scratch_q_, scratch_q_dot_;
 };
 
 }  // namespace servokit

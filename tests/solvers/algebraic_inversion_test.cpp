@@ -629,5 +629,22 @@ TEST_CASE("output derivative symbols are named y<i>_d with primes and checked", 
   CHECK_THROWS_AS(inverse.output_derivative_symbol(0, -1), std::out_of_range);
 }
 
+// DeriveAlgebraicInverse derives once per model file, parameter values and options: the same
+// object for a second solve, another for another parameter value or other options.
+TEST_CASE("derivations are kept per model, parameters and options", "[solvers]") {
+  const Model case4 = LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  const Model heavier =
+      LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}, {"m1", "3"}});
+  const auto first = DeriveAlgebraicInverse(case4);
+  CHECK(DeriveAlgebraicInverse(case4) == first);
+  CHECK(DeriveAlgebraicInverse(LoadModel(ModelPath("mass_on_car.yaml"),
+                                         {{"alpha", "0"}, {"d", "0"}})) == first);
+  CHECK(DeriveAlgebraicInverse(heavier) != first);
+  AlgebraicInverseOptions options;
+  options.internal_dynamics = true;
+  CHECK(DeriveAlgebraicInverse(case4, options) != first);
+  CHECK(DeriveAlgebraicInverse(case4) == first);
+}
+
 }  // namespace
 }  // namespace servokit
