@@ -23,7 +23,7 @@ constexpr NameTable<Stability, 4> kStabilityNames{{
     {Stability::kNone, "none"},
 }};
 
-constexpr NameTable<SolverMethod, 7> kSolverMethodNames{{
+constexpr NameTable<SolverMethod, 8> kSolverMethodNames{{
     {SolverMethod::kAuto, "auto"},
     {SolverMethod::kAlgebraic, "algebraic"},
     {SolverMethod::kEuler, "euler"},
@@ -31,6 +31,7 @@ constexpr NameTable<SolverMethod, 7> kSolverMethodNames{{
     {SolverMethod::kBdf, "bdf"},
     {SolverMethod::kNormalForm, "normal-form"},
     {SolverMethod::kStableInversion, "stable-inversion"},
+    {SolverMethod::kLinearized, "linearized"},
 }};
 
 constexpr NameTable<ThresholdEvent, 3> kThresholdEventNames{{

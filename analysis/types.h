@@ -31,6 +31,7 @@ enum class SolverMethod {
   kBdf,              // BDF (SUNDIALS IDA) on the projected DAE, index 1
   kNormalForm,       // internal dynamics (Eq. 25) with Dormand-Prince
   kStableInversion,  // two-sided boundary value problem (Sect. 5.3)
+  kLinearized,       // the exact inverse of the linearization, applied to the model
 };
 
 /// What `servokit threshold --event` looks for along a parameter.

@@ -1,5 +1,5 @@
 // servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf TF]
-//     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion
+//     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
 //     [--post-actuation S] [--verify] --out FILE.csv
 #include <cmath>
@@ -130,8 +130,8 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   const std::optional<SolverMethod> method = SolverMethodFromString(arguments.method);
   if (!method) {
     throw UsageError("--method " + arguments.method +
-                     ": expected auto, algebraic, euler, radau, bdf, normal-form or "
-                     "stable-inversion");
+                     ": expected auto, algebraic, euler, radau, bdf, normal-form, "
+                     "stable-inversion or linearized");
   }
   // Before any work: a solve whose answer cannot be written is wasted.
   const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();

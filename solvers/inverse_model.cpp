@@ -10,6 +10,7 @@
 #include "solvers/algebraic_inversion.h"
 #include "solvers/output_normal_form.h"
 #include "solvers/dense_output.h"
+#include "solvers/linearized_inverse.h"
 #include "solvers/method_choice.h"
 #include "solvers/radau.h"
 #include "solvers/solver_messages.h"
@@ -602,6 +603,7 @@ void SolveForward(const Model& model,
       }
       break;
     case SolverMethod::kStableInversion:
+    case SolverMethod::kLinearized:
     case SolverMethod::kAuto:
       break;  // not forward; Choose() never returns kAuto
   }
@@ -679,6 +681,17 @@ FeedforwardSolution SolveInverseModel(const Model& model,
   FeedforwardSolution solution;
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);
   CheckSettingsFor(solution, options, classification);
+  if (solution.method == SolverMethod::kLinearized) {
+    solution = SolveLinearizedInverse(model, trajectory, classification, options);
+    ServoConstraintProblem problem(model, trajectory, classification.operating_point.q,
+                                   options.problem);
+    solution.max_servo_residual = 0.0;
+    for (std::size_t i = 0; i < solution.times.size(); ++i) {
+      solution.max_servo_residual = std::max(
+          solution.max_servo_residual, problem.ServoResidual(solution.times[i], solution.q[i]));
+    }
+    return solution;
+  }
   solution.accuracy = AccuracyOf(solution.method, options);
   ResolveSpan(trajectory, options, solution);
   const double grid_anchor = solution.t_start;

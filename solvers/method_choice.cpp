@@ -134,6 +134,8 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
                       "), which stable inversion cannot split into decaying and growing parts");
       }
       break;
+    case SolverMethod::kLinearized:
+      break;  // the linearization's inverse always exists where the classification does
     case SolverMethod::kAuto:
       return refuse("auto is not a method");
   }
@@ -208,7 +210,9 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
     if (verdict.forceable) forceable.push_back(method);
     why += (why.empty() ? "" : "; ") + Name(method) + ": " + verdict.reason;
   }
-  throw MethodRefused("no method of servokit solves this problem (" + class_text + "): " + why,
+  throw MethodRefused("no method of servokit solves this problem (" + class_text + "): " + why +
+                          "; --method linearized inverts the linearization at the operating "
+                          "point instead (an approximation: --verify measures it)",
                       {}, forceable);
 }
 

@@ -67,7 +67,18 @@ const MethodSettings& SettingsOf(SolverMethod method) {
                                                   .default_rtol = collocation.tolerance,
                                                   .default_atol = collocation.absolute_tolerance,
                                                   .min_rtol = kBoundaryValueMinTolerance};
+  // The linearization's own inverse reads the algebraic inverse's step and stable inversion's
+  // tolerances and actuation times, whichever it uses.
+  static const MethodSettings kLinearized = {.uses_step = true,
+                                             .uses_tolerances = true,
+                                             .uses_actuation = true,
+                                             .default_rtol = collocation.tolerance,
+                                             .default_atol = collocation.absolute_tolerance,
+                                             .min_rtol = kBoundaryValueMinTolerance,
+                                             .default_step = kPaperStep};
   switch (method) {
+    case SolverMethod::kLinearized:
+      return kLinearized;
     case SolverMethod::kAlgebraic:
       return kAlgebraic;
     case SolverMethod::kEuler:

@@ -174,7 +174,11 @@ Verification VerifyFeedforward(const Model& model,
   const std::string resolution_rule =
       Number(options.resolution_factor) + " x (the forward check's own resolution, rtol max|y_d| + "
       "atol = " + Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
-      Number(verification.forward_atol) + (exact ? "; the inverse is exact)" : ")");
+      Number(verification.forward_atol) +
+      (solution.method == SolverMethod::kLinearized
+           ? "; the bound of an exact inverse: the linearization's inverse passes only where it "
+             "is exact to that resolution)"
+           : exact ? "; the inverse is exact)" : ")");
   if (accuracy.step) {
     verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
     verification.bound_rule = Number(options.step_bound_factor) + " x step max|y_d'| = " +

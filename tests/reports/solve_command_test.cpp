@@ -213,5 +213,32 @@ TEST_CASE("solve: the gantry crane and a PVTOL invert exactly through the dynami
   std::filesystem::remove(csv);
 }
 
+// The double-pendulum crane's P vanishes at rest only: no method inverts it exactly there and
+// the refusal offers --method linearized; that runs, warns, and --verify measures it honestly
+// (the linearization's inverse is not exact: exit 4 at the exact inverse's bound).
+TEST_CASE("solve --method linearized where the relative degree is undefined at rest",
+          "[reports]") {
+  const auto csv = TemporaryFile("linearized.csv");
+  const std::vector<std::string> crane = {
+      "solve", TestDataPath("double_pendulum_crane.yaml"), "--trajectory", "rest-to-rest",
+      "--y0", "0", "--yf", "0.2", "--t0", "0", "--tf", "3", "--t-end", "4", "--out", csv.string()};
+  const auto refused = RunServokit(crane);
+  CHECK(refused.status == 3);
+  CHECK_THAT(refused.err, Catch::Contains("no exact inverse passes through it") &&
+                              Catch::Contains("--method linearized"));
+  const auto run = RunServokit(With(crane, {"--method", "linearized", "--verify"}));
+  CHECK(run.status == 4);
+  const auto json = nlohmann::json::parse(run.out);
+  CHECK(json["method"] == "linearized");
+  CHECK_THAT(json["method_reason"].get<std::string>(), Catch::Contains("(algebraic)"));
+  CHECK_THAT(run.err, Catch::Contains("linearized: u_d inverts the linearization"));
+  const double error = json["verification"]["max_tracking_error"].get<double>();
+  // A 0.2 m move in 3 s swings the ropes by a few degrees: the nonlinear terms leave an error
+  // far above the exact inverse's bound, yet small against the move.
+  CHECK(error > json["verification"]["bound"].get<double>());
+  CHECK(error < 1e-2 * 0.2);
+  std::filesystem::remove(csv);
+}
+
 }  // namespace
 }  // namespace servokit
