@@ -228,6 +228,32 @@ TEST_CASE("stiff internal dynamics: the normal form integrates them with BDF, to
   CHECK(VerifyFeedforward(problem.model, trajectory, solution).passed);
 }
 
+// A nonlinear tangential chain (tests/data/three_mass_chain_cubic_spring.yaml): no closed
+// form, so the forward simulation of --verify is the independent check; its error must fall
+// with the tolerance (Radau IIA's input stayed at ~2e-3 whatever rtol, being O(h^2)).
+TEST_CASE("cubic-spring chain: the normal form converges with rtol", "[solvers]") {
+  const Problem problem = Load(TestDataPath("three_mass_chain_cubic_spring.yaml"));
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                        2.0);
+  std::vector<double> errors;
+  for (const double rtol : {1e-6, 1e-10}) {
+    InverseModelOptions options;
+    options.t_end = 4.0;
+    options.rtol = rtol;
+    const FeedforwardSolution solution =
+        SolveInverseModel(problem.model, trajectory, problem.classification, options);
+    REQUIRE(solution.summary.IsUsable());
+    CHECK(solution.method == SolverMethod::kNormalForm);
+    const Verification check = VerifyFeedforward(problem.model, trajectory, solution);
+    CHECK(check.passed);
+    errors.push_back(check.max_tracking_error);
+  }
+  WARN("cubic-spring chain: --verify " << errors[0] << " at rtol 1e-6, " << errors[1]
+                                       << " at 1e-10");
+  CHECK(errors[1] <= 1e-8);
+  CHECK(errors[1] <= 1e-3 * errors[0]);
+}
+
 // Flexible-joint arm, y = q1: Il y'' + m g lc sin(y) = k (q2 - y) gives
 // q2 = y + (Il y'' + m g lc sin y) / k, and the motor's equation gives
 // tau = Jm q2'' + Il y'' + m g lc sin y, with
