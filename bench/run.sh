@@ -15,6 +15,9 @@ echo
 echo "== paper case 3 (tangential) against SciPy solve_ivp on Eq. (40), equal accuracy (issue #15) =="
 "$root/bench/compare_case3.sh" "$build"
 echo
+echo "== flat inverse of a linear double-pendulum crane (relative degree 6) against NumPy (issue #15) =="
+"$root/bench/compare_flat_crane.sh" "$build"
+echo
 echo "== stable inversion against SciPy solve_bvp (issue #5) =="
 "$root/bench/compare_stable_inversion.sh" "$build"
 echo
