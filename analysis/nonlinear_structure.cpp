@@ -290,69 +290,91 @@ std::vector<GiNaC::ex> NonlinearStructure::ProgramInputs() const {
   return inputs;
 }
 
-NonlinearStructure DeriveNonlinearStructure(const Model& model,
-                                            const NonlinearStructureOptions& options) {
-  const Dynamics dynamics = BuildDynamics(model);
-  const std::vector<DecisionPoint> points =
-      DecisionPoints(dynamics, model.parameters(), options.reference_q);
-  const double tolerance = options.rank_tolerance;
-  const std::size_t m = model.num_outputs();
-  const std::size_t states = 2 * model.dof();
-  const int max_order = static_cast<int>(states);
+namespace {
 
-  NonlinearStructure structure;
-  structure.relative_degree.assign(m, 0);
-  std::set<std::size_t> pinned(dynamics.zero_parameters.begin(), dynamics.zero_parameters.end());
-  std::vector<Row> rows(m);
-  for (std::size_t i = 0; i < m; ++i) {
-    rows[i].function = dynamics.outputs[i] - dynamics.output_derivatives[i][0];
+// The structure algorithm's state: the rows being differentiated and what they have given.
+class StructureAlgorithm {
+ public:
+  StructureAlgorithm(const Model& model, const NonlinearStructureOptions& options)
+      : dynamics_(BuildDynamics(model)),
+        points_(DecisionPoints(dynamics_, model.parameters(), options.reference_q)),
+        tolerance_(options.rank_tolerance),
+        states_(2 * model.dof()),
+        rows_(model.num_outputs()),
+        pinned_(dynamics_.zero_parameters.begin(), dynamics_.zero_parameters.end()) {
+    structure_.relative_degree.assign(rows_.size(), 0);
+    for (std::size_t i = 0; i < rows_.size(); ++i) {
+      rows_[i].function = dynamics_.outputs[i] - dynamics_.output_derivatives[i][0];
+    }
   }
-  const auto not_independent = [&](std::size_t row) {
+
+  NonlinearStructure Run() {
+    for (;;) {
+      for (std::size_t i = 0; i < rows_.size(); ++i) DifferentiateUntilInputsAppear(i);
+      const std::size_t rank = RankNearby();
+      if (rank == rows_.size()) break;
+      structure_.extension_steps.push_back(ExtendDynamically(rank));
+    }
+    return Finish();
+  }
+
+ private:
+  NoSolution NotIndependent(std::size_t row) const {
     return NoSolution("the outputs do not determine the inputs: with output " + OutputName(row) +
                       " the structure algorithm needs more than 2 dof = " +
-                      std::to_string(states) +
+                      std::to_string(states_) +
                       " constraints on the state (the outputs are not independent; no left "
                       "inverse exists)");
-  };
+  }
 
-  for (;;) {
-    for (std::size_t i = 0; i < m; ++i) {
-      Row& row = rows[i];
-      while (!row.finished) {
-        if (structure.constraints.size() == states) throw not_independent(i);
-        structure.constraints.push_back(row.function);
-        structure.constraint_row.push_back(i);
-        structure.constraint_order.push_back(row.order);
-        TimeDerivative derivative = Differentiate(row.function, dynamics);
-        ++row.order;
-        if (!CoefficientsVanish(derivative.input_coefficients, row.function, dynamics, points,
-                                tolerance)) {
-          row.finished = true;
-          row.drift = derivative.drift;
-          row.coefficients = std::move(derivative.input_coefficients);
-          if (structure.relative_degree[i] == 0) structure.relative_degree[i] = row.order;
-          break;
-        }
-        // Coefficients zero only numerically are dropped: the derivation then holds for the
-        // nominal values of the parameters in them.
-        AddParametersOf(derivative.input_coefficients, dynamics, pinned);
-        row.function = derivative.drift;
-        if (row.order >= max_order && structure.relative_degree[i] == 0) {
-          throw NoSolution("output " + OutputName(i) +
-                           " never depends on the inputs (checked up to its derivative of order " +
-                           std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
-        }
+  // Row i's u-free functions become constraints until u appears in a derivative.
+  void DifferentiateUntilInputsAppear(std::size_t i) {
+    Row& row = rows_[i];
+    const int max_order = static_cast<int>(states_);
+    while (!row.finished) {
+      if (structure_.constraints.size() == states_) throw NotIndependent(i);
+      structure_.constraints.push_back(row.function);
+      structure_.constraint_row.push_back(i);
+      structure_.constraint_order.push_back(row.order);
+      TimeDerivative derivative = Differentiate(row.function, dynamics_);
+      ++row.order;
+      if (!CoefficientsVanish(derivative.input_coefficients, row.function, dynamics_, points_,
+                              tolerance_)) {
+        row.finished = true;
+        row.drift = derivative.drift;
+        row.coefficients = std::move(derivative.input_coefficients);
+        if (structure_.relative_degree[i] == 0) structure_.relative_degree[i] = row.order;
+        return;
+      }
+      // Coefficients zero only numerically are dropped: the derivation then holds for the
+      // nominal values of the parameters in them.
+      AddParametersOf(derivative.input_coefficients, dynamics_, pinned_);
+      row.function = derivative.drift;
+      if (row.order >= max_order && structure_.relative_degree[i] == 0) {
+        throw NoSolution("output " + OutputName(i) +
+                         " never depends on the inputs (checked up to its derivative of order " +
+                         std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
       }
     }
-    // The rank on a neighbourhood: the largest at the generic points.
+  }
+
+  // The rank of the input equations' matrix on a neighbourhood: the largest at the generic
+  // points.
+  std::size_t RankNearby() const {
     std::size_t rank = 0;
-    for (std::size_t p = 1; p < points.size(); ++p) {
-      rank = std::max(rank, RankAt(rows, dynamics, points[p], tolerance).value_or(0));
+    for (std::size_t p = 1; p < points_.size(); ++p) {
+      rank = std::max(rank, RankAt(rows_, dynamics_, points_[p], tolerance_).value_or(0));
     }
-    if (rank == m) break;
+    return rank;
+  }
+
+  // One step of the dynamic extension: keep `rank` rows whose block is regular at the
+  // reference state, replace every other row d by g_d = drift_d - A_dC A_RC^-1 drift_R.
+  StructureStep ExtendDynamically(std::size_t rank) {
+    const std::size_t m = rows_.size();
     Eigen::MatrixXd reference;
     const std::optional<std::size_t> reference_rank =
-        RankAt(rows, dynamics, points[0], tolerance, &reference);
+        RankAt(rows_, dynamics_, points_[0], tolerance_, &reference);
     if (rank == 0 || !reference_rank || *reference_rank < rank) {
       throw NoSolution(
           "the inputs' coefficients in the outputs' derivatives form a matrix of rank " +
@@ -360,8 +382,28 @@ NonlinearStructure DeriveNonlinearStructure(const Model& model,
           " near the reference state but of lower rank there: the rows a dynamic extension "
           "would keep are not defined at the operating point");
     }
-    // The rows and columns to keep: the pivots of a full-pivoting LU at the reference state,
-    // rows scaled to unit size so that units do not choose.
+    StructureStep step = KeptRowsAndColumns(reference, rank);
+    const auto rho = static_cast<unsigned>(rank);
+    GiNaC::matrix kept_block(rho, rho);
+    for (unsigned a = 0; a < rho; ++a) {
+      for (unsigned b = 0; b < rho; ++b) {
+        kept_block(a, b) = rows_[step.kept_rows[a]].coefficients[step.delayed_inputs[b]];
+      }
+    }
+    const GiNaC::matrix kept_inverse = kept_block.inverse();
+    for (std::size_t d = 0; d < m; ++d) {
+      if (std::find(step.kept_rows.begin(), step.kept_rows.end(), d) != step.kept_rows.end()) {
+        continue;
+      }
+      CombineWithKeptRows(d, step, kept_inverse);
+      step.combined_rows.push_back(d);
+    }
+    return step;
+  }
+
+  // The rows and columns to keep: the pivots of a full-pivoting LU at the reference state,
+  // rows scaled to unit size so that units do not choose.
+  static StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference, std::size_t rank) {
     Eigen::VectorXd row_size = reference.rowwise().norm();
     for (Eigen::Index i = 0; i < row_size.size(); ++i) {
       if (row_size[i] == 0) row_size[i] = 1;
@@ -369,91 +411,100 @@ NonlinearStructure DeriveNonlinearStructure(const Model& model,
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(row_size.cwiseInverse().asDiagonal() * reference);
     StructureStep step;
     step.rank = rank;
-    std::vector<bool> kept(m, false);
     for (std::size_t k = 0; k < rank; ++k) {
       const auto pivot = static_cast<Eigen::Index>(k);
-      const auto kept_row = static_cast<std::size_t>(lu.permutationP().indices()[pivot]);
-      step.kept_rows.push_back(kept_row);
-      step.delayed_inputs.push_back(
-          static_cast<std::size_t>(lu.permutationQ().indices()[pivot]));
-      kept[kept_row] = true;
+      step.kept_rows.push_back(static_cast<std::size_t>(lu.permutationP().indices()[pivot]));
+      step.delayed_inputs.push_back(static_cast<std::size_t>(lu.permutationQ().indices()[pivot]));
     }
     std::sort(step.kept_rows.begin(), step.kept_rows.end());
     std::sort(step.delayed_inputs.begin(), step.delayed_inputs.end());
-    const auto rho = static_cast<unsigned>(rank);
-    GiNaC::matrix kept_block(rho, rho);
-    for (unsigned a = 0; a < rho; ++a) {
-      for (unsigned b = 0; b < rho; ++b) {
-        kept_block(a, b) = rows[step.kept_rows[a]].coefficients[step.delayed_inputs[b]];
-      }
-    }
-    const GiNaC::matrix kept_inverse = kept_block.inverse();
-    for (std::size_t d = 0; d < m; ++d) {
-      if (kept[d]) continue;
-      Row& row = rows[d];
-      // kappa = A_dC A_RC^-1, then g_d = drift_d - kappa drift_R and the u-coefficients
-      // a_d - kappa A_R, which vanish on a neighbourhood (rank rho).
-      std::vector<ex> kappa(rho, 0);
-      for (unsigned b = 0; b < rho; ++b) {
-        for (unsigned a = 0; a < rho; ++a) {
-          kappa[b] += row.coefficients[step.delayed_inputs[a]] * kept_inverse(a, b);
-        }
-      }
-      ex combined = row.drift;
-      std::vector<ex> remainder = row.coefficients;
-      for (unsigned b = 0; b < rho; ++b) {
-        const Row& kept_row = rows[step.kept_rows[b]];
-        combined -= kappa[b] * kept_row.drift;
-        for (std::size_t k = 0; k < m; ++k) remainder[k] -= kappa[b] * kept_row.coefficients[k];
-      }
-      for (ex& entry : remainder) entry = GiNaC::normal(entry);
-      if (!CoefficientsVanish(remainder, row.function, dynamics, points, tolerance)) {
-        throw NoSolution("the structure algorithm could not remove the inputs from output " +
-                         OutputName(d) + "'s equation (rank decision failed)");
-      }
-      AddParametersOf(remainder, dynamics, pinned);
-      row.function = GiNaC::normal(combined);
-      if (row.function.is_zero()) throw not_independent(d);
-      row.finished = false;
-      step.combined_rows.push_back(d);
-    }
-    structure.extension_steps.push_back(std::move(step));
+    return step;
   }
 
-  structure.reference_rank = RankAt(rows, dynamics, points[0], tolerance).value_or(0);
-  for (const Row& row : rows) {
-    structure.input_drift.push_back(row.drift);
-    structure.input_coefficients.push_back(row.coefficients);
-  }
-  // The derivatives of y_d the inverse reads.
-  structure.highest_derivative.assign(m, 0);
-  const auto reads = [&](const ex& expression) {
-    for (std::size_t i = 0; i < m; ++i) {
-      const auto& symbols = dynamics.output_derivatives[i];
-      for (std::size_t k = symbols.size(); k-- > 0;) {
-        if (expression.has(symbols[k])) {
-          structure.highest_derivative[i] =
-              std::max(structure.highest_derivative[i], static_cast<int>(k));
-          break;
-        }
+  // kappa = A_dC A_RC^-1, then g_d = drift_d - kappa drift_R, whose u-coefficients
+  // a_d - kappa A_R vanish on a neighbourhood (rank rho): row d is u-free again.
+  void CombineWithKeptRows(std::size_t d, const StructureStep& step,
+                           const GiNaC::matrix& kept_inverse) {
+    Row& row = rows_[d];
+    const unsigned rho = kept_inverse.rows();
+    std::vector<ex> kappa(rho, 0);
+    for (unsigned b = 0; b < rho; ++b) {
+      for (unsigned a = 0; a < rho; ++a) {
+        kappa[b] += row.coefficients[step.delayed_inputs[a]] * kept_inverse(a, b);
       }
     }
-  };
-  for (const ex& constraint : structure.constraints) reads(constraint);
-  for (std::size_t i = 0; i < m; ++i) {
-    reads(structure.input_drift[i]);
-    for (const ex& coefficient : structure.input_coefficients[i]) reads(coefficient);
+    ex combined = row.drift;
+    std::vector<ex> remainder = row.coefficients;
+    for (unsigned b = 0; b < rho; ++b) {
+      const Row& kept_row = rows_[step.kept_rows[b]];
+      combined -= kappa[b] * kept_row.drift;
+      for (std::size_t k = 0; k < remainder.size(); ++k) {
+        remainder[k] -= kappa[b] * kept_row.coefficients[k];
+      }
+    }
+    for (ex& entry : remainder) entry = GiNaC::normal(entry);
+    if (!CoefficientsVanish(remainder, row.function, dynamics_, points_, tolerance_)) {
+      throw NoSolution("the structure algorithm could not remove the inputs from output " +
+                       OutputName(d) + "'s equation (rank decision failed)");
+    }
+    AddParametersOf(remainder, dynamics_, pinned_);
+    row.function = GiNaC::normal(combined);
+    if (row.function.is_zero()) throw NotIndependent(d);
+    row.finished = false;
   }
-  structure.parameters = dynamics.parameters;
-  structure.coordinates = dynamics.coordinates;
-  structure.velocities = dynamics.velocities;
-  for (std::size_t i = 0; i < m; ++i) {
-    const auto& symbols = dynamics.output_derivatives[i];
-    structure.output_derivatives.emplace_back(
-        symbols.begin(), symbols.begin() + structure.highest_derivative[i] + 1);
+
+  // The input equations, the derivatives of y_d read, the symbols.
+  NonlinearStructure Finish() {
+    const std::size_t m = rows_.size();
+    structure_.reference_rank = RankAt(rows_, dynamics_, points_[0], tolerance_).value_or(0);
+    for (const Row& row : rows_) {
+      structure_.input_drift.push_back(row.drift);
+      structure_.input_coefficients.push_back(row.coefficients);
+    }
+    structure_.highest_derivative.assign(m, 0);
+    const auto reads = [&](const ex& expression) {
+      for (std::size_t i = 0; i < m; ++i) {
+        const auto& symbols = dynamics_.output_derivatives[i];
+        for (std::size_t k = symbols.size(); k-- > 0;) {
+          if (expression.has(symbols[k])) {
+            structure_.highest_derivative[i] =
+                std::max(structure_.highest_derivative[i], static_cast<int>(k));
+            break;
+          }
+        }
+      }
+    };
+    for (const ex& constraint : structure_.constraints) reads(constraint);
+    for (std::size_t i = 0; i < m; ++i) {
+      reads(structure_.input_drift[i]);
+      for (const ex& coefficient : structure_.input_coefficients[i]) reads(coefficient);
+    }
+    structure_.parameters = dynamics_.parameters;
+    structure_.coordinates = dynamics_.coordinates;
+    structure_.velocities = dynamics_.velocities;
+    for (std::size_t i = 0; i < m; ++i) {
+      const auto& symbols = dynamics_.output_derivatives[i];
+      structure_.output_derivatives.emplace_back(
+          symbols.begin(), symbols.begin() + structure_.highest_derivative[i] + 1);
+    }
+    structure_.pinned_parameters.assign(pinned_.begin(), pinned_.end());
+    return std::move(structure_);
   }
-  structure.pinned_parameters.assign(pinned.begin(), pinned.end());
-  return structure;
+
+  const Dynamics dynamics_;
+  const std::vector<DecisionPoint> points_;
+  const double tolerance_;
+  const std::size_t states_;
+  std::vector<Row> rows_;
+  std::set<std::size_t> pinned_;
+  NonlinearStructure structure_;
+};
+
+}  // namespace
+
+NonlinearStructure DeriveNonlinearStructure(const Model& model,
+                                            const NonlinearStructureOptions& options) {
+  return StructureAlgorithm(model, options).Run();
 }
 
 NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,

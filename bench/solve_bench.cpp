@@ -23,6 +23,22 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace servokit;
 
+// The best time of `repetitions` solves; `solution` is the last one's answer.
+double BestTime(const Model& model,
+                const OutputTrajectory& trajectory,
+                const Classification& classification,
+                const InverseModelOptions& options,
+                int repetitions,
+                FeedforwardSolution& solution) {
+  double best = 1e300;
+  for (int i = 0; i < repetitions; ++i) {
+    const auto start = Clock::now();
+    solution = SolveInverseModel(model, trajectory, classification, options);
+    best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
+  }
+  return best;
+}
+
 void Measure(const std::string& path, const char* alpha, const char* damping,
              SolverMethod method, int repetitions) {
   const Model model = LoadModel(path, {{"alpha", alpha}, {"d", damping}});
@@ -39,13 +55,9 @@ void Measure(const std::string& path, const char* alpha, const char* damping,
     options.rtol = 1e-10;
     options.atol = 1e-12;
   }
-  double best = 1e300;
   FeedforwardSolution solution;
-  for (int i = 0; i < repetitions; ++i) {
-    const auto start = Clock::now();
-    solution = SolveInverseModel(model, trajectory, classification, options);
-    best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
-  }
+  const double best =
+      BestTime(model, trajectory, classification, options, repetitions, solution);
   if (!solution.summary.IsUsable()) {
     std::fprintf(stderr, "bench_solve: %s failed: %s\n", std::string(ToString(method)).c_str(),
                  solution.summary.message.c_str());
@@ -71,13 +83,9 @@ void MeasureCase3(const std::string& path, double rtol, int repetitions) {
   options.continuous_extension = false;
   options.rtol = rtol;
   options.atol = rtol * 1e-2;
-  double best = 1e300;
   FeedforwardSolution solution;
-  for (int i = 0; i < repetitions; ++i) {
-    const auto start = Clock::now();
-    solution = SolveInverseModel(model, trajectory, classification, options);
-    best = std::min(best, std::chrono::duration<double>(Clock::now() - start).count());
-  }
+  const double best =
+      BestTime(model, trajectory, classification, options, repetitions, solution);
   if (!solution.summary.IsUsable()) {
     std::fprintf(stderr, "bench_solve: case 3 failed: %s\n", solution.summary.message.c_str());
     std::exit(1);

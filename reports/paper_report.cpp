@@ -317,6 +317,19 @@ double Amplitude(const FeedforwardSolution& solution, double omega, double from,
 }
 
 // Three significant digits: what a fixed-step result reproduces across round-off.
+// max |u - reference(t)| and max |reference(t)| over the solution's rows (the first input).
+template <typename Reference>
+std::pair<double, double> InputErrorAndScale(const FeedforwardSolution& solution,
+                                             const Reference& reference) {
+  double error = 0.0, scale = 0.0;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    const double expected = reference(solution.times[i]);
+    error = std::max(error, std::abs(solution.u[i](0) - expected));
+    scale = std::max(scale, std::abs(expected));
+  }
+  return {error, scale};
+}
+
 std::string ThreeDigits(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.3g", value);
@@ -377,11 +390,7 @@ void AddFlatCaseFigures(Document& document,
     const FeedforwardSolution solution = SolvePaperCase(
         flat, trajectory, run.method, run.step > 0 ? run.step : 1e-3,
         run.rtol > 0 ? std::optional<double>(run.rtol) : std::nullopt);
-    double error = 0.0, scale = 0.0;
-    for (std::size_t i = 0; i < solution.times.size(); ++i) {
-      error = std::max(error, std::abs(solution.u[i](0) - paper_force(solution.times[i])));
-      scale = std::max(scale, std::abs(paper_force(solution.times[i])));
-    }
+    const auto [error, scale] = InputErrorAndScale(solution, paper_force);
     // Radau IIA's step count and index-3 error move with round-off (its step controller
     // branches on them), so its row states bounds; Euler's fixed grid is reproducible to the
     // three digits shown.
@@ -466,11 +475,7 @@ void AddTangentialCase(Document& document,
   for (const Run& run : {Run{SolverMethod::kAuto, "normal form (auto), rtol 1e-10", 1e-8},
                          Run{SolverMethod::kRadau, "Radau IIA, rtol 1e-8", 5e-4}}) {
     const FeedforwardSolution solution = SolvePaperCase(tangential, trajectory, run.method);
-    double error = 0.0, scale = 0.0;
-    for (std::size_t i = 0; i < solution.times.size(); ++i) {
-      error = std::max(error, std::abs(solution.u[i](0) - paper_force(solution.times[i])));
-      scale = std::max(scale, std::abs(paper_force(solution.times[i])));
-    }
+    const auto [error, scale] = InputErrorAndScale(solution, paper_force);
     accuracy.rows.push_back(
         {run.label, "`" + std::to_string(solution.summary.steps) + "`", Below(error / scale, run.bound)});
   }

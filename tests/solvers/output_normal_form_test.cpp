@@ -22,6 +22,7 @@
 #include "solvers/inverse_model.h"
 #include "solvers/method_choice.h"
 #include "solvers/verification.h"
+#include "tests/solvers/solve_support.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -30,33 +31,21 @@ namespace {
 using testing::ModelPath;
 using testing::TestDataPath;
 
-struct Problem {
-  Model model;
-  Classification classification;
-};
+using Problem = testing::ClassifiedModel;
 
 Problem Load(const std::string& path, const std::vector<ParameterOverride>& set = {}) {
-  Problem problem{LoadModel(path, set), {}};
-  Workspace workspace(problem.model);
-  problem.classification = Classify(problem.model, workspace);
-  return problem;
+  return testing::LoadClassified(path, set);
 }
 
 FeedforwardSolution Solve(const Problem& problem,
                           const OutputTrajectory& trajectory,
                           SolverMethod method,
                           double t_end) {
-  InverseModelOptions options;
-  options.method = method;
-  options.t_end = t_end;
-  return SolveInverseModel(problem.model, trajectory, problem.classification, options);
+  return testing::SolveUsable(problem, trajectory, method, t_end);
 }
 
 double InputAt(const FeedforwardSolution& solution, double t) {
-  Eigen::VectorXd q, q_dot, u;
-  std::string why;
-  REQUIRE(solution.extension->Evaluate(t, q, q_dot, u, why));
-  return u(0);
+  return testing::InputAt(solution, t)(0);
 }
 
 // max over a fine grid of |u - reference(t)| / max |reference|.

@@ -16,6 +16,7 @@
 #include <memory>
 
 #include "solvers/inverse_model.h"
+#include "tests/solvers/solve_support.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -24,16 +25,11 @@ namespace {
 using testing::ModelPath;
 using testing::TestDataPath;
 
-struct Problem {
-  Model model;
-  Classification classification;
-};
+using Problem = testing::ClassifiedModel;
+using testing::InputAt;
 
 Problem Load(const std::string& path, const std::vector<ParameterOverride>& set = {}) {
-  Problem problem{LoadModel(path, set), {}};
-  Workspace workspace(problem.model);
-  problem.classification = Classify(problem.model, workspace);
-  return problem;
+  return testing::LoadClassified(path, set);
 }
 
 FeedforwardSolution Solve(const Problem& problem,
@@ -41,20 +37,7 @@ FeedforwardSolution Solve(const Problem& problem,
                           SolverMethod method,
                           double t_end,
                           InverseModelOptions options = {}) {
-  options.method = method;
-  options.t_end = t_end;
-  FeedforwardSolution solution =
-      SolveInverseModel(problem.model, trajectory, problem.classification, options);
-  INFO(ToString(method) << ": " << solution.summary.message);
-  REQUIRE(solution.summary.IsUsable());
-  return solution;
-}
-
-Eigen::VectorXd InputAt(const FeedforwardSolution& solution, double t) {
-  Eigen::VectorXd q, q_dot, u;
-  std::string why;
-  REQUIRE(solution.extension->Evaluate(t, q, q_dot, u, why));
-  return u;
+  return testing::SolveUsable(problem, trajectory, method, t_end, std::move(options));
 }
 
 // The solution's motion with u_d scaled by `factor`: a wrong answer the check must fail.
