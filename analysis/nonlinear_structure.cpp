@@ -376,7 +376,7 @@ class StructureAlgorithm {
     const std::optional<std::size_t> reference_rank =
         RankAt(rows_, dynamics_, points_[0], tolerance_, &reference);
     if (rank == 0 || !reference_rank || *reference_rank < rank) {
-      throw NoSolution(
+      throw UndefinedRelativeDegree(
           "the inputs' coefficients in the outputs' derivatives form a matrix of rank " +
           std::to_string(rank) + " of " + std::to_string(m) +
           " near the reference state but of lower rank there: the rows a dynamic extension "

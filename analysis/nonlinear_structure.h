@@ -34,9 +34,18 @@
 #include <string>
 #include <vector>
 
+#include "models/errors.h"
 #include "models/model.h"
 
 namespace servokit {
+
+/// The relative degree (or the rows a dynamic extension keeps) is not defined at the reference
+/// state: the inputs' coefficient matrix is singular there but not nearby. No exact inverse
+/// passes through that point.
+class UndefinedRelativeDegree : public NoSolution {
+ public:
+  using NoSolution::NoSolution;
+};
 
 struct NonlinearStructureOptions {
   // As ClassificationOptions::rank_tolerance.

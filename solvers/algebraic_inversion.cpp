@@ -181,7 +181,7 @@ void RequireRegularCoefficients(const Eigen::MatrixXd& coefficients,
   }
   const Eigen::FullPivLU<Eigen::MatrixXd> lu = ScaledLu(coefficients, row_scale, column_scale);
   if (IsRegular(lu)) return;
-  throw NoSolution(
+  throw UndefinedRelativeDegree(
       "algebraic inversion: " + which + " form a singular matrix at the reference state (rank " +
       std::to_string(RegularRank(lu)) + " of " + std::to_string(coefficients.rows()) +
       ") but not near it: the relative degree is not defined at the operating point, and no "

@@ -87,6 +87,9 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
         options.reference_q = classification_.operating_point.q;
         options.rank_tolerance = classification_.rank_tolerance;
         algebraic_inverse_ = DeriveAlgebraicInverse(model_, options);
+      } catch (const UndefinedRelativeDegree& error) {
+        relative_degree_undefined_ = true;
+        return refuse(error.what());
       } catch (const NoSolution& error) {
         return refuse(error.what());
       }
@@ -156,6 +159,10 @@ std::string MethodChooser::DeriveOutputNormalForm() {
     options.rank_tolerance = classification_.rank_tolerance;
     output_normal_form_ = DeriveAlgebraicInverse(model_, options);
     return "";
+  } catch (const UndefinedRelativeDegree& error) {
+    relative_degree_undefined_ = true;
+    output_normal_form_refusal_ = "no input-output normal form: " + std::string(error.what());
+    return output_normal_form_refusal_;
   } catch (const NoSolution& error) {
     output_normal_form_refusal_ = "no input-output normal form: " + std::string(error.what());
     return output_normal_form_refusal_;
@@ -190,12 +197,32 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
     const std::string alternatives = Alternatives(asked, accepting, forceable);
     throw MethodRefused(verdict.reason + "; " + alternatives, accepting, forceable);
   }
+  // P singular at the operating point: whether the model's own relative degree is defined
+  // there (the derivation says); if not, no exact inverse passes through it, and the
+  // projected-DAE methods, which would take over, are not what auto should offer.
+  if (classification_.decoupling.rank < classification_.decoupling.decoupling_matrix.rows()) {
+    DeriveOutputNormalForm();
+  }
   const SolverMethod recommended = classification_.recommended_solver;
   const std::string class_text =
       (classification_.flat
            ? std::string("flat")
            : std::string(ToString(classification_.zero_dynamics.stability)) + " zero dynamics") +
       ", projected index " + std::to_string(classification_.structure.projected_index);
+  if (relative_degree_undefined_) {
+    std::string why;
+    for (const SolverMethod method : MethodsInOrderOfPreference()) {
+      const MethodVerdict& verdict = Assess(method);
+      if (!verdict.accepts) why += (why.empty() ? "" : "; ") + Name(method) + ": " + verdict.reason;
+    }
+    throw MethodRefused(
+        "no method of servokit solves this problem exactly (" + class_text +
+            "): the relative degree is not defined at the operating point, so no exact inverse "
+            "passes through it (" + why + "); --method linearized inverts the linearization at "
+            "the operating point instead (an approximation: --verify measures it); radau and "
+            "euler, the paper's projected-DAE methods, may be asked for by name",
+        {}, {});
+  }
   if (Assess(recommended).accepts) {
     return {recommended, "auto: recommended for this class (" + class_text + ")"};
   }

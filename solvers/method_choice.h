@@ -90,6 +90,8 @@ class MethodChooser {
   std::shared_ptr<const AlgebraicInverse> algebraic_inverse_;
   std::shared_ptr<const AlgebraicInverse> output_normal_form_;
   std::string output_normal_form_refusal_;
+  // A derivation found the relative degree undefined at the operating point.
+  bool relative_degree_undefined_ = false;
 };
 
 }  // namespace servokit
