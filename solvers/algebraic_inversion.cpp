@@ -289,6 +289,7 @@ struct AlgebraicInverseScratch {
   Eigen::FullPivLU<Eigen::MatrixXd> lu;
   bool constant_matrix = false;        // affine constraints at the nominal parameters
   bool constant_coefficients = false;  // constant u-coefficients at the nominal parameters
+  bool singular_inputs = false;        // the last failure: the input equations' matrix
 };
 
 // The compiled inverse and its numerics. Both programs read [parameters, q, q_dot, Y]
@@ -653,6 +654,7 @@ bool AlgebraicInverse::Programs::SolveInputs(Scratch& scratch,
       !SolveScaledInto(coefficients, coefficient_row_scale, coefficient_column_scale,
                        right_hand_side, scratch.lu, u)) {
     why = "the inputs' coefficient matrix is singular at " + StateText(x);
+    scratch.singular_inputs = true;
     return false;
   }
   return true;
@@ -694,6 +696,7 @@ bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_deriva
 
 AlgebraicInverse::Workspace::Workspace() : scratch_(std::make_unique<AlgebraicInverseScratch>()) {}
 AlgebraicInverse::Workspace::~Workspace() = default;
+bool AlgebraicInverse::Workspace::singular_inputs() const { return scratch_->singular_inputs; }
 AlgebraicInverse::Workspace::Workspace(Workspace&&) noexcept = default;
 AlgebraicInverse::Workspace& AlgebraicInverse::Workspace::operator=(Workspace&&) noexcept =
     default;
@@ -726,6 +729,7 @@ bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_deriva
   programs.CheckPinned(parameters);
 
   Programs::Scratch& scratch = *workspace.scratch_;
+  scratch.singular_inputs = false;
   programs.PrepareScratch(parameters, output_derivatives, scratch);
   Eigen::VectorXd& x = scratch.x;
   x.resize(2 * dof);

@@ -115,6 +115,9 @@ class AlgebraicInverse {
     ~Workspace();
     Workspace(Workspace&&) noexcept;
     Workspace& operator=(Workspace&&) noexcept;
+    /// Whether the last failed evaluation failed on a singular matrix of the input equations
+    /// (the decoupling matrix of the normal form: P for relative degree 2).
+    bool singular_inputs() const;
 
    private:
     friend class AlgebraicInverse;

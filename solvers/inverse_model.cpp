@@ -503,6 +503,10 @@ void SolveOutputNormalForm(const Model& model,
                                               solution.t_end, trajectory.breakpoints(),
                                               integrator, observer, dense);
   }
+  // The input equations' matrix singular along the motion: the general form of P singular.
+  if (!solution.summary.IsUsable() && map.singular_inputs()) {
+    solution.summary.status = SolveStatus::kSingularDecoupling;
+  }
   if (internal_states->empty()) return;
   // The extension maps the dense output through a map of its own (its own Newton starts).
   auto extension_map =

@@ -44,6 +44,8 @@ class OutputNormalFormMap {
                      std::string& why);
 
   const AlgebraicInverse& form() const { return *form_; }
+  /// Whether the last failure was a singular matrix of the input equations.
+  bool singular_inputs() const { return inverse_workspace_.singular_inputs(); }
 
  private:
   const Model& model_;
