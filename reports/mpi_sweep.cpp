@@ -514,18 +514,6 @@ std::string BroadcastFromRoot(const std::string& text) {
   return shared;
 }
 
-DistributedSweepEnd RunDistributedSweep(const Model& model,
-                                        const ParameterGrid& grid,
-                                        const SweepOptions& options,
-                                        std::size_t first_point,
-                                        const std::function<void(const FormattedBlock&)>& write,
-                                        const std::function<bool()>& stop_requested) {
-  const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
-    return RunSweep(model, grid, options, first, consume);
-  };
-  return RunDistributedSweep(run, grid, options, first_point, write, stop_requested);
-}
-
 DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
                                         const ParameterGrid& grid,
                                         const SweepOptions& options,

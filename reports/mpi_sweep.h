@@ -87,15 +87,8 @@ using SweepRunner =
     std::function<std::size_t(std::size_t first_point, const SweepConsumer& consume)>;
 
 /// RunDistributedSweep for any kind of model: blocks are computed by `run` (SweepRunner), whose
-/// blocks must be options.block_size points. The Model overload below is this with RunSweep.
+/// blocks must be options.block_size points.
 DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
-                                        const ParameterGrid& grid,
-                                        const SweepOptions& options,
-                                        std::size_t first_point,
-                                        const std::function<void(const FormattedBlock&)>& write,
-                                        const std::function<bool()>& stop_requested);
-
-DistributedSweepEnd RunDistributedSweep(const Model& model,
                                         const ParameterGrid& grid,
                                         const SweepOptions& options,
                                         std::size_t first_point,

@@ -52,13 +52,4 @@ DistributedSweepEnd RunDistributedSweep(const SweepRunner&,
   throw Error("this servokit was built without MPI: it cannot run a distributed sweep");
 }
 
-DistributedSweepEnd RunDistributedSweep(const Model&,
-                                        const ParameterGrid&,
-                                        const SweepOptions&,
-                                        std::size_t,
-                                        const std::function<void(const FormattedBlock&)>&,
-                                        const std::function<bool()>&) {
-  throw Error("this servokit was built without MPI: it cannot run a distributed sweep");
-}
-
 }  // namespace servokit

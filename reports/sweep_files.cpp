@@ -324,12 +324,6 @@ SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysis
           model.parameters(), options};
 }
 
-std::string SweepFingerprint(const Model& model,
-                             const ParameterGrid& grid,
-                             const ClassificationOptions& options) {
-  return SweepFingerprint(DescribeSweepModel(model), grid, options);
-}
-
 std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
                              const ClassificationOptions& options) {
@@ -357,19 +351,6 @@ std::string SweepFingerprint(const SweepModelInfo& model,
          " max_iterations=" + std::to_string(point.max_iterations) +
          " y0=" + OptionalVectorText(point.y0) + " q0=" + OptionalVectorText(point.q_guess);
 }
-
-SweepOutput::SweepOutput(const std::filesystem::path& directory,
-                         const Model& model,
-                         const ParameterGrid& grid,
-                         const ClassificationOptions& options,
-                         std::vector<std::string> command_line,
-                         const SweepOutputOptions& output_options)
-    : SweepOutput(directory,
-                  DescribeSweepModel(model),
-                  grid,
-                  options,
-                  std::move(command_line),
-                  output_options) {}
 
 SweepOutput::SweepOutput(const std::filesystem::path& directory,
                          SweepModelInfo model,

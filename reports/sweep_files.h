@@ -106,11 +106,7 @@ SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysis
 /// One line naming everything that decides a sweep's files: servokit version, model file hash,
 /// every parameter value, the grid and the classification options. Two sweeps with the same
 /// fingerprint write the same bytes; the number of threads is not part of it.
-std::string SweepFingerprint(const Model& model,
-                             const ParameterGrid& grid,
-                             const ClassificationOptions& options);
-/// The same for either kind; a linear model's line also names its analysis options
-/// (DescribeLinearSweepOptions). For a Model it is the line above, byte for byte.
+/// A linear model's line also names its analysis options (DescribeLinearSweepOptions).
 std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
                              const ClassificationOptions& options);
@@ -125,13 +121,7 @@ class SweepOutput {
   /// (resume: cuts the partial files to the checkpoint's sizes), or all of it (already_complete).
   /// Throws UsageError when the directory holds another sweep or another process writes it,
   /// and Error for I/O failures and unreadable files.
-  SweepOutput(const std::filesystem::path& directory,
-              const Model& model,
-              const ParameterGrid& grid,
-              const ClassificationOptions& options,
-              std::vector<std::string> command_line,
-              const SweepOutputOptions& output_options = {});
-  /// The same for a model of either kind (DescribeSweepModel). For a linear model, sweep.json
+  /// `model` describes a model of either kind (DescribeSweepModel). For a linear model, sweep.json
   /// has `kind: linear` and its `options` are the analysis options of the linear sweep
   /// (rank and axis tolerances, eigen_solver, which, shift, eigenvalues); `options` here only
   /// decides the tolerances of a multibody model.
