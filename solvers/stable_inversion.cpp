@@ -36,6 +36,17 @@ constexpr int kCrossingBisections = 40;
 // of the machine epsilon, where truncation and round-off errors balance (1e-11 relative).
 constexpr double kRestJacobianStep = 6e-6;
 
+// A side without modes to wait for (no unstable mode at the start, or no stable one at the
+// end) still gets this fraction of the motion's duration, so that the mesh has room there.
+constexpr double kWindowWithoutModes = 0.1;
+// A widened window has settled when u changed by at most this many times the tolerance (the
+// collocation error of each answer is up to the tolerance, so their difference can reach a
+// few times it without the window mattering).
+constexpr double kSettledFactor = 10.0;
+// The linear stable inversion is only Newton's second start: a few digits suffice.
+constexpr double kGuessRelativeTolerance = 1e-4;
+constexpr double kGuessAbsoluteTolerance = 1e-7;
+
 // Each widening grows the pre- and post-actuation windows by this factor.
 constexpr double kWideningFactor = 1.5;
 
@@ -115,9 +126,11 @@ StableInversionSolution SolveInternalBoundaryValue(const InternalBoundaryValuePr
   }
   const double t0 = breakpoints.front(), tf = breakpoints.back();
   double pre = options.pre_actuation.value_or(
-      std::isfinite(slowest_unstable) ? DecayTime(slowest_unstable, options.tolerance) : 0.1 * (tf - t0));
+      std::isfinite(slowest_unstable) ? DecayTime(slowest_unstable, options.tolerance)
+                                      : kWindowWithoutModes * (tf - t0));
   double post = options.post_actuation.value_or(
-      std::isfinite(slowest_stable) ? DecayTime(slowest_stable, options.tolerance) : 0.1 * (tf - t0));
+      std::isfinite(slowest_stable) ? DecayTime(slowest_stable, options.tolerance)
+                                    : kWindowWithoutModes * (tf - t0));
 
   Eigen::VectorXd u;
   const BvpRightHandSide rhs = [&](double t, const Eigen::VectorXd& x, Eigen::VectorXd& x_dot,
@@ -211,7 +224,8 @@ StableInversionSolution SolveInternalBoundaryValue(const InternalBoundaryValuePr
         change = std::max(change, (input_new - input_old).cwiseAbs().maxCoeff());
         scale = std::max(scale, input_new.cwiseAbs().maxCoeff());
       }
-      settled = change <= 10.0 * options.tolerance * std::max(scale, 1e-300);
+      settled = change <= kSettledFactor * options.tolerance *
+                              std::max(scale, std::numeric_limits<double>::min());
     }
     if (settled || widening >= options.max_widenings ||
         (options.pre_actuation && options.post_actuation)) {
@@ -358,8 +372,8 @@ StableInversionSolution SolveStableInversion(const Model& model,
     // as long as the accuracy allows (a finite cap, so that SolveLinearStableInversion does
     // not impose its own fine one).
     IntegratorOptions guess_accuracy;
-    guess_accuracy.rtol = 1e-4;
-    guess_accuracy.atol = 1e-7;
+    guess_accuracy.rtol = kGuessRelativeTolerance;
+    guess_accuracy.atol = kGuessAbsoluteTolerance;
     guess_accuracy.max_step = t_b - t_a;
     const LinearStableInversion linear = SolveLinearStableInversion(
         problem.start.split,
