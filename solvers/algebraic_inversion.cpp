@@ -419,19 +419,19 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     // Constraints affine in the state with a Jacobian free of y_d (linear models, the
     // mass on car at alpha = 0): Newton's matrix is constant for the nominal parameters, so it
     // is factored once here and one step from any start is exact.
+    // Whether an expression varies along the motion: it reads q, q' or y_d, not only the
+    // parameters (the programs' first inputs).
+    const auto varies = [&](const ex& expression) {
+      for (std::size_t k = structure.parameters.size(); k < program_inputs.size(); ++k) {
+        if (expression.has(program_inputs[k])) return true;
+      }
+      return false;
+    };
     programs->affine = std::none_of(
         structure.constraints.begin(), structure.constraints.end(), [&](const ex& constraint) {
           for (const auto* symbols : {&structure.coordinates, &structure.velocities}) {
             for (const auto& variable : *symbols) {
-              const ex slope = constraint.diff(variable);
-              for (const ex& input : program_inputs) {
-                if (GiNaC::is_a<GiNaC::symbol>(input) &&
-                    std::find(structure.parameters.begin(), structure.parameters.end(), input) ==
-                        structure.parameters.end() &&
-                    slope.has(input)) {
-                  return true;
-                }
-              }
+              if (varies(constraint.diff(variable))) return true;
             }
           }
           return false;
@@ -439,13 +439,8 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     programs->nominal_parameters = model.parameters();
     // A u-coefficient matrix free of the state and of y_d is factored once as well.
     const std::vector<ex> equations = InputEquations(structure);
-    programs->constant_coefficients = std::none_of(
-        equations.begin(), equations.begin() + m * m, [&](const ex& coefficient) {
-          for (std::size_t k = structure.parameters.size(); k < program_inputs.size(); ++k) {
-            if (coefficient.has(program_inputs[k])) return true;
-          }
-          return false;
-        });
+    programs->constant_coefficients =
+        std::none_of(equations.begin(), equations.begin() + m * m, varies);
     if (programs->constant_coefficients) {
       programs->coefficient_lu = ScaledLu(nominal_coefficients, programs->coefficient_row_scale,
                                           programs->coefficient_column_scale);

@@ -586,6 +586,15 @@ void SolveByStableInversion(const Model& model,
   if (solution.summary.IsUsable()) solution.summary.stop_time = solution.t_end;
 }
 
+// max |h(q) - y_d| over the solution's rows.
+double MaxServoResidual(ServoConstraintProblem& problem, const FeedforwardSolution& solution) {
+  double residual = 0.0;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    residual = std::max(residual, problem.ServoResidual(solution.times[i], solution.q[i]));
+  }
+  return residual;
+}
+
 // The grid of sample_time for a span whose start is only known after a stable inversion:
 // anchored at `anchor` (t_start, or the motion's start) and reaching back to cover t_start.
 std::vector<double> GridCovering(double t_start, double t_end, double anchor, double sample_time) {
@@ -731,11 +740,7 @@ FeedforwardSolution SolveInverseModel(const Model& model,
     solution = SolveLinearizedInverse(model, trajectory, classification, options);
     ServoConstraintProblem problem(model, trajectory, classification.operating_point.q,
                                    options.problem);
-    solution.max_servo_residual = 0.0;
-    for (std::size_t i = 0; i < solution.times.size(); ++i) {
-      solution.max_servo_residual = std::max(
-          solution.max_servo_residual, problem.ServoResidual(solution.times[i], solution.q[i]));
-    }
+    solution.max_servo_residual = MaxServoResidual(problem, solution);
     return solution;
   }
   solution.accuracy = AccuracyOf(solution.method, options);
@@ -755,11 +760,7 @@ FeedforwardSolution SolveInverseModel(const Model& model,
                solution);
     if (!solution.times.empty()) solution.t_start = solution.times.front();
   }
-  solution.max_servo_residual = 0.0;
-  for (std::size_t i = 0; i < solution.times.size(); ++i) {
-    solution.max_servo_residual = std::max(
-        solution.max_servo_residual, problem->ServoResidual(solution.times[i], solution.q[i]));
-  }
+  solution.max_servo_residual = MaxServoResidual(*problem, solution);
   return solution;
 }
 

@@ -169,6 +169,17 @@ std::string MethodChooser::DeriveOutputNormalForm() {
   }
 }
 
+std::string MethodChooser::RefusalReasons(std::vector<SolverMethod>& forceable) {
+  std::string why;
+  for (const SolverMethod method : MethodsInOrderOfPreference()) {
+    const MethodVerdict& verdict = Assess(method);
+    if (verdict.accepts) continue;
+    if (verdict.forceable) forceable.push_back(method);
+    why += (why.empty() ? "" : "; ") + Name(method) + ": " + verdict.reason;
+  }
+  return why;
+}
+
 std::string MethodChooser::Alternatives(SolverMethod refused,
                                         std::vector<SolverMethod>& accepting,
                                         std::vector<SolverMethod>& forceable) {
@@ -210,11 +221,8 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
            : std::string(ToString(classification_.zero_dynamics.stability)) + " zero dynamics") +
       ", projected index " + std::to_string(classification_.structure.projected_index);
   if (relative_degree_undefined_) {
-    std::string why;
-    for (const SolverMethod method : MethodsInOrderOfPreference()) {
-      const MethodVerdict& verdict = Assess(method);
-      if (!verdict.accepts) why += (why.empty() ? "" : "; ") + Name(method) + ": " + verdict.reason;
-    }
+    std::vector<SolverMethod> unused;
+    const std::string why = RefusalReasons(unused);
     throw MethodRefused(
         "no method of servokit solves this problem exactly (" + class_text +
             "): the relative degree is not defined at the operating point, so no exact inverse "
@@ -231,12 +239,7 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
     return {method, "auto: " + Name(recommended) + ", recommended for this class (" + class_text +
                         "), does not fit: " + Assess(recommended).reason + "; so " + Name(method)};
   }
-  std::string why;
-  for (const SolverMethod method : MethodsInOrderOfPreference()) {
-    const MethodVerdict& verdict = Assess(method);
-    if (verdict.forceable) forceable.push_back(method);
-    why += (why.empty() ? "" : "; ") + Name(method) + ": " + verdict.reason;
-  }
+  const std::string why = RefusalReasons(forceable);
   throw MethodRefused("no method of servokit solves this problem (" + class_text + "): " + why +
                           "; --method linearized inverts the linearization at the operating "
                           "point instead (an approximation: --verify measures it)",

@@ -79,6 +79,8 @@ class MethodChooser {
   MethodVerdict Judge(SolverMethod method);
   // Derives output_normal_form_ once; "" when it exists, else why not (kept).
   std::string DeriveOutputNormalForm();
+  // "method: reason; ..." for every method that refuses; adds the forceable ones.
+  std::string RefusalReasons(std::vector<SolverMethod>& forceable);
   std::string Alternatives(SolverMethod refused,
                            std::vector<SolverMethod>& accepting,
                            std::vector<SolverMethod>& forceable);
