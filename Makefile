@@ -5,7 +5,7 @@
 BUILD_DIR   ?= build
 BUILD_TYPE  ?= Release
 JOBS        ?= $(shell nproc 2>/dev/null || echo 2)
-SERVOKIT    := $(BUILD_DIR)/reports/servokit
+SERVOKIT    := $(BUILD_DIR)/application/servokit
 # Warnings as errors only when asked (CI exports SERVOKIT_WERROR=ON); otherwise the cached
 # choice stays, so that `make demo` after `make test` does not rebuild everything.
 CMAKE_FLAGS := -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)
@@ -22,6 +22,10 @@ PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-d
 BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml
 # Only fuzzing needs clang and its libFuzzer runtime.
 FUZZ_PACKAGES := clang libclang-rt-dev
+# The formatter, pinned to Debian's clang-format 14 (.clang-format, STYLE.md "Format"): another
+# version formats some constructs differently, and CI must judge every file alike.
+FORMAT_PACKAGES := clang-format-14
+CLANG_FORMAT    := clang-format-14
 
 # Hardening (README "Hardening"): the whole suite under AddressSanitizer and
 # UndefinedBehaviorSanitizer, and the libFuzzer targets of tests/fuzz/.
@@ -38,14 +42,14 @@ HARDENING_FLAGS := -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDE
 # pre-2.25 glibc header and record a bogus range (google/sanitizers#1322); LeakSanitizer's
 # tracer then dies scanning it at exit ("Tracer caught signal 11"). Only modules loaded by
 # dlopen have dynamic TLS: here Open MPI's plugins, whose allocations tests/lsan.supp
-# suppresses anyway. It hit every run of the 4-rank case of reports.sweep_mpi on Debian 12
+# suppresses anyway. It hit every run of the 4-rank case of application.sweep_mpi on Debian 12
 # (GCC 12.2, glibc 2.36, Open MPI 4.1.4).
 SANITIZER_ENV := ASAN_OPTIONS=detect_stack_use_after_return=1:intercept_tls_get_addr=0 \
                  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
                  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0
 
 .PHONY: all deps bench-deps configure build test demo bench clean test-sanitize fuzz-build \
-        fuzz-smoke fuzz
+        fuzz-smoke fuzz format format-check
 
 all: build
 
@@ -91,6 +95,19 @@ fuzz-smoke: fuzz-build
 # corpus it grows stays in $(FUZZ_DIR)/corpus, findings in $(FUZZ_DIR)/findings.
 fuzz: fuzz-build
 	@FUZZ_KEEP_GOING=1 ./scripts/fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+# Every C++ source and header of the repository, as git knows them.
+FORMAT_FILES = $(shell git ls-files '*.cpp' '*.h')
+
+# CI's check: fails, showing each place, when any file differs from clang-format's output.
+format-check:
+	@./scripts/install-deps.sh $(FORMAT_PACKAGES)
+	@$(CLANG_FORMAT) --dry-run --Werror $(FORMAT_FILES)
+	@echo "format-check: $(words $(FORMAT_FILES)) files are clang-format clean"
+
+format:
+	@./scripts/install-deps.sh $(FORMAT_PACKAGES)
+	@$(CLANG_FORMAT) -i $(FORMAT_FILES)
 
 clean:
 	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) $(FUZZ_DIR)

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "analysis/gsl_support.h"
+#include "numerics/gsl_support.h"
 #include "analysis/operating_point.h"
 #include "models/canonical_expression.h"
 #include "models/errors.h"

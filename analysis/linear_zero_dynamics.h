@@ -42,7 +42,7 @@
 #include <string_view>
 #include <vector>
 
-#include "analysis/arpack_eigen.h"
+#include "numerics/arpack_eigen.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
 #include "models/linear_model.h"

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "analysis/sundials_support.h"
+#include "numerics/sundials_support.h"
 #include "models/errors.h"
 
 namespace servokit {

@@ -9,7 +9,7 @@
 #include <optional>
 
 #include "analysis/classification.h"
-#include "analysis/gsl_support.h"
+#include "numerics/gsl_support.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 

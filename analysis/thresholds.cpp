@@ -13,7 +13,7 @@
 #include <string>
 
 #include "analysis/classification.h"
-#include "analysis/gsl_support.h"
+#include "numerics/gsl_support.h"
 #include "models/errors.h"
 
 namespace servokit {

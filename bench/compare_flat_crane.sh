@@ -23,7 +23,7 @@ best_of() {  # best wall time of 5 runs of "$@", in seconds
   done
   echo "$best"
 }
-servokit=$(best_of "$build/reports/servokit" solve "$root/tests/data/linear_double_pendulum_crane.yaml" \
+servokit=$(best_of "$build/application/servokit" solve "$root/tests/data/linear_double_pendulum_crane.yaml" \
   --trajectory rest-to-rest --y0 0 --yf 1 --t0 0 --tf 3 --t-end 4 --method algebraic \
   --out "$out/u.csv")
 numpy_whole=$(best_of "$python" "$root/bench/numpy_flat_crane.py")

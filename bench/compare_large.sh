@@ -24,7 +24,7 @@ sizes=${SIZES:-"1000 10000 100000"}
 models=${MODELS:-"chain beam"}
 k=${K:-10}
 ncv=${NCV:-$(( 2 * k + 10 > 30 ? 2 * k + 10 : 30 ))}
-servokit="$build/reports/servokit"
+servokit="$build/application/servokit"
 bench="$build/bench/bench_large_model"
 
 work=$(mktemp -d)

@@ -17,7 +17,7 @@ python=${PYTHON:-/usr/bin/python3}
 scipy_grid=${SCIPY_GRID:-100}
 servokit_grid=${SERVOKIT_GRID:-1000}
 threads=${THREADS:-$(nproc)}
-servokit="$build/reports/servokit"
+servokit="$build/application/servokit"
 model="$root/models/mass_on_car.yaml"
 
 work=$(mktemp -d)

@@ -1,26 +1,27 @@
-# `cmake --install` (issue #7): the four libraries, their headers, the `servokit` executable,
-# the shipped models and a CMake package, so that another project can write
+# `cmake --install`: the public API, the libraries behind it, the `servokit` executable, the
+# shipped models and a CMake package, so that another project can write
 #   find_package(servokit REQUIRED)
-#   target_link_libraries(app PRIVATE servokit::analysis)
+#   target_link_libraries(app PRIVATE servokit::servokit)   # #include <servokit/servokit.h>
 # Installed layout under the prefix:
 #   bin/servokit
-#   lib/libservokit_{models,analysis,solvers,reports}.a
-#   include/servokit/{models,analysis,solvers,reports}/*.h   (included as "models/model.h")
-#   share/servokit/models/*.yaml                             (the shipped models)
+#   include/servokit/{servokit,errors}.h                      (the public API, nothing else)
+#   lib/libservokit_*.a                                       (position-independent)
+#   share/servokit/models/*.yaml                              (the shipped models)
 #   lib/cmake/servokit/servokit{Config,ConfigVersion,Targets}.cmake
+# The internal libraries are installed and exported only because servokit::servokit links them
+# statically; their headers are not, so nothing outside the public API can be included.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(SERVOKIT_LIBRARIES models analysis solvers reports)
+set(SERVOKIT_LIBRARIES models numerics analysis solvers reports servokit application)
 set(SERVOKIT_PACKAGE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/servokit)
 
 foreach(folder IN LISTS SERVOKIT_LIBRARIES)
   # Exported as servokit::<folder>, the same name as the alias inside this build.
   set_target_properties(servokit_${folder} PROPERTIES EXPORT_NAME ${folder})
-  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder}/
-          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit/${folder}
-          FILES_MATCHING PATTERN "*.h")
 endforeach()
+install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h ${PROJECT_SOURCE_DIR}/servokit/errors.h
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit)
 list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
 install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

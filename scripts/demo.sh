@@ -2,7 +2,7 @@
 # `make demo`: the paper's classification of both examples (Seifried & Blajer 2013, Sects. 3-4)
 # and the inverse models of Sect. 5.
 set -euo pipefail
-servokit=${1:-build/reports/servokit}
+servokit=${1:-build/application/servokit}
 root=$(cd "$(dirname "$0")/.." && pwd)
 models="$root/models"
 

@@ -17,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include "analysis/sundials_support.h"
+#include "numerics/sundials_support.h"
 #include "models/errors.h"
 #include "solvers/solver_messages.h"
 

@@ -53,7 +53,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/gsl_support.h"
+#include "numerics/gsl_support.h"
 #include "analysis/linear_analysis.h"
 #include "models/errors.h"
 #include "models/linear_model.h"

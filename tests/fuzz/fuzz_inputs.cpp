@@ -64,7 +64,7 @@ void EvaluateOnce(const Model& model) {
 void ReadModelFile(std::string_view bytes) {
   static const WorkDirectory directory;
   const std::string path = directory.Write(bytes);
-  // The same dispatch as `servokit analyze` (reports/analyze_command.cpp).
+  // The same dispatch as `servokit analyze` (application/analyze_command.cpp).
   if (IsLinearModelFile(path)) {
     const LinearModel model = LoadLinearModel(path);
     AssembleLinearMatrices(model, model.parameters());

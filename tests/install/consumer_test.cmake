@@ -1,4 +1,5 @@
-# Installs this build into a fresh prefix, builds tests/install/consumer against it and runs it,
+# Installs this build into a fresh prefix, builds tests/install/consumer (a shared library on the
+# public API and a program that calls it) against it and runs it,
 # then runs the installed `servokit` on an installed model (issue #7: cmake --install and
 # find_package). Called by CTest: cmake -DBINARY_DIR=... -DSOURCE_DIR=... -DWORK_DIR=...
 #   -DCXX_COMPILER=... -P consumer_test.cmake
@@ -14,12 +15,17 @@ endfunction()
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix})
-foreach(path bin/servokit include/servokit/analysis/classification.h
+foreach(path bin/servokit include/servokit/servokit.h include/servokit/errors.h
         share/servokit/models/mass_on_car.yaml lib/cmake/servokit/servokitConfig.cmake)
   if(NOT EXISTS ${prefix}/${path})
     message(FATAL_ERROR "not installed: ${path}")
   endif()
 endforeach()
+# Only the public API: no internal header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
+file(GLOB_RECURSE installed_headers RELATIVE ${prefix}/include ${prefix}/include/*)
+if(NOT installed_headers STREQUAL "servokit/errors.h;servokit/servokit.h")
+  message(FATAL_ERROR "installed headers beyond the public API: ${installed_headers}")
+endif()
 
 # The consumer sees only the installed tree: its own source folder and the prefix.
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/install/consumer -B ${WORK_DIR}/build

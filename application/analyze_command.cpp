@@ -1,0 +1,101 @@
+// servokit analyze MODEL [--set p=v]... [--y0 v]... [--q0 v]... [--format text|json|md]
+//   [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack] [--which nearest|rightmost]
+// A nonlinear model (YAML with expressions) is classified at its operating point; a large linear
+// model (`kind: linear`, models/linear_model.h) at q = 0, u = 0 with sparse matrices.
+#include <memory>
+#include <ostream>
+
+#include "analysis/classification.h"
+#include "analysis/linear_analysis.h"
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "reports/classification_report.h"
+#include "application/commands.h"
+#include "application/exit_codes.h"
+
+namespace servokit {
+namespace {
+
+struct AnalyzeArguments {
+  std::string model_path;
+  std::vector<std::string> overrides;  // "name=value"
+  std::vector<std::string> y0;         // each may hold several values separated by commas
+  std::vector<std::string> q0;
+  std::string format = "text";
+  ClassificationOptions options;
+  LinearModelArguments linear;  // linear models only
+};
+
+int RunLinearAnalyze(const AnalyzeArguments& arguments, ReportFormat format, std::ostream& out) {
+  const LinearAnalysisOptions options = MakeLinearAnalysisOptions(
+      arguments.linear, arguments.options, !arguments.y0.empty(), !arguments.q0.empty());
+
+  const LinearModel model =
+      LoadLinearModel(arguments.model_path, ParseOverrides(arguments.overrides));
+  const LinearSystem system = AssembleLinearSystem(model, model.parameters());
+  LinearZeroDynamicsWorkspace workspace;
+  const LinearAnalysis analysis = AnalyzeLinearSystem(system, workspace, options);
+  out << FormatLinearAnalysis(model, analysis, options, format);
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::ostream& out) {
+  const std::optional<ReportFormat> format = ReportFormatFromString(arguments.format);
+  if (!format) {
+    throw UsageError("--format " + arguments.format + ": expected text, json or md");
+  }
+  if (IsLinearModelFile(arguments.model_path)) return RunLinearAnalyze(arguments, *format, out);
+  RefuseLinearModelOptions(analyze);
+  const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
+  ClassificationOptions options = arguments.options;
+  if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
+  if (!arguments.q0.empty()) options.operating_point.q_guess = ParseValues("--q0", arguments.q0);
+  Workspace workspace(model);
+  Classification classification = Classify(model, workspace, options);
+  NonlinearStructureOptions structure_options;
+  structure_options.rank_tolerance = options.rank_tolerance;
+  structure_options.reference_q = classification.operating_point.q;
+  classification.nonlinear_structure = SummarizeNonlinearStructure(model, structure_options);
+  out << FormatClassification(model, classification, options, *format);
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+}  // namespace
+
+Command AddAnalyzeCommand(CLI::App& app) {
+  auto arguments = std::make_shared<AnalyzeArguments>();
+  CLI::App* analyze =
+      app.add_subcommand("analyze", "Classify the servo-constraint problem at an operating point");
+  analyze->footer(
+      "Example:\n  servokit analyze models/mass_on_car.yaml --set alpha=\"90 deg\" --set d=0 "
+      "--format json\n"
+      "  servokit generate chain --masses 100000 --out DIR && servokit analyze "
+      "DIR/chain_100000.yaml "
+      "--eigenvalues 10 --which nearest");
+  analyze
+      ->add_option("MODEL", arguments->model_path,
+                   "Model file (YAML; `kind: linear` for a large sparse linear model)")
+      ->required();
+  analyze->add_option("--set", arguments->overrides,
+                      "Override a parameter: name=value (value may end in deg)");
+  analyze->add_option("--y0", arguments->y0,
+                      "Output value at the operating point, one per output (default: h(0))");
+  analyze->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
+  analyze->add_option("--format", arguments->format, "Output format: text, json or md")
+      ->capture_default_str();
+  analyze
+      ->add_option("--rank-tolerance", arguments->options.rank_tolerance,
+                   "Relative tolerance of rank decisions (P, Markov parameters)")
+      ->capture_default_str();
+  analyze
+      ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
+                   "Relative distance to the imaginary axis counted as on it")
+      ->capture_default_str();
+  AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
+  return {analyze,
+          [arguments, analyze](std::ostream& out, std::ostream&) {
+            return RunAnalyze(*arguments, *analyze, out);
+          }};
+}
+
+}  // namespace servokit

@@ -1,0 +1,119 @@
+#include "application/command_line.h"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <filesystem>
+#include <ostream>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "models/errors.h"
+#include "models/units.h"
+#include "application/commands.h"
+#include "application/exit_codes.h"
+
+#ifndef SERVOKIT_VERSION
+#error "SERVOKIT_VERSION must be defined by the build"
+#endif
+
+namespace servokit {
+
+void MakeOutputDirectory(const std::string& directory) {
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error || !std::filesystem::is_directory(directory)) {
+    throw Error("--out " + directory + ": cannot make the directory (" + error.message() + ")");
+  }
+}
+
+std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts) {
+  std::vector<ParameterOverride> overrides;
+  for (const std::string& text : texts) {
+    const auto equals = text.find('=');
+    if (equals == std::string::npos || equals == 0) {
+      throw UsageError("--set " + text + ": expected name=value (e.g. --set alpha=\"5 deg\")");
+    }
+    overrides.push_back({text.substr(0, equals), text.substr(equals + 1)});
+  }
+  return overrides;
+}
+
+api::ParameterValues ParseParameterValues(const std::vector<std::string>& texts) {
+  api::ParameterValues values;
+  for (const ParameterOverride& parsed : ParseOverrides(texts)) {
+    values.emplace_back(parsed.name, parsed.value);
+  }
+  return values;
+}
+
+Eigen::VectorXd ParseValues(const std::string& option, const std::vector<std::string>& texts) {
+  std::vector<double> values;
+  for (const std::string& text : texts) {
+    std::stringstream stream(text);
+    std::string item;
+    while (std::getline(stream, item, ',')) {
+      const std::optional<double> value = ParseQuantity(item);
+      if (!value) {
+        throw UsageError(option + " " + text + ": '" + item +
+                         "' is not a number (use e.g. 0.5 or \"5 deg\")");
+      }
+      values.push_back(*value);
+    }
+  }
+  return Eigen::Map<const Eigen::VectorXd>(values.data(), Eigen::Index(values.size()));
+}
+
+int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+  CLI::App app(
+      "servokit: analyse and solve servo-constraint problems of underactuated "
+      "multibody systems");
+  app.require_subcommand(1);
+  app.footer(
+      "Example:\n  servokit analyze models/mass_on_car.yaml\n"
+      "`servokit SUBCOMMAND --help` shows each subcommand's options and an example; the errors\n"
+      "and exit statuses are listed in the README (\"Errors and exit status\").");
+  app.set_version_flag("--version", std::string("servokit ") + SERVOKIT_VERSION);
+  const std::vector<Command> commands = {AddAnalyzeCommand(app), AddThresholdCommand(app),
+                                         AddSweepCommand(app),   AddSolveCommand(app),
+                                         AddReportCommand(app),  AddGenerateCommand(app)};
+  try {
+    // CLI11 reports a misspelt command as a missing one ("A subcommand is required").
+    if (argc > 1 && argv[1][0] != '-' &&
+        std::none_of(commands.begin(), commands.end(),
+                     [&](const Command& command) { return command.app->check_name(argv[1]); })) {
+      std::string names;
+      for (const Command& command : commands) {
+        names += (names.empty() ? "" : ", ") + command.app->get_name();
+      }
+      throw UsageError(std::string("unknown command '") + argv[1] + "' (expected " + names + ")");
+    }
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::CallForHelp&) {
+      out << app.help();
+      return 0;
+    } catch (const CLI::CallForAllHelp&) {
+      out << app.help("", CLI::AppFormatMode::All);
+      return 0;
+    } catch (const CLI::CallForVersion&) {
+      out << app.version() << "\n";
+      return 0;
+    } catch (const CLI::ParseError& error) {
+      throw UsageError(error.what());
+    }
+    for (const Command& command : commands) {
+      if (command.app->parsed()) return command.run(out, err);
+    }
+    throw UsageError("no command given (try servokit --help)");
+  } catch (const std::exception& error) {
+    err << "servokit: error: " << error.what() << "\n";
+    return static_cast<int>(ExitCodeFor(error));
+  } catch (...) {
+    err << "servokit: error: unknown internal error\n";
+    return static_cast<int>(ExitCode::kOther);
+  }
+}
+
+}  // namespace servokit

@@ -1,0 +1,93 @@
+// servokit generate chain --masses N [--mass m] [--stiffness k] [--damping d]
+//                         [--input-mass i] [--output-mass j] --out DIR [--name NAME]
+// servokit generate beam  --elements N [--length L] [--hub-inertia J] [--mass-per-length r]
+//                         [--bending-stiffness EI] [--damping-factor b] --out DIR [--name NAME]
+//
+// Writes a large linear model (models/linear_model.h) into DIR, made if missing, and prints the
+// path of its YAML file as one line, so that `servokit analyze "$(servokit generate ...)"` works.
+#include <memory>
+#include <ostream>
+#include <string>
+
+#include "application/commands.h"
+#include "application/exit_codes.h"
+#include "servokit/servokit.h"
+
+namespace servokit {
+namespace {
+
+struct GenerateArguments {
+  api::ChainModel chain;
+  api::BeamModel beam;
+  std::string out;   // the output directory
+  std::string name;  // empty: chain_N or beam_N
+};
+
+// Writes the model the subcommand describes into --out and prints its YAML file's path.
+template <typename Description>
+int WriteModel(const Description& description,
+               const GenerateArguments& arguments,
+               std::ostream& out) {
+  MakeOutputDirectory(arguments.out);
+  out << api::Generate(description, arguments.out, arguments.name) << "\n";
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+void AddOutputOptions(CLI::App& command, GenerateArguments& arguments, const std::string& stem) {
+  command.add_option("--out", arguments.out, "Output directory (made if missing)")->required();
+  command.add_option(
+      "--name", arguments.name,
+      "Model name and file stem: NAME.yaml, NAME.M.mtx, ... (default: " + stem + "_N)");
+}
+
+}  // namespace
+
+Command AddGenerateCommand(CLI::App& app) {
+  auto arguments = std::make_shared<GenerateArguments>();
+  CLI::App* generate = app.add_subcommand(
+      "generate", "Write a large linear model (YAML + Matrix Market files): a chain or a beam");
+  generate->require_subcommand(1);
+  generate->footer(
+      "Prints the path of the model file it wrote.\n"
+      "Examples:\n  servokit generate chain --masses 100000 --out big\n"
+      "  servokit generate beam --elements 1000 --hub-inertia 0.5 --out big");
+
+  CLI::App* chain = generate->add_subcommand(
+      "chain", "N masses between springs and dampers, fixed to the ground at one end");
+  api::ChainModel& chain_options = arguments->chain;
+  chain->add_option("--masses", chain_options.masses, "Number of masses N")->required();
+  chain->add_option("--mass", chain_options.mass, "Each mass m, kg")->capture_default_str();
+  chain->add_option("--stiffness", chain_options.stiffness, "Each spring k, N/m")
+      ->capture_default_str();
+  chain->add_option("--damping", chain_options.damping, "Each damper d, N s/m")
+      ->capture_default_str();
+  chain->add_option("--input-mass", chain_options.input_mass, "Mass the force acts on, 1..N")
+      ->capture_default_str();
+  chain->add_option("--output-mass", chain_options.output_mass, "Mass whose position is y, 1..N")
+      ->capture_default_str();
+  AddOutputOptions(*chain, *arguments, "chain");
+
+  CLI::App* beam = generate->add_subcommand(
+      "beam", "A flexible link (Euler-Bernoulli, Hermite elements) on a hub driven by a torque");
+  api::BeamModel& beam_options = arguments->beam;
+  beam->add_option("--elements", beam_options.elements, "Number of elements N")->required();
+  beam->add_option("--length", beam_options.length, "Link length L, m")->capture_default_str();
+  beam->add_option("--hub-inertia", beam_options.hub_inertia, "Hub inertia J, kg m^2")
+      ->capture_default_str();
+  beam->add_option("--mass-per-length", beam_options.mass_per_length, "rho_a, kg/m")
+      ->capture_default_str();
+  beam->add_option("--bending-stiffness", beam_options.bending_stiffness, "EI, N m^2")
+      ->capture_default_str();
+  beam->add_option("--damping-factor", beam_options.damping_factor,
+                   "beta in D = beta K (stiffness-proportional damping), s")
+      ->capture_default_str();
+  AddOutputOptions(*beam, *arguments, "beam");
+
+  return {generate, [arguments, chain](std::ostream& out, std::ostream&) {
+            if (chain->parsed())
+              return WriteModel(arguments->chain, *arguments, out);
+            return WriteModel(arguments->beam, *arguments, out);
+          }};
+}
+
+}  // namespace servokit

@@ -1,0 +1,223 @@
+// servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf TF]
+//     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
+//     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
+//     [--post-actuation S] [--verify] --out FILE.csv
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <ostream>
+
+#include "application/commands.h"
+#include "application/exit_codes.h"
+#include "models/errors.h"
+#include "servokit/servokit.h"
+#include "solvers/method_choice.h"
+#include "solvers/solve_settings.h"
+#include "solvers/solve_summary.h"
+
+namespace servokit {
+namespace {
+
+struct SolveArguments {
+  std::string model_path;
+  std::vector<std::string> overrides;
+  std::string trajectory;
+  std::vector<std::string> y0, yf;
+  std::optional<double> t0, tf, t_start;
+  double t_end = std::numeric_limits<double>::quiet_NaN();
+  std::string method = "auto";
+  bool force = false;
+  std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
+  bool verify = false;
+  std::string out;
+};
+
+// The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
+api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
+  api::OutputTrajectory trajectory;
+  if (arguments.trajectory == "rest-to-rest") {
+    if (arguments.y0.empty() || arguments.yf.empty() || !arguments.t0 || !arguments.tf) {
+      throw UsageError("--trajectory rest-to-rest needs --y0, --yf, --t0 and --tf");
+    }
+    trajectory.y0 = ParseValues("--y0", arguments.y0);
+    trajectory.yf = ParseValues("--yf", arguments.yf);
+    trajectory.t0 = *arguments.t0;
+    trajectory.tf = *arguments.tf;
+    return trajectory;
+  }
+  if (!arguments.y0.empty() || !arguments.yf.empty() || arguments.t0 || arguments.tf) {
+    throw UsageError("--y0, --yf, --t0 and --tf belong to --trajectory rest-to-rest; a "
+                     "trajectory file gives its waypoints itself");
+  }
+  if (!std::filesystem::exists(arguments.trajectory)) {
+    throw UsageError("--trajectory " + arguments.trajectory +
+                     ": no such file (expected rest-to-rest or a YAML file of waypoints)");
+  }
+  trajectory.waypoint_file = arguments.trajectory;
+  return trajectory;
+}
+
+// The flag of a solve setting: the one place where the library's words meet the command line.
+std::string FlagFor(SolveSetting setting) {
+  switch (setting) {
+    case SolveSetting::kMethod:
+      return "--method";
+    case SolveSetting::kForce:
+      return "--force";
+    case SolveSetting::kStartTime:
+      return "--t-start";
+    case SolveSetting::kEndTime:
+      return "--t-end";
+    case SolveSetting::kStep:
+      return "--step";
+    case SolveSetting::kRelativeTolerance:
+      return "--rtol";
+    case SolveSetting::kAbsoluteTolerance:
+      return "--atol";
+    case SolveSetting::kSampleTime:
+      return "--sample-time";
+    case SolveSetting::kPreActuation:
+      return "--pre-actuation";
+    case SolveSetting::kPostActuation:
+      return "--post-actuation";
+  }
+  return "--" + std::string(ToString(setting));
+}
+
+// The solve, with the library's errors about settings and methods told in flags.
+api::Feedforward SolveTellingFlags(const api::Model& model,
+                       const api::OutputTrajectory& trajectory,
+                       const api::SolveOptions& options) {
+  try {
+    return api::Solve(model, trajectory, options);
+  } catch (const SettingError& error) {
+    throw UsageError(FlagFor(error.setting()) + ": " + error.what());
+  } catch (const MethodRefused& error) {
+    std::string hint;
+    if (!error.forceable().empty()) {
+      hint = "; --force integrates forward anyway";
+      if (options.method == "auto") {
+        hint += " (with " + std::string(ToString(error.forceable().front())) + ")";
+      }
+    }
+    throw NoSolution(std::string(error.what()) + hint);
+  }
+}
+
+int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
+  if (!SolverMethodFromString(arguments.method)) {
+    throw UsageError("--method " + arguments.method +
+                     ": expected auto, algebraic, euler, radau, bdf, normal-form, "
+                     "stable-inversion or linearized");
+  }
+  // Before any work: a solve whose answer cannot be written is wasted.
+  const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
+  if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
+    throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
+  }
+  const api::Model model = api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
+  const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
+  if (trajectory.waypoint_file.empty() &&
+      std::max(trajectory.y0.size(), trajectory.yf.size()) != Eigen::Index(model.num_outputs())) {
+    const std::size_t outputs = model.num_outputs();
+    throw UsageError("--y0 and --yf: " + std::to_string(std::max(trajectory.y0.size(), trajectory.yf.size())) +
+                     " values, but the model has " + std::to_string(outputs) +
+                     (outputs == 1 ? " output" : " outputs") + " (one value per output)");
+  }
+
+  api::SolveOptions options;
+  options.method = arguments.method;
+  options.force = arguments.force;
+  options.t_start = arguments.t_start;
+  options.t_end = arguments.t_end;
+  options.step = arguments.step;
+  options.rtol = arguments.rtol;
+  options.atol = arguments.atol;
+  options.sample_time = arguments.sample_time;
+  options.pre_actuation = arguments.pre_actuation;
+  options.post_actuation = arguments.post_actuation;
+  options.verify = arguments.verify;
+  options.csv_file = arguments.out;
+  const api::Feedforward feedforward = SolveTellingFlags(model, trajectory, options);
+  for (const std::string& note : feedforward.notes) err << "servokit: note: " << note << "\n";
+  out << feedforward.json << "\n";
+  for (const std::string& warning : feedforward.warnings) {
+    err << "servokit: warning: " << warning << "\n";
+  }
+  if (feedforward.status == ToString(SolveStatus::kVerificationFailed)) {
+    err << "servokit: error: " << feedforward.message << "\n";
+    return static_cast<int>(ExitCode::kVerificationFailed);
+  }
+  if (!feedforward.usable) {
+    err << "servokit: error: " << feedforward.method << " stopped: " << feedforward.message
+        << " (the rows up to there are in " << arguments.out << ")\n";
+    return static_cast<int>(ExitCode::kNoSolution);
+  }
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+}  // namespace
+
+Command AddSolveCommand(CLI::App& app) {
+  auto arguments = std::make_shared<SolveArguments>();
+  CLI::App* solve = app.add_subcommand(
+      "solve", "Compute the feedforward u_d(t) and motion q_d(t) for a desired output");
+  solve->footer(
+      "The CSV has the columns t, each coordinate, each <coordinate>_dot, each input, y1_d, ...;\n"
+      "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
+      "with --verify the largest output error when u_d drives the model from rest, against a\n"
+      "bound from the tolerances; a failed check exits with status 4).\n\n"
+      "Example (paper Sect. 5.1, case 4, u_d every millisecond):\n"
+      "  servokit solve models/mass_on_car.yaml --set alpha=0 --set d=0 \\\n"
+      "    --trajectory rest-to-rest --y0 0.5 --yf 2.5 --t0 0 --tf 6 --t-end 10 \\\n"
+      "    --sample-time 0.001 --verify --out case4.csv");
+  solve->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
+  solve->add_option("--set", arguments->overrides,
+                    "Override a parameter: name=value (value may end in deg)");
+  solve
+      ->add_option("--trajectory", arguments->trajectory,
+                   "rest-to-rest (Eq. 65, with --y0 --yf --t0 --tf) or a YAML file of waypoints")
+      ->required();
+  solve->add_option("--y0", arguments->y0, "Rest-to-rest: output at t0, one per output");
+  solve->add_option("--yf", arguments->yf, "Rest-to-rest: output at tf, one per output");
+  solve->add_option("--t0", arguments->t0, "Rest-to-rest: start of the motion [s]");
+  solve->add_option("--tf", arguments->tf, "Rest-to-rest: end of the motion [s]");
+  solve->add_option("--t-start", arguments->t_start,
+                    "Start of the solve [s] (default: the trajectory's first time; stable "
+                    "inversion: the start of its pre-actuation)");
+  solve->add_option("--t-end", arguments->t_end, "End of the solve [s]")->required();
+  solve
+      ->add_option("--method", arguments->method,
+                   "auto, algebraic, euler, radau, bdf, normal-form or stable-inversion")
+      ->capture_default_str();
+  solve->add_flag("--force", arguments->force,
+                  "Integrate unstable internal dynamics forward anyway");
+  solve->add_option("--step", arguments->step,
+                    "Euler backward's fixed step, the algebraic inverse's own spacing [s] "
+                    "(default 1e-3)");
+  solve->add_option("--rtol", arguments->rtol,
+                    "Relative tolerance (default 1e-8 radau, euler and stable inversion, 1e-10 "
+                    "bdf and normal-form)");
+  solve->add_option("--atol", arguments->atol,
+                    "Absolute tolerance (default 1e-10 radau, euler and stable inversion, 1e-12 "
+                    "bdf and normal-form)");
+  solve->add_option("--sample-time", arguments->sample_time,
+                    "Write rows at t_start + k DT over exactly [t_start, t_end], from the "
+                    "method's continuous extension [s] (default: the method's own points)");
+  solve->add_option("--pre-actuation", arguments->pre_actuation,
+                    "Stable inversion: time before the motion to cover [s] (default: from the "
+                    "eigenvalues, widened until the answer settles)");
+  solve->add_option("--post-actuation", arguments->post_actuation,
+                    "Stable inversion: time after the motion to cover [s] (default: likewise)");
+  solve->add_flag("--verify", arguments->verify,
+                  "Drive the model with u_d from rest (CVODE) and check the output error "
+                  "against a bound from the tolerances (exit status 4 when it fails)");
+  solve->add_option("--out", arguments->out, "CSV file to write")->required();
+  return {solve, [arguments](std::ostream& out, std::ostream& err) {
+            return RunSolve(*arguments, out, err);
+          }};
+}
+
+}  // namespace servokit

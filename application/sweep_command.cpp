@@ -1,0 +1,430 @@
+// servokit sweep MODEL --vary p=a:b:n | p=v1,v2,... [--vary ...] --out DIR [--threads N]
+//                [--set p=v]... [--y0 v]... [--q0 v]... [--rank-tolerance r] [--axis-tolerance a]
+//                [--checkpoint-interval s] [--block-size n]
+//                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
+//                [--which nearest|rightmost]            (linear models only)
+// A model of `kind: linear` is swept by analysis/linear_sweep.h (one workspace per thread, the
+// sparsity pattern analysed once per thread), a multibody model by analysis/sweep.h; both give
+// SweepPoints, so the files and the MPI distribution are the same code.
+// Under mpirun (application/mpi_sweep.h) every rank runs this command: each sets the sweep up,
+// rank 0 alone opens the output directory, and the blocks are shared out.
+#include <omp.h>
+#include <signal.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis/linear_sweep.h"
+#include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "application/commands.h"
+#include "application/exit_codes.h"
+#include "application/mpi_sweep.h"
+#include "reports/number_format.h"
+#include "application/progress.h"
+#include "reports/sweep_files.h"
+
+namespace servokit {
+namespace {
+
+// The shells' status for a job stopped by Ctrl-C (128 + SIGINT); also used for SIGTERM, since
+// both mean "stopped on request, resumable".
+constexpr int kInterruptedExitStatus = 128 + SIGINT;
+
+struct SweepArguments {
+  std::string model_path;
+  std::vector<std::string> vary;  // "name=a:b:n" or "name=v1,v2,..."
+  std::string out;                // the output directory
+  int threads = 0;                // 0: not given, all cores
+  std::size_t block_size = kSweepBlockSize;
+  std::vector<std::string> overrides;  // "name=value"
+  std::vector<std::string> y0, q0;     // each may hold several values separated by commas
+  ClassificationOptions options;
+  // Seconds between checkpoints.
+  double checkpoint_interval = kSweepCheckpointInterval.count();
+  LinearModelArguments linear;  // linear models only (as `servokit analyze`)
+};
+
+// The signal that asked the sweep to stop, 0 if none. A signal handler may only touch a
+// volatile sig_atomic_t (or a lock-free atomic).
+volatile std::sig_atomic_t interrupt_signal = 0;
+
+void OnInterrupt(int signal) {
+  if (interrupt_signal != 0) {
+    // A second Ctrl-C stops at once, as SIGKILL would: the last checkpoint still holds.
+    ::signal(signal, SIG_DFL);
+    ::raise(signal);
+    return;
+  }
+  interrupt_signal = signal;
+}
+
+/// While alive, SIGINT and SIGTERM ask the sweep to stop after the running block instead of
+/// killing it; the previous handlers come back afterwards (RunCommandLine may run in a test).
+class InterruptGuard {
+ public:
+  InterruptGuard() {
+    interrupt_signal = 0;
+    struct sigaction action = {};
+    action.sa_handler = OnInterrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART;  // file writes resume rather than fail with EINTR
+    if (::sigaction(SIGINT, &action, &previous_interrupt_) != 0 ||
+        ::sigaction(SIGTERM, &action, &previous_terminate_) != 0) {
+      throw Error("cannot install the SIGINT/SIGTERM handlers");
+    }
+  }
+  ~InterruptGuard() {
+    ::sigaction(SIGINT, &previous_interrupt_, nullptr);
+    ::sigaction(SIGTERM, &previous_terminate_, nullptr);
+  }
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+
+  bool interrupted() const { return interrupt_signal != 0; }
+
+ private:
+  struct sigaction previous_interrupt_ = {}, previous_terminate_ = {};
+};
+
+// Test hooks: SERVOKIT_TEST_STOP_AFTER_BLOCKS=B makes a process act as if interrupted, and
+// SERVOKIT_TEST_FAIL_AFTER_BLOCKS=B throw an Error, once it has handled B blocks (written them,
+// on rank 0 or alone; computed them, on the other ranks of an MPI sweep), so that tests stop or
+// break a sweep at a known place, on a chosen rank.
+constexpr const char* kTestStopVariable = "SERVOKIT_TEST_STOP_AFTER_BLOCKS";
+constexpr const char* kTestFailVariable = "SERVOKIT_TEST_FAIL_AFTER_BLOCKS";
+
+std::optional<std::size_t> BlocksFromEnvironment(const char* variable) {
+  const char* text = std::getenv(variable);
+  if (text == nullptr) return std::nullopt;
+  std::size_t blocks = 0;
+  const char* end = text + std::strlen(text);
+  const auto [stop, error] = std::from_chars(text, end, blocks);
+  if (error != std::errc() || stop != end || blocks < 1) {
+    throw UsageError(std::string(variable) + "=" + text + ": must be a whole number >= 1");
+  }
+  return blocks;
+}
+
+struct TestHooks {
+  std::optional<std::size_t> stop_after_blocks, fail_after_blocks;
+};
+
+TestHooks TestHooksFromEnvironment() {
+  return {BlocksFromEnvironment(kTestStopVariable), BlocksFromEnvironment(kTestFailVariable)};
+}
+
+/// Asked after each block: should the sweep stop here (a signal, or a test hook)?
+class StopRequest {
+ public:
+  StopRequest(const InterruptGuard& interrupt, const TestHooks& hooks)
+      : interrupt_(interrupt), hooks_(hooks) {}
+  bool operator()() {
+    ++blocks_;
+    if (hooks_.fail_after_blocks && blocks_ >= *hooks_.fail_after_blocks) {
+      throw Error(std::string(kTestFailVariable) + "=" + std::to_string(blocks_) +
+                  ": failing as asked");
+    }
+    return interrupt_.interrupted() ||
+           (hooks_.stop_after_blocks && blocks_ >= *hooks_.stop_after_blocks);
+  }
+
+ private:
+  const InterruptGuard& interrupt_;
+  const TestHooks hooks_;
+  std::size_t blocks_ = 0;
+};
+
+// Threads per process of an MPI sweep without --threads: the cores this process may run on
+// (OpenMP's count follows mpirun's binding) shared among the ranks on this machine, unless it is
+// bound to fewer cores than the machine has (then they are its own); OMP_NUM_THREADS wins.
+int DefaultThreadsPerProcess(const ProcessGroup& processes) {
+  if (std::getenv("OMP_NUM_THREADS") != nullptr) return omp_get_max_threads();
+  const int available = omp_get_num_procs();
+  const auto machine = static_cast<int>(std::thread::hardware_concurrency());
+  if (available < machine) return std::max(available, 1);
+  return std::max(available / std::max(processes.ranks_on_node, 1), 1);
+}
+
+// The command line as given, rebuilt from the parsed options (RunCommandLine does not pass argv
+// on); options come in the order they are declared, each with every value it was given.
+std::vector<std::string> CommandLine(const CLI::App& sweep) {
+  std::vector<std::string> line = {"servokit", sweep.get_name()};
+  for (const CLI::Option* option : sweep.get_options()) {
+    for (const std::string& value : option->results()) {
+      if (!option->get_positional()) line.push_back(option->get_name());
+      line.push_back(value);
+    }
+  }
+  return line;
+}
+
+void RejectSetAndVary(const std::vector<ParameterOverride>& overrides, const ParameterGrid& grid) {
+  for (const GridAxis& axis : grid.axes()) {
+    for (const ParameterOverride& override : overrides) {
+      if (override.name == axis.name) {
+        throw UsageError("--vary " + axis.name + ": the parameter is also given by --set; " +
+                         "drop one of them");
+      }
+    }
+  }
+}
+
+SweepOptions MakeSweepOptions(const SweepArguments& arguments,
+                              const CLI::App& sweep,
+                              const Model* model) {
+  SweepOptions options;
+  options.classification = arguments.options;
+  if (!arguments.y0.empty()) {
+    options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
+  }
+  if (!arguments.q0.empty()) {
+    options.classification.operating_point.q_guess = ParseValues("--q0", arguments.q0);
+  }
+  if (sweep.get_option("--threads")->count() > 0) {
+    if (arguments.threads < 1) {
+      throw UsageError("--threads " + std::to_string(arguments.threads) +
+                       ": must be at least 1 (default: all cores)");
+    }
+    options.threads = arguments.threads;
+  } else if (Processes().size > 1) {
+    options.threads = DefaultThreadsPerProcess(Processes());
+  }
+  if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
+  options.block_size = arguments.block_size;
+  // Before the output directory is touched: a bad option must not leave a half-made sweep.
+  if (model != nullptr) options.classification.Validate(*model);
+  return options;
+}
+
+// Everything a sweep needs before it touches the output directory; the same on every process.
+struct SweepSetup {
+  // Exactly one of the two: the kind of the model file.
+  std::optional<Model> model;
+  std::optional<LinearModel> linear_model;
+  LinearAnalysisOptions linear_options;  // for linear_model
+  SweepModelInfo info;                   // what the files record of either
+  ParameterGrid grid;
+  SweepOptions options;
+  SweepOutputOptions output_options;
+  TestHooks test_hooks;
+};
+
+SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
+  if (Processes().size > 1 && !BuiltWithMpi()) {
+    throw UsageError("started by an MPI launcher with " + std::to_string(Processes().size) +
+                     " processes, but this servokit was built without MPI; run it without " +
+                     "mpirun, or rebuild it with MPI (libopenmpi-dev)");
+  }
+  const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
+  std::optional<Model> model;
+  std::optional<LinearModel> linear_model;
+  LinearAnalysisOptions linear_options;
+  std::optional<ParameterGrid> grid;
+  SweepModelInfo info;
+  if (IsLinearModelFile(arguments.model_path)) {
+    linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
+                                               !arguments.y0.empty(), !arguments.q0.empty());
+    linear_model.emplace(LoadLinearModel(arguments.model_path, overrides));
+    grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
+    info = DescribeSweepModel(*linear_model, linear_options);
+  } else {
+    RefuseLinearModelOptions(sweep);
+    model.emplace(LoadModel(arguments.model_path, overrides));
+    grid.emplace(ParseParameterGrid(*model, arguments.vary));
+    info = DescribeSweepModel(*model);
+  }
+  RejectSetAndVary(overrides, *grid);
+  const SweepOptions options = MakeSweepOptions(arguments, sweep, model ? &*model : nullptr);
+  if (!(arguments.checkpoint_interval > 0.0)) {
+    throw UsageError("--checkpoint-interval " + FormatShort(arguments.checkpoint_interval) +
+                     ": must be > 0 seconds");
+  }
+  const SweepOutputOptions output_options = {
+      SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
+  return {std::move(model),   std::move(linear_model), linear_options,
+          std::move(info),    std::move(*grid),        options,
+          output_options,     TestHooksFromEnvironment()};
+}
+
+// Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
+template <typename Step>
+void OnEveryProcess(Step step) {
+  std::exception_ptr failure;
+  try {
+    step();
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  AgreeOnSuccess(failure);
+}
+
+// An MPI sweep's ranks must compute the same sweep: a rank that reads another model file (a
+// different copy on its machine) or runs another servokit would mix two sweeps in one file.
+void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
+  if (Processes().size == 1) return;
+  const std::string fingerprint =
+      SweepFingerprint(setup.info, setup.grid, setup.options.classification);
+  OnEveryProcess([&] {
+    if (BroadcastFromRoot(fingerprint) != fingerprint) {
+      throw UsageError("this rank computes another sweep than rank 0 (" + fingerprint +
+                       "): its model file or servokit differs");
+    }
+  });
+}
+
+// Computes points first_point.. and appends them to `output` (rank 0 only); returns the index
+// after the last point written: the grid's size, or less when stopped on request.
+std::size_t ComputeSweep(const SweepSetup& setup,
+                         std::size_t first_point,
+                         SweepOutput* output,
+                         std::ostream& err) {
+  ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
+  const InterruptGuard interrupt;
+  StopRequest stop_requested(interrupt, setup.test_hooks);
+  // The one place that knows the model's kind: both kinds give SweepPoints block by block. A
+  // linear sweep keeps its per-thread workspaces across blocks (and, under MPI, across the
+  // blocks of this rank), so each thread analyses the sparsity pattern once.
+  std::optional<LinearSweepWorkspaces> linear_workspaces;
+  LinearSweepOptions linear_options;
+  if (setup.linear_model) {
+    linear_options.analysis = setup.linear_options;
+    linear_options.threads = setup.options.threads;
+    linear_options.block_size = setup.options.block_size;
+    linear_workspaces.emplace(SweepThreads(setup.options));
+  }
+  const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
+    if (setup.linear_model) {
+      return RunLinearSweep(*setup.linear_model, setup.grid, linear_options, first,
+                            *linear_workspaces, consume);
+    }
+    return RunSweep(*setup.model, setup.grid, setup.options, first, consume);
+  };
+  if (Processes().size == 1) {
+    return run(first_point, [&](std::size_t first, std::span<const SweepPoint> block) {
+      output->Append(first, block);
+      progress.Update(first + block.size());
+      return !stop_requested();
+    });
+  }
+  return RunDistributedSweep(
+             run, setup.grid, setup.options, first_point,
+             [&](const FormattedBlock& block) {
+               output->Append(block);
+               progress.Update(block.first + block.points);
+             },
+             stop_requested)
+      .done;
+}
+
+int RunSweepCommand(const SweepArguments& arguments,
+                    const CLI::App& sweep,
+                    std::ostream& out,
+                    std::ostream& err) {
+  std::optional<SweepSetup> setup;
+  OnEveryProcess([&] { setup.emplace(MakeSweepSetup(arguments, sweep)); });
+  CheckSameSweepOnEveryProcess(*setup);
+  const bool root = Processes().IsRoot();
+  std::optional<SweepOutput> output;
+  OnEveryProcess([&] {
+    if (root) {
+      output.emplace(arguments.out, setup->info, setup->grid, setup->options.classification,
+                     CommandLine(sweep), setup->output_options);
+    }
+  });
+  const std::size_t total = setup->grid.num_points();
+  const bool already_complete = BroadcastFromRoot(root && output->already_complete()) != 0;
+  const std::size_t first_point = BroadcastFromRoot(root ? output->points_done() : 0);
+  if (already_complete) {
+    err << "servokit: " << arguments.out << " already holds this sweep, complete (" << total
+        << " points); nothing to do\n";
+    return static_cast<int>(ExitCode::kSuccess);
+  }
+  if (first_point > 0) {
+    err << "servokit: resuming at point " << first_point << " of " << total << "\n";
+  }
+  const std::size_t done = ComputeSweep(*setup, first_point, output ? &*output : nullptr, err);
+  if (!root) {
+    return done < total ? kInterruptedExitStatus : static_cast<int>(ExitCode::kSuccess);
+  }
+  if (done < total) {
+    output->Checkpoint();
+    err << "servokit: error: interrupted at point " << done << " of " << total
+        << "; run the same command again to resume\n";
+    return kInterruptedExitStatus;
+  }
+  output->Finish();
+  out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out
+      << " (points.csv, eigenvalues.csv, sweep.json); " << output->points_without_solution()
+      << " without a solution\n";
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+}  // namespace
+
+Command AddSweepCommand(CLI::App& app) {
+  auto arguments = std::make_shared<SweepArguments>();
+  CLI::App* sweep = app.add_subcommand(
+      "sweep", "Classify the problem at every point of a parameter grid (CSV tables)");
+  sweep->footer(
+      "Each --vary adds one axis of a full grid; the first varies slowest (row-major).\n"
+      "A range a:b:n is n values from a to b inclusive; a list is v1,v2,...; values may end\n"
+      "in deg. Interrupted (Ctrl-C), the sweep exits with status 130; the same command\n"
+      "resumes it. `mpirun -np K servokit sweep ...` shares the blocks out over K ranks and\n"
+      "writes the same files.\n"
+      "Example:\n  servokit sweep models/mass_on_car.yaml --vary alpha=0deg:90deg:91 "
+      "--vary d=0:2:21 --out sweep-out");
+  sweep
+      ->add_option("MODEL", arguments->model_path,
+                   "Model file (YAML; `kind: linear` for a large sparse linear model)")
+      ->required();
+  sweep
+      ->add_option("--vary", arguments->vary,
+                   "A varied parameter: name=a:b:n (n values from a to b) or name=v1,v2,...")
+      ->required();
+  sweep->add_option("--out", arguments->out, "Output directory")->required();
+  sweep->add_option("--threads", arguments->threads,
+                    "Threads (default: all cores; under mpirun, per rank: the cores of its "
+                    "machine shared among its ranks)");
+  sweep
+      ->add_option("--block-size", arguments->block_size,
+                   "Points per block: computed in parallel, then written; under mpirun block b "
+                   "goes to rank b mod K. The files do not depend on it")
+      ->capture_default_str();
+  sweep
+      ->add_option("--checkpoint-interval", arguments->checkpoint_interval,
+                   "Seconds between checkpoints (fsync): the most work a crash can lose")
+      ->capture_default_str();
+  sweep->add_option("--set", arguments->overrides,
+                    "Override a fixed parameter: name=value (value may end in deg)");
+  sweep->add_option("--y0", arguments->y0,
+                    "Output value at the operating point, one per output (default: h(0))");
+  sweep->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
+  sweep
+      ->add_option("--rank-tolerance", arguments->options.rank_tolerance,
+                   "Relative tolerance of rank decisions (P, Markov parameters)")
+      ->capture_default_str();
+  sweep
+      ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
+                   "Relative distance to the imaginary axis counted as on it")
+      ->capture_default_str();
+  AddLinearModelOptions(*sweep, arguments->linear, "zeros per point");
+  return {sweep, [arguments, sweep](std::ostream& out, std::ostream& err) {
+            return RunSweepCommand(*arguments, *sweep, out, err);
+          }};
+}
+
+}  // namespace servokit

@@ -1,0 +1,147 @@
+// servokit threshold MODEL --vary p=a:b --event stability|oscillation|realization [--set ...]
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "analysis/characteristic_polynomial.h"
+#include "analysis/thresholds.h"
+#include "models/errors.h"
+#include "models/units.h"
+#include "application/commands.h"
+#include "application/exit_codes.h"
+#include "reports/number_format.h"
+
+namespace servokit {
+namespace {
+
+struct ThresholdArguments {
+  std::string model_path;
+  std::vector<std::string> overrides;
+  std::vector<std::string> y0;
+  std::string vary;  // p=a:b
+  std::string event;
+  bool closed_form = true;
+  ThresholdOptions options;
+};
+
+struct Range {
+  std::string parameter;
+  double low = 0.0, high = 0.0;
+};
+
+// "p=a:b", each end a number that may end in "deg".
+Range ParseRange(const std::string& text) {
+  const auto equals = text.find('=');
+  const auto colon = text.find(':', equals == std::string::npos ? 0 : equals);
+  if (equals == std::string::npos || equals == 0 || colon == std::string::npos ||
+      text.find(':', colon + 1) != std::string::npos) {
+    throw UsageError("--vary " + text + ": expected name=low:high (e.g. --vary s=0:1)");
+  }
+  const auto low = ParseQuantity(text.substr(equals + 1, colon - equals - 1));
+  const auto high = ParseQuantity(text.substr(colon + 1));
+  if (!low || !high) {
+    throw UsageError("--vary " + text + ": low and high must be numbers (may end in deg)");
+  }
+  if (!(*low < *high)) throw UsageError("--vary " + text + ": needs low < high");
+  return {text.substr(0, equals), *low, *high};
+}
+
+nlohmann::ordered_json ClosedFormToJson(const CharacteristicPolynomial& closed_form) {
+  nlohmann::ordered_json conditions = nlohmann::ordered_json::array();
+  for (const HurwitzCondition& condition : closed_form.hurwitz) {
+    conditions.push_back({{"name", condition.name},
+                          {"expression", condition.expression + " > 0"},
+                          {"solved", condition.solved},
+                          {"sign_changes", condition.sign_changes}});
+  }
+  return {{"characteristic_polynomial", closed_form.polynomial},
+          {"variable", closed_form.variable},
+          {"degree", closed_form.degree},
+          {"coefficients", closed_form.coefficients},
+          {"routh_hurwitz", conditions},
+          {"discriminant", closed_form.discriminant},
+          {"discriminant_sign_changes", closed_form.discriminant_sign_changes}};
+}
+
+int RunThreshold(const ThresholdArguments& arguments, std::ostream& out) {
+  const std::optional<ThresholdEvent> event = ThresholdEventFromString(arguments.event);
+  if (!event) {
+    throw UsageError("--event " + arguments.event +
+                     ": expected stability, oscillation or "
+                     "realization");
+  }
+  const Range range = ParseRange(arguments.vary);
+  const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
+  const auto parameter = model.FindParameter(range.parameter);
+  if (!parameter) {
+    throw UsageError("--vary " + arguments.vary + ": the model has no parameter '" +
+                     range.parameter + "'");
+  }
+  ThresholdOptions options = arguments.options;
+  if (!arguments.y0.empty()) {
+    options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
+  }
+  const ThresholdSearch search =
+      FindThresholds(model, *parameter, range.low, range.high, *event, options);
+
+  nlohmann::ordered_json events = nlohmann::ordered_json::array();
+  for (const ThresholdCrossing& crossing : search.events) {
+    nlohmann::ordered_json entry = {{"value", WithoutNegativeZero(crossing.value)},
+                                    {"from", crossing.from},
+                                    {"to", crossing.to}};
+    if (!crossing.via.empty()) entry["via"] = crossing.via;
+    entry["bracket_width"] = crossing.bracket_width;
+    events.push_back(entry);
+  }
+  nlohmann::ordered_json result = {{"parameter", search.parameter},
+                                   {"event", ToString(search.event)},
+                                   {"events", events},
+                                   {"model", model.name()},
+                                   {"range", {search.low, search.high}},
+                                   {"scan_intervals", options.scan_intervals},
+                                   {"relative_tolerance", options.relative_tolerance},
+                                   {"classifications", search.classifications}};
+  if (arguments.closed_form && !options.classification.operating_point.y0) {
+    const auto closed_form =
+        DeriveCharacteristicPolynomial(model, *parameter, range.low, range.high);
+    result["closed_form"] =
+        closed_form ? ClosedFormToJson(*closed_form) : nlohmann::ordered_json(nullptr);
+  }
+  out << result.dump(2) << "\n";
+  return static_cast<int>(ExitCode::kSuccess);
+}
+
+}  // namespace
+
+Command AddThresholdCommand(CLI::App& app) {
+  auto arguments = std::make_shared<ThresholdArguments>();
+  CLI::App* threshold =
+      app.add_subcommand("threshold",
+                         "Locate where stability, oscillation or the realization changes along a "
+                         "parameter");
+  threshold->footer(
+      "Example:\n  servokit threshold models/rotational_arm.yaml --vary s=0:1 --event "
+      "stability");
+  threshold->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
+  threshold->add_option("--vary", arguments->vary, "Parameter range: name=low:high (deg allowed)")
+      ->required();
+  threshold->add_option("--event", arguments->event, "stability, oscillation or realization")
+      ->required();
+  threshold->add_option("--set", arguments->overrides,
+                        "Override a parameter: name=value (value may end in deg)");
+  threshold->add_option("--y0", arguments->y0, "Output value at the operating point");
+  threshold
+      ->add_option("--scan", arguments->options.scan_intervals, "Scan intervals before bisection")
+      ->capture_default_str();
+  threshold
+      ->add_option("--tolerance", arguments->options.relative_tolerance,
+                   "Relative width each event is located to")
+      ->capture_default_str();
+  threshold->add_flag("!--no-closed-form", arguments->closed_form,
+                      "Skip the symbolic characteristic polynomial and its Routh-Hurwitz "
+                      "conditions");
+  return {threshold,
+          [arguments](std::ostream& out, std::ostream&) { return RunThreshold(*arguments, out); }};
+}
+
+}  // namespace servokit

@@ -1,0 +1,132 @@
+// api::Analyze: the classification of either kind of model at its operating point, with the
+// reports `servokit analyze` prints.
+#include "analysis/classification.h"
+#include "analysis/linear_analysis.h"
+#include "analysis/linear_zero_dynamics.h"
+#include "models/errors.h"
+#include "reports/classification_report.h"
+#include "servokit/loaded_model.h"
+
+namespace servokit::api {
+namespace {
+
+template <typename ZeroDynamicsResult>
+ZeroDynamics ToZeroDynamics(const ZeroDynamicsResult& result) {
+  ZeroDynamics zero_dynamics;
+  zero_dynamics.eigenvalues = result.eigenvalues;
+  zero_dynamics.stability = std::string(ToString(result.stability));
+  zero_dynamics.minimum_phase = result.minimum_phase;
+  for (const Mode& mode : result.modes) {
+    zero_dynamics.modes.push_back({mode.frequency_hz, mode.damping_ratio});
+  }
+  return zero_dynamics;
+}
+
+Analysis AnalyzeMultibody(const servokit::Model& model, const AnalyzeOptions& options) {
+  const ClassificationOptions classification_options = ToClassificationOptions(options);
+  Workspace workspace(model);
+  Classification classification = Classify(model, workspace, classification_options);
+  if (options.nonlinear_structure) {
+    NonlinearStructureOptions structure_options;
+    structure_options.rank_tolerance = classification_options.rank_tolerance;
+    structure_options.reference_q = classification.operating_point.q;
+    classification.nonlinear_structure = SummarizeNonlinearStructure(model, structure_options);
+  }
+  Analysis analysis;
+  analysis.q = classification.operating_point.q;
+  analysis.u = classification.operating_point.u;
+  analysis.y = classification.operating_point.y;
+  analysis.P = classification.decoupling.decoupling_matrix;
+  analysis.P_rank = int(classification.decoupling.rank);
+  analysis.realization = std::string(ToString(classification.decoupling.realization));
+  analysis.relative_degree = classification.structure.relative_degree;
+  analysis.differentiation_index = classification.structure.differentiation_index;
+  analysis.projected_index = classification.structure.projected_index;
+  analysis.internal_dynamics_order = classification.structure.internal_dynamics_order;
+  analysis.flat = classification.flat;
+  analysis.zero_dynamics = ToZeroDynamics(classification.zero_dynamics);
+  analysis.recommended_solver = std::string(ToString(classification.recommended_solver));
+  analysis.text =
+      FormatClassification(model, classification, classification_options, ReportFormat::kText);
+  analysis.json =
+      FormatClassification(model, classification, classification_options, ReportFormat::kJson);
+  analysis.markdown = FormatClassification(model, classification, classification_options,
+                                           ReportFormat::kMarkdown);
+  return analysis;
+}
+
+Analysis AnalyzeLinear(const LinearModel& model, const AnalyzeOptions& options) {
+  const LinearAnalysisOptions linear_options = ToLinearAnalysisOptions(options);
+  const LinearSystem system = AssembleLinearSystem(model, model.parameters());
+  LinearZeroDynamicsWorkspace workspace;
+  const LinearAnalysis result = AnalyzeLinearSystem(system, workspace, linear_options);
+  Analysis analysis;
+  analysis.q = Eigen::VectorXd::Zero(Eigen::Index(model.dof()));
+  analysis.u = Eigen::VectorXd::Zero(Eigen::Index(model.num_inputs()));
+  analysis.y = Eigen::VectorXd::Zero(Eigen::Index(model.num_outputs()));
+  analysis.P_rank = int(result.decoupling.rank);
+  analysis.realization = std::string(ToString(result.decoupling.realization));
+  if (result.relative_degrees.determined) {
+    analysis.relative_degree = result.relative_degrees.relative_degree;
+    analysis.differentiation_index = result.differentiation_index;
+    analysis.projected_index = result.projected_index;
+  } else {
+    analysis.differentiation_index = -1;
+    analysis.projected_index = -1;
+  }
+  analysis.internal_dynamics_order = int(result.internal_dynamics_order);
+  analysis.flat = result.flat;
+  analysis.zero_dynamics = ToZeroDynamics(result.zero_dynamics);
+  analysis.recommended_solver = std::string(ToString(result.recommended_solver));
+  analysis.text = FormatLinearAnalysis(model, result, linear_options, ReportFormat::kText);
+  analysis.json = FormatLinearAnalysis(model, result, linear_options, ReportFormat::kJson);
+  analysis.markdown =
+      FormatLinearAnalysis(model, result, linear_options, ReportFormat::kMarkdown);
+  return analysis;
+}
+
+}  // namespace
+
+ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options) {
+  ClassificationOptions classification;
+  classification.rank_tolerance = options.rank_tolerance;
+  classification.imaginary_axis_tolerance = options.imaginary_axis_tolerance;
+  classification.operating_point.y0 = options.y0;
+  classification.operating_point.q_guess = options.q_guess;
+  return classification;
+}
+
+LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options) {
+  if (options.y0 || options.q_guess) {
+    throw UsageError(std::string(options.y0 ? "AnalyzeOptions::y0" : "AnalyzeOptions::q_guess") +
+                     ": a linear model is analysed at q = 0, y = 0; the option does not apply");
+  }
+  LinearAnalysisOptions linear;
+  linear.rank_tolerance = options.rank_tolerance;
+  linear.zero_dynamics.imaginary_axis_tolerance = options.imaginary_axis_tolerance;
+  linear.zero_dynamics.arpack.eigenvalues = options.eigenvalues;
+  linear.zero_dynamics.shift = options.shift;
+  const auto solver = LinearEigenSolverFromString(options.eigen_solver);
+  if (!solver) {
+    throw UsageError("AnalyzeOptions::eigen_solver = " + options.eigen_solver +
+                     ": expected auto, dense or arpack");
+  }
+  linear.zero_dynamics.solver = *solver;
+  const auto target = EigenvalueTargetFromString(options.which);
+  if (!target) {
+    throw UsageError("AnalyzeOptions::which = " + options.which +
+                     ": expected nearest or rightmost");
+  }
+  linear.zero_dynamics.target = *target;
+  linear.Validate();
+  return linear;
+}
+
+Analysis Analyze(const Model& model, const AnalyzeOptions& options) {
+  if (const auto* multibody = std::get_if<servokit::Model>(&Unwrap(model).model)) {
+    return AnalyzeMultibody(*multibody, options);
+  }
+  return AnalyzeLinear(std::get<LinearModel>(Unwrap(model).model), options);
+}
+
+}  // namespace servokit::api

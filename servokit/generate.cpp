@@ -1,0 +1,47 @@
+// api::Generate: large linear models written as `servokit generate chain|beam` writes them.
+#include <filesystem>
+
+#include "models/errors.h"
+#include "models/model_generators.h"
+#include "servokit/servokit.h"
+
+namespace servokit::api {
+namespace {
+
+std::string Write(LinearModelFiles files, const std::string& directory, const std::string& name) {
+  if (!name.empty()) files.name = name;
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) throw Error(directory + ": cannot create the directory: " + error.message());
+  return WriteLinearModel(files, directory);
+}
+
+}  // namespace
+
+std::string Generate(const ChainModel& chain,
+                     const std::string& directory,
+                     const std::string& name) {
+  ChainOptions options;
+  options.masses = chain.masses;
+  options.mass = chain.mass;
+  options.stiffness = chain.stiffness;
+  options.damping = chain.damping;
+  options.input_mass = chain.input_mass;
+  options.output_mass = chain.output_mass;
+  return Write(GenerateChain(options), directory, name);
+}
+
+std::string Generate(const BeamModel& beam,
+                     const std::string& directory,
+                     const std::string& name) {
+  BeamOptions options;
+  options.elements = beam.elements;
+  options.length = beam.length;
+  options.hub_inertia = beam.hub_inertia;
+  options.mass_per_length = beam.mass_per_length;
+  options.bending_stiffness = beam.bending_stiffness;
+  options.damping_factor = beam.damping_factor;
+  return Write(GenerateBeam(options), directory, name);
+}
+
+}  // namespace servokit::api

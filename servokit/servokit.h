@@ -1,0 +1,289 @@
+#pragma once
+// servokit's C++ API: the one header a program includes to use servokit as a library.
+//
+//   #include <servokit/servokit.h>
+//   namespace sk = servokit::api;
+//   const sk::Model model = sk::Model::FromFile("mass_on_car.yaml", {{"alpha", "5 deg"}});
+//   const sk::Analysis analysis = sk::Analyze(model);
+//   // analysis.realization == "non-ideal-orthogonal", analysis.zero_dynamics.eigenvalues ...
+//
+// Everything the `servokit` command does is here, in the toolkit's own words: load a model (a
+// file or a string, either kind), analyze it at an operating point, sweep parameters (in memory
+// or to the files `servokit sweep` writes), locate thresholds, solve for the feedforward, and
+// generate large linear models. Options are structs whose defaults are servokit's; results are
+// plain values. Errors are the exceptions of servokit/errors.h, each with a kind (usage, model,
+// no solution). The header needs only Eigen and the standard library: GiNaC, SUNDIALS and the
+// rest stay inside the compiled library.
+#include <Eigen/Dense>
+#include <complex>
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "servokit/errors.h"
+
+namespace servokit::api {
+
+// ---- models ---------------------------------------------------------------------------------
+
+/// Parameter values that replace a model file's own: (name, value), where the value is a number
+/// in SI units or "<number> deg" (converted to radians), as in the model file.
+using ParameterValues = std::vector<std::pair<std::string, std::string>>;
+
+/// A model file's kind: a multibody model (M(q) q'' + f = B u, y = h(q), with expressions) or a
+/// large linear one (`kind: linear`, sparse matrices from Matrix Market files).
+enum class ModelKind { kMultibody, kLinear };
+
+/// A loaded model, either kind: immutable, cheap to copy (copies share it) and safe to use from
+/// several threads at once.
+class Model {
+ public:
+  /// Reads a model file (YAML; DESIGN.md "The model file", or `kind: linear`). Throws ModelError
+  /// naming the file, key and entry of a bad file, UsageError for a bad override.
+  static Model FromFile(const std::string& path, const ParameterValues& overrides = {});
+  /// The same from YAML text; `source` names it in error messages. A linear model's matrix
+  /// files are found relative to the current directory.
+  static Model FromString(const std::string& yaml,
+                          const std::string& source = "<string>",
+                          const ParameterValues& overrides = {});
+
+  ModelKind kind() const;
+  const std::string& name() const;
+  /// The file path as given, or FromString's `source`.
+  const std::string& source() const;
+  /// Parameter names, and their values in SI units after overrides (same order).
+  const std::vector<std::string>& parameter_names() const;
+  const Eigen::VectorXd& parameters() const;
+  /// Generalized coordinates q and inputs u; a linear model's are numbered q1.., u1...
+  std::size_t dof() const;
+  std::size_t num_inputs() const;
+  std::size_t num_outputs() const;
+
+  struct Loaded;  // the toolkit's model, inside the library
+
+ private:
+  explicit Model(std::shared_ptr<const Loaded> loaded) : loaded_(std::move(loaded)) {}
+  friend const Loaded& Unwrap(const Model& model);
+  std::shared_ptr<const Loaded> loaded_;
+};
+
+// ---- analysis -------------------------------------------------------------------------------
+
+/// How Analyze classifies (defaults: those of `servokit analyze`).
+struct AnalyzeOptions {
+  // The operating point: the output there, one value per output (default: h(q = 0)), and
+  // Newton's start for q (default: 0). Multibody models only; a linear model is analysed at 0.
+  std::optional<Eigen::VectorXd> y0;
+  std::optional<Eigen::VectorXd> q_guess;
+  // A singular value (or Markov row) counts as zero at most rank_tolerance times the norms of
+  // its factors: relative, so the verdict does not change with units.
+  double rank_tolerance = 1e-10;
+  // |Re lambda| at most this times max |lambda| counts as on the imaginary axis ("critical").
+  double imaginary_axis_tolerance = 1e-9;
+  // Multibody models: also run the structure algorithm on the nonlinear model (relative degree
+  // along the motion, dynamic extension), as `servokit analyze` does; it costs a symbolic
+  // derivation per call, which sweeps skip.
+  bool nonlinear_structure = true;
+  // Linear models: "auto" (dense up to 200 coordinates, ARPACK above), "dense" or "arpack";
+  // how many zeros ARPACK computes; its real shift (1/s); which zeros, "nearest" the shift or
+  // "rightmost".
+  std::string eigen_solver = "auto";
+  int eigenvalues = 10;
+  double shift = 0.0;
+  std::string which = "nearest";
+};
+
+/// One lightly damped or undamped mode of the zero dynamics.
+struct OscillatoryMode {
+  double frequency_hz = 0.0;
+  double damping_ratio = 0.0;
+};
+
+/// The zero dynamics at the operating point (paper Eq. 48).
+struct ZeroDynamics {
+  std::vector<std::complex<double>> eigenvalues;
+  // "asymptotically-stable", "unstable", "critical" or "none" (no zero dynamics).
+  std::string stability;
+  bool minimum_phase = false;
+  std::vector<OscillatoryMode> modes;
+};
+
+/// The classification of a servo-constraint problem at its operating point (DESIGN.md, the
+/// keys of `analyze --format json`), and the three reports `servokit analyze` prints.
+struct Analysis {
+  Eigen::VectorXd q, u, y;  // the operating point
+  Eigen::MatrixXd P;        // H M^-1 B (paper Eq. 10); empty for a linear model
+  int P_rank = 0;
+  // "ideal-orthogonal", "non-ideal-orthogonal", "tangential" or "mixed-orthogonal-tangential".
+  std::string realization;
+  std::vector<int> relative_degree;  // one per output; empty when not determined
+  int differentiation_index = 0;     // of the DAE (8)-(9); -1 when not determined
+  int projected_index = 0;           // of the projected DAE (15)-(18); -1 when not determined
+  int internal_dynamics_order = 0;   // first-order dimension; -1 when not determined
+  bool flat = false;
+  ZeroDynamics zero_dynamics;
+  std::string recommended_solver;  // empty for a linear model
+  // The same bytes as `servokit analyze --format text|json|md`.
+  std::string text, json, markdown;
+};
+
+/// Classifies `model` at its operating point. Throws UsageError for bad options, NoSolution when
+/// there is no operating point or no classification (singular M, Newton does not converge).
+Analysis Analyze(const Model& model, const AnalyzeOptions& options = {});
+
+// ---- sweeps ---------------------------------------------------------------------------------
+
+/// One varied parameter and its values, in SI units.
+struct SweepAxis {
+  std::string parameter;
+  std::vector<double> values;
+};
+
+struct SweepOptions {
+  AnalyzeOptions analysis;  // nonlinear_structure is not used: a sweep classifies only
+  int threads = 1;          // 0: all cores; the results do not depend on it
+};
+
+/// One point of a sweep: the class columns of `servokit sweep`'s points.csv.
+struct SweepPoint {
+  std::vector<double> parameter_values;  // one per axis, in the order of the axes
+  bool solved = false;                   // false: `error` says why this point has no answer
+  std::string error;
+  std::string realization;
+  int P_rank = 0;
+  std::vector<int> relative_degree;
+  int differentiation_index = 0;
+  int internal_dynamics_order = 0;
+  std::string stability;
+  std::vector<std::complex<double>> eigenvalues;
+};
+
+/// Classifies every point of the full grid over `axes` (the first axis varies slowest), the
+/// other parameters at the model's values. A point without an answer is recorded, not thrown.
+std::vector<SweepPoint> Sweep(const Model& model,
+                              const std::vector<SweepAxis>& axes,
+                              const SweepOptions& options = {});
+
+/// The same sweep written to `directory` as points.csv and eigenvalues.csv, byte for byte the
+/// tables `servokit sweep --out` writes. Returns the number of points. Throws Error when the
+/// files cannot be written. (The command's checkpoints, resumption and sweep.json are the
+/// application's: use the command for sweeps that must survive an interruption.)
+std::size_t SweepToFiles(const Model& model,
+                         const std::vector<SweepAxis>& axes,
+                         const std::string& directory,
+                         const SweepOptions& options = {});
+
+// ---- thresholds -----------------------------------------------------------------------------
+
+/// Where to look for a threshold, and for which change.
+struct ThresholdQuery {
+  std::string parameter;
+  double low = 0.0, high = 0.0;  // SI units
+  // "stability", "oscillation" or "realization".
+  std::string event = "stability";
+  AnalyzeOptions analysis;  // the tolerances of each classification
+};
+
+/// One located change: the class goes from `from` to `to` at `value` (SI units).
+struct Threshold {
+  double value = 0.0;
+  std::string from, to;
+  std::string via;  // a thin state passed through (e.g. "tangential"), or empty
+};
+
+/// Every threshold in [low, high], ascending, each to 1e-12 relative. Multibody models only.
+std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery& query);
+
+// ---- solving --------------------------------------------------------------------------------
+
+/// The desired output y_d(t): rest-to-rest (paper Eq. 65, raised in order when the problem
+/// needs more derivatives) from y0 at t0 to yf at tf, or the waypoints of a YAML file.
+struct OutputTrajectory {
+  Eigen::VectorXd y0, yf;  // one value per output
+  double t0 = 0.0, tf = 1.0;
+  std::string waypoint_file;  // when set, the trajectory is this file and y0..tf are unused
+};
+
+/// How to solve (defaults: those of `servokit solve`; an unset value is the method's default).
+struct SolveOptions {
+  // "auto", "algebraic", "euler", "radau", "bdf", "normal-form", "stable-inversion" or
+  // "linearized".
+  std::string method = "auto";
+  bool force = false;  // integrate unstable internal dynamics forward anyway
+  std::optional<double> t_start;
+  double t_end = 0.0;
+  std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
+  // Drive the model with u_d from rest and compare its output with y_d (the forward check).
+  bool verify = false;
+  // When set, the feedforward is written to this CSV file as `servokit solve --out` writes it
+  // (t, each coordinate, each <coordinate>_dot, each input, y1_d, ...), and `json` names it.
+  std::string csv_file;
+};
+
+/// The forward check of a solve.
+struct Verification {
+  double max_tracking_error = 0.0;
+  double bound = 0.0;
+  bool passed = false;
+};
+
+/// The feedforward u_d(t) and motion q_d(t): one row per time.
+struct Feedforward {
+  std::string method;  // the method that ran
+  // "converged", or why the solve stopped ("no-convergence", "verification-failed", ...).
+  std::string status;
+  std::string message;
+  bool usable = false;  // converged, and passed the check when one was asked for
+  std::vector<double> t;
+  Eigen::MatrixXd q, q_dot, u, y_d;  // rows: times; columns: coordinates, inputs, outputs
+  std::optional<Verification> verification;
+  std::vector<std::string> warnings;
+  std::vector<std::string> notes;
+  // The object `servokit solve` prints.
+  std::string json;
+};
+
+/// Solves the inverse model of `model` (multibody) for `trajectory`. Throws UsageError for bad
+/// options, NoSolution when the method refuses the problem; a solve that stops early returns
+/// with usable false and the rows up to there.
+Feedforward Solve(const Model& model,
+                  const OutputTrajectory& trajectory,
+                  const SolveOptions& options);
+
+// ---- large linear models --------------------------------------------------------------------
+
+/// A chain of point masses joined by springs and dampers, a force on one mass, the position of
+/// one mass as output.
+struct ChainModel {
+  long masses = 1000;
+  double mass = 1.0;       // kg
+  double stiffness = 1.0;  // N/m
+  double damping = 0.01;   // N s/m
+  long input_mass = 1;     // 1..masses
+  long output_mass = 1;    // 1..masses
+};
+
+/// A hub-driven Euler-Bernoulli beam in finite elements, tip position as output.
+struct BeamModel {
+  long elements = 1000;
+  double length = 1.0;              // m
+  double hub_inertia = 0.1;         // kg m^2
+  double mass_per_length = 1.0;     // kg/m
+  double bending_stiffness = 10.0;  // N m^2
+  double damping_factor = 1e-4;     // beta in D = beta K, s
+};
+
+/// Writes the model (YAML and its Matrix Market files) into `directory` (made if missing) and
+/// returns the YAML file's path, as `servokit generate chain|beam` does. `name` is the model's
+/// name and file stem (default chain_N, beam_N). Throws UsageError for a bad size or name.
+std::string Generate(const ChainModel& chain,
+                     const std::string& directory,
+                     const std::string& name = "");
+std::string Generate(const BeamModel& beam,
+                     const std::string& directory,
+                     const std::string& name = "");
+
+}  // namespace servokit::api

@@ -1,0 +1,143 @@
+// api::Solve: the feedforward of a multibody model for a desired output, checked forward on
+// request: trajectory, classification, inverse model, forward check and the files of a solve.
+#include <memory>
+
+#include "analysis/classification.h"
+#include "models/errors.h"
+#include "reports/solve_files.h"
+#include "servokit/loaded_model.h"
+#include "solvers/inverse_model.h"
+#include "solvers/trajectory.h"
+#include "solvers/verification.h"
+#include "solvers/waypoint_trajectory.h"
+
+namespace servokit::api {
+namespace {
+
+// The desired trajectory, raised in order when the problem needs more continuous derivatives
+// of y_d than asked for (the inverse reads y_d up to order differentiation index - 1); `note`
+// says so when it was.
+std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajectory& trajectory,
+                                                           int needed_derivatives,
+                                                           std::string& note) {
+  if (trajectory.waypoint_file.empty()) {
+    const int order = RestToRestOrderFor(needed_derivatives);
+    if (order > 4) {
+      note = "rest-to-rest raised from Eq. (65) (4 continuous derivatives) to " +
+             std::to_string(order) + ": the inverse reads y_d up to order " +
+             std::to_string(needed_derivatives);
+    }
+    return std::make_unique<RestToRestTrajectory>(trajectory.y0, trajectory.yf, trajectory.t0,
+                                                  trajectory.tf, order);
+  }
+  WaypointTrajectory file = LoadWaypointTrajectory(trajectory.waypoint_file);
+  if (file.continuous_derivatives() < needed_derivatives) {
+    note = trajectory.waypoint_file + ": raised from " +
+           std::to_string(file.continuous_derivatives()) + " to " +
+           std::to_string(needed_derivatives) +
+           " continuous derivatives: the inverse reads y_d up to that order";
+    file = file.WithContinuousDerivatives(needed_derivatives);
+  }
+  return std::make_unique<WaypointTrajectory>(std::move(file));
+}
+
+InverseModelOptions ToInverseModelOptions(const SolveOptions& options) {
+  const std::optional<SolverMethod> method = SolverMethodFromString(options.method);
+  if (!method) {
+    throw UsageError("SolveOptions::method = " + options.method +
+                     ": expected auto, algebraic, euler, radau, bdf, normal-form, "
+                     "stable-inversion or linearized");
+  }
+  InverseModelOptions inverse;
+  inverse.method = *method;
+  inverse.force = options.force;
+  inverse.t_start = options.t_start;
+  inverse.t_end = options.t_end;
+  inverse.step = options.step;
+  inverse.rtol = options.rtol;
+  inverse.atol = options.atol;
+  inverse.sample_time = options.sample_time;
+  inverse.continuous_extension = options.verify;  // the sample grid asks for it itself
+  inverse.pre_actuation = options.pre_actuation;
+  inverse.post_actuation = options.post_actuation;
+  return inverse;
+}
+
+// The rows of the solution as matrices (one row per time).
+Eigen::MatrixXd Rows(const std::vector<Eigen::VectorXd>& values, std::size_t columns) {
+  Eigen::MatrixXd rows(Eigen::Index(values.size()), Eigen::Index(columns));
+  for (std::size_t i = 0; i < values.size(); ++i) rows.row(Eigen::Index(i)) = values[i];
+  return rows;
+}
+
+}  // namespace
+
+Feedforward Solve(const Model& model,
+                  const OutputTrajectory& trajectory,
+                  const SolveOptions& options) {
+  const servokit::Model& multibody = MultibodyModel(model, "Solve");
+  const InverseModelOptions inverse_options = ToInverseModelOptions(options);
+  Workspace workspace(multibody);
+  const ClassificationOptions classification_options;
+  const Classification classification = Classify(multibody, workspace, classification_options);
+
+  Feedforward result;
+  std::string note;
+  const int needed_derivatives = classification.structure.differentiation_index - 1;
+  const std::unique_ptr<servokit::OutputTrajectory> desired =
+      MakeTrajectory(trajectory, needed_derivatives, note);
+  if (desired->outputs() != Eigen::Index(multibody.num_outputs())) {
+    const std::size_t outputs = multibody.num_outputs();
+    throw UsageError((trajectory.waypoint_file.empty() ? std::string("OutputTrajectory::y0, yf")
+                                                       : trajectory.waypoint_file + ": waypoints[0].y") +
+                     ": " + std::to_string(desired->outputs()) + " values, but the model has " +
+                     std::to_string(outputs) + (outputs == 1 ? " output" : " outputs") +
+                     " (one value per output)");
+  }
+  if (!note.empty()) result.notes.push_back(note);
+
+  const FeedforwardSolution solution =
+      SolveInverseModel(multibody, *desired, classification, inverse_options);
+  if (!options.csv_file.empty()) {
+    WriteFeedforwardCsv(options.csv_file, multibody, *desired, solution);
+  }
+  nlohmann::ordered_json report =
+      SolveToJson(multibody, classification, classification_options, solution, note);
+  result.method = std::string(ToString(solution.method));
+  result.status = std::string(ToString(solution.summary.status));
+  result.message = solution.summary.message;
+  result.usable = solution.summary.IsUsable();
+  result.warnings = solution.warnings;
+  if (options.verify && solution.extension) {
+    const servokit::Verification verification =
+        VerifyFeedforward(multibody, *desired, solution);
+    report["verification"] = VerificationToJson(verification);
+    result.verification = Verification{verification.max_tracking_error, verification.bound,
+                                       verification.passed};
+    result.warnings.insert(result.warnings.end(), verification.warnings.begin(),
+                           verification.warnings.end());
+    // An answer that fails its check is not within its tolerances: it is not "converged".
+    if (result.usable && !verification.passed) {
+      result.status = std::string(ToString(SolveStatus::kVerificationFailed));
+      result.message = "the verification failed: " + VerificationFailure(verification);
+      result.usable = false;
+      report["status"] = result.status;
+      report["message"] = result.message;
+    }
+  }
+  report["warnings"] = result.warnings;
+  if (!options.csv_file.empty()) report["out"] = options.csv_file;
+  result.json = report.dump(2);
+
+  result.t = solution.times;
+  result.q = Rows(solution.q, multibody.dof());
+  result.q_dot = Rows(solution.q_dot, multibody.dof());
+  result.u = Rows(solution.u, multibody.num_inputs());
+  result.y_d.resize(Eigen::Index(solution.times.size()), Eigen::Index(multibody.num_outputs()));
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    result.y_d.row(Eigen::Index(i)) = desired->Derivative(solution.times[i], 0);
+  }
+  return result;
+}
+
+}  // namespace servokit::api

@@ -1,0 +1,129 @@
+// api::Sweep and api::SweepToFiles: the classification over a grid of parameter values, for
+// either kind of model, in memory or as the tables of `servokit sweep`.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "analysis/linear_sweep.h"
+#include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
+#include "models/errors.h"
+#include "reports/sweep_files.h"
+#include "servokit/loaded_model.h"
+
+namespace servokit::api {
+namespace {
+
+ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
+  std::vector<GridAxis> grid_axes;
+  const std::vector<std::string>& names = model.parameter_names();
+  for (const SweepAxis& axis : axes) {
+    const auto found = std::find(names.begin(), names.end(), axis.parameter);
+    if (found == names.end()) {
+      throw UsageError("SweepAxis::parameter = " + axis.parameter + ": the model " +
+                       model.name() + " has no such parameter");
+    }
+    if (axis.values.empty()) {
+      throw UsageError("SweepAxis::values of " + axis.parameter + ": must not be empty");
+    }
+    GridAxis grid_axis;
+    grid_axis.name = axis.parameter;
+    grid_axis.parameter = std::size_t(found - names.begin());
+    grid_axis.values = axis.values;
+    grid_axes.push_back(std::move(grid_axis));
+  }
+  return ParameterGrid(std::move(grid_axes));
+}
+
+// Runs the sweep of either kind of model block by block into `consume`.
+void RunAnySweep(const Model& model,
+                 const ParameterGrid& grid,
+                 const SweepOptions& options,
+                 const SweepConsumer& consume) {
+  if (const auto* multibody = std::get_if<servokit::Model>(&Unwrap(model).model)) {
+    servokit::SweepOptions sweep_options;
+    sweep_options.classification = ToClassificationOptions(options.analysis);
+    sweep_options.threads = options.threads;
+    RunSweep(*multibody, grid, sweep_options, 0, consume);
+    return;
+  }
+  LinearSweepOptions linear_options;
+  linear_options.analysis = ToLinearAnalysisOptions(options.analysis);
+  linear_options.threads = options.threads;
+  RunLinearSweep(std::get<LinearModel>(Unwrap(model).model), grid, linear_options, 0, consume);
+}
+
+SweepPoint ToSweepPoint(const ParameterGrid& grid,
+                        std::size_t index,
+                        const servokit::SweepPoint& point) {
+  SweepPoint result;
+  result.parameter_values.resize(grid.axes().size());
+  grid.PointValues(index, result.parameter_values);
+  result.solved = point.ok;
+  result.error = point.error;
+  if (!point.ok) return result;
+  result.realization = std::string(ToString(point.realization));
+  result.P_rank = int(point.rank);
+  result.relative_degree = point.relative_degree;
+  result.differentiation_index = point.differentiation_index;
+  result.internal_dynamics_order = point.internal_dynamics_order;
+  result.stability = std::string(ToString(point.stability));
+  result.eigenvalues = point.eigenvalues;
+  return result;
+}
+
+}  // namespace
+
+std::vector<SweepPoint> Sweep(const Model& model,
+                              const std::vector<SweepAxis>& axes,
+                              const SweepOptions& options) {
+  const ParameterGrid grid = ToGrid(model, axes);
+  std::vector<SweepPoint> points;
+  points.reserve(grid.num_points());
+  RunAnySweep(model, grid, options,
+              [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
+                for (std::size_t i = 0; i < block.size(); ++i) {
+                  points.push_back(ToSweepPoint(grid, first + i, block[i]));
+                }
+                return true;
+              });
+  return points;
+}
+
+std::size_t SweepToFiles(const Model& model,
+                         const std::vector<SweepAxis>& axes,
+                         const std::string& directory,
+                         const SweepOptions& options) {
+  const ParameterGrid grid = ToGrid(model, axes);
+  const std::filesystem::path folder(directory);
+  std::error_code error;
+  std::filesystem::create_directories(folder, error);
+  if (error) throw Error(directory + ": cannot create the directory: " + error.message());
+  std::ofstream points_file(folder / "points.csv", std::ios::binary);
+  std::ofstream eigenvalues_file(folder / "eigenvalues.csv", std::ios::binary);
+  if (!points_file || !eigenvalues_file) {
+    throw Error(directory + ": cannot write points.csv and eigenvalues.csv");
+  }
+  points_file << PointsCsvHeader(grid);
+  eigenvalues_file << EigenvaluesCsvHeader(grid);
+  std::string points_csv, eigenvalues_csv;
+  std::size_t count = 0;
+  RunAnySweep(model, grid, options,
+              [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
+                points_csv.clear();
+                eigenvalues_csv.clear();
+                AppendCsvRows(grid, first, block, points_csv, eigenvalues_csv);
+                points_file << points_csv;
+                eigenvalues_file << eigenvalues_csv;
+                count = first + block.size();
+                return true;
+              });
+  points_file.close();
+  eigenvalues_file.close();
+  if (!points_file || !eigenvalues_file) {
+    throw Error(directory + ": writing points.csv and eigenvalues.csv failed");
+  }
+  return count;
+}
+
+}  // namespace servokit::api

@@ -1,0 +1,31 @@
+// api::LocateThresholds: where the class of a multibody model changes along one parameter.
+#include "analysis/thresholds.h"
+#include "models/errors.h"
+#include "servokit/loaded_model.h"
+
+namespace servokit::api {
+
+std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery& query) {
+  const servokit::Model& multibody = MultibodyModel(model, "LocateThresholds");
+  const std::optional<ThresholdEvent> event = ThresholdEventFromString(query.event);
+  if (!event) {
+    throw UsageError("ThresholdQuery::event = " + query.event +
+                     ": expected stability, oscillation or realization");
+  }
+  const auto parameter = multibody.FindParameter(query.parameter);
+  if (!parameter) {
+    throw UsageError("ThresholdQuery::parameter = " + query.parameter + ": the model " +
+                     multibody.name() + " has no such parameter");
+  }
+  ThresholdOptions options;
+  options.classification = ToClassificationOptions(query.analysis);
+  const ThresholdSearch search =
+      FindThresholds(multibody, *parameter, query.low, query.high, *event, options);
+  std::vector<Threshold> thresholds;
+  for (const ThresholdCrossing& crossing : search.events) {
+    thresholds.push_back({crossing.value, crossing.from, crossing.to, crossing.via});
+  }
+  return thresholds;
+}
+
+}  // namespace servokit::api

@@ -1,0 +1,150 @@
+// `servokit analyze` from the command line: the JSON contract of DESIGN.md, the formats, and the
+// documented exit statuses with their one-line messages.
+#include "application/command_line.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tests/application/run_servokit.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::TestDataPath;
+
+using testing::Run;
+using testing::RunServokit;
+
+TEST_CASE("analyze --format json prints one object with every key of DESIGN.md", "[reports]") {
+  const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "json"});
+  REQUIRE(run.status == 0);
+  const auto object = nlohmann::json::parse(run.out);
+  for (const char* key :
+       {"model", "parameters", "dof", "inputs", "outputs", "operating_point", "P",
+        "P_singular_values", "P_rank", "P_rank_deficiency", "realization", "relative_degree",
+        "differentiation_index", "projected_index", "internal_dynamics_order", "flat",
+        "zero_dynamics", "recommended_solver"}) {
+    INFO(key);
+    CHECK(object.contains(key));
+  }
+  for (const char* key : {"eigenvalues", "stability", "minimum_phase", "modes"}) {
+    INFO(key);
+    CHECK(object["zero_dynamics"].contains(key));
+  }
+  for (const char* key : {"q", "u", "y"}) CHECK(object["operating_point"].contains(key));
+  CHECK(object["realization"] == "non-ideal-orthogonal");
+  CHECK(object["parameters"]["alpha"].get<double>() == Approx(5 * 3.14159265358979 / 180));
+  CHECK(run.err.empty());
+}
+
+TEST_CASE("--set with deg, and the case-4 verdict in JSON", "[reports]") {
+  const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--set", "alpha=0 deg",
+                               "--set", "d=0", "--format", "json"});
+  REQUIRE(run.status == 0);
+  const auto object = nlohmann::json::parse(run.out);
+  CHECK(object["realization"] == "tangential");
+  CHECK(object["differentiation_index"] == 5);
+  CHECK(object["flat"] == true);
+  CHECK(object["zero_dynamics"]["stability"] == "none");
+  CHECK(object["recommended_solver"] == "algebraic");
+}
+
+TEST_CASE("text and Markdown formats name the realization and the stability", "[reports]") {
+  const Run text = RunServokit({"analyze", ModelPath("rotational_arm.yaml")});
+  REQUIRE(text.status == 0);
+  CHECK_THAT(text.out, Catch::Contains("non-ideal-orthogonal") && Catch::Contains("unstable"));
+  const Run markdown = RunServokit({"analyze", ModelPath("rotational_arm.yaml"), "--format", "md"});
+  REQUIRE(markdown.status == 0);
+  CHECK_THAT(markdown.out, Catch::Contains("| realization | non-ideal-orthogonal |"));
+}
+
+TEST_CASE("bad usage exits 2 with one line naming the problem", "[reports]") {
+  const Run unknown_option = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--colour"});
+  CHECK(unknown_option.status == 2);
+  CHECK_THAT(unknown_option.err,
+             Catch::StartsWith("servokit: error: ") && Catch::Contains("--colour"));
+  const Run bad_format =
+      RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "yaml"});
+  CHECK(bad_format.status == 2);
+  CHECK_THAT(bad_format.err, Catch::Contains("--format yaml"));
+  const Run bad_set = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--set", "alpha"});
+  CHECK(bad_set.status == 2);
+  CHECK_THAT(bad_set.err, Catch::Contains("--set alpha: expected name=value"));
+  const Run no_command = RunServokit({});
+  CHECK(no_command.status == 2);
+}
+
+TEST_CASE("a missing model file exits 2 naming the file", "[reports]") {
+  const Run run = RunServokit({"analyze", "no/such/model.yaml"});
+  CHECK(run.status == 2);
+  CHECK_THAT(run.err,
+             Catch::StartsWith("servokit: error: ") && Catch::Contains("no/such/model.yaml"));
+  CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
+}
+
+TEST_CASE("no equilibrium exits 3", "[reports]") {
+  const Run run = RunServokit({"analyze", TestDataPath("no_equilibrium.yaml")});
+  CHECK(run.status == 3);
+  CHECK_THAT(run.err, Catch::StartsWith("servokit: error: no equilibrium found"));
+}
+
+TEST_CASE("--version prints the project version", "[reports]") {
+  const Run version = RunServokit({"--version"});
+  CHECK(version.status == 0);
+  CHECK(version.out == std::string("servokit ") + SERVOKIT_PROJECT_VERSION + "\n");
+}
+
+TEST_CASE("--help of servokit and of every subcommand exits 0 with an example of it",
+          "[reports]") {
+  const std::vector<std::vector<std::string>> subcommands = {
+      {},           {"analyze"},          {"threshold"},       {"sweep"}, {"solve"},
+      {"report"},   {"generate"},         {"generate", "chain"}, {"generate", "beam"}};
+  for (const auto& subcommand : subcommands) {
+    std::vector<std::string> arguments = subcommand;
+    arguments.push_back("--help");
+    const Run help = RunServokit(arguments);
+    std::string invocation = "servokit";
+    for (const auto& word : subcommand) invocation += " " + word;
+    INFO(invocation << " --help");
+    CHECK(help.status == 0);
+    CHECK(help.err.empty());
+    // The footer's example is a command line of this subcommand (its first word for generate).
+    const std::string example = "\n  servokit " + (subcommand.empty() ? "analyze" : subcommand[0]);
+    CHECK_THAT(help.out, Catch::Contains("Example"));
+    CHECK_THAT(help.out, Catch::Contains(example));
+  }
+}
+
+// The structure algorithm's verdict in analyze's JSON (nonlinear_structure): the gantry crane's
+// hoist is delayed by two integrators (tests/analysis/nonlinear_structure_test.cpp derives why);
+// the double-pendulum crane's relative degree is not defined at rest.
+TEST_CASE("analyze reports the dynamic extension and a relative degree undefined at rest",
+          "[reports]") {
+  const Run crane = RunServokit({"analyze", ModelPath("gantry_crane.yaml"), "--format", "json"});
+  REQUIRE(crane.status == 0);
+  const auto structure = nlohmann::json::parse(crane.out)["nonlinear_structure"];
+  CHECK(structure["derived"] == true);
+  CHECK(structure["relative_degree"] == nlohmann::json({2, 2}));
+  CHECK(structure["dynamic_extension"]["needed"] == true);
+  CHECK(structure["dynamic_extension"]["delayed_inputs"] == nlohmann::json({"W"}));
+  CHECK(structure["dynamic_extension"]["integrators"] == 2);
+  CHECK(structure["dynamic_extension"]["relative_degree"] == nlohmann::json({4, 4}));
+
+  const Run pendulum =
+      RunServokit({"analyze", TestDataPath("double_pendulum_crane.yaml"), "--format", "json"});
+  REQUIRE(pendulum.status == 0);
+  const auto at_rest = nlohmann::json::parse(pendulum.out)["nonlinear_structure"];
+  CHECK(at_rest["defined_at_operating_point"] == false);
+  CHECK_THAT(at_rest["note"].get<std::string>(),
+             Catch::Matchers::Contains("vanishes at the operating point only"));
+  const Run text = RunServokit({"analyze", TestDataPath("double_pendulum_crane.yaml")});
+  CHECK_THAT(text.out, Catch::Matchers::Contains("vanishes at the operating point only"));
+}
+
+}  // namespace
+}  // namespace servokit

@@ -1,0 +1,232 @@
+// The public C++ API (servokit/servokit.h) against closed forms of the paper's mass on a car
+// (Sect. 3, Eqs. 26-27, 36) and of a two-mass chain, and against the toolkit's own defaults.
+// Only the public header is used, except in the defaults test, which compares with the
+// internal options structs the API stands for.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "analysis/linear_zero_dynamics.h"
+#include "analysis/options.h"
+#include "models/model_generators.h"
+#include "servokit/servokit.h"
+#include "tests/test_paths.h"
+
+namespace sk = servokit::api;
+using servokit::testing::ModelPath;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Mass on car, d = 0 (paper Eq. 36 with y_d = 0): m2 sin^2(alpha) s'' + k s = 0, so the zero
+// dynamics are +-i sqrt(k / (m2 sin^2 alpha)); m2 = 2, k = 5 (models/mass_on_car.yaml).
+double UndampedFrequency(double alpha) { return std::sqrt(5.0 / (2.0 * std::pow(std::sin(alpha), 2))); }
+
+std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// Eq. (65) and its second and fourth derivatives in time: y0 + (yf - y0) p(tau), tau = t / T.
+struct RestToRest {
+  double y0, yf, T;
+  double Derivative(double t, int order) const {
+    const double coefficients[10] = {0, 0, 0, 0, 0, 126, -420, 540, -315, 70};
+    double value = 0.0;
+    for (int power = order; power <= 9; ++power) {
+      double falling = 1.0;
+      for (int k = 0; k < order; ++k) falling *= power - k;
+      value += coefficients[power] * falling * std::pow(t / T, power - order);
+    }
+    return (order == 0 ? y0 : 0.0) + (yf - y0) * value / std::pow(T, order);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("the API's default options are the toolkit's", "[servokit]") {
+  const sk::AnalyzeOptions analyze;
+  const servokit::ClassificationOptions classification;
+  CHECK(analyze.rank_tolerance == classification.rank_tolerance);
+  CHECK(analyze.imaginary_axis_tolerance == classification.imaginary_axis_tolerance);
+  const servokit::LinearZeroDynamicsOptions linear;
+  CHECK(analyze.eigenvalues == linear.arpack.eigenvalues);
+  CHECK(analyze.shift == linear.shift);
+  CHECK(servokit::LinearEigenSolverFromString(analyze.eigen_solver) == linear.solver);
+  CHECK(servokit::EigenvalueTargetFromString(analyze.which) == linear.target);
+  const sk::ChainModel chain;
+  const servokit::ChainOptions chain_options;
+  CHECK(chain.masses == chain_options.masses);
+  CHECK(chain.mass == chain_options.mass);
+  CHECK(chain.stiffness == chain_options.stiffness);
+  CHECK(chain.damping == chain_options.damping);
+  CHECK(chain.input_mass == chain_options.input_mass);
+  CHECK(chain.output_mass == chain_options.output_mass);
+  const sk::BeamModel beam;
+  const servokit::BeamOptions beam_options;
+  CHECK(beam.elements == beam_options.elements);
+  CHECK(beam.length == beam_options.length);
+  CHECK(beam.hub_inertia == beam_options.hub_inertia);
+  CHECK(beam.mass_per_length == beam_options.mass_per_length);
+  CHECK(beam.bending_stiffness == beam_options.bending_stiffness);
+  CHECK(beam.damping_factor == beam_options.damping_factor);
+}
+
+TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates at 2.887 Hz",
+          "[servokit][paper]") {
+  const sk::Model model =
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "0"}});
+  CHECK(model.kind() == sk::ModelKind::kMultibody);
+  CHECK(model.name() == "mass_on_car");
+  CHECK(model.dof() == 2);
+  const sk::Analysis analysis = sk::Analyze(model);
+  CHECK(analysis.realization == "non-ideal-orthogonal");
+  CHECK(analysis.relative_degree == std::vector<int>{2});
+  CHECK(analysis.zero_dynamics.stability == "critical");
+  REQUIRE(analysis.zero_dynamics.eigenvalues.size() == 2);
+  const double omega = UndampedFrequency(5.0 * kPi / 180.0);
+  for (const auto& eigenvalue : analysis.zero_dynamics.eigenvalues) {
+    CHECK(eigenvalue.real() == Approx(0.0).margin(1e-9));      // eigen round-off
+    CHECK(std::abs(eigenvalue.imag()) == Approx(omega).epsilon(1e-10));
+  }
+  REQUIRE(analysis.zero_dynamics.modes.size() == 1);
+  CHECK(analysis.zero_dynamics.modes[0].frequency_hz == Approx(omega / (2 * kPi)).epsilon(1e-10));
+  CHECK(analysis.json.find("\"realization\": \"non-ideal-orthogonal\"") != std::string::npos);
+}
+
+TEST_CASE("a model from a string is the model from its file", "[servokit]") {
+  const std::string yaml = ReadText(ModelPath("mass_on_car.yaml"));
+  const sk::Model from_string = sk::Model::FromString(yaml, "inline", {{"alpha", "30 deg"}});
+  const sk::Model from_file = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "30 deg"}});
+  CHECK(from_string.source() == "inline");
+  CHECK(from_string.parameters() == from_file.parameters());
+  const sk::Analysis a = sk::Analyze(from_string), b = sk::Analyze(from_file);
+  CHECK(a.zero_dynamics.eigenvalues == b.zero_dynamics.eigenvalues);
+}
+
+TEST_CASE("API errors carry their kind", "[servokit]") {
+  const auto kind_of = [](auto&& call) {
+    try {
+      call();
+    } catch (const servokit::Error& error) {
+      return error.kind();
+    }
+    return servokit::ErrorKind::kOther;
+  };
+  CHECK(kind_of([] { sk::Model::FromString("name: x\ncoordinates: [q]\n", "broken"); }) ==
+        servokit::ErrorKind::kModel);
+  CHECK(kind_of([] { sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"nope", "1"}}); }) ==
+        servokit::ErrorKind::kUsage);
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"));
+  sk::ThresholdQuery query;
+  query.parameter = "alpha";
+  query.low = 0.1;
+  query.high = 1.0;
+  query.event = "weather";
+  CHECK(kind_of([&] { sk::LocateThresholds(model, query); }) == servokit::ErrorKind::kUsage);
+}
+
+TEST_CASE("sweep through the API, in memory and to files, follows the closed form",
+          "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  const std::vector<sk::SweepAxis> axes = {{"alpha", {0.2, 0.5, 1.0, 1.5}}};
+  const std::vector<sk::SweepPoint> points = sk::Sweep(model, axes);
+  REQUIRE(points.size() == 4);
+  for (const sk::SweepPoint& point : points) {
+    REQUIRE(point.solved);
+    CHECK(point.stability == "critical");
+    REQUIRE(point.eigenvalues.size() == 2);
+    CHECK(std::abs(point.eigenvalues[0].imag()) ==
+          Approx(UndampedFrequency(point.parameter_values[0])).epsilon(1e-10));
+  }
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() / "servokit_api_sweep_test";
+  std::filesystem::remove_all(directory);
+  CHECK(sk::SweepToFiles(model, axes, directory.string()) == 4);
+  std::istringstream rows(ReadText(directory / "points.csv"));
+  std::string line;
+  std::getline(rows, line);
+  CHECK(line.rfind("alpha,realization,", 0) == 0);
+  int count = 0;
+  while (std::getline(rows, line)) ++count;
+  CHECK(count == 4);
+  std::filesystem::remove_all(directory);
+}
+
+TEST_CASE("thresholds through the API: over-damped below 9.1 deg at d = 1", "[servokit][paper]") {
+  // m2 sin^2(alpha) s^2 + d s + k = 0 has a double root where d^2 = 4 m2 k sin^2(alpha):
+  // alpha = asin(sqrt(1 / 40)) = 9.0974 deg.
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "1"}});
+  sk::ThresholdQuery query;
+  query.parameter = "alpha";
+  query.low = 1.0 * kPi / 180.0;
+  query.high = 80.0 * kPi / 180.0;
+  query.event = "oscillation";
+  const std::vector<sk::Threshold> thresholds = sk::LocateThresholds(model, query);
+  REQUIRE(thresholds.size() == 1);
+  CHECK(thresholds[0].value == Approx(std::asin(std::sqrt(1.0 / 40.0))).epsilon(1e-9));
+}
+
+TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its closed form",
+          "[servokit][paper]") {
+  // alpha = 0, d = 0: y = x + s and m2 y'' = -k s, so s = -(m2/k) y'' and
+  // F = (m1 + m2) y'' + (m1 m2 / k) y'''' (flat: no internal dynamics), y_d from Eq. (65).
+  const sk::Model model =
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  sk::OutputTrajectory trajectory;
+  trajectory.y0 = Eigen::VectorXd::Constant(1, 0.5);
+  trajectory.yf = Eigen::VectorXd::Constant(1, 2.5);
+  trajectory.t0 = 0.0;
+  trajectory.tf = 6.0;
+  sk::SolveOptions options;
+  options.t_end = 8.0;
+  options.sample_time = 0.5;
+  options.verify = true;
+  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
+  CHECK(feedforward.method == "algebraic");
+  CHECK(feedforward.status == "converged");
+  CHECK(feedforward.usable);
+  REQUIRE(feedforward.verification);
+  CHECK(feedforward.verification->passed);
+  REQUIRE(feedforward.t.size() == 17);
+  const RestToRest desired{0.5, 2.5, 6.0};
+  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
+    const double t = feedforward.t[i];
+    const double force = 3.0 * desired.Derivative(std::min(t, 6.0), 2) +
+                         (t < 6.0 ? 0.4 * desired.Derivative(t, 4) : 0.0);
+    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(force).margin(1e-9));  // round-off of p''''
+    // The toolkit evaluates Eq. (65) in another form than the monomials here: round-off only.
+    CHECK(feedforward.y_d(Eigen::Index(i), 0) ==
+          Approx(desired.Derivative(std::min(t, 6.0), 0)).epsilon(1e-12));
+  }
+}
+
+TEST_CASE("a generated two-mass chain through the API: zero dynamics of the free mass",
+          "[servokit]") {
+  // Force and output on mass 1: holding it, mass 2 hangs on one spring-damper, so the zero
+  // dynamics are m s^2 + d s + k = 0: s = -0.005 +- i sqrt(1 - 0.005^2) (m = k = 1, d = 0.01).
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() / "servokit_api_chain_test";
+  std::filesystem::remove_all(directory);
+  sk::ChainModel chain;
+  chain.masses = 2;
+  const std::string path = sk::Generate(chain, directory.string());
+  const sk::Model model = sk::Model::FromFile(path);
+  CHECK(model.kind() == sk::ModelKind::kLinear);
+  const sk::Analysis analysis = sk::Analyze(model);
+  REQUIRE(analysis.zero_dynamics.eigenvalues.size() == 2);
+  for (const auto& eigenvalue : analysis.zero_dynamics.eigenvalues) {
+    CHECK(eigenvalue.real() == Approx(-0.005).epsilon(1e-10));
+    CHECK(std::abs(eigenvalue.imag()) == Approx(std::sqrt(1.0 - 0.005 * 0.005)).epsilon(1e-10));
+  }
+  sk::AnalyzeOptions at_another_point;
+  at_another_point.y0 = Eigen::VectorXd::Constant(1, 1.0);
+  CHECK_THROWS_AS(sk::Analyze(model, at_another_point), servokit::UsageError);
+  std::filesystem::remove_all(directory);
+}
