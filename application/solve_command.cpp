@@ -119,10 +119,12 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   }
   const api::Model model = api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
   const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
-  if (trajectory.waypoint_file.empty() &&
-      std::max(trajectory.y0.size(), trajectory.yf.size()) != Eigen::Index(model.num_outputs())) {
+  // One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
+  // --yf of different lengths).
+  if (trajectory.waypoint_file.empty() && trajectory.y0.size() == trajectory.yf.size() &&
+      trajectory.y0.size() != Eigen::Index(model.num_outputs())) {
     const std::size_t outputs = model.num_outputs();
-    throw UsageError("--y0 and --yf: " + std::to_string(std::max(trajectory.y0.size(), trajectory.yf.size())) +
+    throw UsageError("--y0 and --yf: " + std::to_string(trajectory.y0.size()) +
                      " values, but the model has " + std::to_string(outputs) +
                      (outputs == 1 ? " output" : " outputs") + " (one value per output)");
   }
