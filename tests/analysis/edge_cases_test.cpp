@@ -92,6 +92,49 @@ std::vector<double> ArmZeroDynamics(double s) {
   return roots;
 }
 
+// ---- sweep files ---------------------------------------------------------------------------
+
+// The comma-separated fields of a CSV row that has no quoted field.
+std::vector<std::string> Fields(const std::string& row) {
+  std::vector<std::string> fields;
+  for (std::size_t start = 0;;) {
+    const std::size_t comma = row.find(',', start);
+    fields.push_back(row.substr(start, comma - start));
+    if (comma == std::string::npos) return fields;
+    start = comma + 1;
+  }
+}
+
+// Checks a points.csv row of a sweep of the mass on car (alpha = 5 deg) over one parameter
+// (README "points.csv": the parameter, realization, P_rank, relative_degree,
+// differentiation_index, internal_dynamics_order, stability, max_real_part, error). The class
+// columns follow from the model's matrices (file comment), whatever k and d:
+//  - P = sin^2(alpha) / (m1 + m2 sin^2(alpha)) != 0: rank 1 = m, and F first appears in y''
+//    (relative degree 2);
+//  - ker H, H = [1, cos(alpha)], is spanned by D = [-cos(alpha), 1] / |.|, and
+//    D^T B = -cos(alpha) / |.| != 0: non-ideal orthogonal (README "Realization");
+//  - index = relative degree + 1 = 3; internal dynamics order 2 n - r = 4 - 2 = 2.
+// `max_real_part` is compared with the closed form within round-off (1e-12) relative to
+// `magnitude`, the largest |lambda|; the error column is empty.
+void CheckMassOnCarRow(const std::string& row,
+                       double parameter,
+                       const std::string& stability,
+                       double max_real_part,
+                       double magnitude) {
+  INFO(row);
+  const std::vector<std::string> fields = Fields(row);
+  REQUIRE(fields.size() == 9);
+  CHECK(std::stod(fields[0]) == parameter);  // written exactly: reads back to the same double
+  CHECK(fields[1] == "non-ideal-orthogonal");
+  CHECK(fields[2] == "1");
+  CHECK(fields[3] == "2");
+  CHECK(fields[4] == "3");
+  CHECK(fields[5] == "2");
+  CHECK(fields[6] == stability);
+  CHECK(std::abs(std::stod(fields[7]) - max_real_part) <= 1e-12 * magnitude);
+  CHECK(fields[8].empty());
+}
+
 // ---- the servokit binary -------------------------------------------------------------------
 
 struct Run {
@@ -203,11 +246,17 @@ TEST_CASE("analyze states the rank threshold next to P, and the tolerance moves 
       CHECK(json[key].dump().find("null") == std::string::npos);
     }
   }
-  // The text form says the same: "(zero below <threshold>)".
+  // The text form says the same: "(zero below <threshold>)", with the default tolerance 1e-10.
   const Run text =
       RunBinary(work, {"analyze", ModelPath("rotational_arm.yaml"), "--set", "s=" + Exact(s)});
   REQUIRE(text.status == 0);
-  CHECK_THAT(text.out, Contains("(zero below 1.44602e-10)"));
+  static const std::regex zero_below(R"(\(zero below ([^)]+)\))");
+  std::smatch printed;
+  REQUIRE(std::regex_search(text.out, printed, zero_below));
+  // The closed form 1e-10 |H| |M^-1 B| (file comment; 1.446e-10 here). The text report prints
+  // six significant digits, so the printed number is within half a unit of the sixth digit
+  // (5e-6 relative) of the threshold.
+  CHECK(std::stod(printed[1].str()) == Approx(ArmRankThreshold(s, 1e-10)).epsilon(5e-6));
 }
 
 // ---- M near singular ------------------------------------------------------------------------
@@ -305,8 +354,8 @@ TEST_CASE("far output values are reached; one so large that Newton's step overfl
   const TemporaryDirectory work;
   for (const double y0 : {10.0, 1e3, 1e6}) {
     INFO("y0 = " << y0);
-    const Run run = RunBinary(work, {"analyze", ModelPath("mass_on_car.yaml"), "--y0", Exact(y0),
-                                     "--format", "json"});
+    const Run run = RunBinary(
+        work, {"analyze", ModelPath("mass_on_car.yaml"), "--y0", Exact(y0), "--format", "json"});
     REQUIRE(run.status == 0);
     const nlohmann::json point = nlohmann::json::parse(run.out)["operating_point"];
     CHECK(point["q"][0].get<double>() == Approx(y0).epsilon(1e-12));
@@ -388,23 +437,23 @@ TEST_CASE("Inf, NaN and numbers beyond double on the command line are usage erro
 TEST_CASE("NaN and Inf in a trajectory are usage errors, and no CSV is written", "[analysis]") {
   const TemporaryDirectory work;
   const fs::path csv = work / "u.csv";
-  const std::vector<std::string> solve = {"solve", ModelPath("mass_on_car.yaml"), "--t-end", "3",
-                                          "--out", csv.string()};
+  const std::vector<std::string> solve = {
+      "solve", ModelPath("mass_on_car.yaml"), "--t-end", "3", "--out", csv.string()};
   const auto with = [&](std::vector<std::string> trajectory) {
     std::vector<std::string> arguments = solve;
     arguments.insert(arguments.end(), trajectory.begin(), trajectory.end());
     return arguments;
   };
-  const std::vector<std::string> rest_to_rest = {"--trajectory", "rest-to-rest", "--t0", "0",
-                                                 "--tf", "1"};
+  const std::vector<std::string> rest_to_rest = {
+      "--trajectory", "rest-to-rest", "--t0", "0", "--tf", "1"};
   for (const char* value : {"nan", "inf", "-inf"}) {
     std::vector<std::string> arguments = with(rest_to_rest);
     arguments.insert(arguments.end(), {"--y0", "0", "--yf", value});
     INFO("--yf " << value);
     const Run run = RunBinary(work, arguments);
     CHECK(run.status == 2);
-    CHECK_THAT(run.err, Contains(std::string("--yf ") + value + ": '" + value +
-                                 "' is not a number"));
+    CHECK_THAT(run.err,
+               Contains(std::string("--yf ") + value + ": '" + value + "' is not a number"));
     CHECK_FALSE(fs::exists(csv));
   }
   // YAML spells them .nan and .inf; a waypoint file names the entry.
@@ -435,16 +484,38 @@ TEST_CASE("a sweep records edge points that fail with their message and writes n
   const std::vector<std::string> rows = testing::Lines(ReadFile(out / "points.csv"));
   REQUIRE(rows.size() == 5);
   CHECK_THAT(rows[1], Contains("0,,,,,,,,\"the equilibrium at q = [0, 0] is not isolated"));
-  CHECK(rows[2] == "5,non-ideal-orthogonal,1,2,3,2,critical,0,");
-  CHECK(rows[3] == "1e+300,non-ideal-orthogonal,1,2,3,2,critical,0,");
-  CHECK(rows[4] == "1e+308,non-ideal-orthogonal,1,2,3,2,critical,0,");
   const std::string eigenvalues = ReadFile(out / "eigenvalues.csv");
   CHECK_FALSE(HasNonFiniteNumber(ReadFile(out / "points.csv")));
   CHECK_FALSE(HasNonFiniteNumber(eigenvalues));
-  // k = 5: +-i sqrt(5 / (2 sin^2 5 deg)) = +-18.1415 (2.887 Hz, paper Sect. 3).
   const std::vector<std::string> eigenvalue_rows = testing::Lines(eigenvalues);
+  // Two eigenvalues for each of the three points with a solution, after the header.
   REQUIRE(eigenvalue_rows.size() == 7);
-  CHECK_THAT(eigenvalue_rows[1], Contains("5,0,0,18.14153353797"));
+  const std::vector<double> stiffnesses = {5.0, 1e300, 1e308};
+  for (std::size_t i = 0; i < stiffnesses.size(); ++i) {
+    const double k = stiffnesses[i];
+    INFO("k = " << k);
+    // d = 0: the roots of m2 sin^2(alpha) lambda^2 + k are +-i omega, omega =
+    // sqrt(k / (m2 sin^2 alpha)) (18.14 for k = 5: 2.887 Hz, paper Sect. 3): max real part 0,
+    // critical.
+    const double omega = std::sqrt(k) / std::sqrt(kM2 * kSin2);
+    CheckMassOnCarRow(rows[2 + i], k, "critical", 0.0, omega);
+    // Rows k, re, im, frequency_hz = |lambda| / 2 pi, damping_ratio = -re / |lambda| (README
+    // "eigenvalues.csv"): the pair +-i omega, the positive imaginary part first (real parts
+    // equal, imaginary parts descending). Tolerance: round-off of the eigenvalue solver,
+    // relative to |lambda| = omega.
+    for (std::size_t j = 0; j < 2; ++j) {
+      const std::vector<std::string> fields = Fields(eigenvalue_rows[1 + 2 * i + j]);
+      INFO(eigenvalue_rows[1 + 2 * i + j]);
+      REQUIRE(fields.size() == 6);
+      CHECK(std::stod(fields[0]) == k);
+      CHECK(fields[1] == std::to_string(j));
+      const double sign = j == 0 ? 1.0 : -1.0;
+      CHECK(std::abs(std::stod(fields[2])) <= 1e-12 * omega);
+      CHECK(std::stod(fields[3]) == Approx(sign * omega).epsilon(1e-12));
+      CHECK(std::stod(fields[4]) == Approx(omega / (2.0 * std::numbers::pi)).epsilon(1e-12));
+      CHECK(std::abs(std::stod(fields[5])) <= 1e-12);
+    }
+  }
 
   // The NaN-producing model: the row names the problem, the sweep goes on.
   const fs::path out2 = work / "sweep2";
@@ -454,7 +525,12 @@ TEST_CASE("a sweep records edge points that fail with their message and writes n
   const std::vector<std::string> nan_rows = testing::Lines(ReadFile(out2 / "points.csv"));
   REQUIRE(nan_rows.size() == 3);
   CHECK_THAT(nan_rows[1], Contains("-1,,,,,,,,\"the model is not finite at q0 = [0, 0]"));
-  CHECK_THAT(nan_rows[2], Contains("25,non-ideal-orthogonal,1,2,3,2,asymptotically-stable,"));
+  // c = 25, g = e: the mass on car with k = 5, d = 1, whose zero dynamics
+  // m2 sin^2(alpha) lambda^2 + d lambda + k = 0 (Eq. 36) has two negative real roots
+  // (over-damped below 9.1 deg, Fig. 6): asymptotically stable, max real part the larger root.
+  const auto roots = testing::QuadraticRoots(kM2 * kSin2, 1.0, kK);
+  CheckMassOnCarRow(nan_rows[2], 25.0, "asymptotically-stable", roots[0].real(),
+                    std::abs(roots[1]));
 }
 
 TEST_CASE("threshold refuses a range whose midpoints overflow and finds k = 0 exactly",

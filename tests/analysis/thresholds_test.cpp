@@ -41,7 +41,8 @@ TEST_CASE("the over-damping threshold of the mass on car at d = 1 is asin(1/sqrt
   REQUIRE(search.events.size() == 1);
   const double expected = std::asin(1.0 / std::sqrt(4.0 * 2.0 * 5.0));
   CHECK(search.events[0].value == Approx(expected).epsilon(1e-8));
-  CHECK(search.events[0].value / degree == Approx(9.0974).epsilon(1e-5));  // paper: 9.1 deg
+  // asin(1 / sqrt(40)) = 9.0974 deg, which the paper rounds to 9.1 deg (Sect. 4.1).
+  CHECK(search.events[0].value / degree == Approx(9.0974).epsilon(1e-5));
   CHECK(search.events[0].from == "non-oscillatory");
   CHECK(search.events[0].to == "oscillatory (1 mode)");
 }

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+#include <charconv>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -34,9 +35,9 @@ extern char** environ;
 namespace servokit {
 namespace {
 
-using testing::TemporaryDirectory;
-using testing::ReadFile;
 using testing::Lines;
+using testing::ReadFile;
+using testing::TemporaryDirectory;
 
 namespace fs = std::filesystem;
 using testing::ModelPath;
@@ -44,6 +45,15 @@ using testing::TestDataPath;
 
 using testing::Run;
 using testing::RunServokit;
+
+// The shortest text that reads back to `value` (std::to_chars), as the sweep files write numbers
+// (README "The files").
+std::string ShortestText(double value) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  REQUIRE(result.ec == std::errc());
+  return std::string(text, result.ptr);
+}
 
 std::vector<std::string> Sweep(const std::string& model,
                                const std::vector<std::string>& vary,
@@ -164,10 +174,21 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   CHECK(points[0] ==
         "alpha,d,realization,P_rank,relative_degree,differentiation_index,"
         "internal_dynamics_order,stability,max_real_part,error");
-  CHECK(points[1] == "0,0,tangential,0,4,5,0,none,,");  // paper case 4: flat
+  // The classes of the paper's mass-on-car cases (Sect. 3; README "Structure": index 3, 3, 4, 5
+  // for cases 1-4), P = sin^2(alpha) / (m1 + m2 sin^2(alpha)):
+  //  - alpha = 0, d = 0 (case 4): P = 0, tangential; F first appears in the fourth derivative
+  //    of y (relative degree 4, index 5), no internal dynamics (flat), so no eigenvalues:
+  //    stability "none", max_real_part empty;
+  //  - alpha = 0, d = 1 (case 3): tangential, relative degree 3 (index 4), one internal state
+  //    with the eigenvalue -k/d < 0 (asymptotically stable, a negative max_real_part);
+  //  - alpha = 90 deg, d = 0 (case 1): H = [1, 0], ker H = [0, 1] and D^T B = 0: ideal
+  //    orthogonal, rank 1, relative degree 2, index 3, internal order 2 n - 2 = 2; the undamped
+  //    vibration +-i sqrt(k / m2) is critical.
+  // 90 deg is written in SI, pi/2.
+  const std::string right_angle = ShortestText(std::numbers::pi / 2);
+  CHECK(points[1] == "0,0,tangential,0,4,5,0,none,,");
   CHECK_THAT(points[2], Catch::StartsWith("0,1,tangential,0,3,4,1,asymptotically-stable,-"));
-  CHECK_THAT(points[3],
-             Catch::StartsWith("1.5707963267948966,0,ideal-orthogonal,1,2,3,2,critical,"));
+  CHECK_THAT(points[3], Catch::StartsWith(right_angle + ",0,ideal-orthogonal,1,2,3,2,critical,"));
   const std::vector<std::string> eigenvalues = Lines(ReadFile(work / "out" / "eigenvalues.csv"));
   REQUIRE(eigenvalues.size() == 6);  // one root at (0, 1), a pair at each alpha = 90 deg point
   CHECK(eigenvalues[0] == "alpha,d,k,re,im,frequency_hz,damping_ratio");
@@ -185,14 +206,20 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   CHECK(im == 0.0);
   CHECK(frequency == Approx(5.0 / (2 * std::numbers::pi)).epsilon(1e-12));
   CHECK(damping == 1.0);
-  CHECK_THAT(eigenvalues[2], Catch::StartsWith("1.5707963267948966,0,0,0,"));
-  CHECK_THAT(eigenvalues[3], Catch::StartsWith("1.5707963267948966,0,1,0,-"));
+  // alpha = 90 deg, d = 0: the pair +-i sqrt(k / m2), real part 0, positive imaginary part first.
+  CHECK_THAT(eigenvalues[2], Catch::StartsWith(right_angle + ",0,0,0,"));
+  CHECK_THAT(eigenvalues[3], Catch::StartsWith(right_angle + ",0,1,0,-"));
   CheckOnlyFinalFiles(work / "out");
 }
 
 TEST_CASE("several outputs' relative degrees are joined with ';'", "[reports]") {
   const TemporaryDirectory work;
   REQUIRE(RunServokit(Sweep(ModelPath("gantry_crane.yaml"), {"m=5"}, work / "out")).status == 0);
+  // At rest (theta = 0, L = L0): H = [[1, 0, L0], [0, 1, 0]] and H M^-1 B = [[0, 0], [0,
+  // 1 / (mw + m)]] (the first row of H is M's third column over m L0, so H_1 M^-1 = [0, 0, 1 /
+  // (m L0)], and B's third row is 0): rank 1 of 2, mixed. The rail position of the load feels F
+  // through the swing (relative degree 4), the depth feels W directly (2); 4 + 2 = 2 n = 6
+  // leaves no internal dynamics (flat: no eigenvalues, stability none); index 4 + 1 = 5.
   CHECK(Lines(ReadFile(work / "out" / "points.csv"))[1] ==
         "5,mixed-orthogonal-tangential,1,4;2,5,0,none,,");
 }
@@ -232,9 +259,11 @@ TEST_CASE("sweep.json records the model, command line, grid, points, version and
   command_line.insert(command_line.end(), arguments.begin(), arguments.end());
   CHECK(record["command_line"] == command_line);
   CHECK(record["fixed_parameters"] == nlohmann::json({{"m1", 1.0}, {"m2", 2.0}, {"k", 6.0}}));
+  // --vary alpha=0deg:90deg:3 (in SI: 0 to pi/2) and d=0,2.
   CHECK(record["grid"] ==
-        nlohmann::json::parse(R"([{"name": "alpha", "a": 0, "b": 1.5707963267948966,
-      "n": 3}, {"name": "d", "values": [0, 2]}])"));
+        nlohmann::json::array(
+            {nlohmann::json{{"name", "alpha"}, {"a", 0}, {"b", std::numbers::pi / 2}, {"n", 3}},
+             nlohmann::json{{"name", "d"}, {"values", {0, 2}}}}));
   CHECK(record["grid"][0]["b"].get<double>() == std::numbers::pi / 2);  // reads back exactly
   CHECK(record["points"] == 6);
   CHECK(record["servokit_version"].is_string());
@@ -332,8 +361,7 @@ TEST_CASE("a stale temporary that cannot be removed stops the sweep with status 
   const TemporaryDirectory work;
   // A directory with a file in it, where the checkpoint's temporary would be.
   fs::create_directories(work / "out" / ".sweep-checkpoint.tmp" / "inside");
-  const Run run =
-      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out"));
+  const Run run = RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out"));
   CHECK(run.status == 1);
   CHECK_THAT(run.err, Catch::StartsWith("servokit: error: "));
   CHECK_THAT(run.err, Catch::Contains(".sweep-checkpoint.tmp: cannot remove"));

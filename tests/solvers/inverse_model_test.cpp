@@ -100,7 +100,9 @@ TEST_CASE("case 4: algebraic inversion reproduces Eq. (47) and Eq. (45)", "[solv
 // (Hairer, Lubich & Roche 1989; Hairer & Wanner VII.4), while q (index 1) is of high order. So
 // the error of u falls slowly with the number of steps: 1e-6 relative is out of reach of a
 // hundred steps; the paper's 56 points are judged by eye in Fig. 10.
-double RadauForceError(const Case& problem, const OutputTrajectory& trajectory, double rtol,
+double RadauForceError(const Case& problem,
+                       const OutputTrajectory& trajectory,
+                       double rtol,
                        long& steps) {
   InverseModelOptions options;
   options.method = SolverMethod::kRadau;
@@ -143,8 +145,10 @@ TEST_CASE("case 4: Radau IIA follows Eq. (47) in under 100 steps, its index-3 in
   CHECK(fine < coarse / 2);
 }
 
-TEST_CASE("case 4: Euler backward is close at 1 ms and 10 ms and one step late at 100 ms "
-          "(Fig. 10)", "[solvers][paper]") {
+TEST_CASE(
+    "case 4: Euler backward is close at 1 ms and 10 ms and one step late at 100 ms "
+    "(Fig. 10)",
+    "[solvers][paper]") {
   const Case problem = LoadCase("0", "0");
   const RestToRestTrajectory trajectory = PaperTrajectory();
   // Eqs. (61)-(64) at alpha = 0: (63) and (64) fix s and x exactly (Eqs. 45, 27), so
@@ -178,9 +182,9 @@ TEST_CASE("case 4: Euler backward is close at 1 ms and 10 ms and one step late a
     // divides by h^2: 1e-10 / h^2 allows 20 times that (1e-4 at 1 ms, 1e-8 at 100 ms).
     CHECK(max_scheme_error <= 1e-10 / (step * step));
   }
-  CHECK(errors[0] < 0.01);  // 1 ms: "nearly identical" to Eq. (47)
-  CHECK(errors[1] < 0.05);  // 10 ms: still close
-  CHECK(errors[2] > 0.1);   // 100 ms: the visible delay of Fig. 10
+  CHECK(errors[0] < 0.01);                                  // 1 ms: "nearly identical" to Eq. (47)
+  CHECK(errors[1] < 0.05);                                  // 10 ms: still close
+  CHECK(errors[2] > 0.1);                                   // 100 ms: the visible delay of Fig. 10
   CHECK(errors[1] == Approx(10 * errors[0]).epsilon(0.2));  // first order in h
 }
 
@@ -206,7 +210,7 @@ struct Case3Exact {
   }
   double Force(double t) const {
     const double s = S(t);
-    const double s_dot = (g(t, 0) - kStiffness * s) / damping;      // Eq. (41)
+    const double s_dot = (g(t, 0) - kStiffness * s) / damping;       // Eq. (41)
     const double s_ddot = (g(t, 1) - kStiffness * s_dot) / damping;  // Eq. (42)
     return -(kM1 + kM2) / kM2 * (kStiffness * s + damping * s_dot) - kM1 * s_ddot;
   }
@@ -233,16 +237,18 @@ TEST_CASE("case 3: Radau IIA against the exact solution of Eq. (40) with Eqs. (3
   const FeedforwardSolution solution = Solve(problem, trajectory, SolverMethod::kRadau);
   REQUIRE(solution.summary.IsUsable());
   const auto [force_error, position_error] = Case3Exact{trajectory}.Errors(solution);
-  WARN("Radau IIA case 3: " << solution.summary.steps << " steps, max |u - Eq. 39| / max |u| = "
-                            << force_error);
+  WARN("Radau IIA case 3: " << solution.summary.steps
+                            << " steps, max |u - Eq. 39| / max |u| = " << force_error);
   CHECK(position_error <= 1e-7);
   // u is the index-3 component (Eq. 39 needs s'' and so the third derivative of y_d): Radau
   // IIA resolves it to O(h^2) (see the case 4 test), here about 1.3e-4 at rtol 1e-8.
   CHECK(force_error <= 5e-4);
 }
 
-TEST_CASE("case 3 through auto: the input-output normal form (relative degree 3) gives Eq. (39) "
-          "to 1e-8", "[solvers][paper]") {
+TEST_CASE(
+    "case 3 through auto: the input-output normal form (relative degree 3) gives Eq. (39) "
+    "to 1e-8",
+    "[solvers][paper]") {
   // P = 0: the output's third derivative carries u. The normal form differentiates y until u
   // appears, completes (y, y', y'') with one internal coordinate and integrates it with
   // Dormand-Prince: u_d is exact up to the tolerance, not O(h^2) as Radau's index-3 input.
@@ -285,8 +291,8 @@ TEST_CASE("case 2: BDF on the projected DAE and the normal form agree (Fig. 12)"
     double scale = 0.0;
     const double difference = MaxDifference(bdf, normal_form, scale);
     WARN("case 2, d = " << damping << ": BDF " << bdf.summary.steps << " steps, normal form "
-                        << normal_form.summary.steps << " steps, max |u_BDF - u_NF| / max |u| = "
-                        << difference / scale);
+                        << normal_form.summary.steps
+                        << " steps, max |u_BDF - u_NF| / max |u| = " << difference / scale);
     CHECK(difference <= 1e-6 * scale);
     CHECK(bdf.max_servo_residual <= 1e-9);  // IDA's rtol 1e-10 times |y| <= 2.5
     CHECK(normal_form.max_servo_residual <= 1e-12);
@@ -308,8 +314,10 @@ double Amplitude(const FeedforwardSolution& solution, double omega, double from,
   return sum / count;
 }
 
-TEST_CASE("case 2 undamped: the internal vibration goes on after tf (Fig. 13), and Euler "
-          "backward at 10 ms damps it by (1 + (omega h)^2)^(-1/2) per step", "[solvers][paper]") {
+TEST_CASE(
+    "case 2 undamped: the internal vibration goes on after tf (Fig. 13), and Euler "
+    "backward at 10 ms damps it by (1 + (omega h)^2)^(-1/2) per step",
+    "[solvers][paper]") {
   const Case problem = LoadCase("5 deg", "0");
   const RestToRestTrajectory trajectory = PaperTrajectory();
   // omega = sqrt(k / (m2 sin^2 alpha)) from Eq. (36): 2.887 Hz.
@@ -331,8 +339,8 @@ TEST_CASE("case 2 undamped: the internal vibration goes on after tf (Fig. 13), a
   const double predicted = std::pow(per_step, 3.0 / step);  // [6, 7] to [9, 10]: 300 steps
   const double measured = Amplitude(euler, omega, 9.0, 10.0) / Amplitude(euler, omega, 6.0, 7.0);
   WARN("Euler backward, h = 10 ms, d = 0: the 2.887 Hz vibration shrinks by a factor "
-       << measured << " over 3 s after tf (predicted " << predicted << "; the exact solution: "
-       << late / early << ")");
+       << measured << " over 3 s after tf (predicted " << predicted
+       << "; the exact solution: " << late / early << ")");
   CHECK(measured == Approx(predicted).epsilon(1e-8));
 }
 
@@ -344,21 +352,18 @@ TEST_CASE("--verify: u_d from the accurate methods drives the model along y_d an
     const char* damping;
     SolverMethod method;
   };
-  for (const Run& run : {Run{"0", "0", SolverMethod::kAlgebraic},
-                         Run{"0", "0", SolverMethod::kRadau},
-                         Run{"5 deg", "1", SolverMethod::kBdf},
-                         Run{"5 deg", "1", SolverMethod::kNormalForm},
-                         Run{"5 deg", "0", SolverMethod::kBdf},
-                         Run{"5 deg", "0", SolverMethod::kNormalForm}}) {
+  for (const Run& run :
+       {Run{"0", "0", SolverMethod::kAlgebraic}, Run{"0", "0", SolverMethod::kRadau},
+        Run{"5 deg", "1", SolverMethod::kBdf}, Run{"5 deg", "1", SolverMethod::kNormalForm},
+        Run{"5 deg", "0", SolverMethod::kBdf}, Run{"5 deg", "0", SolverMethod::kNormalForm}}) {
     const Case problem = LoadCase(run.alpha, run.damping);
     const FeedforwardSolution solution = Solve(problem, trajectory, run.method);
     INFO(solution.summary.message);
     REQUIRE(solution.summary.IsUsable());
     const Verification verification = VerifyFeedforward(problem.model, trajectory, solution);
-    WARN("verify alpha = " << run.alpha << ", d = " << run.damping << ", "
-                           << ToString(run.method) << ": max tracking error "
-                           << verification.max_tracking_error << ", bound "
-                           << verification.bound);
+    WARN("verify alpha = " << run.alpha << ", d = " << run.damping << ", " << ToString(run.method)
+                           << ": max tracking error " << verification.max_tracking_error
+                           << ", bound " << verification.bound);
     CHECK(verification.summary.IsUsable());
     CHECK(verification.passed);
     CHECK(verification.start == "rest");
@@ -378,8 +383,10 @@ TEST_CASE("forward methods refuse what does not fit the class, with the method t
                     Catch::Contains("internal dynamics"));
 }
 
-TEST_CASE("unstable zero dynamics: auto picks stable inversion, forward methods refuse unless "
-          "forced", "[solvers]") {
+TEST_CASE(
+    "unstable zero dynamics: auto picks stable inversion, forward methods refuse unless "
+    "forced",
+    "[solvers]") {
   // Rotational arm with the output beyond s = 2/3 l: non-minimum phase (paper Sect. 4).
   const Model model = LoadModel(ModelPath("rotational_arm.yaml"), {{"s", "0.9"}});
   Workspace workspace(model);
@@ -394,7 +401,7 @@ TEST_CASE("unstable zero dynamics: auto picks stable inversion, forward methods 
   CHECK(automatic.method == SolverMethod::kStableInversion);
   REQUIRE(automatic.summary.IsUsable());
   REQUIRE(automatic.window.has_value());
-  CHECK(automatic.window->pre_actuation_start < 1.0);  // non-causal: the torque starts before t0
+  CHECK(automatic.window->pre_actuation_start < 1.0);   // non-causal: the torque starts before t0
   CHECK(automatic.t_start == automatic.window->start);  // the span starts with the window
   options.method = SolverMethod::kNormalForm;
   CHECK_THROWS_WITH(SolveInverseModel(model, trajectory, classification, options),
@@ -455,8 +462,10 @@ TEST_CASE("a singularity along the motion stops the solve with the time and the 
 namespace servokit {
 namespace {
 
-TEST_CASE("case 4 at constant steps: Radau IIA's index-3 input converges at order 2, its "
-          "index-2 velocities at order 3", "[solvers][paper]") {
+TEST_CASE(
+    "case 4 at constant steps: Radau IIA's index-3 input converges at order 2, its "
+    "index-2 velocities at order 3",
+    "[solvers][paper]") {
   // Hairer, Lubich & Roche (1989): Radau IIA with s = 3 stages on an index-3 DAE has global
   // errors O(h^(s-1)) in the index-3 and O(h^s) in the index-2 components. With the step held
   // constant (initial = max step, a tolerance that never rejects), halving h must divide the
@@ -477,8 +486,8 @@ TEST_CASE("case 4 at constant steps: Radau IIA's index-3 input converges at orde
         dae, 0.0, x_start, kTEnd, trajectory.breakpoints(), options,
         [&](double t, const Eigen::VectorXd& x) {
           input_error = std::max(input_error, std::abs(x(4) - PaperForceCase4(trajectory, t)));
-          const double car_velocity = trajectory.Derivative(t, 1)(0) +
-                                      kM2 / kStiffness * trajectory.Derivative(t, 3)(0);
+          const double car_velocity =
+              trajectory.Derivative(t, 1)(0) + kM2 / kStiffness * trajectory.Derivative(t, 3)(0);
           velocity_error = std::max(velocity_error, std::abs(x(2) - car_velocity));
           return true;
         });
@@ -488,9 +497,10 @@ TEST_CASE("case 4 at constant steps: Radau IIA's index-3 input converges at orde
     input_errors.push_back(input_error);
     velocity_errors.push_back(velocity_error);
   }
-  WARN("Radau IIA case 4 at h = 0.1, 0.05, 0.025 s: max |u - Eq. 47| = " << input_errors[0]
-       << ", " << input_errors[1] << ", " << input_errors[2] << "; max |x' - exact| = "
-       << velocity_errors[0] << ", " << velocity_errors[1] << ", " << velocity_errors[2]);
+  WARN("Radau IIA case 4 at h = 0.1, 0.05, 0.025 s: max |u - Eq. 47| = "
+       << input_errors[0] << ", " << input_errors[1] << ", " << input_errors[2]
+       << "; max |x' - exact| = " << velocity_errors[0] << ", " << velocity_errors[1] << ", "
+       << velocity_errors[2]);
   for (std::size_t k = 0; k + 1 < input_errors.size(); ++k) {
     // Asymptotic ratios 4 and 8, within the pre-asymptotic spread at h = 0.1.
     CHECK(input_errors[k] / input_errors[k + 1] == Approx(4.0).epsilon(0.15));
@@ -556,13 +566,15 @@ void CheckGrid(const FeedforwardSolution& solution, double t_start, double t_end
   CHECK(solution.times.back() == t_end);
 }
 
-TEST_CASE("--sample-time: every method writes rows at t_start + k DT over exactly "
-          "[t_start, t_end], from its continuous extension", "[solvers]") {
+TEST_CASE(
+    "--sample-time: every method writes rows at t_start + k DT over exactly "
+    "[t_start, t_end], from its continuous extension",
+    "[solvers]") {
   const RestToRestTrajectory trajectory = PaperTrajectory();
   const Case flat = LoadCase("0", "0");
   const Case stable = LoadCase("5 deg", "1");
-  for (const SolverMethod method : {SolverMethod::kAlgebraic, SolverMethod::kEuler,
-                                    SolverMethod::kRadau}) {
+  for (const SolverMethod method :
+       {SolverMethod::kAlgebraic, SolverMethod::kEuler, SolverMethod::kRadau}) {
     InverseModelOptions options;
     options.method = method;
     options.t_end = kTEnd;
@@ -606,6 +618,9 @@ TEST_CASE("--sample-time must divide the span", "[solvers]") {
   InverseModelOptions options;
   options.t_end = kTEnd;
   options.sample_time = 0.3;
+  // The span over the sample time in double: 10 / 0.3 = 33.333333333333336 (0.3 is stored as
+  // 0.29999999999999998890), which needs all 17 digits to read back; the next whole number of
+  // samples, 34, gives the end time 34 * 0.3 = 10.2 s.
   CHECK_THROWS_MATCHES(
       SolveInverseModel(flat.model, trajectory, flat.classification, options), SettingError,
       Catch::Message("the sample time 0.3 s does not divide the span from 0 s to 10 s "
@@ -614,8 +629,10 @@ TEST_CASE("--sample-time must divide the span", "[solvers]") {
   CHECK(SampleGrid(0.0, 1.0, 0.1).size() == 11);  // 10.000000000000002 samples: a whole number
 }
 
-TEST_CASE("stable inversion on a sample grid: cut to a narrower span with a warning, padded "
-          "with the rest states where the span is wider", "[solvers]") {
+TEST_CASE(
+    "stable inversion on a sample grid: cut to a narrower span with a warning, padded "
+    "with the rest states where the span is wider",
+    "[solvers]") {
   const Model model = LoadModel(testing::TestDataPath("cart_pole.yaml"));
   Workspace workspace(model);
   const Classification classification = Classify(model, workspace);
@@ -656,19 +673,38 @@ TEST_CASE("stable inversion on a sample grid: cut to a narrower span with a warn
   CHECK_THAT(cut.warnings[1], Catch::Contains("not at rest at t_end = 2.5 s"));
 }
 
-TEST_CASE("BDF on a pendubot-type arm: u_d within 1e-7 of the normal form in every one of 20 "
-          "separate runs", "[solvers][slow]") {
+TEST_CASE(
+    "BDF on a pendubot-type arm: u_d within 1e-7 of the normal form in every one of 20 "
+    "separate runs",
+    "[solvers][slow]") {
   // A two-link arm hanging in gravity, passive damped elbow, output q1 + 0.2 q2 (stable zero
   // dynamics, -1.2 +- 6.76i). Its BDF solve once oscillated with errors growing by about -2
   // per step (a leading term whose null space moved with q) and differed from run to run with
   // the addresses GiNaC's term order depends on; each run is a separate process here.
   const testing::TemporaryDirectory scratch;
   const auto solve = [&](const std::string& method, const std::string& out) {
-    const testing::ProcessResult run = testing::RunProcess(
-        scratch.path(), {SERVOKIT_BINARY, "solve", testing::TestDataPath("two_link_arm_gravity.yaml"),
-                         "--trajectory", "rest-to-rest", "--y0", "0", "--yf", "1", "--t0", "0",
-                         "--tf", "1.5", "--t-end", "4", "--method", method, "--sample-time",
-                         "0.005", "--out", out});
+    const testing::ProcessResult run =
+        testing::RunProcess(scratch.path(), {SERVOKIT_BINARY,
+                                             "solve",
+                                             testing::TestDataPath("two_link_arm_gravity.yaml"),
+                                             "--trajectory",
+                                             "rest-to-rest",
+                                             "--y0",
+                                             "0",
+                                             "--yf",
+                                             "1",
+                                             "--t0",
+                                             "0",
+                                             "--tf",
+                                             "1.5",
+                                             "--t-end",
+                                             "4",
+                                             "--method",
+                                             method,
+                                             "--sample-time",
+                                             "0.005",
+                                             "--out",
+                                             out});
     INFO(run.err);
     REQUIRE(run.status == 0);
     std::vector<double> inputs;  // the column tau
