@@ -500,6 +500,42 @@ bool RestJacobian(const InternalBoundaryValueProblem& problem,
   return true;
 }
 
+// Newton's second start for Eq. (25): the linear stable inversion about the start equilibrium
+// `start` (whose linearization `split` divides) on `mesh` over [t_a, t_b], written into `guess`
+// (one entry per mesh point). False when the linear solution fails.
+bool LinearStableInversionGuess(const LinearInternalDynamics& start,
+                                const HyperbolicSplit& split,
+                                const OutputTrajectory& trajectory,
+                                const std::vector<double>& breakpoints,
+                                const std::vector<double>& mesh,
+                                double t_a,
+                                double t_b,
+                                std::vector<Eigen::VectorXd>& guess) {
+  // The linear solution is only Newton's starting point: a few digits suffice, with steps as
+  // long as the accuracy allows (a finite cap, so that SolveLinearStableInversion does not
+  // impose its own fine one).
+  IntegratorOptions guess_accuracy;
+  guess_accuracy.rtol = kGuessRelativeTolerance;
+  guess_accuracy.atol = kGuessAbsoluteTolerance;
+  guess_accuracy.max_step = t_b - t_a;
+  const LinearStableInversion linear = SolveLinearStableInversion(
+      split,
+      [&](double t) -> Eigen::VectorXd {
+        Eigen::VectorXd outputs(start.equilibrium_output.size());
+        const Eigen::Index m = outputs.size() / kDriveOrders;
+        for (int order = 0; order < kDriveOrders; ++order) {
+          outputs.segment(order * m, m) = trajectory.Derivative(t, order);
+        }
+        return start.drive_matrix * (outputs - start.equilibrium_output);
+      },
+      t_a, t_b, mesh, breakpoints, guess_accuracy);
+  if (!linear.summary.IsUsable()) return false;
+  for (std::size_t i = 0; i < mesh.size(); ++i) {
+    guess[i] = start.equilibrium_state + linear.states[i];
+  }
+  return true;
+}
+
 }  // namespace
 
 StableInversionSolution SolveStableInversion(const Model& model,
@@ -541,29 +577,8 @@ StableInversionSolution SolveStableInversion(const Model& model,
   const std::vector<double> breakpoints = trajectory.breakpoints();
   problem.linear_guess = [&](const std::vector<double>& mesh, double t_a, double t_b,
                              std::vector<Eigen::VectorXd>& guess) {
-    // The linear solution is only Newton's starting point: a few digits suffice, with steps
-    // as long as the accuracy allows (a finite cap, so that SolveLinearStableInversion does
-    // not impose its own fine one).
-    IntegratorOptions guess_accuracy;
-    guess_accuracy.rtol = kGuessRelativeTolerance;
-    guess_accuracy.atol = kGuessAbsoluteTolerance;
-    guess_accuracy.max_step = t_b - t_a;
-    const LinearStableInversion linear = SolveLinearStableInversion(
-        problem.start.split,
-        [&](double t) -> Eigen::VectorXd {
-          Eigen::VectorXd outputs(start.equilibrium_output.size());
-          const Eigen::Index m = outputs.size() / kDriveOrders;
-          for (int order = 0; order < kDriveOrders; ++order) {
-            outputs.segment(order * m, m) = trajectory.Derivative(t, order);
-          }
-          return start.drive_matrix * (outputs - start.equilibrium_output);
-        },
-        t_a, t_b, mesh, breakpoints, guess_accuracy);
-    if (!linear.summary.IsUsable()) return false;
-    for (std::size_t i = 0; i < mesh.size(); ++i) {
-      guess[i] = start.equilibrium_state + linear.states[i];
-    }
-    return true;
+    return LinearStableInversionGuess(start, problem.start.split, trajectory, breakpoints, mesh,
+                                      t_a, t_b, guess);
   };
   problem.extension = [&](std::function<Eigen::VectorXd(double)> internal_state, double from,
                           double to) {
