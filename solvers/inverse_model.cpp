@@ -8,10 +8,10 @@
 #include "analysis/operating_point.h"
 #include "models/errors.h"
 #include "solvers/algebraic_inversion.h"
-#include "solvers/output_normal_form.h"
 #include "solvers/dense_output.h"
 #include "solvers/linearized_inverse.h"
 #include "solvers/method_choice.h"
+#include "solvers/output_normal_form.h"
 #include "solvers/radau.h"
 #include "solvers/solver_messages.h"
 #include "solvers/stable_inversion.h"
@@ -244,8 +244,8 @@ void SolveAlgebraic(const Model& model,
     solution.summary.message = "evaluated at " + std::to_string(solution.times.size()) + " times";
   }
   if (!solution.times.empty()) {
-    solution.extension = AlgebraicMotion(inverse, model, trajectory, solution.times, solution.q,
-                                         solution.q_dot);
+    solution.extension =
+        AlgebraicMotion(inverse, model, trajectory, solution.times, solution.q, solution.q_dot);
   }
 }
 
@@ -312,9 +312,8 @@ void SolveBdf(ServoConstraintProblem& problem,
   DenseOutput states(n);
   solution.summary = IntegrateIda(
       [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd& x_dot,
-          Eigen::VectorXd& residual, std::string& reason) {
-        return problem.IndexOneResidual(t, x, x_dot, residual, reason);
-      },
+          Eigen::VectorXd& residual,
+          std::string& reason) { return problem.IndexOneResidual(t, x, x_dot, residual, reason); },
       // No breakpoints: the residual reads y_d'' at most, which is continuous across them
       // (Eq. 65 has 4 continuous derivatives), so BDF steps across.
       solution.t_start, x_start, x_dot_start, differential, solution.t_end, {}, integrator,
@@ -386,9 +385,9 @@ void SolveNormalForm(const std::shared_ptr<ServoConstraintProblem>& shared_probl
       keep_extension ? internal_states.get() : nullptr);
   watch.Finish(solution.summary);
   if (!internal_states->empty()) {
-    solution.extension =
-        InternalMotion(shared_problem, [internal_states](double t) { return (*internal_states)(t); },
-                       start.q, internal_states->start(), internal_states->end());
+    solution.extension = InternalMotion(
+        shared_problem, [internal_states](double t) { return (*internal_states)(t); }, start.q,
+        internal_states->start(), internal_states->end());
   }
 }
 
@@ -446,11 +445,11 @@ void SolveOutputNormalForm(const Model& model,
                            FeedforwardSolution& solution) {
   const Eigen::Index internal = form->internal_order();
   if (internal == 0) {
-    SolveAlgebraic(model, trajectory,
-                   FixedGrid(solution.t_start, solution.t_end,
-                             SettingsOf(SolverMethod::kAlgebraic).default_step,
-                             trajectory.breakpoints()),
-                   start, form, solution);
+    SolveAlgebraic(
+        model, trajectory,
+        FixedGrid(solution.t_start, solution.t_end,
+                  SettingsOf(SolverMethod::kAlgebraic).default_step, trajectory.breakpoints()),
+        start, form, solution);
     return;
   }
   Eigen::VectorXd state_start(2 * start.q.size());
@@ -499,9 +498,9 @@ void SolveOutputNormalForm(const Model& model,
                               Seconds(solution.t_end - solution.t_start) +
                               "): integrated with CVODE's BDF, not Dormand-Prince";
   } else {
-    solution.summary = IntegrateDormandPrince(rhs, solution.t_start, internal_start,
-                                              solution.t_end, trajectory.breakpoints(),
-                                              integrator, observer, dense);
+    solution.summary =
+        IntegrateDormandPrince(rhs, solution.t_start, internal_start, solution.t_end,
+                               trajectory.breakpoints(), integrator, observer, dense);
   }
   // The input equations' matrix singular along the motion: the general form of P singular.
   if (!solution.summary.IsUsable() && map.singular_inputs()) {
@@ -532,6 +531,43 @@ OperatingPoint RestAt(const Model& model,
   return FindOperatingPoint(model, workspace, options);
 }
 
+// The stable inversion's settings: the method's accuracy, and the window's sides the user fixed.
+StableInversionOptions StableInversionSettings(const SolveAccuracy& accuracy,
+                                               const InverseModelOptions& options) {
+  StableInversionOptions inversion;
+  inversion.tolerance = accuracy.rtol;
+  inversion.absolute_tolerance = accuracy.atol;
+  inversion.pre_actuation = options.pre_actuation;
+  inversion.post_actuation = options.post_actuation;
+  return inversion;
+}
+
+// A warning for each end of the span where u_d is not at rest (the span cuts the window's
+// pre- or post-actuation short).
+void WarnWhereNotAtRest(const StableInversionWindow& window, FeedforwardSolution& solution) {
+  if (window.pre_actuation_start < solution.t_start) {
+    solution.warnings.push_back("u_d is not at rest at t_start = " + Seconds(solution.t_start) +
+                                ": the pre-actuation starts at " +
+                                Seconds(window.pre_actuation_start) +
+                                "; the motion written starts from a state that is not at rest");
+  }
+  if (window.post_actuation_end > solution.t_end) {
+    solution.warnings.push_back("u_d is not at rest at t_end = " + Seconds(solution.t_end) +
+                                ": the post-actuation goes on until " +
+                                Seconds(window.post_actuation_end));
+  }
+}
+
+// The method's own points within [t_start, t_end]: the mesh inside the span, and its ends.
+std::vector<double> MeshInSpan(const std::vector<double>& mesh, double t_start, double t_end) {
+  std::vector<double> times = {t_start};
+  for (const double t : mesh) {
+    if (t > t_start && t < t_end) times.push_back(t);
+  }
+  times.push_back(t_end);
+  return times;
+}
+
 // Stable inversion on the window the boundary value problem chooses (or the user fixed), from
 // the equilibrium at the start of the motion to the one at its end, then cut or padded with
 // the rest states to [t_start, t_end].
@@ -545,44 +581,22 @@ void SolveByStableInversion(const Model& model,
   const OperatingPoint start =
       RestAt(model, trajectory, breakpoints.front(), classification.operating_point.q);
   const OperatingPoint end = RestAt(model, trajectory, breakpoints.back(), start.q);
-  StableInversionOptions inversion;
-  inversion.tolerance = solution.accuracy.rtol;
-  inversion.absolute_tolerance = solution.accuracy.atol;
-  inversion.pre_actuation = options.pre_actuation;
-  inversion.post_actuation = options.post_actuation;
+  const StableInversionOptions inversion = StableInversionSettings(solution.accuracy, options);
   // P regular: the normal form of Eq. (25); otherwise the input-output normal form.
   const StableInversionSolution result =
-      output_normal_form
-          ? SolveOutputStableInversion(model, trajectory, output_normal_form, start.q, end.q,
-                                       inversion)
-          : SolveStableInversion(model, trajectory, start.q, end.q, inversion);
+      output_normal_form ? SolveOutputStableInversion(model, trajectory, output_normal_form,
+                                                      start.q, end.q, inversion)
+                         : SolveStableInversion(model, trajectory, start.q, end.q, inversion);
   solution.summary = result.summary;
   solution.summary.steps = long(result.times.size());
   solution.window = result.window;
-  const StableInversionWindow& window = result.window;
   if (!result.extension) return;
   // The span: unset t_start begins with the window (its pre-actuation).
-  if (!options.t_start) solution.t_start = std::min(window.start, breakpoints.front());
+  if (!options.t_start) solution.t_start = std::min(result.window.start, breakpoints.front());
   solution.extension = PaddedWithRest(result.extension, solution.t_start, solution.t_end,
                                       {start.q, start.u}, {end.q, end.u});
-  if (window.pre_actuation_start < solution.t_start) {
-    solution.warnings.push_back(
-        "u_d is not at rest at t_start = " + Seconds(solution.t_start) +
-        ": the pre-actuation starts at " + Seconds(window.pre_actuation_start) +
-        "; the motion written starts from a state that is not at rest");
-  }
-  if (window.post_actuation_end > solution.t_end) {
-    solution.warnings.push_back("u_d is not at rest at t_end = " + Seconds(solution.t_end) +
-                                ": the post-actuation goes on until " +
-                                Seconds(window.post_actuation_end));
-  }
-  // The own points: the mesh within the span, and its ends.
-  std::vector<double> times = {solution.t_start};
-  for (const double t : result.times) {
-    if (t > solution.t_start && t < solution.t_end) times.push_back(t);
-  }
-  times.push_back(solution.t_end);
-  SampleRows(times, solution);
+  WarnWhereNotAtRest(result.window, solution);
+  SampleRows(MeshInSpan(result.times, solution.t_start, solution.t_end), solution);
   if (solution.summary.IsUsable()) solution.summary.stop_time = solution.t_end;
 }
 
@@ -598,7 +612,8 @@ double MaxServoResidual(ServoConstraintProblem& problem, const FeedforwardSoluti
 // The grid of sample_time for a span whose start is only known after a stable inversion:
 // anchored at `anchor` (t_start, or the motion's start) and reaching back to cover t_start.
 std::vector<double> GridCovering(double t_start, double t_end, double anchor, double sample_time) {
-  const double samples_before = std::ceil((anchor - t_start) / sample_time - kWholeSamplesTolerance);
+  const double samples_before =
+      std::ceil((anchor - t_start) / sample_time - kWholeSamplesTolerance);
   return SampleGrid(anchor - std::max(samples_before, 0.0) * sample_time, t_end, sample_time);
 }
 
@@ -715,10 +730,10 @@ std::vector<double> SampleGrid(double t_start, double t_end, double sample_time)
                            " s or a sample time that divides it");
   }
   if (whole > kMaxSamples) {
-    throw SettingError(SolveSetting::kSampleTime,
-                       "the sample time " + FormatNumber(sample_time) + " s gives " +
-                           FormatNumber(whole) + " samples, more than " +
-                           FormatNumber(kMaxSamples));
+    throw SettingError(SolveSetting::kSampleTime, "the sample time " + FormatNumber(sample_time) +
+                                                      " s gives " + FormatNumber(whole) +
+                                                      " samples, more than " +
+                                                      FormatNumber(kMaxSamples));
   }
   const auto count = static_cast<std::size_t>(whole);
   std::vector<double> grid(count + 1);
@@ -750,8 +765,8 @@ FeedforwardSolution SolveInverseModel(const Model& model,
   const auto problem = std::make_shared<ServoConstraintProblem>(
       model, trajectory, classification.operating_point.q, options.problem);
   if (solution.method == SolverMethod::kStableInversion) {
-    SolveByStableInversion(model, trajectory, classification, options,
-                           chooser.output_normal_form(), solution);
+    SolveByStableInversion(model, trajectory, classification, options, chooser.output_normal_form(),
+                           solution);
   } else {
     SolveForward(model, trajectory, classification, options, chooser, problem, solution);
   }

@@ -14,9 +14,19 @@ namespace {
 // Newton's iteration for the matrix sign function converges quadratically once the scaled
 // iterate is near its limit; 100 iterations only stop a non-hyperbolic matrix from looping.
 constexpr int kMaxSignIterations = 100;
+// It has converged when a step changes the iterate by at most this relative to its norm: a
+// hundred times the machine epsilon, the round-off floor of an inversion of a well-conditioned
+// iterate (quadratic convergence makes the next step smaller still).
 constexpr double kSignTolerance = 1e-14;
 // Singular values of a spectral projector are 0 or >= 1: 0.5 separates them with room.
 constexpr double kProjectorRankThreshold = 0.5;
+// The largest |lambda| is floored at this in the imaginary-axis test, so that a spectrum of
+// vanishing size (where axis_tolerance * max |lambda| would underflow to 0) counts as on the
+// axis: rates that small are no dichotomy. Any number far below a physical rate will do.
+constexpr double kMinEigenvalueScale = 1e-300;
+// Samples come from cubic Hermite interpolation between steps (error ~ h^4): unless the caller
+// bounds the step, steps of at most 1/kMinStepsPerWindow of the window keep it below the
+// integration error.
 constexpr double kMinStepsPerWindow = 4000.0;
 
 std::string Complex(std::complex<double> value) {
@@ -72,7 +82,7 @@ HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix, double axis
   for (const auto& value : split.eigenvalues) largest = std::max(largest, std::abs(value));
   std::string on_axis;
   for (const auto& value : split.eigenvalues) {
-    if (std::abs(value.real()) <= axis_tolerance * std::max(largest, 1e-300)) {
+    if (std::abs(value.real()) <= axis_tolerance * std::max(largest, kMinEigenvalueScale)) {
       on_axis += (on_axis.empty() ? "" : ", ") + Complex(value);
     }
   }
@@ -105,9 +115,6 @@ LinearStableInversion SolveLinearStableInversion(
     const IntegratorOptions& options) {
   LinearStableInversion result;
   result.summary.status = SolveStatus::kConverged;
-  // Samples come from cubic Hermite interpolation between steps (error ~ h^4): unless the
-  // caller bounds the step, steps of at most 1/kMinStepsPerWindow of the window keep it below
-  // the integration error.
   IntegratorOptions capped = options;
   if (!std::isfinite(options.max_step)) capped.max_step = (t_end - t_start) / kMinStepsPerWindow;
   // One part, integrated in direction `sign` (+1 forward from t_start, -1 backward from
@@ -137,8 +144,8 @@ LinearStableInversion SolveLinearStableInversion(
     result.summary.function_evaluations += summary.function_evaluations;
     if (!summary.IsUsable()) {
       result.summary.status = summary.status;
-      result.summary.message = (sign > 0 ? "stable part: " : "unstable part (backward): ") +
-                               summary.message;
+      result.summary.message =
+          (sign > 0 ? "stable part: " : "unstable part (backward): ") + summary.message;
       return false;
     }
     return true;
@@ -155,8 +162,9 @@ LinearStableInversion SolveLinearStableInversion(
     result.states.push_back(state);
   }
   result.summary.stop_time = t_end;
-  result.summary.message = "stable part forward, unstable part backward: " +
-                           std::to_string(result.summary.steps) + " steps";
+  result.summary.message =
+      "stable part forward, unstable part backward: " + std::to_string(result.summary.steps) +
+      " steps";
   return result;
 }
 

@@ -29,10 +29,17 @@ struct HyperbolicSplit {
   std::vector<std::complex<double>> eigenvalues;  // of A, sorted by real part
 };
 
+/// SplitHyperbolic's default axis_tolerance: |Re lambda| <= 1e-9 max |lambda| is on the
+/// imaginary axis, the same relative test as ClassificationOptions::imaginary_axis_tolerance
+/// (analysis/options.h), so that stable inversion refuses what the classification calls
+/// critical.
+inline constexpr double kHyperbolicAxisTolerance = 1e-9;
+
 /// Splits A into its stable and unstable invariant subspaces. Throws NoSolution naming the
 /// eigenvalues whose |Re| <= axis_tolerance * max |lambda| ("not hyperbolic: eigenvalues on the
 /// imaginary axis: 0 + 18.14i, 0 - 18.14i"), since stable inversion needs a dichotomy.
-HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix, double axis_tolerance = 1e-9);
+HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix,
+                                double axis_tolerance = kHyperbolicAxisTolerance);
 
 /// The bounded solution of x' = A x + g(t) on [t_start, t_end], with g = 0 outside [t_start,
 /// t_end] assumed (the stable part starts at 0 at t_start, the unstable part ends at 0 at
