@@ -12,6 +12,7 @@
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
+#include "models/option_check.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
 
@@ -30,6 +31,20 @@ int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::
   MakeOutputDirectory(arguments.out);
   out << WriteLinearModel(files, arguments.out) << "\n";
   return static_cast<int>(ExitCode::kSuccess);
+}
+
+// A generator's options are its flags, spelt with '-' for '_' (--mass-per-length for
+// BeamOptions::mass_per_length); an option error from the generator names the flag too.
+LinearModelFiles Generate(const CLI::App& chain, const GenerateArguments& arguments) {
+  try {
+    return chain.parsed() ? GenerateChain(arguments.chain) : GenerateBeam(arguments.beam);
+  } catch (const OptionError& error) {
+    std::string flag = error.field();
+    for (char& c : flag) {
+      if (c == '_') c = '-';
+    }
+    throw UsageError(std::string(error.what()) + " (--" + flag + ")");
+  }
 }
 
 void AddOutputOptions(CLI::App& command, GenerateArguments& arguments, const std::string& stem) {
@@ -83,9 +98,7 @@ Command AddGenerateCommand(CLI::App& app) {
   AddOutputOptions(*beam, *arguments, "beam");
 
   return {generate, [arguments, chain](std::ostream& out, std::ostream&) {
-            if (chain->parsed())
-              return WriteModel(GenerateChain(arguments->chain), *arguments, out);
-            return WriteModel(GenerateBeam(arguments->beam), *arguments, out);
+            return WriteModel(Generate(*chain, *arguments), *arguments, out);
           }};
 }
 
