@@ -8,6 +8,7 @@
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -47,10 +48,8 @@ Eigen::MatrixXd TallColumnSpaceBasis(const Eigen::MatrixXd& matrix, double relat
 }  // namespace
 
 void LinearAnalysisOptions::Validate() const {
-  if (!(rank_tolerance > 0.0 && rank_tolerance < 1.0)) {
-    throw UsageError("LinearAnalysisOptions::rank_tolerance = " + std::to_string(rank_tolerance) +
-                     ": must be > 0 and < 1");
-  }
+  RequireOption(rank_tolerance > 0.0 && rank_tolerance < 1.0, "LinearAnalysisOptions",
+                "rank_tolerance", rank_tolerance, "must be > 0 and < 1");
   zero_dynamics.Validate();
 }
 

@@ -12,6 +12,7 @@
 
 #include "analysis/linear_zero_dynamics.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "models/units.h"
 
 namespace servokit {
@@ -42,13 +43,10 @@ double MaxRealPart(const std::vector<std::complex<double>>& eigenvalues) {
 
 void ValidateOptions(const LinearSweepOptions& options) {
   options.analysis.Validate();
-  if (options.threads < 0) {
-    throw UsageError("LinearSweepOptions::threads = " + std::to_string(options.threads) +
-                     ": must be >= 0 (0: all cores)");
-  }
-  if (options.block_size < 1) {
-    throw UsageError("LinearSweepOptions::block_size = 0: must be >= 1");
-  }
+  RequireOption(options.threads >= 0, "LinearSweepOptions", "threads", options.threads,
+                "must be >= 0 (0: all cores)");
+  RequireOption(options.block_size >= 1, "LinearSweepOptions", "block_size", options.block_size,
+                "must be >= 1");
 }
 
 }  // namespace
@@ -113,8 +111,8 @@ std::size_t RunLinearSweep(const LinearModel& model,
   ValidateOptions(options);
   const std::size_t total = grid.num_points();
   if (first_point >= total) return total;
-  // Each thread's parameters start from the model's (with --set) and the grid overwrites the
-  // varied entries.
+  // Each thread's parameters start from the model's (with the overrides) and the grid overwrites
+  // the varied entries.
   std::vector<Eigen::VectorXd> parameters(static_cast<std::size_t>(workspaces.threads()),
                                           model.parameters());
   std::vector<SweepPoint> block(std::min(options.block_size, total - first_point));

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -35,15 +36,18 @@ constexpr int kScaleIterations = 30;
 // no component along the index-1 infinite eigenvectors.
 constexpr unsigned kStartSeed = 20130613u;
 
-void RequireShape(const char* name,
+// A matrix's shape as a message writes it: "3 x 2".
+std::string ShapeText(const SparseMatrix& matrix) {
+  return std::to_string(matrix.rows()) + " x " + std::to_string(matrix.cols());
+}
+
+void RequireShape(const char* field,
                   const SparseMatrix& matrix,
                   Eigen::Index rows,
                   Eigen::Index cols) {
-  if (matrix.rows() != rows || matrix.cols() != cols) {
-    throw UsageError(std::string("LinearSystem::") + name + " is " + std::to_string(matrix.rows()) +
-                     " x " + std::to_string(matrix.cols()) + ": must be " + std::to_string(rows) +
-                     " x " + std::to_string(cols));
-  }
+  RequireOption(matrix.rows() == rows && matrix.cols() == cols, "LinearSystem", field,
+                ShapeText(matrix),
+                "must be " + std::to_string(rows) + " x " + std::to_string(cols));
 }
 
 bool SamePattern(const SparseMatrix& a, const SparseMatrix& b) {
@@ -185,8 +189,10 @@ LinearSystem AssembleLinearSystem(const LinearModel& model,
 void LinearSystem::Validate() const {
   const Eigen::Index n = mass.rows();
   const Eigen::Index m = input_matrix.cols();
-  if (n < 1) throw UsageError("LinearSystem::mass has no rows: the model needs >= 1 coordinate");
-  if (m < 1) throw UsageError("LinearSystem::input_matrix has no columns: >= 1 input needed");
+  RequireOption(n >= 1, "LinearSystem", "mass", ShapeText(mass),
+                "must have >= 1 row (the model needs >= 1 coordinate)");
+  RequireOption(m >= 1, "LinearSystem", "input_matrix", ShapeText(input_matrix),
+                "must have >= 1 column (>= 1 input needed)");
   RequireShape("mass", mass, n, n);
   RequireShape("damping", damping, n, n);
   RequireShape("stiffness", stiffness, n, n);
@@ -195,21 +201,13 @@ void LinearSystem::Validate() const {
 }
 
 void LinearZeroDynamicsOptions::Validate() const {
-  if (!std::isfinite(shift)) {
-    throw UsageError("LinearZeroDynamicsOptions::shift = " + ShiftText(shift) + ": must be finite");
-  }
-  if (dense_threshold < 0) {
-    throw UsageError("LinearZeroDynamicsOptions::dense_threshold = " + Count(dense_threshold) +
-                     ": must be >= 0");
-  }
-  if (!(infinite_tolerance > 0.0 && infinite_tolerance < 1.0)) {
-    throw UsageError("LinearZeroDynamicsOptions::infinite_tolerance = " +
-                     std::to_string(infinite_tolerance) + ": must be > 0 and < 1");
-  }
-  if (!(imaginary_axis_tolerance > 0.0 && imaginary_axis_tolerance < 1.0)) {
-    throw UsageError("LinearZeroDynamicsOptions::imaginary_axis_tolerance = " +
-                     std::to_string(imaginary_axis_tolerance) + ": must be > 0 and < 1");
-  }
+  constexpr const char* kOwner = "LinearZeroDynamicsOptions";
+  RequireOption(std::isfinite(shift), kOwner, "shift", shift, "must be finite");
+  RequireOption(dense_threshold >= 0, kOwner, "dense_threshold", dense_threshold, "must be >= 0");
+  RequireOption(infinite_tolerance > 0.0 && infinite_tolerance < 1.0, kOwner, "infinite_tolerance",
+                infinite_tolerance, "must be > 0 and < 1");
+  RequireOption(imaginary_axis_tolerance > 0.0 && imaginary_axis_tolerance < 1.0, kOwner,
+                "imaginary_axis_tolerance", imaginary_axis_tolerance, "must be > 0 and < 1");
   arpack.Validate();
 }
 

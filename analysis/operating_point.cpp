@@ -14,6 +14,7 @@
 
 #include "numerics/sundials_support.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -89,6 +90,12 @@ std::string FormatVector(const Eigen::VectorXd& values) {
   for (Eigen::Index i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values(i);
   out << "]";
   return out.str();
+}
+
+// The rule of an options vector with one value per output or coordinate.
+std::string ValueCount(std::size_t count, const std::string& per) {
+  return "must have " + std::to_string(count) + (count == 1 ? " value" : " values") + ", one per " +
+         per;
 }
 
 // Scales each residual by the inverse of its Jacobian row's largest entry, so that a force
@@ -192,26 +199,20 @@ void RunKinsol(EquilibriumProblem& problem,
 }  // namespace
 
 void OperatingPointOptions::Validate(const Model& model) const {
-  if (y0 && static_cast<std::size_t>(y0->size()) != model.num_outputs()) {
-    throw UsageError("y0 has " + std::to_string(y0->size()) + " values: the model has " +
-                     std::to_string(model.num_outputs()) + " outputs");
+  constexpr const char* kOwner = "OperatingPointOptions";
+  if (y0) {
+    RequireOption(static_cast<std::size_t>(y0->size()) == model.num_outputs(), kOwner, "y0", *y0,
+                  ValueCount(model.num_outputs(), "output"));
+    RequireOption(y0->allFinite(), kOwner, "y0", *y0, "must be finite");
   }
-  if (y0 && !y0->allFinite()) throw UsageError("y0 = " + FormatVector(*y0) + ": must be finite");
-  if (q_guess && static_cast<std::size_t>(q_guess->size()) != model.dof()) {
-    throw UsageError("q0 has " + std::to_string(q_guess->size()) + " values: the model has " +
-                     std::to_string(model.dof()) + " coordinates");
+  if (q_guess) {
+    RequireOption(static_cast<std::size_t>(q_guess->size()) == model.dof(), kOwner, "q_guess",
+                  *q_guess, ValueCount(model.dof(), "coordinate"));
+    RequireOption(q_guess->allFinite(), kOwner, "q_guess", *q_guess, "must be finite");
   }
-  if (q_guess && !q_guess->allFinite()) {
-    throw UsageError("q0 = " + FormatVector(*q_guess) + ": must be finite");
-  }
-  if (!(residual_tolerance > 0.0)) {
-    throw UsageError("OperatingPointOptions::residual_tolerance = " +
-                     std::to_string(residual_tolerance) + ": must be > 0");
-  }
-  if (max_iterations < 1) {
-    throw UsageError("OperatingPointOptions::max_iterations = " + std::to_string(max_iterations) +
-                     ": must be >= 1");
-  }
+  RequireOption(residual_tolerance > 0.0, kOwner, "residual_tolerance", residual_tolerance,
+                "must be > 0");
+  RequireOption(max_iterations >= 1, kOwner, "max_iterations", max_iterations, "must be >= 1");
 }
 
 std::string DescribeParameters(const Model& model, const Workspace& workspace) {

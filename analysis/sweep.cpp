@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -21,11 +22,10 @@ constexpr std::size_t kPointsPerChunk = 16;
 
 void ValidateOptions(const Model& model, const SweepOptions& options) {
   options.classification.Validate(model);
-  if (options.threads < 0) {
-    throw UsageError("SweepOptions::threads = " + std::to_string(options.threads) +
-                     ": must be >= 0 (0: all cores)");
-  }
-  if (options.block_size < 1) throw UsageError("SweepOptions::block_size = 0: must be >= 1");
+  RequireOption(options.threads >= 0, "SweepOptions", "threads", options.threads,
+                "must be >= 0 (0: all cores)");
+  RequireOption(options.block_size >= 1, "SweepOptions", "block_size", options.block_size,
+                "must be >= 1");
 }
 
 // Keeps the first exception thrown in an OpenMP region, to rethrow after it: an exception must
@@ -116,7 +116,7 @@ std::size_t RunSweep(const Model& model,
   ValidateOptions(model, options);
   const std::size_t total = grid.num_points();
   if (first_point >= total) return total;
-  // Each workspace starts from the model's parameters (with the --set overrides) and the grid
+  // Each workspace starts from the model's parameters (with the parameter overrides) and the grid
   // overwrites only the varied entries.
   const std::vector<std::unique_ptr<Workspace>> workspaces =
       BuildWorkspaces(model, SweepThreads(options));

@@ -15,6 +15,7 @@
 #include "analysis/classification.h"
 #include "numerics/gsl_support.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -258,18 +259,11 @@ std::optional<ThresholdCrossing> FindTouch(
 
 void ThresholdOptions::Validate(const Model& model) const {
   classification.Validate(model);
-  if (scan_intervals < 1) {
-    throw UsageError("ThresholdOptions::scan_intervals = " + std::to_string(scan_intervals) +
-                     ": must be >= 1");
-  }
-  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0)) {
-    throw UsageError("ThresholdOptions::relative_tolerance = " +
-                     std::to_string(relative_tolerance) + ": must be > 0 and < 1");
-  }
-  if (!(merge_tolerance >= 0.0)) {
-    throw UsageError("ThresholdOptions::merge_tolerance = " + std::to_string(merge_tolerance) +
-                     ": must be >= 0");
-  }
+  constexpr const char* kOwner = "ThresholdOptions";
+  RequireOption(scan_intervals >= 1, kOwner, "scan_intervals", scan_intervals, "must be >= 1");
+  RequireOption(relative_tolerance > 0.0 && relative_tolerance < 1.0, kOwner, "relative_tolerance",
+                relative_tolerance, "must be > 0 and < 1");
+  RequireOption(merge_tolerance >= 0.0, kOwner, "merge_tolerance", merge_tolerance, "must be >= 0");
 }
 
 ThresholdSearch FindThresholds(const Model& model,
@@ -281,7 +275,7 @@ ThresholdSearch FindThresholds(const Model& model,
   options.Validate(model);
   if (parameter >= model.num_parameters()) throw UsageError("no such parameter index");
   if (!(std::isfinite(low) && std::isfinite(high) && low < high)) {
-    throw UsageError("the range " + std::to_string(low) + ":" + std::to_string(high) + " of " +
+    throw UsageError("the range " + FormatNumber(low) + ":" + FormatNumber(high) + " of " +
                      model.parameter_names()[parameter] + " must be finite with low < high");
   }
   // Bisection and the merging of events add two values of the range: beyond half the largest

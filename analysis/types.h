@@ -22,7 +22,7 @@ enum class Stability {
   kNone,                  // no zero dynamics (flat)
 };
 
-/// Inverse-model solvers of `servokit solve --method` (paper Sect. 5).
+/// Inverse-model solvers (paper Sect. 5).
 enum class SolverMethod {
   kAuto,
   kAlgebraic,        // flat: u_d and q_d from y_d and its derivatives only
@@ -34,7 +34,7 @@ enum class SolverMethod {
   kLinearized,       // the exact inverse of the linearization, applied to the model
 };
 
-/// What `servokit threshold --event` looks for along a parameter.
+/// What a threshold search (FindThresholds) looks for along a parameter.
 enum class ThresholdEvent {
   kStability,    // the stability class or the number of eigenvalues in the right half plane
   kOscillation,  // the number of complex eigenvalue pairs (over-damping)

@@ -6,10 +6,13 @@
 #include <ostream>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
 #include "models/errors.h"
+#include "models/model.h"
+#include "models/option_check.h"
 #include "models/units.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
@@ -47,6 +50,49 @@ api::ParameterValues ParseParameterValues(const std::vector<std::string>& texts)
   }
   return values;
 }
+
+namespace {
+
+// The flag that sets an analysis option (analyze, sweep, threshold), or "" if none does: the
+// one place where the options' fields meet the command line (`generate` names its own).
+std::string_view FlagForOption(std::string_view owner, std::string_view field) {
+  struct OptionFlag {
+    std::string_view owner, field, flag;
+  };
+  static constexpr OptionFlag kFlags[] = {
+      {"OperatingPointOptions", "y0", "--y0"},
+      {"OperatingPointOptions", "q_guess", "--q0"},
+      {"ClassificationOptions", "rank_tolerance", "--rank-tolerance"},
+      {"ClassificationOptions", "imaginary_axis_tolerance", "--axis-tolerance"},
+      {"LinearAnalysisOptions", "rank_tolerance", "--rank-tolerance"},
+      {"LinearZeroDynamicsOptions", "imaginary_axis_tolerance", "--axis-tolerance"},
+      {"LinearZeroDynamicsOptions", "shift", "--shift"},
+      {"ArpackOptions", "eigenvalues", "--eigenvalues"},
+      {"ThresholdOptions", "scan_intervals", "--scan"},
+      {"ThresholdOptions", "relative_tolerance", "--tolerance"},
+  };
+  for (const OptionFlag& entry : kFlags) {
+    if (entry.owner == owner && entry.field == field) return entry.flag;
+  }
+  return "";
+}
+
+// The message of an error as the command line says it: the toolkit's words, with the user's
+// flag where one set the value ("--set k=stiff: not a number" for a parameter override,
+// "... must be > 0 and < 1 (--rank-tolerance)" for an option).
+std::string CommandLineMessage(const std::exception& error) {
+  if (const auto* bad_override = dynamic_cast<const ParameterOverrideError*>(&error)) {
+    const ParameterOverride& given = bad_override->parameter_override();
+    return "--set " + given.name + "=" + given.value + ": " + bad_override->problem();
+  }
+  if (const auto* bad_option = dynamic_cast<const OptionError*>(&error)) {
+    const std::string_view flag = FlagForOption(bad_option->owner(), bad_option->field());
+    if (!flag.empty()) return std::string(error.what()) + " (" + std::string(flag) + ")";
+  }
+  return error.what();
+}
+
+}  // namespace
 
 Eigen::VectorXd ParseValues(const std::string& option, const std::vector<std::string>& texts) {
   std::vector<double> values;
@@ -108,7 +154,7 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
     }
     throw UsageError("no command given (try servokit --help)");
   } catch (const std::exception& error) {
-    err << "servokit: error: " << error.what() << "\n";
+    err << "servokit: error: " << CommandLineMessage(error) << "\n";
     return static_cast<int>(ExitCodeFor(error));
   } catch (...) {
     err << "servokit: error: unknown internal error\n";

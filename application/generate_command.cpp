@@ -9,28 +9,42 @@
 #include <ostream>
 #include <string>
 
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "models/model_generators.h"
+#include "models/option_check.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "servokit/servokit.h"
 
 namespace servokit {
 namespace {
 
 struct GenerateArguments {
-  api::ChainModel chain;
-  api::BeamModel beam;
+  ChainOptions chain;
+  BeamOptions beam;
   std::string out;   // the output directory
   std::string name;  // empty: chain_N or beam_N
 };
 
-// Writes the model the subcommand describes into --out and prints its YAML file's path.
-template <typename Description>
-int WriteModel(const Description& description,
-               const GenerateArguments& arguments,
-               std::ostream& out) {
+int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::ostream& out) {
+  if (!arguments.name.empty()) files.name = arguments.name;
   MakeOutputDirectory(arguments.out);
-  out << api::Generate(description, arguments.out, arguments.name) << "\n";
+  out << WriteLinearModel(files, arguments.out) << "\n";
   return static_cast<int>(ExitCode::kSuccess);
+}
+
+// A generator's options are its flags, spelt with '-' for '_' (--mass-per-length for
+// BeamOptions::mass_per_length); an option error from the generator names the flag too.
+LinearModelFiles Generate(const CLI::App& chain, const GenerateArguments& arguments) {
+  try {
+    return chain.parsed() ? GenerateChain(arguments.chain) : GenerateBeam(arguments.beam);
+  } catch (const OptionError& error) {
+    std::string flag = error.field();
+    for (char& c : flag) {
+      if (c == '_') c = '-';
+    }
+    throw UsageError(std::string(error.what()) + " (--" + flag + ")");
+  }
 }
 
 void AddOutputOptions(CLI::App& command, GenerateArguments& arguments, const std::string& stem) {
@@ -54,7 +68,7 @@ Command AddGenerateCommand(CLI::App& app) {
 
   CLI::App* chain = generate->add_subcommand(
       "chain", "N masses between springs and dampers, fixed to the ground at one end");
-  api::ChainModel& chain_options = arguments->chain;
+  ChainOptions& chain_options = arguments->chain;
   chain->add_option("--masses", chain_options.masses, "Number of masses N")->required();
   chain->add_option("--mass", chain_options.mass, "Each mass m, kg")->capture_default_str();
   chain->add_option("--stiffness", chain_options.stiffness, "Each spring k, N/m")
@@ -69,7 +83,7 @@ Command AddGenerateCommand(CLI::App& app) {
 
   CLI::App* beam = generate->add_subcommand(
       "beam", "A flexible link (Euler-Bernoulli, Hermite elements) on a hub driven by a torque");
-  api::BeamModel& beam_options = arguments->beam;
+  BeamOptions& beam_options = arguments->beam;
   beam->add_option("--elements", beam_options.elements, "Number of elements N")->required();
   beam->add_option("--length", beam_options.length, "Link length L, m")->capture_default_str();
   beam->add_option("--hub-inertia", beam_options.hub_inertia, "Hub inertia J, kg m^2")
@@ -84,9 +98,7 @@ Command AddGenerateCommand(CLI::App& app) {
   AddOutputOptions(*beam, *arguments, "beam");
 
   return {generate, [arguments, chain](std::ostream& out, std::ostream&) {
-            if (chain->parsed())
-              return WriteModel(arguments->chain, *arguments, out);
-            return WriteModel(arguments->beam, *arguments, out);
+            return WriteModel(Generate(*chain, *arguments), *arguments, out);
           }};
 }
 

@@ -102,7 +102,7 @@ bool IsLinearModelFile(const std::string& path);
 /// Reads a linear model file and its Matrix Market files. Throws ModelError
 /// ("file: key: problem") for a bad file: missing key, unreadable or malformed .mtx (named),
 /// wrong shapes (M, D, K dof x dof; B dof x inputs; C outputs x dof; outputs == inputs),
-/// non-finite entries, unknown symbols in a factor. UsageError for a bad override.
+/// non-finite entries, unknown symbols in a factor. ParameterOverrideError for a bad override.
 LinearModel LoadLinearModel(const std::string& path,
                             const std::vector<ParameterOverride>& overrides = {});
 

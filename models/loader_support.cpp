@@ -418,16 +418,18 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                              const std::vector<ParameterOverride>& overrides,
                              Eigen::VectorXd& parameters) {
   for (const ParameterOverride& override_ : overrides) {
-    const std::string option = "--set " + override_.name + "=" + override_.value;
     const auto found = std::find(parameter_names.begin(), parameter_names.end(), override_.name);
     if (found == parameter_names.end()) {
-      throw UsageError(option + ": unknown parameter '" + override_.name + "' (" +
-                       (parameter_names.empty() ? std::string("the model has no parameters")
-                                                : "known: " + Join(parameter_names)) +
-                       ")");
+      throw ParameterOverrideError(
+          override_, "unknown parameter '" + override_.name + "' (" +
+                         (parameter_names.empty() ? std::string("the model has no parameters")
+                                                  : "known: " + Join(parameter_names)) +
+                         ")");
     }
     const std::optional<double> value = ParseQuantity(override_.value);
-    if (!value) throw UsageError(option + ": not a number " + std::string(kQuantityHint));
+    if (!value) {
+      throw ParameterOverrideError(override_, "not a number " + std::string(kQuantityHint));
+    }
     parameters[static_cast<Eigen::Index>(found - parameter_names.begin())] = *value;
   }
 }

@@ -108,9 +108,9 @@ std::optional<std::string> FindLexicalProblem(const std::string& text,
 /// sqrt(-1) becomes I and 1e400 a float no double holds.
 std::optional<std::string> FindUnsupported(const GiNaC::ex& expression);
 
-/// Applies "--set name=value" overrides to `parameters` (in the order of `parameter_names`).
-/// Throws UsageError naming the option for an unknown name (listing the known ones) or a value
-/// that is not a number (optionally with "deg").
+/// Applies the parameter overrides to `parameters` (in the order of `parameter_names`). Throws
+/// ParameterOverrideError for an unknown name (listing the known ones) or a value that is not a
+/// number (optionally with "deg").
 void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                              const std::vector<ParameterOverride>& overrides,
                              Eigen::VectorXd& parameters);

@@ -11,7 +11,10 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
+
+#include "models/errors.h"
 
 namespace servokit {
 
@@ -43,10 +46,29 @@ constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<un
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
 inline constexpr std::size_t kNumQuantities = 12;
 
-/// A parameter override from the command line, "--set name=value"; value may end in "deg".
+/// A parameter's value given by name, in place of the model file's nominal value; value is a
+/// number and may end in "deg".
 struct ParameterOverride {
   std::string name;
   std::string value;
+};
+
+/// A parameter override the model cannot take: an unknown name or a value that is not a number.
+/// what() is "parameter override <name>=<value>: <problem>"; parameter_override() and problem()
+/// let an application say it in its own words (servokit: "--set <name>=<value>: <problem>").
+class ParameterOverrideError : public UsageError {
+ public:
+  ParameterOverrideError(ParameterOverride parameter_override, const std::string& problem)
+      : UsageError("parameter override " + parameter_override.name + "=" +
+                   parameter_override.value + ": " + problem),
+        parameter_override_(std::move(parameter_override)),
+        problem_(problem) {}
+  const ParameterOverride& parameter_override() const { return parameter_override_; }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  ParameterOverride parameter_override_;
+  std::string problem_;
 };
 
 /// An immutable, thread-shareable model: names, nominal parameters (SI), the symbolic
@@ -96,8 +118,8 @@ class Model {
 
 /// Reads a model file (YAML, DESIGN.md "The model file"), checks it, derives H, h_bar and the
 /// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
-/// for a bad file and UsageError for a bad override (unknown name, bad value). Uses GiNaC, which
-/// is not thread-safe: load models from one thread, then share them.
+/// for a bad file and ParameterOverrideError for a bad override (unknown name, bad value). Uses
+/// GiNaC, which is not thread-safe: load models from one thread, then share them.
 Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
 
 /// As LoadModel, from YAML text; `source` names it in error messages.

@@ -1,12 +1,12 @@
 #include "models/model_generators.h"
 
-#include <charconv>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "models/errors.h"
 #include "models/matrix_market.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -18,36 +18,10 @@ using Triplet = Eigen::Triplet<double>;
 constexpr long kMaxMasses = kMaxMatrixDimension;
 constexpr long kMaxElements = (kMaxMatrixDimension - 1) / 2;
 
-std::string Number(double value) {
-  char text[32];
-  const auto result = std::to_chars(text, text + sizeof text, value);
-  return std::string(text, result.ptr);
-}
-
-// Throws UsageError "Options::field = value: rule (--option)" unless `holds`: the field for the
-// C++ caller, the option for the command line (servokit generate), one message for both.
-void Require(bool holds,
-             const char* options,
-             const char* field,
-             const std::string& value,
-             const std::string& rule) {
-  if (holds) return;
-  std::string option = field;
-  for (char& c : option) {
-    if (c == '_') c = '-';
-  }
-  throw UsageError(std::string(options) + "::" + field + " = " + value + ": " + rule + " (--" +
-                   option + ")");
-}
-
-void RequirePositive(const char* options, const char* field, double value) {
-  Require(std::isfinite(value) && value > 0.0, options, field, Number(value),
-          "must be a finite number > 0");
-}
-void RequireNonNegative(const char* options, const char* field, double value) {
-  Require(std::isfinite(value) && value >= 0.0, options, field, Number(value),
-          "must be a finite number >= 0");
-}
+// The rules of the physical constants: a mass, a length or a stiffness is > 0; a damping or the
+// hub's inertia may vanish.
+constexpr const char* kFinitePositive = "must be a finite number > 0";
+constexpr const char* kFiniteNonNegative = "must be a finite number >= 0";
 
 SparseMatrix FromTriplets(long rows, long cols, const std::vector<Triplet>& triplets) {
   SparseMatrix matrix(rows, cols);
@@ -149,15 +123,17 @@ SparseMatrix BeamUnitStiffness(long elements, double length) {
 
 void ChainOptions::Validate() const {
   constexpr const char* kOptions = "ChainOptions";
-  Require(masses >= 1 && masses <= kMaxMasses, kOptions, "masses", std::to_string(masses),
-          "must be from 1 to " + std::to_string(kMaxMasses));
-  RequirePositive(kOptions, "mass", mass);
-  RequirePositive(kOptions, "stiffness", stiffness);
-  RequireNonNegative(kOptions, "damping", damping);
-  Require(input_mass >= 1 && input_mass <= masses, kOptions, "input_mass",
-          std::to_string(input_mass), "must be from 1 to masses = " + std::to_string(masses));
-  Require(output_mass >= 1 && output_mass <= masses, kOptions, "output_mass",
-          std::to_string(output_mass), "must be from 1 to masses = " + std::to_string(masses));
+  RequireOption(masses >= 1 && masses <= kMaxMasses, kOptions, "masses", masses,
+                "must be from 1 to " + std::to_string(kMaxMasses));
+  RequireOption(std::isfinite(mass) && mass > 0.0, kOptions, "mass", mass, kFinitePositive);
+  RequireOption(std::isfinite(stiffness) && stiffness > 0.0, kOptions, "stiffness", stiffness,
+                kFinitePositive);
+  RequireOption(std::isfinite(damping) && damping >= 0.0, kOptions, "damping", damping,
+                kFiniteNonNegative);
+  RequireOption(input_mass >= 1 && input_mass <= masses, kOptions, "input_mass", input_mass,
+                "must be from 1 to masses = " + std::to_string(masses));
+  RequireOption(output_mass >= 1 && output_mass <= masses, kOptions, "output_mass", output_mass,
+                "must be from 1 to masses = " + std::to_string(masses));
 }
 
 LinearModelFiles GenerateChain(const ChainOptions& options) {
@@ -184,13 +160,17 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
 
 void BeamOptions::Validate() const {
   constexpr const char* kOptions = "BeamOptions";
-  Require(elements >= 1 && elements <= kMaxElements, kOptions, "elements",
-          std::to_string(elements), "must be from 1 to " + std::to_string(kMaxElements));
-  RequirePositive(kOptions, "length", length);
-  RequireNonNegative(kOptions, "hub_inertia", hub_inertia);
-  RequirePositive(kOptions, "mass_per_length", mass_per_length);
-  RequirePositive(kOptions, "bending_stiffness", bending_stiffness);
-  RequireNonNegative(kOptions, "damping_factor", damping_factor);
+  RequireOption(elements >= 1 && elements <= kMaxElements, kOptions, "elements", elements,
+                "must be from 1 to " + std::to_string(kMaxElements));
+  RequireOption(std::isfinite(length) && length > 0.0, kOptions, "length", length, kFinitePositive);
+  RequireOption(std::isfinite(hub_inertia) && hub_inertia >= 0.0, kOptions, "hub_inertia",
+                hub_inertia, kFiniteNonNegative);
+  RequireOption(std::isfinite(mass_per_length) && mass_per_length > 0.0, kOptions,
+                "mass_per_length", mass_per_length, kFinitePositive);
+  RequireOption(std::isfinite(bending_stiffness) && bending_stiffness > 0.0, kOptions,
+                "bending_stiffness", bending_stiffness, kFinitePositive);
+  RequireOption(std::isfinite(damping_factor) && damping_factor >= 0.0, kOptions, "damping_factor",
+                damping_factor, kFiniteNonNegative);
 }
 
 LinearModelFiles GenerateBeam(const BeamOptions& options) {
@@ -199,7 +179,7 @@ LinearModelFiles GenerateBeam(const BeamOptions& options) {
   const long dof = 2 * n + 1;
   LinearModelFiles files;
   files.name = "beam_" + std::to_string(n);
-  files.description = "flexible link of length " + Number(options.length) + " m on a hub, " +
+  files.description = "flexible link of length " + FormatNumber(options.length) + " m on a hub, " +
                       std::to_string(n) + " Euler-Bernoulli elements; torque on the hub, " +
                       "output the tip's displacement L theta + w_N (servokit generate beam)";
   files.parameters = {{"J", options.hub_inertia},

@@ -18,7 +18,7 @@ struct ChainOptions {
   double damping = 0.01;   // N s/m
   long input_mass = 1;     // 1..N
   long output_mass = 1;    // 1..N
-  /// Throws UsageError naming the field, its value and the rule.
+  /// Throws OptionError (a UsageError) naming the field, its value and the rule.
   void Validate() const;
 };
 LinearModelFiles GenerateChain(const ChainOptions& options);

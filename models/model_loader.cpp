@@ -219,8 +219,8 @@ class ModelBuilder {
     if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return;
     if (kind.IsScalar() && kind.Scalar() == "linear") {
       Fail(std::string(kKindKey),
-           "a linear model (Matrix Market matrices): `servokit analyze` and `servokit sweep` "
-           "read it; this needs a multibody model");
+           "a linear model (Matrix Market matrices), which only the linear analysis and its "
+           "sweep read; this needs a multibody model");
     }
     Fail(std::string(kKindKey), "unknown kind '" +
                                     (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -69,13 +70,6 @@ std::string_view Lookup(const InfoText (&table)[N], int info) {
                    "): " + std::string(ArpackInfoMessage(routine, info)) + detail);
 }
 
-void RequireAtLeast(const char* field, int value, int least) {
-  if (value < least) {
-    throw UsageError(std::string("ArpackOptions::") + field + " = " + std::to_string(value) +
-                     ": must be >= " + std::to_string(least));
-  }
-}
-
 }  // namespace
 
 std::string_view ArpackInfoMessage(std::string_view routine, int info) {
@@ -83,17 +77,13 @@ std::string_view ArpackInfoMessage(std::string_view routine, int info) {
 }
 
 void ArpackOptions::Validate() const {
-  RequireAtLeast("eigenvalues", eigenvalues, 1);
-  if (basis_size != 0 && basis_size < eigenvalues + 2) {
-    throw UsageError(
-        "ArpackOptions::basis_size = " + std::to_string(basis_size) +
-        ": must be 0 (automatic) or >= eigenvalues + 2 = " + std::to_string(eigenvalues + 2));
-  }
-  if (!(tolerance >= 0.0 && tolerance < 1.0)) {
-    throw UsageError("ArpackOptions::tolerance = " + std::to_string(tolerance) +
-                     ": must be >= 0 (0: machine precision) and < 1");
-  }
-  RequireAtLeast("max_iterations", max_iterations, 1);
+  constexpr const char* kOwner = "ArpackOptions";
+  RequireOption(eigenvalues >= 1, kOwner, "eigenvalues", eigenvalues, "must be >= 1");
+  RequireOption(basis_size == 0 || basis_size >= eigenvalues + 2, kOwner, "basis_size", basis_size,
+                "must be 0 (automatic) or >= eigenvalues + 2 = " + std::to_string(eigenvalues + 2));
+  RequireOption(tolerance >= 0.0 && tolerance < 1.0, kOwner, "tolerance", tolerance,
+                "must be >= 0 (0: machine precision) and < 1");
+  RequireOption(max_iterations >= 1, kOwner, "max_iterations", max_iterations, "must be >= 1");
 }
 
 ArpackResult ArpackEigenvalues(Eigen::Index n,
@@ -102,11 +92,9 @@ ArpackResult ArpackEigenvalues(Eigen::Index n,
                                const ArpackOptions& options,
                                const std::optional<Eigen::VectorXd>& start) {
   options.Validate();
-  if (options.eigenvalues > n - 2) {
-    throw UsageError("ArpackOptions::eigenvalues = " + std::to_string(options.eigenvalues) +
-                     ": must be <= n - 2 = " + std::to_string(n - 2) + " for an operator of size " +
-                     std::to_string(n));
-  }
+  RequireOption(options.eigenvalues <= n - 2, "ArpackOptions", "eigenvalues", options.eigenvalues,
+                "must be <= n - 2 = " + std::to_string(n - 2) + " for an operator of size " +
+                    std::to_string(n));
   const a_int size = static_cast<a_int>(n);
   const a_int nev = options.eigenvalues;
   const a_int ncv = options.basis_size > 0

@@ -3,7 +3,7 @@
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
 #include "analysis/linear_zero_dynamics.h"
-#include "models/errors.h"
+#include "models/option_check.h"
 #include "reports/classification_report.h"
 #include "servokit/loaded_model.h"
 
@@ -97,26 +97,23 @@ ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options) {
 }
 
 LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options) {
-  if (options.y0 || options.q_guess) {
-    throw UsageError(std::string(options.y0 ? "AnalyzeOptions::y0" : "AnalyzeOptions::q_guess") +
-                     ": a linear model is analysed at q = 0, y = 0; the option does not apply");
-  }
+  constexpr const char* kOwner = "AnalyzeOptions";
+  constexpr const char* kAtZero = "a linear model is analysed at q = 0, y = 0; must be unset";
+  RequireOption(!options.y0, kOwner, "y0", options.y0.value_or(Eigen::VectorXd()), kAtZero);
+  RequireOption(!options.q_guess, kOwner, "q_guess", options.q_guess.value_or(Eigen::VectorXd()),
+                kAtZero);
   LinearAnalysisOptions linear;
   linear.rank_tolerance = options.rank_tolerance;
   linear.zero_dynamics.imaginary_axis_tolerance = options.imaginary_axis_tolerance;
   linear.zero_dynamics.arpack.eigenvalues = options.eigenvalues;
   linear.zero_dynamics.shift = options.shift;
   const auto solver = LinearEigenSolverFromString(options.eigen_solver);
-  if (!solver) {
-    throw UsageError("AnalyzeOptions::eigen_solver = " + options.eigen_solver +
-                     ": expected auto, dense or arpack");
-  }
+  RequireOption(solver.has_value(), kOwner, "eigen_solver", options.eigen_solver,
+                "expected auto, dense or arpack");
   linear.zero_dynamics.solver = *solver;
   const auto target = EigenvalueTargetFromString(options.which);
-  if (!target) {
-    throw UsageError("AnalyzeOptions::which = " + options.which +
-                     ": expected nearest or rightmost");
-  }
+  RequireOption(target.has_value(), kOwner, "which", options.which,
+                "expected nearest or rightmost");
   linear.zero_dynamics.target = *target;
   linear.Validate();
   return linear;

@@ -4,6 +4,7 @@
 
 #include "analysis/classification.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "reports/solve_files.h"
 #include "servokit/loaded_model.h"
 #include "solvers/inverse_model.h"
@@ -43,11 +44,9 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
 
 InverseModelOptions ToInverseModelOptions(const SolveOptions& options) {
   const std::optional<SolverMethod> method = SolverMethodFromString(options.method);
-  if (!method) {
-    throw UsageError("SolveOptions::method = " + options.method +
-                     ": expected auto, algebraic, euler, radau, bdf, normal-form, "
-                     "stable-inversion or linearized");
-  }
+  RequireOption(method.has_value(), "SolveOptions", "method", options.method,
+                "expected auto, algebraic, euler, radau, bdf, normal-form, stable-inversion or "
+                "linearized");
   InverseModelOptions inverse;
   inverse.method = *method;
   inverse.force = options.force;

@@ -8,6 +8,7 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "reports/sweep_files.h"
 #include "servokit/loaded_model.h"
 
@@ -19,13 +20,10 @@ ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
   const std::vector<std::string>& names = model.parameter_names();
   for (const SweepAxis& axis : axes) {
     const auto found = std::find(names.begin(), names.end(), axis.parameter);
-    if (found == names.end()) {
-      throw UsageError("SweepAxis::parameter = " + axis.parameter + ": the model " +
-                       model.name() + " has no such parameter");
-    }
-    if (axis.values.empty()) {
-      throw UsageError("SweepAxis::values of " + axis.parameter + ": must not be empty");
-    }
+    RequireOption(found != names.end(), "SweepAxis", "parameter", axis.parameter,
+                  "the model " + model.name() + " has no such parameter");
+    RequireOption(!axis.values.empty(), "SweepAxis", "values", axis.parameter,
+                  "must hold at least one value");
     GridAxis grid_axis;
     grid_axis.name = axis.parameter;
     grid_axis.parameter = std::size_t(found - names.begin());

@@ -1,6 +1,6 @@
 // api::LocateThresholds: where the class of a multibody model changes along one parameter.
 #include "analysis/thresholds.h"
-#include "models/errors.h"
+#include "models/option_check.h"
 #include "servokit/loaded_model.h"
 
 namespace servokit::api {
@@ -8,15 +8,11 @@ namespace servokit::api {
 std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery& query) {
   const servokit::Model& multibody = MultibodyModel(model, "LocateThresholds");
   const std::optional<ThresholdEvent> event = ThresholdEventFromString(query.event);
-  if (!event) {
-    throw UsageError("ThresholdQuery::event = " + query.event +
-                     ": expected stability, oscillation or realization");
-  }
+  RequireOption(event.has_value(), "ThresholdQuery", "event", query.event,
+                "expected stability, oscillation or realization");
   const auto parameter = multibody.FindParameter(query.parameter);
-  if (!parameter) {
-    throw UsageError("ThresholdQuery::parameter = " + query.parameter + ": the model " +
-                     multibody.name() + " has no such parameter");
-  }
+  RequireOption(parameter.has_value(), "ThresholdQuery", "parameter", query.parameter,
+                "the model " + multibody.name() + " has no such parameter");
   ThresholdOptions options;
   options.classification = ToClassificationOptions(query.analysis);
   const ThresholdSearch search =

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "models/errors.h"
-#include "solvers/solver_messages.h"
+#include "models/option_check.h"
 
 // Two collocation methods share the Newton iteration and the refinement loop
 // (CollocationSolver): bvp4c's Hermite-Simpson (HermiteSimpsonSolver, below) and Lobatto IIIA
@@ -985,15 +985,19 @@ class LobattoSolver final : public CollocationSolver {
 }  // namespace
 
 void BoundaryValueOptions::Validate() const {
-  RequireOption(tolerance >= kBoundaryValueMinTolerance && tolerance < 1.0, "BoundaryValueOptions", "tolerance", tolerance,
+  RequireOption(tolerance >= kBoundaryValueMinTolerance && tolerance < 1.0, "BoundaryValueOptions",
+                "tolerance", tolerance,
                 "must be >= " + FormatNumber(kBoundaryValueMinTolerance) + " and < 1");
-  RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance), "BoundaryValueOptions", "absolute_tolerance", absolute_tolerance, "must be finite and > 0");
-  RequireOption(max_mesh_points >= 2, "BoundaryValueOptions", "max_mesh_points", double(max_mesh_points), "must be >= 2");
+  RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance),
+                "BoundaryValueOptions", "absolute_tolerance", absolute_tolerance,
+                "must be finite and > 0");
+  RequireOption(max_mesh_points >= 2, "BoundaryValueOptions", "max_mesh_points", max_mesh_points,
+                "must be >= 2");
   RequireOption(collocation_points >= 3 && collocation_points <= kMaxCollocationPoints,
-                "BoundaryValueOptions", "collocation_points", double(collocation_points),
+                "BoundaryValueOptions", "collocation_points", collocation_points,
                 "must be in 3 .. " + std::to_string(kMaxCollocationPoints));
-  RequireOption(max_newton_iterations >= 1, "BoundaryValueOptions", "max_newton_iterations", double(max_newton_iterations),
-                "must be >= 1");
+  RequireOption(max_newton_iterations >= 1, "BoundaryValueOptions", "max_newton_iterations",
+                max_newton_iterations, "must be >= 1");
 }
 
 Eigen::VectorXd BoundaryValueSolution::Evaluate(double t) const {

@@ -7,13 +7,13 @@
 
 #include "analysis/operating_point.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/dense_output.h"
 #include "solvers/linearized_inverse.h"
 #include "solvers/method_choice.h"
 #include "solvers/output_normal_form.h"
 #include "solvers/radau.h"
-#include "solvers/solver_messages.h"
 #include "solvers/stable_inversion.h"
 #include "solvers/sundials_integrators.h"
 

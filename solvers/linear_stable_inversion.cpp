@@ -6,7 +6,7 @@
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
-#include "solvers/solver_messages.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {

@@ -164,7 +164,7 @@ FeedforwardSolution SolveLinearizedInverse(const Model& model,
   solution.method = SolverMethod::kLinearized;
   solution.warnings.push_back(
       "linearized: u_d inverts the linearization at the operating point, not the model; "
-      "--verify measures how far the model's output strays from y_d");
+      "the forward check measures how far the model's output strays from y_d");
   return solution;
 }
 

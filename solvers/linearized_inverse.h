@@ -1,11 +1,11 @@
 #pragma once
-// `--method linearized`: the exact inverse of the model's linearization at the operating point,
+// The method `linearized`: the exact inverse of the model's linearization at the operating point,
 // applied to the nonlinear model. For problems whose relative degree is not defined at the
 // operating point (P, or the extended decoupling matrix, vanishes there but not nearby: a
 // crane with a fixed rope observed at its load, a cart-pole observed at its centre of
 // oscillation) no exact inverse passes through that point; the linearization's is the
-// feedforward such users design today. It is an approximation: --verify drives the nonlinear
-// model with it and reports the true tracking error.
+// feedforward such users design today. It is an approximation: the forward check
+// (solvers/verification.h) drives the nonlinear model with it and reports the true tracking error.
 #include "analysis/classification.h"
 #include "models/model.h"
 #include "solvers/inverse_model.h"

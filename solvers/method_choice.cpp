@@ -226,9 +226,11 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
     throw MethodRefused(
         "no method of servokit solves this problem exactly (" + class_text +
             "): the relative degree is not defined at the operating point, so no exact inverse "
-            "passes through it (" + why + "); --method linearized inverts the linearization at "
-            "the operating point instead (an approximation: --verify measures it); radau and "
-            "euler, the paper's projected-DAE methods, may be asked for by name",
+            "passes through it (" +
+            why +
+            "); the method `linearized` inverts the linearization "
+            "at the operating point instead (an approximation: the forward check measures it); "
+            "radau and euler, the paper's projected-DAE methods, may be asked for by name",
         {}, {});
   }
   if (Assess(recommended).accepts) {
@@ -241,8 +243,9 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
   }
   const std::string why = RefusalReasons(forceable);
   throw MethodRefused("no method of servokit solves this problem (" + class_text + "): " + why +
-                          "; --method linearized inverts the linearization at the operating "
-                          "point instead (an approximation: --verify measures it)",
+                          "; the method `linearized` inverts the linearization at the "
+                          "operating point instead (an approximation: the forward check "
+                          "measures it)",
                       {}, forceable);
 }
 

@@ -7,7 +7,7 @@
 #include <utility>
 
 #include "models/errors.h"
-#include "solvers/solver_messages.h"
+#include "models/option_check.h"
 
 // Radau IIA after Hairer & Wanner, Solving ODEs II (2nd ed.), Sect. IV.8 (the method, its
 // simplified Newton iteration in the eigenbasis of the Butcher matrix, the error estimate and
@@ -966,21 +966,22 @@ void ValidateProblem(const LinearlyImplicitDae& dae,
 }  // namespace
 
 void RadauOptions::Validate() const {
-  RequireOption(stages == 1 || stages == 3, "RadauOptions", "stages", double(stages),
+  RequireOption(stages == 1 || stages == 3, "RadauOptions", "stages", stages,
                 "must be 1 (Euler backward) or 3 (Radau IIA)");
   RequireOption(rtol >= kRadauMinRelativeTolerance && rtol < 1.0, "RadauOptions", "rtol", rtol,
                 "must be >= " + FormatNumber(kRadauMinRelativeTolerance) + " and < 1");
-  RequireOption(atol >= 0.0 && std::isfinite(atol), "RadauOptions", "atol", atol, "must be finite and >= 0");
-  RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), "RadauOptions", "initial_step", initial_step,
-                "must be finite and >= 0 (0: chosen by the integrator)");
-  RequireOption(fixed_step >= 0.0 && std::isfinite(fixed_step), "RadauOptions", "fixed_step", fixed_step,
+  RequireOption(atol >= 0.0 && std::isfinite(atol), "RadauOptions", "atol", atol,
                 "must be finite and >= 0");
+  RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), "RadauOptions", "initial_step",
+                initial_step, "must be finite and >= 0 (0: chosen by the integrator)");
+  RequireOption(fixed_step >= 0.0 && std::isfinite(fixed_step), "RadauOptions", "fixed_step",
+                fixed_step, "must be finite and >= 0");
   RequireOption(stages != 1 || fixed_step > 0.0, "RadauOptions", "fixed_step", fixed_step,
                 "must be > 0 when stages = 1 (Euler backward has no step-size control)");
   RequireOption(max_step > 0.0, "RadauOptions", "max_step", max_step, "must be > 0");
-  RequireOption(max_steps >= 1, "RadauOptions", "max_steps", double(max_steps), "must be >= 1");
-  RequireOption(max_newton_iterations >= 1, "RadauOptions", "max_newton_iterations", double(max_newton_iterations),
-                "must be >= 1");
+  RequireOption(max_steps >= 1, "RadauOptions", "max_steps", max_steps, "must be >= 1");
+  RequireOption(max_newton_iterations >= 1, "RadauOptions", "max_newton_iterations",
+                max_newton_iterations, "must be >= 1");
 }
 
 SolveSummary IntegrateRadau(LinearlyImplicitDae& dae,

@@ -6,8 +6,8 @@
 
 #include "analysis/decoupling_matrix.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "models/symbolic_model.h"
-#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -47,19 +47,16 @@ constexpr double kMinChartReciprocalCondition = 1e-8;
 }  // namespace
 
 void ServoProblemOptions::Validate() const {
-  auto require_positive = [](double value, const char* field) {
-    if (!(value > 0.0) || !std::isfinite(value)) {
-      throw UsageError(std::string("ServoProblemOptions::") + field + " = " + FormatNumber(value) +
-                       ": must be a finite number > 0");
-    }
-  };
-  require_positive(min_mass_reciprocal_condition, "min_mass_reciprocal_condition");
-  require_positive(rank_tolerance, "rank_tolerance");
-  require_positive(coordinate_tolerance, "coordinate_tolerance");
-  if (max_coordinate_iterations < 1) {
-    throw UsageError("ServoProblemOptions::max_coordinate_iterations = " +
-                     std::to_string(max_coordinate_iterations) + ": must be >= 1");
+  constexpr const char* kOwner = "ServoProblemOptions";
+  for (const auto& [value, field] :
+       {std::pair{min_mass_reciprocal_condition, "min_mass_reciprocal_condition"},
+        std::pair{rank_tolerance, "rank_tolerance"},
+        std::pair{coordinate_tolerance, "coordinate_tolerance"}}) {
+    RequireOption(value > 0.0 && std::isfinite(value), kOwner, field, value,
+                  "must be a finite number > 0");
   }
+  RequireOption(max_coordinate_iterations >= 1, kOwner, "max_coordinate_iterations",
+                max_coordinate_iterations, "must be >= 1");
 }
 
 ServoConstraintProblem::ServoConstraintProblem(const Model& model,

@@ -3,9 +3,9 @@
 #include <cassert>
 #include <cmath>
 
+#include "models/option_check.h"
 #include "solvers/boundary_value.h"
 #include "solvers/radau.h"
-#include "solvers/solver_messages.h"
 #include "solvers/stable_inversion.h"
 #include "solvers/sundials_integrators.h"
 

@@ -7,12 +7,12 @@
 #include <string>
 
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "solvers/boundary_value.h"
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"
 #include "solvers/output_normal_form.h"
 #include "solvers/servo_constraint_problem.h"
-#include "solvers/solver_messages.h"
 
 namespace servokit {
 namespace {
@@ -69,25 +69,17 @@ double DecayTime(double rate, double tolerance) { return std::log(1.0 / toleranc
 }  // namespace
 
 void StableInversionOptions::Validate() const {
-  if (!(tolerance > 0.0 && tolerance < 1.0)) {
-    throw UsageError("StableInversionOptions::tolerance = " + FormatNumber(tolerance) +
-                     ": must be in (0, 1)");
-  }
-  if (!(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance))) {
-    throw UsageError("StableInversionOptions::absolute_tolerance = " +
-                     FormatNumber(absolute_tolerance) + ": must be a finite number > 0");
-  }
-  for (const auto& [value, name] :
+  constexpr const char* kOwner = "StableInversionOptions";
+  RequireOption(tolerance > 0.0 && tolerance < 1.0, kOwner, "tolerance", tolerance,
+                "must be in (0, 1)");
+  RequireOption(absolute_tolerance > 0.0 && std::isfinite(absolute_tolerance), kOwner,
+                "absolute_tolerance", absolute_tolerance, "must be a finite number > 0");
+  for (const auto& [value, field] :
        {std::pair{pre_actuation, "pre_actuation"}, std::pair{post_actuation, "post_actuation"}}) {
-    if (value && !(*value > 0.0 && std::isfinite(*value))) {
-      throw UsageError(std::string("StableInversionOptions::") + name + " = " +
-                       FormatNumber(*value) + ": must be a finite number > 0");
-    }
+    RequireOption(!value || (*value > 0.0 && std::isfinite(*value)), kOwner, field,
+                  value.value_or(0.0), "must be a finite number > 0");
   }
-  if (max_widenings < 0) {
-    throw UsageError("StableInversionOptions::max_widenings = " + std::to_string(max_widenings) +
-                     ": must be >= 0");
-  }
+  RequireOption(max_widenings >= 0, kOwner, "max_widenings", max_widenings, "must be >= 0");
 }
 
 namespace {

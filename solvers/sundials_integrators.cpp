@@ -19,7 +19,7 @@
 
 #include "numerics/sundials_support.h"
 #include "models/errors.h"
-#include "solvers/solver_messages.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -815,7 +815,7 @@ void IntegratorOptions::Validate() const {
   RequireOption(initial_step >= 0.0 && std::isfinite(initial_step), kOwner, "initial_step",
                 initial_step, "must be >= 0 and finite (0: SUNDIALS chooses)");
   RequireOption(max_step > 0.0, kOwner, "max_step", max_step, "must be > 0 (infinity: no bound)");
-  RequireOption(max_steps >= 1, kOwner, "max_steps", double(max_steps), "must be >= 1");
+  RequireOption(max_steps >= 1, kOwner, "max_steps", max_steps, "must be >= 1");
 }
 
 SolveSummary IntegrateDormandPrince(const OdeRightHandSide& rhs,

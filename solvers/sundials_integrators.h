@@ -35,7 +35,8 @@ namespace servokit {
 
 struct IntegratorOptions {
   // Local error test per component: |err_i| <= atol + rtol |y_i|. Tight defaults, since the
-  // feedforward is integrated twice more by the plant it drives (see --verify).
+  // feedforward is integrated twice more by the plant it drives (the forward check,
+  // solvers/verification.h).
   double rtol = 1e-10;
   double atol = 1e-12;
   // The first step; 0 lets SUNDIALS choose.

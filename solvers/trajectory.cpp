@@ -5,6 +5,7 @@
 #include <string>
 
 #include "models/errors.h"
+#include "models/option_check.h"
 
 namespace servokit {
 namespace {
@@ -62,7 +63,7 @@ RestToRestTrajectory::RestToRestTrajectory(
     throw UsageError("rest-to-rest: y0, yf, t0 and tf must be finite");
   }
   if (!(t0 < tf)) {
-    throw UsageError("rest-to-rest: t0 = " + std::to_string(t0) + ", tf = " + std::to_string(tf) +
+    throw UsageError("rest-to-rest: t0 = " + FormatNumber(t0) + ", tf = " + FormatNumber(tf) +
                      ": needs t0 < tf");
   }
   if (continuous_derivatives < 1) {

@@ -6,7 +6,7 @@
 
 #include "analysis/operating_point.h"
 #include "models/errors.h"
-#include "solvers/solver_messages.h"
+#include "models/option_check.h"
 #include "solvers/sundials_integrators.h"
 
 namespace servokit {
@@ -142,8 +142,8 @@ void VerificationOptions::Validate() const {
   RequireOption(stable_growth_rate >= 0.0 && std::isfinite(stable_growth_rate),
                 "VerificationOptions", "stable_growth_rate", stable_growth_rate,
                 "must be a finite number >= 0");
-  RequireOption(growth_samples >= 0, "VerificationOptions", "growth_samples",
-                double(growth_samples), "must be >= 0");
+  RequireOption(growth_samples >= 0, "VerificationOptions", "growth_samples", growth_samples,
+                "must be >= 0");
 }
 
 Verification VerifyFeedforward(const Model& model,

@@ -1,5 +1,5 @@
 #pragma once
-// The forward check of a solve (servokit solve --verify): u_d, from the method's own continuous
+// The forward check of a solve (VerifyFeedforward): u_d, from the method's own continuous
 // extension, drives the model M q'' + f = B u_d forward, and the output must follow y_d within
 // a bound derived from the solve's tolerances and the output's size. It proves that the
 // feedforward reproduces y_d on the model, to the stated bound, starting where the physical

@@ -3,6 +3,7 @@
 
 #include "analysis/classification.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "tests/analysis/classify_helpers.h"
 
 namespace servokit {
@@ -24,14 +25,15 @@ TEST_CASE("a bad tolerance is rejected with the field, its value and the rule", 
                     Catch::Contains("rank_tolerance = -1") && Catch::Contains("must be > 0"));
 }
 
-TEST_CASE("y0 of the wrong size is a usage error naming the sizes", "[analysis]") {
+TEST_CASE("y0 of the wrong size is an option error naming the values and the size", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
   Workspace workspace(model);
   OperatingPointOptions options;
   options.y0 = Eigen::Vector2d(1, 2);
-  CHECK_THROWS_AS(FindOperatingPoint(model, workspace, options), UsageError);
+  CHECK_THROWS_AS(FindOperatingPoint(model, workspace, options), OptionError);
+  // mass on car: one output, the car's position x.
   CHECK_THROWS_WITH(FindOperatingPoint(model, workspace, options),
-                    Catch::Contains("y0 has 2 values") && Catch::Contains("1 outputs"));
+                    "OperatingPointOptions::y0 = [1, 2]: must have 1 value, one per output");
 }
 
 TEST_CASE("mass on car at y0 = 1.5: the car moves, the spring stays relaxed", "[analysis]") {

@@ -214,7 +214,7 @@ TEST_CASE("solve: the gantry crane and a PVTOL invert exactly through the dynami
 }
 
 // The double-pendulum crane's P vanishes at rest only: no method inverts it exactly there and
-// the refusal offers --method linearized; that runs, warns, and --verify measures it honestly
+// the refusal offers the method `linearized`; that runs, warns, and --verify measures it honestly
 // (the linearization's inverse is not exact: exit 4 at the exact inverse's bound).
 TEST_CASE("solve --method linearized where the relative degree is undefined at rest",
           "[reports]") {
@@ -225,7 +225,7 @@ TEST_CASE("solve --method linearized where the relative degree is undefined at r
   const auto refused = RunServokit(crane);
   CHECK(refused.status == 3);
   CHECK_THAT(refused.err, Catch::Contains("no exact inverse passes through it") &&
-                              Catch::Contains("--method linearized"));
+                              Catch::Contains("the method `linearized`"));
   const auto run = RunServokit(With(crane, {"--method", "linearized", "--verify"}));
   CHECK(run.status == 4);
   const auto json = nlohmann::json::parse(run.out);

@@ -114,8 +114,9 @@ TEST_CASE("overrides follow the nonlinear format: degrees, and unknown names are
   const LinearModel model = LoadLinearModel(LinearData("tiny.yaml"), {{"alpha", "90 deg"}});
   CHECK(model.parameters()[3] == Approx(std::numbers::pi / 2).epsilon(1e-15));
   CHECK_THROWS_AS(LoadLinearModel(LinearData("tiny.yaml"), {{"beta", "1"}}), UsageError);
-  CHECK_THROWS_WITH(LoadLinearModel(LinearData("tiny.yaml"), {{"k", "five"}}),
-                    Catch::Contains("--set k=five") && Catch::Contains("not a number"));
+  CHECK_THROWS_WITH(
+      LoadLinearModel(LinearData("tiny.yaml"), {{"k", "five"}}),
+      Catch::Contains("parameter override k=five") && Catch::Contains("not a number"));
 }
 
 TEST_CASE("AssembleLinearMatrices rejects a wrong parameter count and a non-finite factor",

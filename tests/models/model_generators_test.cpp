@@ -206,25 +206,23 @@ TEST_CASE("the clamped beam's first two frequencies converge to Euler-Bernoulli'
   }
 }
 
-TEST_CASE("bad generator options name the field, the value, the rule and the option", "[models]") {
+TEST_CASE("bad generator options name the field, the value and the rule", "[models]") {
   ChainOptions chain;
   chain.masses = 0;
-  CHECK_THROWS_WITH(chain.Validate(),
-                    "ChainOptions::masses = 0: must be from 1 to 10000000 (--masses)");
+  CHECK_THROWS_WITH(chain.Validate(), "ChainOptions::masses = 0: must be from 1 to 10000000");
   chain = ChainOptions();
   chain.masses = 5;
   chain.output_mass = 6;
   CHECK_THROWS_WITH(chain.Validate(),
-                    "ChainOptions::output_mass = 6: must be from 1 to masses = "
-                    "5 (--output-mass)");
+                    "ChainOptions::output_mass = 6: must be from 1 to masses = 5");
   chain = ChainOptions();
   chain.damping = -1;
-  CHECK_THROWS_WITH(GenerateChain(chain), Catch::Contains("(--damping)"));
+  CHECK_THROWS_WITH(GenerateChain(chain),
+                    "ChainOptions::damping = -1: must be a finite number >= 0");
   BeamOptions beam;
   beam.mass_per_length = std::nan("");
   CHECK_THROWS_WITH(beam.Validate(),
-                    "BeamOptions::mass_per_length = nan: must be a finite number > 0 "
-                    "(--mass-per-length)");
+                    "BeamOptions::mass_per_length = nan: must be a finite number > 0");
   beam = BeamOptions();
   beam.hub_inertia = -0.1;
   CHECK_THROWS_AS(GenerateBeam(beam), UsageError);

@@ -238,13 +238,15 @@ TEST_CASE("--set alpha=90 deg overrides the nominal value in radians", "[models]
 
 TEST_CASE("an override of an unknown parameter lists the known ones", "[models]") {
   REQUIRE_THROWS_MATCHES(
-      LoadModel(ModelPath("mass_on_car.yaml"), {{"kk", "1"}}), UsageError,
-      Catch::Message("--set kk=1: unknown parameter 'kk' (known: m1, m2, k, d, alpha)"));
+      LoadModel(ModelPath("mass_on_car.yaml"), {{"kk", "1"}}), ParameterOverrideError,
+      Catch::Message(
+          "parameter override kk=1: unknown parameter 'kk' (known: m1, m2, k, d, alpha)"));
 }
 
 TEST_CASE("an override that is not a number says how to write one", "[models]") {
-  REQUIRE_THROWS_MATCHES(LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "abc"}}), UsageError,
-                         Catch::Message("--set alpha=abc: not a number (use e.g. 5 or \"5 deg\")"));
+  REQUIRE_THROWS_MATCHES(
+      LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "abc"}}), ParameterOverrideError,
+      Catch::Message("parameter override alpha=abc: not a number (use e.g. 5 or \"5 deg\")"));
 }
 
 // Reference FNV-1a 64 (http://www.isthe.com/chongo/tech/comp/fnv/), written out independently.

@@ -115,8 +115,8 @@ TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models
 TEST_CASE("kind: multibody is accepted; kind: linear and unknown kinds are named", "[models]") {
   CHECK_NOTHROW(LoadModelFromString(kValidModel + "kind: multibody\n", kSource));
   RequireError(kValidModel + "kind: linear\n",
-               "kind: a linear model (Matrix Market matrices): `servokit analyze` and "
-               "`servokit sweep` read it; this needs a multibody model");
+               "kind: a linear model (Matrix Market matrices), which only the linear analysis "
+               "and its sweep read; this needs a multibody model");
   RequireError(kValidModel + "kind: rigid\n",
                "kind: unknown kind 'rigid' (expected multibody or linear)");
 }
