@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/symbolic_model.h"
 
@@ -69,11 +70,11 @@ Dynamics BuildDynamics(const Model& model) {
   const GiNaC::matrix output = substitute(symbolic.output());
   const unsigned dof = static_cast<unsigned>(symbolic.dof());
   for (unsigned j = 0; j < dof; ++j) {
-    dynamics.acceleration_drift.push_back(GiNaC::normal(drift(j, 0)));
+    dynamics.acceleration_drift.push_back(CanonicalNormal(drift(j, 0)));
   }
   for (unsigned k = 0; k < input.cols(); ++k) {
     std::vector<ex> column;
-    for (unsigned j = 0; j < dof; ++j) column.push_back(GiNaC::normal(input(j, k)));
+    for (unsigned j = 0; j < dof; ++j) column.push_back(CanonicalNormal(input(j, k)));
     dynamics.acceleration_input.push_back(std::move(column));
   }
   for (unsigned i = 0; i < output.rows(); ++i) {
@@ -111,8 +112,8 @@ TimeDerivative Differentiate(const ex& function, const Dynamics& dynamics) {
       if (function.has(symbols[k])) drift += function.diff(symbols[k]) * symbols[k + 1];
     }
   }
-  derivative.drift = GiNaC::normal(drift);
-  for (ex& coefficient : derivative.input_coefficients) coefficient = GiNaC::normal(coefficient);
+  derivative.drift = CanonicalNormal(drift);
+  for (ex& coefficient : derivative.input_coefficients) coefficient = CanonicalNormal(coefficient);
   return derivative;
 }
 
@@ -442,13 +443,13 @@ class StructureAlgorithm {
         remainder[k] -= kappa[b] * kept_row.coefficients[k];
       }
     }
-    for (ex& entry : remainder) entry = GiNaC::normal(entry);
+    for (ex& entry : remainder) entry = CanonicalNormal(entry);
     if (!CoefficientsVanish(remainder, row.function, dynamics_, points_, tolerance_)) {
       throw NoSolution("the structure algorithm could not remove the inputs from output " +
                        OutputName(d) + "'s equation (rank decision failed)");
     }
     AddParametersOf(remainder, dynamics_, pinned_);
-    row.function = GiNaC::normal(combined);
+    row.function = CanonicalNormal(combined);
     if (row.function.is_zero()) throw NotIndependent(d);
     row.finished = false;
   }

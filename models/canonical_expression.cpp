@@ -451,4 +451,9 @@ std::string CanonicalText(const GiNaC::ex& expression) {
   return canonical.Text(canonical.Add(expression));
 }
 
+GiNaC::ex CanonicalNormal(const GiNaC::ex& expression) {
+  const GiNaC::ex fraction = expression.numer_denom();
+  return fraction.op(0).expand() / fraction.op(1).expand();
+}
+
 }  // namespace servokit

@@ -113,4 +113,13 @@ class CanonicalExpressions {
 /// above, so that the same expression prints the same in every run.
 std::string CanonicalText(const GiNaC::ex& expression);
 
+/// GiNaC::normal(expression) with its numerator and its denominator expanded: a form that
+/// depends on the rational function alone. normal() alone does not give one: it cancels the
+/// same common factors in every run, but it builds the denominator as a product of the
+/// cofactors it met while adding the terms in GiNaC's (address-seeded) order, so one run gives
+/// (m+mt-m*cos(theta)^2)*cos(theta)^2 and the next (m*cos(theta)^3-(m+mt)*cos(theta))*cos(theta),
+/// and a compiled program evaluates them with different rounding. Expanded numerator and
+/// denominator are unique up to a common sign, which the canonical form absorbs.
+GiNaC::ex CanonicalNormal(const GiNaC::ex& expression);
+
 }  // namespace servokit

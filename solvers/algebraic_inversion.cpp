@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "analysis/types.h"
+#include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
 #include "analysis/nonlinear_structure.h"
@@ -264,7 +265,7 @@ std::vector<ex> ClosedForms(const NonlinearStructure& structure) {
   GiNaC::lst all_symbols;
   for (unsigned i = 0; i < m; ++i) {
     for (unsigned j = 0; j < m; ++j) {
-      coefficients(i, j) = GiNaC::normal(structure.input_coefficients[i][j].subs(state_values));
+      coefficients(i, j) = CanonicalNormal(structure.input_coefficients[i][j].subs(state_values));
     }
     right_hand_side(i, 0) = -structure.input_drift[i].subs(state_values);
     for (const auto& symbol : structure.output_derivatives[i]) all_symbols.append(symbol);
@@ -272,7 +273,7 @@ std::vector<ex> ClosedForms(const NonlinearStructure& structure) {
   const GiNaC::matrix inputs = coefficients.inverse().mul(right_hand_side);
   std::vector<ex> formulas;
   for (unsigned j = 0; j < m; ++j) {
-    formulas.push_back(GiNaC::normal(inputs(j, 0)).expand().collect(all_symbols, true));
+    formulas.push_back(CanonicalNormal(inputs(j, 0)).expand().collect(all_symbols, true));
   }
   return formulas;
 }
