@@ -9,6 +9,7 @@
 #include "analysis/linear_analysis.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
+#include "models/loaded_model.h"
 #include "reports/classification_report.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
@@ -26,12 +27,12 @@ struct AnalyzeArguments {
   LinearModelArguments linear;  // linear models only
 };
 
-int RunLinearAnalyze(const AnalyzeArguments& arguments, ReportFormat format, std::ostream& out) {
+int RunLinearAnalyze(const AnalyzeArguments& arguments,
+                     const LinearModel& model,
+                     ReportFormat format,
+                     std::ostream& out) {
   const LinearAnalysisOptions options = MakeLinearAnalysisOptions(
       arguments.linear, arguments.options, !arguments.y0.empty(), !arguments.q0.empty());
-
-  const LinearModel model =
-      LoadLinearModel(arguments.model_path, ParseOverrides(arguments.overrides));
   const LinearSystem system = AssembleLinearSystem(model, model.parameters());
   LinearZeroDynamicsWorkspace workspace;
   const LinearAnalysis analysis = AnalyzeLinearSystem(system, workspace, options);
@@ -44,9 +45,13 @@ int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::
   if (!format) {
     throw UsageError("--format " + arguments.format + ": expected text, json or md");
   }
-  if (IsLinearModelFile(arguments.model_path)) return RunLinearAnalyze(arguments, *format, out);
+  const LoadedModel loaded =
+      LoadModelFile(arguments.model_path, ParseOverrides(arguments.overrides));
+  if (const LinearModel* linear = loaded.linear()) {
+    return RunLinearAnalyze(arguments, *linear, *format, out);
+  }
   RefuseLinearModelOptions(analyze);
-  const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
+  const Model& model = *loaded.multibody();
   ClassificationOptions options = arguments.options;
   if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
   if (!arguments.q0.empty()) options.operating_point.q_guess = ParseValues("--q0", arguments.q0);
@@ -92,8 +97,7 @@ Command AddAnalyzeCommand(CLI::App& app) {
                    "Relative distance to the imaginary axis counted as on it")
       ->capture_default_str();
   AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
-  return {analyze,
-          [arguments, analyze](std::ostream& out, std::ostream&) {
+  return {analyze, [arguments, analyze](std::ostream& out, std::ostream&) {
             return RunAnalyze(*arguments, *analyze, out);
           }};
 }

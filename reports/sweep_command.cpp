@@ -30,6 +30,7 @@
 #include "analysis/sweep.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
+#include "models/loaded_model.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
 #include "reports/mpi_sweep.h"
@@ -235,15 +236,16 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   LinearAnalysisOptions linear_options;
   std::optional<ParameterGrid> grid;
   SweepModelInfo info;
-  if (IsLinearModelFile(arguments.model_path)) {
+  LoadedModel loaded = LoadModelFile(arguments.model_path, overrides);
+  if (loaded.linear()) {
     linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
                                                !arguments.y0.empty(), !arguments.q0.empty());
-    linear_model.emplace(LoadLinearModel(arguments.model_path, overrides));
+    linear_model.emplace(*loaded.linear());
     grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
     info = DescribeSweepModel(*linear_model, linear_options);
   } else {
     RefuseLinearModelOptions(sweep);
-    model.emplace(LoadModel(arguments.model_path, overrides));
+    model.emplace(*loaded.multibody());
     grid.emplace(ParseParameterGrid(*model, arguments.vary));
     info = DescribeSweepModel(*model);
   }
@@ -255,9 +257,9 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   }
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
-  return {std::move(model),   std::move(linear_model), linear_options,
-          std::move(info),    std::move(*grid),        options,
-          output_options,     TestHooksFromEnvironment()};
+  return {std::move(model), std::move(linear_model),   linear_options,
+          std::move(info),  std::move(*grid),          options,
+          output_options,   TestHooksFromEnvironment()};
 }
 
 // Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).

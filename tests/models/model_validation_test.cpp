@@ -2,9 +2,9 @@
 // (DESIGN.md, "The model file"). Each case edits one line of a valid model (the mass on a car).
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <string>
 #include <utility>
 #include <vector>
-#include <string>
 
 #include "models/errors.h"
 #include "models/model.h"
@@ -76,7 +76,7 @@ TEST_CASE("a missing file is reported with its path", "[models]") {
   REQUIRE_THROWS_MATCHES(
       LoadModel("/nonexistent/model.yaml"), ModelError,
       Catch::Message(
-          "/nonexistent/model.yaml: cannot open the model file (No such file or directory)"));
+          "/nonexistent/model.yaml: cannot read the model file (No such file or directory)"));
 }
 
 TEST_CASE("a directory is not a model file", "[models]") {
@@ -109,15 +109,15 @@ TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models
                "mass_matrix, forces, input_matrix, outputs, description or kind)");
 }
 
-// models/linear_model.h: IsLinearModelFile() reads `kind: multibody` (or no kind) as this
-// format, so the multibody reader accepts it; a linear model file is not one of its own.
+// models/loaded_model.h: the reader takes `kind: multibody` (or no kind) as this format, so
+// LoadModel accepts it; a linear model file is not one of its own.
 TEST_CASE("kind: multibody is accepted; kind: linear and unknown kinds are named", "[models]") {
   CHECK_NOTHROW(LoadModelFromString(kValidModel + "kind: multibody\n", kSource));
   RequireError(kValidModel + "kind: linear\n",
                "kind: a linear model (Matrix Market matrices): `servokit analyze` and "
                "`servokit sweep` read it; this needs a multibody model");
   RequireError(kValidModel + "kind: rigid\n",
-               "kind: unknown kind 'rigid' (expected multibody or linear)");
+               "kind: unknown kind 'rigid' (expected linear or multibody)");
 }
 
 TEST_CASE("a duplicate top-level key is an error", "[models]") {
@@ -195,8 +195,7 @@ TEST_CASE("more inputs than coordinates is an error", "[models]") {
 TEST_CASE("an expression with a syntax error is named with its text", "[models]") {
   RequireError(Edit("k*s + d*s_dot", "k*s +"),
                "forces[1]: syntax error in \"k*s +\": unexpected token, got: EOF");
-  RequireError(Edit("k*s + d*s_dot", "cos(s, s)"),
-               "forces[1]: cos() takes 1 argument, found 2");
+  RequireError(Edit("k*s + d*s_dot", "cos(s, s)"), "forces[1]: cos() takes 1 argument, found 2");
 }
 
 // Found by fuzzing (issue #7; the inputs are in tests/fuzz/regressions/): GiNaC's parser
@@ -205,8 +204,7 @@ TEST_CASE("parentheses and function arguments are checked before GiNaC parses", 
   RequireError(Edit("k*s + d*s_dot", "cos()"), "forces[1]: empty argument of cos()");
   RequireError(Edit("k*s + d*s_dot", "atan2(s)"), "forces[1]: atan2() takes 2 arguments, found 1");
   RequireError(Edit("k*s + d*s_dot", "atan2(s, )"), "forces[1]: empty argument of atan2()");
-  RequireError(Edit("k*s + d*s_dot", "k*(s, s)"),
-               "forces[1]: ',' outside a function's arguments");
+  RequireError(Edit("k*s + d*s_dot", "k*(s, s)"), "forces[1]: ',' outside a function's arguments");
   RequireError(Edit("k*s + d*s_dot", "k*s)"), "forces[1]: ')' without '('");
   RequireError(Edit("k*s + d*s_dot", "k*(s"), "forces[1]: '(' without ')'");
   RequireError(Edit("k*s + d*s_dot", "k*()"), "forces[1]: empty parentheses");
@@ -240,8 +238,7 @@ TEST_CASE("a sign after an operator is refused: GiNaC would read it differently"
   RequireError(Edit("k*s + d*s_dot", "(- -s+1)"), "forces[1]: '-' right after '-" + hint);
 }
 
-TEST_CASE("a sign that opens an expression, parenthesis or argument reads as usual",
-          "[models]") {
+TEST_CASE("a sign that opens an expression, parenthesis or argument reads as usual", "[models]") {
   // f_2(s) for the forms GiNaC reads conventionally, against the value written out in C++.
   const double s = 0.7;
   const std::vector<std::pair<std::string, double>> cases = {
@@ -276,10 +273,11 @@ TEST_CASE("powers GiNaC would compute for ever are refused", "[models]") {
   RequireError(Edit("k*s + d*s_dot", "s + 8^(2*(9^322 - s))"),
                "forces[1]: a number in an exponent too large (about 10^307; at most 1000 in "
                "absolute value: GiNaC would compute a^(n + x) as a^n a^x, a^n exactly)");
-  CHECK_NOTHROW(LoadModelFromString(
-      Edit("k*s + d*s_dot", "s + 2^(1000 - s) + sin(2^(s + 300))"), kSource));
+  CHECK_NOTHROW(
+      LoadModelFromString(Edit("k*s + d*s_dot", "s + 2^(1000 - s) + sin(2^(s + 300))"), kSource));
   // What stays in range is still read: 10^400/10^399 = 10 exactly.
-  CHECK_NOTHROW(LoadModelFromString(Edit("k*s + d*s_dot", "10^400/10^399*s - 2^(-3^2)*s"), kSource));
+  CHECK_NOTHROW(
+      LoadModelFromString(Edit("k*s + d*s_dot", "10^400/10^399*s - 2^(-3^2)*s"), kSource));
 }
 
 TEST_CASE("a decimal exponent beyond 10000 is out of range", "[models]") {
