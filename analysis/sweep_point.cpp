@@ -135,10 +135,11 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   point.internal_dynamics_order = degree;
   auto roots = PolynomialRoots(coefficients.data(), degree);
   if (!roots) return std::nullopt;
-  point.eigenvalues = std::move(*roots);
-  CleanRoundOff(point.eigenvalues, options.imaginary_axis_tolerance);
-  SortEigenvalues(point.eigenvalues);
-  point.stability = ClassifyStability(point.eigenvalues, options.imaginary_axis_tolerance);
+  ZeroDynamicsSpectrum spectrum;
+  spectrum.eigenvalues = std::move(*roots);
+  FinishZeroDynamics(spectrum, options.imaginary_axis_tolerance);
+  point.eigenvalues = std::move(spectrum.eigenvalues);
+  point.stability = spectrum.stability;
   point.max_real_part = MaxRealPart(point.eigenvalues);
   return point;
 }
