@@ -53,11 +53,6 @@ void ValidateOptions(const LinearSweepOptions& options) {
 
 }  // namespace
 
-ParameterGrid ParseLinearParameterGrid(const LinearModel& model,
-                                       const std::vector<std::string>& texts) {
-  return ParseParameterGrid(model.parameter_names(), texts);
-}
-
 SweepPoint AnalyzeLinearSweepPoint(const LinearModel& model,
                                    const Eigen::VectorXd& parameters,
                                    LinearZeroDynamicsWorkspace& workspace,

@@ -21,10 +21,6 @@
 
 namespace servokit {
 
-/// ParseParameterGrid over a linear model's parameters (the same syntax and messages).
-ParameterGrid ParseLinearParameterGrid(const LinearModel& model,
-                                       const std::vector<std::string>& texts);
-
 struct LinearSweepOptions {
   LinearAnalysisOptions analysis;
   // Threads; 0 means OpenMP's default. Points per block (>= 1); the results depend on neither.

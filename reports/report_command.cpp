@@ -7,8 +7,10 @@
 
 #include "analysis/parameter_grid.h"
 #include "models/errors.h"
+#include "models/model.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
+#include "reports/grid_arguments.h"
 #include "reports/model_report.h"
 #include "reports/paper_report.h"
 
@@ -56,7 +58,8 @@ int RunReport(const ReportArguments& arguments, std::ostream& out) {
   } else {
     const Model model = LoadModel(arguments.subject, ParseOverrides(arguments.overrides));
     std::vector<GridAxis> axes;
-    for (const std::string& text : arguments.vary) axes.push_back(ParseGridAxis(model, text));
+    for (const std::string& text : arguments.vary)
+      axes.push_back(ParseGridAxis(model.parameter_names(), text));
     MakeOutputDirectory(arguments.out);
     WriteModelReport(arguments.out, model, axes);
   }

@@ -33,6 +33,7 @@
 #include "models/loaded_model.h"
 #include "reports/commands.h"
 #include "reports/exit_codes.h"
+#include "reports/grid_arguments.h"
 #include "reports/mpi_sweep.h"
 #include "reports/number_format.h"
 #include "reports/progress.h"
@@ -241,12 +242,12 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
     linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
                                                !arguments.y0.empty(), !arguments.q0.empty());
     linear_model.emplace(*loaded.linear());
-    grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
+    grid.emplace(ParseParameterGrid(linear_model->parameter_names(), arguments.vary));
     info = DescribeSweepModel(*linear_model, linear_options);
   } else {
     RefuseLinearModelOptions(sweep);
     model.emplace(*loaded.multibody());
-    grid.emplace(ParseParameterGrid(*model, arguments.vary));
+    grid.emplace(ParseParameterGrid(model->parameter_names(), arguments.vary));
     info = DescribeSweepModel(*model);
   }
   RejectSetAndVary(overrides, *grid);
