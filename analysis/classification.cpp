@@ -47,4 +47,11 @@ Classification Classify(const Model& model,
   return result;
 }
 
+void DeriveNonlinearStructure(const Model& model, Classification& classification) {
+  NonlinearStructureOptions options;
+  options.rank_tolerance = classification.rank_tolerance;
+  options.reference_q = classification.operating_point.q;
+  classification.nonlinear_structure = SummarizeNonlinearStructure(model, options);
+}
+
 }  // namespace servokit

@@ -47,6 +47,11 @@ Classification Classify(const Model& model,
                         Workspace& workspace,
                         const ClassificationOptions& options = {});
 
+/// Runs the structure algorithm on the nonlinear model (SummarizeNonlinearStructure) at the
+/// classification's operating point, with its rank tolerance, and keeps the summary in
+/// classification.nonlinear_structure: what `analyze` reports beyond Classify().
+void DeriveNonlinearStructure(const Model& model, Classification& classification);
+
 /// The solver that fits a class (paper Sect. 5): flat -> algebraic inversion; unstable zero
 /// dynamics -> stable inversion; undamped (critical) -> the normal form with Dormand-Prince,
 /// which adds no numerical damping; asymptotically stable -> BDF when the projected DAE has

@@ -354,12 +354,7 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
   } else {
     result.complete = true;
   }
-  CleanRoundOff(result.eigenvalues, options.imaginary_axis_tolerance);
-  SortEigenvalues(result.eigenvalues);
-  result.stability = ClassifyStability(result.eigenvalues, options.imaginary_axis_tolerance);
-  result.minimum_phase =
-      result.stability == Stability::kAsymptoticallyStable || result.stability == Stability::kNone;
-  result.modes = OscillatoryModes(result.eigenvalues, options.imaginary_axis_tolerance);
+  FinishZeroDynamics(result, options.imaginary_axis_tolerance);
   result.scope = zero_count == 0 ? "no zero dynamics (flat)"
                                  : Scope(result, Eigen::Index(result.eigenvalues.size()));
   return result;

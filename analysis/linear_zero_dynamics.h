@@ -152,14 +152,9 @@ class LinearZeroDynamicsWorkspace {
 /// union of K, D, M (explicit zeros kept), the same for every sigma.
 SparseMatrix BuildRosenbrockMatrix(const LinearSystem& system, double shift);
 
-struct LinearZeroDynamics {
-  // Sorted by SortEigenvalues (real part, then imaginary part, both descending).
-  std::vector<std::complex<double>> eigenvalues;
-  // Stability class and modes of `eigenvalues` (ClassifyStability, OscillatoryModes). When not
-  // `complete`, of the computed zeros only; see `scope`.
-  Stability stability = Stability::kNone;
-  bool minimum_phase = true;
-  std::vector<Mode> modes;
+// The eigenvalues are the zeros computed, and stability and modes are theirs
+// (FinishZeroDynamics): when not `complete`, of the computed zeros only; see `scope`.
+struct LinearZeroDynamics : ZeroDynamicsSpectrum {
   bool complete = false;         // every finite zero was computed
   Eigen::Index zero_count = -1;  // number of finite zeros (2n - sum r) if known, else -1
   LinearEigenSolver solver_used = LinearEigenSolver::kDense;

@@ -1,8 +1,9 @@
 #pragma once
-// The parameter points of a sweep (DESIGN.md, `servokit sweep --vary`): a full grid over any
-// number of varied parameters. The grid is never materialised: a point is addressed by its
-// index and its values are computed from it (mixed radix, the first axis varying slowest), so a
-// sweep of 10^8 points needs no more memory than one of 10.
+// The parameter points of a sweep (DESIGN.md, `servokit sweep --vary`; the command-line text
+// is read by application/grid_arguments.h): a full grid over any number of varied parameters. The grid
+// is never materialised: a point is addressed by its index and its values are computed from it
+// (mixed radix, the first axis varying slowest), so a sweep of 10^8 points needs no more memory
+// than one of 10.
 #include <Eigen/Dense>
 #include <cstddef>
 #include <span>
@@ -10,8 +11,6 @@
 #include <string_view>
 #include <variant>
 #include <vector>
-
-#include "models/model.h"
 
 namespace servokit {
 
@@ -27,8 +26,8 @@ struct ValueRange {
 /// One varied parameter and the values it takes, in SI units.
 struct GridAxis {
   std::string name;
-  std::size_t parameter = 0;  // index in Model::parameter_names()
-  // A range (from "a:b:n") or an explicit list (from "v1,v2,...").
+  std::size_t parameter = 0;  // index in the model's parameter_names() (ParameterIndex)
+  // A range or an explicit list.
   std::variant<ValueRange, std::vector<double>> values;
 
   /// The number of values (>= 1).
@@ -37,17 +36,12 @@ struct GridAxis {
   double Value(std::size_t i) const;
 };
 
-/// Parses one `--vary` argument: "name=a:b:n" (a range) or "name=v1,v2,..." (a list; one value
-/// is a list of one). Each of a, b and v is a number in SI units or "<number> deg" (ParseQuantity),
-/// so "alpha=0deg:90deg:91" and "alpha=0 deg:90 deg:91" mean the same; n is a whole number >= 1.
-/// Throws UsageError "--vary <text>: ..." naming the problem: bad syntax, unknown parameter (the
-/// message lists the known ones), a value that is not a number, n < 1.
-GridAxis ParseGridAxis(const Model& model, std::string_view text);
-/// The same for any model with these parameter names (a linear model's, say).
-GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text);
+/// The index of parameter `name` in `parameter_names` (a model's parameter_names()). Throws
+/// UsageError "unknown parameter 'name' (the model has a, b, c)".
+std::size_t ParameterIndex(const std::vector<std::string>& parameter_names, std::string_view name);
 
 /// The full grid over its axes. Points are numbered 0..num_points()-1 in row-major order: the
-/// first axis varies slowest, the last fastest (as nested loops in the order of `--vary`).
+/// first axis varies slowest, the last fastest (as nested loops in the order of the axes).
 class ParameterGrid {
  public:
   /// Throws UsageError when a parameter is varied twice or the grid has more points than
@@ -71,10 +65,5 @@ class ParameterGrid {
   std::vector<GridAxis> axes_;
   std::size_t num_points_ = 1;
 };
-
-/// ParseGridAxis for each text, then the grid over them in the same order.
-ParameterGrid ParseParameterGrid(const Model& model, const std::vector<std::string>& texts);
-ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
-                                 const std::vector<std::string>& texts);
 
 }  // namespace servokit

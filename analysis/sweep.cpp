@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstddef>
 #include <exception>
 #include <memory>
@@ -19,9 +20,15 @@ namespace {
 // Newton struggles (or fails after its 50 iterations) costs many times an easy one; 16 points
 // (microseconds even for the mass on car) make taking a chunk, one atomic increment, cheap.
 constexpr std::size_t kPointsPerChunk = 16;
+// A point of a large linear model costs milliseconds, so one at a time.
+constexpr std::size_t kLinearPointsPerChunk = 1;
 
-void ValidateOptions(const Model& model, const SweepOptions& options) {
-  options.classification.Validate(model);
+void ValidateOptions(const LoadedModel& model, const SweepOptions& options) {
+  if (const Model* multibody = model.multibody()) {
+    options.classification.Validate(*multibody);
+  } else {
+    options.linear.Validate();
+  }
   RequireOption(options.threads >= 0, "SweepOptions", "threads", options.threads,
                 "must be >= 0 (0: all cores)");
   RequireOption(options.block_size >= 1, "SweepOptions", "block_size", options.block_size,
@@ -44,18 +51,20 @@ class FirstException {
   std::exception_ptr exception_;
 };
 
-// One workspace per thread, each built by the thread that uses it: its buffers then come from
-// that thread's heap arena. Built on one thread, the small buffers of different workspaces share
-// cache lines, and threads writing them slow each other down (measured on the mass on car: two
-// threads 1.2 times as fast as one that way, 1.55 times this way).
-std::vector<std::unique_ptr<Workspace>> BuildWorkspaces(const Model& model, int threads) {
-  std::vector<std::unique_ptr<Workspace>> workspaces(static_cast<std::size_t>(threads));
+}  // namespace
+
+// Each workspace is built by the thread that uses it: its buffers then come from that thread's
+// heap arena. Built on one thread, the small buffers of different workspaces share cache lines,
+// and threads writing them slow each other down (measured on the mass on car: two threads 1.2
+// times as fast as one that way, 1.55 times this way).
+SweepWorkspaces::SweepWorkspaces(const LoadedModel& model, int threads)
+    : workspaces_(static_cast<std::size_t>(std::max(threads, 1))) {
   FirstException failure;
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(static_cast <int>(workspaces_.size()))
   {
     try {
-      workspaces[static_cast<std::size_t>(omp_get_thread_num())] =
-          std::make_unique<Workspace>(model);
+      workspaces_[static_cast<std::size_t>(omp_get_thread_num())] =
+          std::make_unique<PointWorkspace>(model);
     } catch (...) {
       failure.Capture();
     }
@@ -63,28 +72,16 @@ std::vector<std::unique_ptr<Workspace>> BuildWorkspaces(const Model& model, int 
   failure.RethrowIfAny();
   // OpenMP may give a team smaller than asked; later loops then use fewer workspaces too, but
   // every slot must hold one.
-  for (auto& workspace : workspaces) {
-    if (!workspace) workspace = std::make_unique<Workspace>(model);
+  for (auto& workspace : workspaces_) {
+    if (!workspace) workspace = std::make_unique<PointWorkspace>(model);
   }
-  return workspaces;
 }
 
-// Evaluates points first .. first + block.size() - 1 into `block`.
-void EvaluateBlock(const Model& model,
-                   const ParameterGrid& grid,
-                   const ClassificationOptions& options,
-                   std::size_t first,
-                   std::span<SweepPoint> block,
-                   const std::vector<std::unique_ptr<Workspace>>& workspaces) {
-  ParallelFor(block.size(), static_cast<int>(workspaces.size()), kPointsPerChunk,
-              [&](std::size_t i, int thread) {
-                Workspace& workspace = *workspaces[static_cast<std::size_t>(thread)];
-                grid.Apply(first + i, workspace.parameters);
-                block[i] = AnalyzeSweepPoint(model, workspace, options);
-              });
+std::vector<int> SweepWorkspaces::pattern_analyses() const {
+  std::vector<int> counts;
+  for (const auto& workspace : workspaces_) counts.push_back(workspace->pattern_analyses());
+  return counts;
 }
-
-}  // namespace
 
 int SweepThreads(const SweepOptions& options) {
   return options.threads > 0 ? options.threads : omp_get_max_threads();
@@ -108,27 +105,56 @@ void ParallelFor(std::size_t count,
   failure.RethrowIfAny();
 }
 
-std::size_t RunSweep(const Model& model,
+std::size_t RunSweep(const LoadedModel& model,
+                     const ParameterGrid& grid,
+                     const SweepOptions& options,
+                     std::size_t first_point,
+                     SweepWorkspaces& workspaces,
+                     const SweepConsumer& consume) {
+  ValidateOptions(model, options);
+  const std::size_t total = grid.num_points();
+  if (first_point >= total) return total;
+  const std::size_t chunk = model.linear() ? kLinearPointsPerChunk : kPointsPerChunk;
+  std::vector<SweepPoint> block(std::min(options.block_size, total - first_point));
+  for (std::size_t first = first_point; first < total;) {
+    const std::size_t count = std::min(block.size(), total - first);
+    const std::span<SweepPoint> points(block.data(), count);
+    // Each workspace's parameters start from the model's (with the --set overrides) and the
+    // grid overwrites only the varied entries.
+    ParallelFor(count, workspaces.threads(), chunk, [&](std::size_t i, int thread) {
+      PointWorkspace& workspace = workspaces[thread];
+      grid.Apply(first + i, workspace.parameters());
+      points[i] = AnalyzeSweepPoint(model, workspace, options);
+    });
+    first += count;
+    if (!consume(first - count, points)) return first;
+  }
+  return total;
+}
+
+std::size_t RunSweep(const LoadedModel& model,
                      const ParameterGrid& grid,
                      const SweepOptions& options,
                      std::size_t first_point,
                      const SweepConsumer& consume) {
   ValidateOptions(model, options);
-  const std::size_t total = grid.num_points();
-  if (first_point >= total) return total;
-  // Each workspace starts from the model's parameters (with the parameter overrides) and the grid
-  // overwrites only the varied entries.
-  const std::vector<std::unique_ptr<Workspace>> workspaces =
-      BuildWorkspaces(model, SweepThreads(options));
-  std::vector<SweepPoint> block(std::min(options.block_size, total - first_point));
-  for (std::size_t first = first_point; first < total;) {
-    const std::size_t count = std::min(block.size(), total - first);
-    const std::span<SweepPoint> points(block.data(), count);
-    EvaluateBlock(model, grid, options.classification, first, points, workspaces);
-    first += count;
-    if (!consume(first - count, points)) return first;
-  }
-  return total;
+  SweepWorkspaces workspaces(model, SweepThreads(options));
+  return RunSweep(model, grid, options, first_point, workspaces, consume);
+}
+
+std::string DescribeLinearSweepOptions(const LinearAnalysisOptions& options) {
+  const LinearZeroDynamicsOptions& zeros = options.zero_dynamics;
+  auto exact = [](double value) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+    return std::string(buffer, result.ptr);
+  };
+  return "rank_tolerance=" + exact(options.rank_tolerance) +
+         ",axis_tolerance=" + exact(zeros.imaginary_axis_tolerance) +
+         ",eigen_solver=" + std::string(ToString(zeros.solver)) +
+         ",which=" + std::string(ToString(zeros.target)) + ",shift=" + exact(zeros.shift) +
+         ",eigenvalues=" + std::to_string(zeros.arpack.eigenvalues) +
+         ",dense_threshold=" + std::to_string(zeros.dense_threshold);
 }
 
 }  // namespace servokit

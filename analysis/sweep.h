@@ -1,6 +1,7 @@
 #pragma once
 // The sweep engine (DESIGN.md, `servokit sweep`): AnalyzeSweepPoint at every point of a
-// ParameterGrid, on all cores (OpenMP), handed to a consumer block by block in index order.
+// ParameterGrid, for a model of either kind, on all cores (OpenMP), handed to a consumer block by
+// block in index order.
 //
 // Points are evaluated in blocks: in parallel within a block, then the whole block goes to the
 // consumer on the calling thread. So the consumer sees the same points in the same order
@@ -8,12 +9,15 @@
 // What the consumer does with a block (files, checkpoints) is not this layer's business.
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep_point.h"
-#include "models/model.h"
+#include "models/loaded_model.h"
 
 namespace servokit {
 
@@ -23,9 +27,9 @@ namespace servokit {
 /// fraction of a second.
 inline constexpr std::size_t kSweepBlockSize = 4096;
 
-struct SweepOptions {
-  // How each point is classified; the QZ cross-check is never run in a sweep (SweepPoint).
-  ClassificationOptions classification;
+/// How each point is analysed (AnalysisOptions: the options of the model's kind; the QZ
+/// cross-check of a multibody model is never run in a sweep, SweepPoint), and how the sweep runs.
+struct SweepOptions : AnalysisOptions {
   // Threads to use; 0 means OpenMP's default (all cores, or OMP_NUM_THREADS).
   int threads = 0;
   // Points per block handed to the consumer (>= 1); the results do not depend on it.
@@ -48,16 +52,44 @@ void ParallelFor(std::size_t count,
                  std::size_t chunk,
                  const std::function<void(std::size_t i, int thread)>& body);
 
+/// The workspaces of a sweep, one per thread (PointWorkspace), each built by the thread that
+/// uses it. Kept across the calls of RunSweep that an MPI rank makes for its blocks, so that a
+/// thread of a linear sweep analyses the sparsity pattern once.
+class SweepWorkspaces {
+ public:
+  /// `threads` (at least one) workspaces for `model`.
+  SweepWorkspaces(const LoadedModel& model, int threads);
+  int threads() const { return static_cast<int>(workspaces_.size()); }
+  PointWorkspace& operator[](int thread) { return *workspaces_[static_cast<std::size_t>(thread)]; }
+  /// Pattern analyses (symbolic factorisations) done by each thread's workspace so far.
+  std::vector<int> pattern_analyses() const;
+
+ private:
+  std::vector<std::unique_ptr<PointWorkspace>> workspaces_;
+};
+
 /// Analyses grid points first_point .. grid.num_points() - 1 of `model` (with the model's own
-/// parameters where the grid does not vary them) and hands them to `consume` block by block, on
-/// the calling thread. Returns the index after the last point consumed: grid.num_points(), or
-/// less when the consumer stopped. A point without a solution is recorded in its SweepPoint and
-/// the sweep goes on. Throws UsageError for bad options (before any point is evaluated) and
-/// rethrows whatever the consumer or an evaluation throws otherwise, after the running block.
-std::size_t RunSweep(const Model& model,
+/// parameters where the grid does not vary them) with `workspaces` (built for `model`) and hands
+/// them to `consume` block by block, on the calling thread. Returns the index after the last
+/// point consumed: grid.num_points(), or less when the consumer stopped. A point without a
+/// solution is recorded in its SweepPoint and the sweep goes on. Throws UsageError for bad
+/// options (before any point is evaluated) and rethrows whatever the consumer or an evaluation
+/// throws otherwise, after the running block.
+std::size_t RunSweep(const LoadedModel& model,
+                     const ParameterGrid& grid,
+                     const SweepOptions& options,
+                     std::size_t first_point,
+                     SweepWorkspaces& workspaces,
+                     const SweepConsumer& consume);
+
+/// The same with workspaces of its own (SweepThreads of the options).
+std::size_t RunSweep(const LoadedModel& model,
                      const ParameterGrid& grid,
                      const SweepOptions& options,
                      std::size_t first_point,
                      const SweepConsumer& consume);
+
+/// The options that decide a linear sweep's points, as one line, for fingerprints and sweep.json.
+std::string DescribeLinearSweepOptions(const LinearAnalysisOptions& options);
 
 }  // namespace servokit

@@ -3,9 +3,12 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_poly.h>
 
+#include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <optional>
 
 #include "analysis/classification.h"
@@ -15,6 +18,29 @@
 
 namespace servokit {
 namespace {
+
+// ARPACK (Fortran dnaupd/dneupd) keeps its state between calls in SAVE variables, so two threads
+// in it at once corrupt each other (measured: wrong zeros and a segmentation fault on a
+// 2000-mass chain with two threads). Points on the ARPACK route hold this lock for their
+// analysis; assembling the matrices stays parallel. Separate processes (mpirun) do not share it.
+std::mutex arpack_mutex;
+
+bool UsesArpack(const LinearModel& model, const LinearAnalysisOptions& options) {
+  const LinearZeroDynamicsOptions& zeros = options.zero_dynamics;
+  return zeros.solver == LinearEigenSolver::kArpack ||
+         (zeros.solver == LinearEigenSolver::kAuto &&
+          static_cast<Eigen::Index>(model.dof()) > zeros.dense_threshold);
+}
+
+LinearAnalysis AnalyzeLinearPoint(const LinearModel& model,
+                                  const Eigen::VectorXd& parameters,
+                                  LinearZeroDynamicsWorkspace& workspace,
+                                  const LinearAnalysisOptions& options) {
+  const LinearSystem system = AssembleLinearSystem(model, parameters);
+  std::unique_lock<std::mutex> arpack_lock(arpack_mutex, std::defer_lock);
+  if (UsesArpack(model, options)) arpack_lock.lock();
+  return AnalyzeLinearSystem(system, workspace, options);
+}
 
 // The largest real part of eigenvalues sorted by SortEigenvalues; NaN (an empty CSV field)
 // when there are none.
@@ -135,10 +161,11 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   point.internal_dynamics_order = degree;
   auto roots = PolynomialRoots(coefficients.data(), degree);
   if (!roots) return std::nullopt;
-  point.eigenvalues = std::move(*roots);
-  CleanRoundOff(point.eigenvalues, options.imaginary_axis_tolerance);
-  SortEigenvalues(point.eigenvalues);
-  point.stability = ClassifyStability(point.eigenvalues, options.imaginary_axis_tolerance);
+  ZeroDynamicsSpectrum spectrum;
+  spectrum.eigenvalues = std::move(*roots);
+  FinishZeroDynamics(spectrum, options.imaginary_axis_tolerance);
+  point.eigenvalues = std::move(spectrum.eigenvalues);
+  point.stability = spectrum.stability;
   point.max_real_part = MaxRealPart(point.eigenvalues);
   return point;
 }
@@ -167,7 +194,68 @@ SweepPoint AnalyzeGenerally(const Model& model,
   return point;
 }
 
+SweepPoint SummarizeLinearPoint(const LinearAnalysis& analysis) {
+  SweepPoint point;
+  point.ok = true;
+  point.realization = analysis.decoupling.realization;
+  point.rank = static_cast<long>(analysis.decoupling.rank);
+  point.relative_degree = analysis.relative_degrees.relative_degree;
+  point.differentiation_index = analysis.differentiation_index;
+  point.internal_dynamics_order = static_cast<int>(analysis.internal_dynamics_order);
+  point.stability = analysis.zero_dynamics.stability;
+  point.eigenvalues = analysis.zero_dynamics.eigenvalues;
+  point.max_real_part = MaxRealPart(point.eigenvalues);
+  return point;
+}
+
+SweepPoint FailedLinearPoint(const Error& failure) {
+  SweepPoint point;
+  point.error = failure.what();
+  std::replace(point.error.begin(), point.error.end(), '\n', ' ');
+  return point;
+}
+
 }  // namespace
+
+PointWorkspace::PointWorkspace(const LoadedModel& model) {
+  if (const Model* multibody = model.multibody()) {
+    multibody_.emplace(*multibody);
+  } else {
+    linear_ = std::make_unique<LinearZeroDynamicsWorkspace>();
+    linear_parameters_ = model.parameters();
+  }
+}
+
+Eigen::VectorXd& PointWorkspace::parameters() {
+  return multibody_ ? multibody_->parameters : linear_parameters_;
+}
+
+ModelAnalysis AnalyzePoint(const LoadedModel& model,
+                           PointWorkspace& workspace,
+                           const AnalysisOptions& options) {
+  if (const LinearModel* linear = model.linear()) {
+    assert(workspace.linear() != nullptr);
+    return AnalyzeLinearPoint(*linear, workspace.parameters(), *workspace.linear(), options.linear);
+  }
+  assert(workspace.multibody() != nullptr);
+  return Classify(*model.multibody(), *workspace.multibody(), options.classification);
+}
+
+SweepPoint AnalyzeSweepPoint(const LoadedModel& model,
+                             PointWorkspace& workspace,
+                             const AnalysisOptions& options) {
+  if (const Model* multibody = model.multibody()) {
+    return AnalyzeSweepPoint(*multibody, *workspace.multibody(), options.classification);
+  }
+  try {
+    return SummarizeLinearPoint(std::get<LinearAnalysis>(AnalyzePoint(model, workspace, options)));
+  } catch (const NoSolution& failure) {
+    return FailedLinearPoint(failure);
+  } catch (const ModelError& failure) {
+    // A factor that is not finite at this point (a division by a varied parameter at 0).
+    return FailedLinearPoint(failure);
+  }
+}
 
 SweepPoint AnalyzeSweepPoint(const Model& model,
                              Workspace& workspace,

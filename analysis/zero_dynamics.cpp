@@ -97,13 +97,17 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
   } else {
     result.state_matrix.resize(0, 0);
   }
-  CleanRoundOff(result.eigenvalues, options.imaginary_axis_tolerance);
-  SortEigenvalues(result.eigenvalues);
-  result.stability = ClassifyStability(result.eigenvalues, options.imaginary_axis_tolerance);
-  result.minimum_phase =
-      result.stability == Stability::kAsymptoticallyStable || result.stability == Stability::kNone;
-  result.modes = OscillatoryModes(result.eigenvalues, options.imaginary_axis_tolerance);
+  FinishZeroDynamics(result, options.imaginary_axis_tolerance);
   return result;
+}
+
+void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance) {
+  CleanRoundOff(spectrum.eigenvalues, imaginary_axis_tolerance);
+  SortEigenvalues(spectrum.eigenvalues);
+  spectrum.stability = ClassifyStability(spectrum.eigenvalues, imaginary_axis_tolerance);
+  spectrum.minimum_phase = spectrum.stability == Stability::kAsymptoticallyStable ||
+                           spectrum.stability == Stability::kNone;
+  spectrum.modes = OscillatoryModes(spectrum.eigenvalues, imaginary_axis_tolerance);
 }
 
 std::vector<std::complex<double>> InvariantZeros(const Linearization& linearization,

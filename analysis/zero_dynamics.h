@@ -23,14 +23,20 @@ struct Mode {
   double damping_ratio = 0.0;  // -Re(lambda) / |lambda|
 };
 
-struct ZeroDynamics {
-  // x' = state_matrix x on V*, in the orthonormal basis OutputStructure::zero_dynamics_subspace.
-  Eigen::MatrixXd state_matrix;
+/// What the eigenvalues of the zero dynamics say, whichever route computed them (the dense
+/// normal form here, the sparse pencil of analysis/linear_zero_dynamics.h, the polynomial of a
+/// sweep point): filled by FinishZeroDynamics.
+struct ZeroDynamicsSpectrum {
   // Eigenvalues sorted by real part, then imaginary part, both descending.
   std::vector<std::complex<double>> eigenvalues;
   Stability stability = Stability::kNone;
   bool minimum_phase = true;  // asymptotically stable zero dynamics, or none (Isidori 1995)
   std::vector<Mode> modes;    // one per complex pair, ascending frequency
+};
+
+struct ZeroDynamics : ZeroDynamicsSpectrum {
+  // x' = state_matrix x on V*, in the orthonormal basis OutputStructure::zero_dynamics_subspace.
+  Eigen::MatrixXd state_matrix;
 };
 
 /// The frequency |lambda| / (2 pi) and damping ratio -Re(lambda) / |lambda| of an eigenvalue:
@@ -60,6 +66,12 @@ std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eige
 /// that verdicts, orderings and tables are reproducible (the stability class counts such an
 /// eigenvalue as on the axis anyway).
 void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance);
+
+/// The one finishing step of every route to the zero dynamics: CleanRoundOff and
+/// SortEigenvalues on spectrum.eigenvalues, then its stability class (ClassifyStability),
+/// minimum phase and modes (OscillatoryModes), all with `imaginary_axis_tolerance`
+/// (ClassificationOptions).
+void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance);
 
 /// Sorts eigenvalues by real part, then imaginary part, both descending (a stable order for
 /// tables: the least stable first, the upper member of each pair before the lower).

@@ -3,12 +3,16 @@
 // A nonlinear model (YAML with expressions) is classified at its operating point; a large linear
 // model (`kind: linear`, models/linear_model.h) at q = 0, u = 0 with sparse matrices.
 #include <memory>
+#include <optional>
 #include <ostream>
+#include <variant>
 
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
+#include "analysis/sweep_point.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
+#include "models/loaded_model.h"
 #include "reports/classification_report.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
@@ -26,37 +30,37 @@ struct AnalyzeArguments {
   LinearModelArguments linear;  // linear models only
 };
 
-int RunLinearAnalyze(const AnalyzeArguments& arguments, ReportFormat format, std::ostream& out) {
-  const LinearAnalysisOptions options = MakeLinearAnalysisOptions(
-      arguments.linear, arguments.options, !arguments.y0.empty(), !arguments.q0.empty());
-
-  const LinearModel model =
-      LoadLinearModel(arguments.model_path, ParseOverrides(arguments.overrides));
-  const LinearSystem system = AssembleLinearSystem(model, model.parameters());
-  LinearZeroDynamicsWorkspace workspace;
-  const LinearAnalysis analysis = AnalyzeLinearSystem(system, workspace, options);
-  out << FormatLinearAnalysis(model, analysis, options, format);
-  return static_cast<int>(ExitCode::kSuccess);
-}
-
 int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::ostream& out) {
   const std::optional<ReportFormat> format = ReportFormatFromString(arguments.format);
   if (!format) {
     throw UsageError("--format " + arguments.format + ": expected text, json or md");
   }
-  if (IsLinearModelFile(arguments.model_path)) return RunLinearAnalyze(arguments, *format, out);
-  RefuseLinearModelOptions(analyze);
-  const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
-  ClassificationOptions options = arguments.options;
-  if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
-  if (!arguments.q0.empty()) options.operating_point.q_guess = ParseValues("--q0", arguments.q0);
-  Workspace workspace(model);
-  Classification classification = Classify(model, workspace, options);
-  NonlinearStructureOptions structure_options;
-  structure_options.rank_tolerance = options.rank_tolerance;
-  structure_options.reference_q = classification.operating_point.q;
-  classification.nonlinear_structure = SummarizeNonlinearStructure(model, structure_options);
-  out << FormatClassification(model, classification, options, *format);
+  const LoadedModel model =
+      LoadModelFile(arguments.model_path, ParseOverrides(arguments.overrides));
+  AnalysisOptions options;
+  if (model.linear()) {
+    options.linear = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
+                                               !arguments.y0.empty(), !arguments.q0.empty());
+  } else {
+    RefuseLinearModelOptions(analyze);
+    options.classification = arguments.options;
+    if (!arguments.y0.empty()) {
+      options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
+    }
+    if (!arguments.q0.empty()) {
+      options.classification.operating_point.q_guess = ParseValues("--q0", arguments.q0);
+    }
+  }
+  PointWorkspace workspace(model);
+  ModelAnalysis analysis = AnalyzePoint(model, workspace, options);
+  if (Classification* classification = std::get_if<Classification>(&analysis)) {
+    DeriveNonlinearStructure(*model.multibody(), *classification);
+    out << FormatClassification(*model.multibody(), *classification, options.classification,
+                                *format);
+  } else {
+    out << FormatLinearAnalysis(*model.linear(), std::get<LinearAnalysis>(analysis), options.linear,
+                                *format);
+  }
   return static_cast<int>(ExitCode::kSuccess);
 }
 
@@ -92,8 +96,7 @@ Command AddAnalyzeCommand(CLI::App& app) {
                    "Relative distance to the imaginary axis counted as on it")
       ->capture_default_str();
   AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
-  return {analyze,
-          [arguments, analyze](std::ostream& out, std::ostream&) {
+  return {analyze, [arguments, analyze](std::ostream& out, std::ostream&) {
             return RunAnalyze(*arguments, *analyze, out);
           }};
 }

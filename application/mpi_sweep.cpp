@@ -284,8 +284,7 @@ struct BlockPlan {
 };
 
 // Computes block b into `block` with this rank's threads (RunSweep over that block alone).
-// `run` is RunSweep or RunLinearSweep bound to the model (SweepRunner), so that the same
-// distribution serves both kinds of model.
+// `run` is RunSweep bound to the model and its workspaces (SweepRunner).
 void ComputeBlock(const SweepRunner& run,
                   const ParameterGrid& grid,
                   const SweepOptions& options,

@@ -80,7 +80,7 @@ struct DistributedSweepEnd {
 /// next block boundary. An exception on any process (from an evaluation, `write` or MPI) ends
 /// all of them and is rethrown on every process as AgreeOnSuccess does. Needs size > 1 and MPI.
 /// Computes the points of one sweep from `first_point` on, block by block, and hands each block
-/// to the consumer (RunSweep or RunLinearSweep bound to a model, its grid and options); returns
+/// to the consumer (RunSweep bound to a model, its grid, options and workspaces); returns
 /// the index after the last point consumed. The distributed sweep calls it once per block it
 /// computes, with a consumer that stops after that block.
 using SweepRunner =

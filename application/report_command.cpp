@@ -9,6 +9,8 @@
 #include "models/errors.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "application/grid_arguments.h"
+#include "models/model.h"
 #include "reports/model_report.h"
 #include "reports/paper_report.h"
 
@@ -56,7 +58,8 @@ int RunReport(const ReportArguments& arguments, std::ostream& out) {
   } else {
     const Model model = LoadModel(arguments.subject, ParseOverrides(arguments.overrides));
     std::vector<GridAxis> axes;
-    for (const std::string& text : arguments.vary) axes.push_back(ParseGridAxis(model, text));
+    for (const std::string& text : arguments.vary)
+      axes.push_back(ParseGridAxis(model.parameter_names(), text));
     MakeOutputDirectory(arguments.out);
     WriteModelReport(arguments.out, model, axes);
   }

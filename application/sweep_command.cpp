@@ -3,9 +3,8 @@
 //                [--checkpoint-interval s] [--block-size n]
 //                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
 //                [--which nearest|rightmost]            (linear models only)
-// A model of `kind: linear` is swept by analysis/linear_sweep.h (one workspace per thread, the
-// sparsity pattern analysed once per thread), a multibody model by analysis/sweep.h; both give
-// SweepPoints, so the files and the MPI distribution are the same code.
+// A model of either kind (models/loaded_model.h) is swept by analysis/sweep.h: one workspace per
+// thread, kept across blocks (a linear model's sparsity pattern is analysed once per thread).
 // Under mpirun (application/mpi_sweep.h) every rank runs this command: each sets the sweep up,
 // rank 0 alone opens the output directory, and the blocks are shared out.
 #include <omp.h>
@@ -25,14 +24,15 @@
 #include <thread>
 #include <vector>
 
-#include "analysis/linear_sweep.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "application/grid_arguments.h"
 #include "application/mpi_sweep.h"
+#include "models/loaded_model.h"
 #include "reports/number_format.h"
 #include "application/progress.h"
 #include "reports/sweep_files.h"
@@ -185,7 +185,7 @@ void RejectSetAndVary(const std::vector<ParameterOverride>& overrides, const Par
 
 SweepOptions MakeSweepOptions(const SweepArguments& arguments,
                               const CLI::App& sweep,
-                              const Model* model) {
+                              const LoadedModel& model) {
   SweepOptions options;
   options.classification = arguments.options;
   if (!arguments.y0.empty()) {
@@ -206,17 +206,14 @@ SweepOptions MakeSweepOptions(const SweepArguments& arguments,
   if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
   options.block_size = arguments.block_size;
   // Before the output directory is touched: a bad option must not leave a half-made sweep.
-  if (model != nullptr) options.classification.Validate(*model);
+  if (const Model* multibody = model.multibody()) options.classification.Validate(*multibody);
   return options;
 }
 
 // Everything a sweep needs before it touches the output directory; the same on every process.
 struct SweepSetup {
-  // Exactly one of the two: the kind of the model file.
-  std::optional<Model> model;
-  std::optional<LinearModel> linear_model;
-  LinearAnalysisOptions linear_options;  // for linear_model
-  SweepModelInfo info;                   // what the files record of either
+  LoadedModel model;
+  SweepModelInfo info;  // what the files record of it
   ParameterGrid grid;
   SweepOptions options;
   SweepOutputOptions output_options;
@@ -230,34 +227,27 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
                      "mpirun, or rebuild it with MPI (libopenmpi-dev)");
   }
   const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
-  std::optional<Model> model;
-  std::optional<LinearModel> linear_model;
+  LoadedModel model = LoadModelFile(arguments.model_path, overrides);
   LinearAnalysisOptions linear_options;
-  std::optional<ParameterGrid> grid;
-  SweepModelInfo info;
-  if (IsLinearModelFile(arguments.model_path)) {
+  if (model.linear()) {
     linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
                                                !arguments.y0.empty(), !arguments.q0.empty());
-    linear_model.emplace(LoadLinearModel(arguments.model_path, overrides));
-    grid.emplace(ParseLinearParameterGrid(*linear_model, arguments.vary));
-    info = DescribeSweepModel(*linear_model, linear_options);
   } else {
     RefuseLinearModelOptions(sweep);
-    model.emplace(LoadModel(arguments.model_path, overrides));
-    grid.emplace(ParseParameterGrid(*model, arguments.vary));
-    info = DescribeSweepModel(*model);
   }
-  RejectSetAndVary(overrides, *grid);
-  const SweepOptions options = MakeSweepOptions(arguments, sweep, model ? &*model : nullptr);
+  ParameterGrid grid = ParseParameterGrid(model.parameter_names(), arguments.vary);
+  RejectSetAndVary(overrides, grid);
+  SweepOptions options = MakeSweepOptions(arguments, sweep, model);
+  options.linear = linear_options;
   if (!(arguments.checkpoint_interval > 0.0)) {
     throw UsageError("--checkpoint-interval " + FormatShort(arguments.checkpoint_interval) +
                      ": must be > 0 seconds");
   }
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
-  return {std::move(model),   std::move(linear_model), linear_options,
-          std::move(info),    std::move(*grid),        options,
-          output_options,     TestHooksFromEnvironment()};
+  SweepModelInfo info = DescribeSweepModel(model, options);
+  return {std::move(model), std::move(info), std::move(grid),
+          options,          output_options,  TestHooksFromEnvironment()};
 }
 
 // Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
@@ -295,23 +285,11 @@ std::size_t ComputeSweep(const SweepSetup& setup,
   ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
   const InterruptGuard interrupt;
   StopRequest stop_requested(interrupt, setup.test_hooks);
-  // The one place that knows the model's kind: both kinds give SweepPoints block by block. A
-  // linear sweep keeps its per-thread workspaces across blocks (and, under MPI, across the
-  // blocks of this rank), so each thread analyses the sparsity pattern once.
-  std::optional<LinearSweepWorkspaces> linear_workspaces;
-  LinearSweepOptions linear_options;
-  if (setup.linear_model) {
-    linear_options.analysis = setup.linear_options;
-    linear_options.threads = setup.options.threads;
-    linear_options.block_size = setup.options.block_size;
-    linear_workspaces.emplace(SweepThreads(setup.options));
-  }
+  // The per-thread workspaces are kept across blocks (and, under MPI, across the blocks of this
+  // rank), so each thread of a linear sweep analyses the sparsity pattern once.
+  SweepWorkspaces workspaces(setup.model, SweepThreads(setup.options));
   const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
-    if (setup.linear_model) {
-      return RunLinearSweep(*setup.linear_model, setup.grid, linear_options, first,
-                            *linear_workspaces, consume);
-    }
-    return RunSweep(*setup.model, setup.grid, setup.options, first, consume);
+    return RunSweep(setup.model, setup.grid, setup.options, first, workspaces, consume);
   };
   if (Processes().size == 1) {
     return run(first_point, [&](std::size_t first, std::span<const SweepPoint> block) {

@@ -29,10 +29,7 @@
 namespace servokit {
 namespace {
 
-constexpr std::string_view kKindKey = "kind";
-constexpr std::string_view kLinearKind = "linear";
-// The nonlinear format (DESIGN.md "The model file") may say so explicitly.
-constexpr std::string_view kMultibodyKind = "multibody";
+using detail::kLinearKind;
 
 constexpr std::array<std::string_view, 6> kRequiredKeys = {
     "name", "kind", "mass_matrix", "stiffness_matrix", "input_matrix", "output_matrix"};
@@ -56,7 +53,6 @@ using detail::kQuantityHint;
 // written by other tools may carry round-off in the last digits, nothing more.
 constexpr double kSymmetryTolerance = 1e-12;
 
-
 std::string Shape(Eigen::Index rows, Eigen::Index cols) {
   return std::to_string(rows) + " x " + std::to_string(cols);
 }
@@ -78,38 +74,6 @@ std::optional<std::string> ReadBytes(const std::string& path) {
   std::string bytes(static_cast<std::size_t>(size), '\0');
   if (!file.read(bytes.data(), size)) return std::nullopt;
   return bytes;
-}
-
-std::string ReadModelFile(const std::string& path) {
-  errno = 0;
-  std::optional<std::string> bytes = ReadBytes(path);
-  if (!bytes) {
-    throw ModelError(path + ": cannot read the model file (" + std::strerror(errno) + ")");
-  }
-  return std::move(*bytes);
-}
-
-YAML::Node ParseYaml(const std::string& yaml_text, const std::string& source) {
-  try {
-    return YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& error) {
-    // yaml-cpp counts lines and columns from 0; editors count from 1.
-    throw ModelError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
-                     std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
-  }
-}
-
-// The model's kind: true for linear, false for multibody or no kind key.
-bool ReadKind(const YAML::Node& root, const std::string& source) {
-  if (!root.IsMap()) return false;
-  const YAML::Node kind = root[std::string(kKindKey)];
-  if (!kind) return false;
-  if (kind.IsScalar() && kind.Scalar() == kLinearKind) return true;
-  if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return false;
-  throw ModelError(source + ": " + std::string(kKindKey) + ": unknown kind '" +
-                   (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
-                   "' (expected " + std::string(kLinearKind) + " or " +
-                   std::string(kMultibodyKind) + ")");
 }
 
 // Same pattern and the same bits in every stored value.
@@ -160,23 +124,18 @@ SparseMatrix SumTerms(const std::vector<LinearModelTerm>& terms,
 
 }  // namespace
 
-// Fills a LinearModel from a model file, one checked step at a time (LinearModel names it as
-// its friend).
+// Fills a LinearModel from a parsed model file of `kind: linear`, one checked step at a time
+// (LinearModel names it as its friend). Matrix files are relative to the model file.
 class LinearModelBuilder {
  public:
-  LinearModelBuilder(const std::string& path, const std::string& yaml_text) {
-    model_.source_ = path;
-    directory_ = std::filesystem::path(path).parent_path();
-    hasher_.Add(yaml_text);
-    root_ = ParseYaml(yaml_text, path);
+  explicit LinearModelBuilder(const detail::ModelDocument& document)
+      : root_(document.root), directory_(std::filesystem::path(document.source).parent_path()) {
+    model_.source_ = document.source;
+    hasher_.Add(document.text);
   }
 
   LinearModel Build(const std::vector<ParameterOverride>& overrides) && {
     CheckTopLevelKeys();
-    if (!ReadKind(root_, model_.source_)) {
-      Fail(std::string(kKindKey), "expected " + std::string(kLinearKind) +
-                                      " (this is a multibody model; load it with LoadModel)");
-    }
     ReadName();
     ReadParameters();
     ApplyOverrides(overrides);
@@ -262,7 +221,6 @@ class LinearModelBuilder {
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
     detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
   }
-
 
   void MakeSymbols() {
     for (const std::string& name : model_.parameter_names_) {
@@ -482,14 +440,14 @@ LinearMatrices AssembleLinearMatrices(const LinearModel& model,
   return matrices;
 }
 
-bool IsLinearModelFile(const std::string& path) {
-  return ReadKind(ParseYaml(ReadModelFile(path), path), path);
+namespace detail {
+
+LinearModel BuildLinearModel(const ModelDocument& document,
+                             const std::vector<ParameterOverride>& overrides) {
+  return LinearModelBuilder(document).Build(overrides);
 }
 
-LinearModel LoadLinearModel(const std::string& path,
-                            const std::vector<ParameterOverride>& overrides) {
-  return LinearModelBuilder(path, ReadModelFile(path)).Build(overrides);
-}
+}  // namespace detail
 
 namespace {
 

@@ -94,15 +94,11 @@ struct LinearMatrices {
 LinearMatrices AssembleLinearMatrices(const LinearModel& model,
                                       const Eigen::Ref<const Eigen::VectorXd>& parameters);
 
-/// True if the YAML file at `path` says `kind: linear` (false for the nonlinear format, which
-/// has no `kind` key or `kind: multibody`). Throws ModelError if the file cannot be read or
-/// parsed as YAML, or names another kind.
-bool IsLinearModelFile(const std::string& path);
-
 /// Reads a linear model file and its Matrix Market files. Throws ModelError
 /// ("file: key: problem") for a bad file: missing key, unreadable or malformed .mtx (named),
 /// wrong shapes (M, D, K dof x dof; B dof x inputs; C outputs x dof; outputs == inputs),
-/// non-finite entries, unknown symbols in a factor. ParameterOverrideError for a bad override.
+/// non-finite entries, unknown symbols in a factor, a file of another kind. ParameterOverrideError
+/// for a bad override. (LoadModelFile, models/loaded_model.h, reads a file of either kind.)
 LinearModel LoadLinearModel(const std::string& path,
                             const std::vector<ParameterOverride>& overrides = {});
 

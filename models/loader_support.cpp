@@ -1,9 +1,13 @@
 #include "models/loader_support.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -145,8 +149,8 @@ class PowerChecker {
       return Term{};
     }
     if (!base.constant) return Symbolic(base, exponent);
-    Term result = Constant(std::pow(base.value, exponent.value),
-                           exponent.value * base.log10_magnitude);
+    Term result =
+        Constant(std::pow(base.value, exponent.value), exponent.value * base.log10_magnitude);
     Limit(result);
     return result;
   }
@@ -198,8 +202,7 @@ class PowerChecker {
   // outside what a double holds and costly for GiNaC to compute exactly.
   void Limit(const Term& term) {
     if (!Failed() && std::abs(term.log10_magnitude) > kMaxConstantDigits) {
-      problem_ = "number too large to compute (about 10^" + Number(term.log10_magnitude) +
-                 ")";
+      problem_ = "number too large to compute (about 10^" + Number(term.log10_magnitude) + ")";
     }
   }
 
@@ -286,7 +289,7 @@ std::optional<std::string> FindLexicalProblem(const std::string& text,
   bool after_operand = false;    // a '+' or '-' here is binary, else a sign
   bool expression_start = true;  // at the start, after '(' or ','; a sign may stand only here
   char previous = '\0';          // the last character that is not a blank
-  std::string called_function;  // the name just read, when '(' follows it
+  std::string called_function;   // the name just read, when '(' follows it
   const auto argument_problem = [](const Parenthesis& parenthesis) -> std::optional<std::string> {
     if (!parenthesis.argument_has_text) {
       return parenthesis.function.empty() ? "empty parentheses"
@@ -432,6 +435,46 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
     }
     parameters[static_cast<Eigen::Index>(found - parameter_names.begin())] = *value;
   }
+}
+
+ModelDocument ParseModelDocument(std::string yaml_text, std::string source) {
+  ModelDocument document{std::move(source), std::move(yaml_text), {}};
+  try {
+    document.root = YAML::Load(document.text);
+  } catch (const YAML::ParserException& error) {
+    // yaml-cpp counts lines and columns from 0; editors count from 1.
+    throw ModelError(document.source + ":" + std::to_string(error.mark.line + 1) + ":" +
+                     std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
+  }
+  return document;
+}
+
+ModelDocument ReadModelDocument(const std::string& path) {
+  errno = 0;  // so that the message gives the reason of this failure
+  std::ifstream file(path, std::ios::binary);
+  const auto fail = [&path] {
+    throw ModelError(path + ": cannot read the model file (" + std::strerror(errno) + ")");
+  };
+  if (!file) fail();
+  std::string text;
+  std::array<char, 4096> chunk;
+  while (file.read(chunk.data(), chunk.size()) || file.gcount() > 0) {
+    text.append(chunk.data(), static_cast<std::size_t>(file.gcount()));
+  }
+  if (file.bad()) fail();
+  return ParseModelDocument(std::move(text), path);
+}
+
+ModelKind ReadModelKind(const ModelDocument& document) {
+  if (!document.root.IsMap()) return ModelKind::kMultibody;
+  const YAML::Node kind = std::as_const(document.root)[std::string(kKindKey)];
+  if (!kind) return ModelKind::kMultibody;
+  if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return ModelKind::kMultibody;
+  if (kind.IsScalar() && kind.Scalar() == kLinearKind) return ModelKind::kLinear;
+  throw ModelError(document.source + ": " + std::string(kKindKey) + ": unknown kind '" +
+                   (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
+                   "' (expected " + std::string(kLinearKind) + " or " +
+                   std::string(kMultibodyKind) + ")");
 }
 
 }  // namespace servokit::detail

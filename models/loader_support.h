@@ -1,13 +1,14 @@
 #pragma once
-// What the two model-file readers share (models/model_loader.cpp for multibody models,
-// models/linear_model.cpp for `kind: linear`): the expression language of DESIGN.md ("The model
-// file"), the checks that keep GiNaC's parser from reading a mistake as something else, names,
-// and the content hash that sweep.json records. Internal to models/ (namespace detail).
+// What the model-file reader shares between the two kinds (models/loaded_model.cpp reads and
+// parses the file once and dispatches on `kind`; models/model_loader.cpp builds multibody
+// models, models/linear_model.cpp `kind: linear`): reading and parsing the file, the expression
+// language of DESIGN.md ("The model file"), the checks that keep GiNaC's parser from reading a
+// mistake as something else, names, and the content hash that sweep.json records. Internal to
+// models/ (namespace detail).
 #include <ginac/ginac.h>
+#include <yaml-cpp/yaml.h>
 
 #include <Eigen/Dense>
-#include <vector>
-
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -15,14 +16,47 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
-#include "models/model.h"  // ParameterOverride
+#include "models/linear_model.h"
+#include "models/loaded_model.h"
+#include "models/model.h"
 
 namespace servokit::detail {
 
+/// The `kind` key of a model file and its values (models/loaded_model.h).
+inline constexpr std::string_view kKindKey = "kind";
+inline constexpr std::string_view kMultibodyKind = "multibody";
+inline constexpr std::string_view kLinearKind = "linear";
+
+/// A model file read and parsed once: where it came from (the path as given, or the name given
+/// with YAML text; messages start with it), its bytes (for the content hash) and its YAML tree.
+struct ModelDocument {
+  std::string source;
+  std::string text;
+  YAML::Node root;
+};
+
+/// Parses `yaml_text`. Throws ModelError "source:line:column: bad YAML: ..." (counted from 1).
+ModelDocument ParseModelDocument(std::string yaml_text, std::string source);
+/// Reads and parses the file at `path`. Throws ModelError "path: cannot read the model file
+/// (reason)" when it cannot be read, and as ParseModelDocument.
+ModelDocument ReadModelDocument(const std::string& path);
+
+/// The document's kind: `kind` absent (or a top level that is no map, which the multibody
+/// reader reports) is multibody. Throws ModelError "source: kind: unknown kind 'x' (expected
+/// linear or multibody)" for any other value.
+ModelKind ReadModelKind(const ModelDocument& document);
+
+/// The readers of each kind, from a parsed document of that kind (models/model_loader.cpp and
+/// models/linear_model.cpp). Throw as LoadModel and LoadLinearModel do.
+Model BuildModel(const ModelDocument& document, const std::vector<ParameterOverride>& overrides);
+LinearModel BuildLinearModel(const ModelDocument& document,
+                             const std::vector<ParameterOverride>& overrides);
+
 /// DESIGN.md, "The model file": the functions an expression may call.
 inline constexpr std::array<std::string_view, 14> kModelFunctions = {
-    "sin", "cos", "tan", "asin", "acos", "atan", "atan2",
+    "sin", "cos", "tan",  "asin", "acos", "atan", "atan2",
     "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs"};
 /// How many arguments a function of kModelFunctions takes: 2 for atan2, else 1.
 constexpr std::size_t FunctionArity(std::string_view function) {
@@ -41,8 +75,7 @@ inline constexpr double kMaxConstantDigits = 10000;
 inline constexpr std::string_view kPiName = "pi";
 /// GiNaC's parser reads these as its own constants before it looks at the symbol table, so a
 /// parameter with one of these names would silently be replaced.
-inline constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler",
-                                                                    "Catalan"};
+inline constexpr std::array<std::string_view, 4> kParserLiterals = {"I", "Pi", "Euler", "Catalan"};
 
 /// How a number may be written, for messages about values.
 inline constexpr std::string_view kQuantityHint = "(use e.g. 5 or \"5 deg\")";
@@ -100,8 +133,7 @@ using NameCheck = std::function<std::optional<std::string>(const std::string& na
 /// exponent or a number computed from numbers beyond kMaxConstantExponent and
 /// kMaxConstantDigits. Catches what GiNaC's parser would report less clearly, read as
 /// something else, or crash on (issue #7's fuzzing: "cos()").
-std::optional<std::string> FindLexicalProblem(const std::string& text,
-                                              const NameCheck& check_name);
+std::optional<std::string> FindLexicalProblem(const std::string& text, const NameCheck& check_name);
 
 /// The first construct a parsed expression may not contain, or nullopt. The parser only builds
 /// what DESIGN.md allows from the names it is given, but GiNaC evaluates while it parses:

@@ -7,11 +7,8 @@
 #include <array>
 #include <bit>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#include <fstream>
 #include <map>
 #include <optional>
 #include <random>
@@ -36,10 +33,9 @@ constexpr std::array<std::string_view, 8> kRequiredKeys = {
     "name",        "parameters", "coordinates",  "inputs",
     "mass_matrix", "forces",     "input_matrix", "outputs"};
 constexpr std::string_view kDescriptionKey = "description";
-// Optional: the kind of model file. This reader reads `multibody` (the default); `linear`
-// files (models/linear_model.h) are read by LoadLinearModel.
-constexpr std::string_view kKindKey = "kind";
-constexpr std::string_view kMultibodyKind = "multibody";
+// Optional: the kind of model file, `multibody` here; models/loaded_model.cpp has read it and
+// dispatched on it already.
+using detail::kKindKey;
 
 using detail::Contains;
 using detail::FindUnsupported;
@@ -100,33 +96,16 @@ std::vector<GiNaC::ex> ColumnMajor(const std::vector<GiNaC::matrix>& blocks) {
   return entries;
 }
 
-std::string ReadFile(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) {
-    throw ModelError(path + ": cannot open the model file (" + std::strerror(errno) + ")");
-  }
-  std::string text;
-  std::array<char, 4096> chunk;
-  while (file.read(chunk.data(), chunk.size()) || file.gcount() > 0) {
-    text.append(chunk.data(), static_cast<std::size_t>(file.gcount()));
-  }
-  if (file.bad()) {
-    throw ModelError(path + ": cannot read the model file (" + std::strerror(errno) + ")");
-  }
-  return text;
-}
-
 }  // namespace
 
 // Fills a Model from YAML text, one checked step at a time (Model names it as its friend).
 class ModelBuilder {
  public:
-  ModelBuilder(const std::string& yaml_text, std::string source) {
-    model_.source_ = std::move(source);
+  explicit ModelBuilder(const detail::ModelDocument& document) : root_(document.root) {
+    model_.source_ = document.source;
     detail::ContentHasher hasher;
-    hasher.Add(yaml_text);
+    hasher.Add(document.text);
     model_.content_hash_ = hasher.Hex();
-    root_ = ParseYaml(yaml_text);
   }
 
   Model Build(const std::vector<ParameterOverride>& overrides) && {
@@ -162,8 +141,8 @@ class ModelBuilder {
     } catch (const std::exception& error) {
       // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
       // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
-      Fail("derivatives", std::string("cannot differentiate the model's expressions: ") +
-                              error.what());
+      Fail("derivatives",
+           std::string("cannot differentiate the model's expressions: ") + error.what());
     }
     return std::move(model_);
   }
@@ -174,16 +153,6 @@ class ModelBuilder {
 
   [[noreturn]] void Fail(const std::string& where, const std::string& problem) const {
     throw ModelError(model_.source_ + ": " + where + ": " + problem);
-  }
-
-  YAML::Node ParseYaml(const std::string& yaml_text) const {
-    try {
-      return YAML::Load(yaml_text);
-    } catch (const YAML::ParserException& error) {
-      // yaml-cpp counts lines and columns from 0; editors count from 1.
-      throw ModelError(model_.source_ + ":" + std::to_string(error.mark.line + 1) + ":" +
-                       std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
-    }
   }
 
   void CheckTopLevelKeys() const {
@@ -197,9 +166,7 @@ class ModelBuilder {
         Fail("top level", "keys must be plain names");
       }
       const std::string& key = entry.first.Scalar();
-      if (key == kKindKey) {
-        CheckKind(entry.second);
-      } else if (!Contains(kRequiredKeys, key) && key != kDescriptionKey) {
+      if (key != kKindKey && !Contains(kRequiredKeys, key) && key != kDescriptionKey) {
         Fail(key, "unknown key (expected " + Join(kRequiredKeys) + ", " +
                       std::string(kDescriptionKey) + " or " + std::string(kKindKey) + ")");
       }
@@ -213,18 +180,6 @@ class ModelBuilder {
         Fail(std::string(key), "missing required key");
       }
     }
-  }
-
-  void CheckKind(const YAML::Node& kind) const {
-    if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return;
-    if (kind.IsScalar() && kind.Scalar() == "linear") {
-      Fail(std::string(kKindKey),
-           "a linear model (Matrix Market matrices), which only the linear analysis and its "
-           "sweep read; this needs a multibody model");
-    }
-    Fail(std::string(kKindKey), "unknown kind '" +
-                                    (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
-                                    "' (expected " + std::string(kMultibodyKind) + " or linear)");
   }
 
   void ReadName() {
@@ -267,7 +222,6 @@ class ModelBuilder {
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
     detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
   }
-
 
   std::vector<std::string> ReadNameList(const std::string& key) const {
     const YAML::Node list = Entry(key);
@@ -580,14 +534,12 @@ class ModelBuilder {
   std::vector<GiNaC::realsymbol> parameter_symbols_, coordinate_symbols_, velocity_symbols_;
 };
 
-Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides) {
-  return LoadModelFromString(ReadFile(path), path, overrides);
+namespace detail {
+
+Model BuildModel(const ModelDocument& document, const std::vector<ParameterOverride>& overrides) {
+  return ModelBuilder(document).Build(overrides);
 }
 
-Model LoadModelFromString(const std::string& yaml_text,
-                          const std::string& source,
-                          const std::vector<ParameterOverride>& overrides) {
-  return ModelBuilder(yaml_text, source).Build(overrides);
-}
+}  // namespace detail
 
 }  // namespace servokit

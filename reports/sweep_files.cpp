@@ -17,7 +17,6 @@
 #include <system_error>
 #include <utility>
 
-#include "analysis/linear_sweep.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
@@ -314,21 +313,23 @@ std::string CsvQuote(const std::string& text) {
   return quoted + "\"";
 }
 
-SweepModelInfo DescribeSweepModel(const Model& model) {
-  return {model.name(), model.source(), model.content_hash(), model.parameter_names(),
-          model.parameters(), std::nullopt};
-}
-
-SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysisOptions& options) {
-  return {model.name(),       model.source(),       model.content_hash(), model.parameter_names(),
-          model.parameters(), options};
+SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options) {
+  SweepModelInfo info = std::visit(
+      [&](const auto& kind) {
+        return SweepModelInfo{kind.name(),         kind.source(),
+                              kind.content_hash(), kind.parameter_names(),
+                              kind.parameters(),   std::nullopt};
+      },
+      model.variant());
+  if (model.linear()) info.linear = options.linear;
+  return info;
 }
 
 std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
                              const ClassificationOptions& options) {
-  std::string text = std::string("servokit ") + SERVOKIT_VERSION + "; model " +
-                     model.content_hash + "; parameters";
+  std::string text = std::string("servokit ") + SERVOKIT_VERSION + "; model " + model.content_hash +
+                     "; parameters";
   for (std::size_t i = 0; i < model.parameter_names.size(); ++i) {
     text += (i == 0 ? " " : ",") + model.parameter_names[i] + "=" +
             FormatExact(model.parameters[static_cast<Eigen::Index>(i)]);

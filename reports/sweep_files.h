@@ -14,16 +14,15 @@
 // byte for byte, as those of an uninterrupted run. The checkpoint carries a fingerprint of
 // everything that decides the results (servokit version, model file hash, parameters, grid,
 // options); a directory holding another sweep is refused rather than mixed.
+#include <Eigen/Dense>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
-
-#include <Eigen/Dense>
-#include <optional>
 
 #include "analysis/linear_analysis.h"
 #include "analysis/options.h"
@@ -31,6 +30,7 @@
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
 #include "models/linear_model.h"
+#include "models/loaded_model.h"
 #include "models/model.h"
 
 namespace servokit {
@@ -63,7 +63,8 @@ std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
 /// relative_degree of several outputs is joined with ';'; relative_degree,
 /// differentiation_index and internal_dynamics_order are empty when the internal order is
 /// negative (not determined: a linear model, LinearRelativeDegrees::determined false);
-/// max_real_part is empty when there are no eigenvalues; k numbers a point's eigenvalues from 0 in SweepPoint order.
+/// max_real_part is empty when there are no eigenvalues; k numbers a point's eigenvalues from 0 in
+/// SweepPoint order.
 void AppendCsvRows(const ParameterGrid& grid,
                    std::size_t first,
                    std::span<const SweepPoint> points,
@@ -100,8 +101,8 @@ struct SweepModelInfo {
   // Set for a linear model: the analysis of each point (eigenvalue count, shift, solver, ...).
   std::optional<LinearAnalysisOptions> linear;
 };
-SweepModelInfo DescribeSweepModel(const Model& model);
-SweepModelInfo DescribeSweepModel(const LinearModel& model, const LinearAnalysisOptions& options);
+/// `options.linear` is recorded for a linear model only.
+SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options);
 
 /// One line naming everything that decides a sweep's files: servokit version, model file hash,
 /// every parameter value, the grid and the classification options. Two sweeps with the same

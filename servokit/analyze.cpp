@@ -3,9 +3,10 @@
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
 #include "analysis/linear_zero_dynamics.h"
+#include "analysis/sweep_point.h"
 #include "models/option_check.h"
 #include "reports/classification_report.h"
-#include "servokit/loaded_model.h"
+#include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
 namespace {
@@ -22,16 +23,9 @@ ZeroDynamics ToZeroDynamics(const ZeroDynamicsResult& result) {
   return zero_dynamics;
 }
 
-Analysis AnalyzeMultibody(const servokit::Model& model, const AnalyzeOptions& options) {
-  const ClassificationOptions classification_options = ToClassificationOptions(options);
-  Workspace workspace(model);
-  Classification classification = Classify(model, workspace, classification_options);
-  if (options.nonlinear_structure) {
-    NonlinearStructureOptions structure_options;
-    structure_options.rank_tolerance = classification_options.rank_tolerance;
-    structure_options.reference_q = classification.operating_point.q;
-    classification.nonlinear_structure = SummarizeNonlinearStructure(model, structure_options);
-  }
+Analysis FromClassification(const servokit::Model& model,
+                             const Classification& classification,
+                             const ClassificationOptions& options) {
   Analysis analysis;
   analysis.q = classification.operating_point.q;
   analysis.u = classification.operating_point.u;
@@ -46,20 +40,16 @@ Analysis AnalyzeMultibody(const servokit::Model& model, const AnalyzeOptions& op
   analysis.flat = classification.flat;
   analysis.zero_dynamics = ToZeroDynamics(classification.zero_dynamics);
   analysis.recommended_solver = std::string(ToString(classification.recommended_solver));
-  analysis.text =
-      FormatClassification(model, classification, classification_options, ReportFormat::kText);
-  analysis.json =
-      FormatClassification(model, classification, classification_options, ReportFormat::kJson);
-  analysis.markdown = FormatClassification(model, classification, classification_options,
-                                           ReportFormat::kMarkdown);
+  analysis.text = FormatClassification(model, classification, options, ReportFormat::kText);
+  analysis.json = FormatClassification(model, classification, options, ReportFormat::kJson);
+  analysis.markdown =
+      FormatClassification(model, classification, options, ReportFormat::kMarkdown);
   return analysis;
 }
 
-Analysis AnalyzeLinear(const LinearModel& model, const AnalyzeOptions& options) {
-  const LinearAnalysisOptions linear_options = ToLinearAnalysisOptions(options);
-  const LinearSystem system = AssembleLinearSystem(model, model.parameters());
-  LinearZeroDynamicsWorkspace workspace;
-  const LinearAnalysis result = AnalyzeLinearSystem(system, workspace, linear_options);
+Analysis FromLinearAnalysis(const LinearModel& model,
+                            const LinearAnalysis& result,
+                            const LinearAnalysisOptions& options) {
   Analysis analysis;
   analysis.q = Eigen::VectorXd::Zero(Eigen::Index(model.dof()));
   analysis.u = Eigen::VectorXd::Zero(Eigen::Index(model.num_inputs()));
@@ -78,10 +68,9 @@ Analysis AnalyzeLinear(const LinearModel& model, const AnalyzeOptions& options) 
   analysis.flat = result.flat;
   analysis.zero_dynamics = ToZeroDynamics(result.zero_dynamics);
   analysis.recommended_solver = std::string(ToString(result.recommended_solver));
-  analysis.text = FormatLinearAnalysis(model, result, linear_options, ReportFormat::kText);
-  analysis.json = FormatLinearAnalysis(model, result, linear_options, ReportFormat::kJson);
-  analysis.markdown =
-      FormatLinearAnalysis(model, result, linear_options, ReportFormat::kMarkdown);
+  analysis.text = FormatLinearAnalysis(model, result, options, ReportFormat::kText);
+  analysis.json = FormatLinearAnalysis(model, result, options, ReportFormat::kJson);
+  analysis.markdown = FormatLinearAnalysis(model, result, options, ReportFormat::kMarkdown);
   return analysis;
 }
 
@@ -119,11 +108,28 @@ LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options) {
   return linear;
 }
 
-Analysis Analyze(const Model& model, const AnalyzeOptions& options) {
-  if (const auto* multibody = std::get_if<servokit::Model>(&Unwrap(model).model)) {
-    return AnalyzeMultibody(*multibody, options);
+AnalysisOptions ToAnalysisOptions(const Model& model, const AnalyzeOptions& options) {
+  AnalysisOptions analysis;
+  if (model.kind() == ModelKind::kLinear) {
+    analysis.linear = ToLinearAnalysisOptions(options);
+  } else {
+    analysis.classification = ToClassificationOptions(options);
   }
-  return AnalyzeLinear(std::get<LinearModel>(Unwrap(model).model), options);
+  return analysis;
+}
+
+Analysis Analyze(const Model& model, const AnalyzeOptions& options) {
+  const LoadedModel& loaded = Unwrap(model);
+  const AnalysisOptions analysis_options = ToAnalysisOptions(model, options);
+  PointWorkspace workspace(loaded);
+  ModelAnalysis analysis = AnalyzePoint(loaded, workspace, analysis_options);
+  if (auto* classification = std::get_if<Classification>(&analysis)) {
+    if (options.nonlinear_structure) DeriveNonlinearStructure(*loaded.multibody(), *classification);
+    return FromClassification(*loaded.multibody(), *classification,
+                              analysis_options.classification);
+  }
+  return FromLinearAnalysis(*loaded.linear(), std::get<LinearAnalysis>(analysis),
+                            analysis_options.linear);
 }
 
 }  // namespace servokit::api

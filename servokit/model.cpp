@@ -2,7 +2,7 @@
 #include <memory>
 
 #include "models/errors.h"
-#include "servokit/loaded_model.h"
+#include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
 namespace {
@@ -15,43 +15,35 @@ std::vector<ParameterOverride> ToOverrides(const ParameterValues& values) {
 
 template <typename Visitor>
 decltype(auto) Visit(const Model& model, Visitor visitor) {
-  return std::visit(visitor, Unwrap(model).model);
+  return std::visit(visitor, Unwrap(model).variant());
 }
 
 }  // namespace
 
-const Model::Loaded& Unwrap(const Model& model) { return *model.loaded_; }
+const LoadedModel& Unwrap(const Model& model) { return model.loaded_->model; }
 
-const servokit::Model& MultibodyModel(const Model& model, const char* what) {
-  const auto* multibody = std::get_if<servokit::Model>(&Unwrap(model).model);
+const servokit::Model& MultibodyModel(const Model& model, const char* operation) {
+  const servokit::Model* multibody = Unwrap(model).multibody();
   if (multibody == nullptr) {
-    throw UsageError(std::string(what) + ": " + model.source() +
+    throw UsageError(std::string(operation) + ": " + model.source() +
                      " is a linear model (`kind: linear`); this applies to multibody models only");
   }
   return *multibody;
 }
 
 Model Model::FromFile(const std::string& path, const ParameterValues& overrides) {
-  auto loaded = std::make_shared<Loaded>();
-  if (IsLinearModelFile(path)) {
-    loaded->model = LoadLinearModel(path, ToOverrides(overrides));
-  } else {
-    loaded->model = LoadModel(path, ToOverrides(overrides));
-  }
-  return Model(std::move(loaded));
+  return Model(std::make_shared<const Loaded>(Loaded{LoadModelFile(path, ToOverrides(overrides))}));
 }
 
 Model Model::FromString(const std::string& yaml,
                         const std::string& source,
                         const ParameterValues& overrides) {
-  auto loaded = std::make_shared<Loaded>();
-  loaded->model = LoadModelFromString(yaml, source, ToOverrides(overrides));
-  return Model(std::move(loaded));
+  return Model(std::make_shared<const Loaded>(
+      Loaded{LoadModelText(yaml, source, ToOverrides(overrides))}));
 }
 
 ModelKind Model::kind() const {
-  return std::holds_alternative<servokit::Model>(loaded_->model) ? ModelKind::kMultibody
-                                                                 : ModelKind::kLinear;
+  return Unwrap(*this).linear() ? ModelKind::kLinear : ModelKind::kMultibody;
 }
 const std::string& Model::name() const {
   return Visit(*this, [](const auto& model) -> const std::string& { return model.name(); });

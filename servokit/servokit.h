@@ -44,8 +44,8 @@ class Model {
   /// Reads a model file (YAML; DESIGN.md "The model file", or `kind: linear`). Throws ModelError
   /// naming the file, key and entry of a bad file, UsageError for a bad override.
   static Model FromFile(const std::string& path, const ParameterValues& overrides = {});
-  /// The same from YAML text; `source` names it in error messages. A linear model's matrix
-  /// files are found relative to the current directory.
+  /// The same from YAML text; `source` names it in error messages, and a linear model's matrix
+  /// files are found relative to its directory.
   static Model FromString(const std::string& yaml,
                           const std::string& source = "<string>",
                           const ParameterValues& overrides = {});
@@ -144,7 +144,7 @@ struct SweepAxis {
 
 struct SweepOptions {
   AnalyzeOptions analysis;  // nonlinear_structure is not used: a sweep classifies only
-  int threads = 1;          // 0: all cores; the results do not depend on it
+  int threads = 0;          // 0: all cores; the results do not depend on it
 };
 
 /// One point of a sweep: the class columns of `servokit sweep`'s points.csv.

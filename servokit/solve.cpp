@@ -6,7 +6,7 @@
 #include "models/errors.h"
 #include "models/option_check.h"
 #include "reports/solve_files.h"
-#include "servokit/loaded_model.h"
+#include "servokit/toolkit_bridge.h"
 #include "solvers/inverse_model.h"
 #include "solvers/trajectory.h"
 #include "solvers/verification.h"

@@ -1,54 +1,41 @@
 // api::Sweep and api::SweepToFiles: the classification over a grid of parameter values, for
 // either kind of model, in memory or as the tables of `servokit sweep`.
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
-#include "analysis/linear_sweep.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "models/errors.h"
 #include "models/option_check.h"
 #include "reports/sweep_files.h"
-#include "servokit/loaded_model.h"
+#include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
 namespace {
 
 ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
   std::vector<GridAxis> grid_axes;
-  const std::vector<std::string>& names = model.parameter_names();
   for (const SweepAxis& axis : axes) {
-    const auto found = std::find(names.begin(), names.end(), axis.parameter);
-    RequireOption(found != names.end(), "SweepAxis", "parameter", axis.parameter,
-                  "the model " + model.name() + " has no such parameter");
     RequireOption(!axis.values.empty(), "SweepAxis", "values", axis.parameter,
                   "must hold at least one value");
     GridAxis grid_axis;
     grid_axis.name = axis.parameter;
-    grid_axis.parameter = std::size_t(found - names.begin());
+    grid_axis.parameter = ParameterIndex(model.parameter_names(), axis.parameter);
     grid_axis.values = axis.values;
     grid_axes.push_back(std::move(grid_axis));
   }
   return ParameterGrid(std::move(grid_axes));
 }
 
-// Runs the sweep of either kind of model block by block into `consume`.
-void RunAnySweep(const Model& model,
-                 const ParameterGrid& grid,
-                 const SweepOptions& options,
-                 const SweepConsumer& consume) {
-  if (const auto* multibody = std::get_if<servokit::Model>(&Unwrap(model).model)) {
-    servokit::SweepOptions sweep_options;
-    sweep_options.classification = ToClassificationOptions(options.analysis);
-    sweep_options.threads = options.threads;
-    RunSweep(*multibody, grid, sweep_options, 0, consume);
-    return;
-  }
-  LinearSweepOptions linear_options;
-  linear_options.analysis = ToLinearAnalysisOptions(options.analysis);
-  linear_options.threads = options.threads;
-  RunLinearSweep(std::get<LinearModel>(Unwrap(model).model), grid, linear_options, 0, consume);
+// Runs the sweep block by block into `consume`: the toolkit's one sweep engine, either kind.
+void RunModelSweep(const Model& model,
+                   const ParameterGrid& grid,
+                   const SweepOptions& options,
+                   const SweepConsumer& consume) {
+  servokit::SweepOptions sweep_options;
+  static_cast<AnalysisOptions&>(sweep_options) = ToAnalysisOptions(model, options.analysis);
+  sweep_options.threads = options.threads;
+  RunSweep(Unwrap(model), grid, sweep_options, 0, consume);
 }
 
 SweepPoint ToSweepPoint(const ParameterGrid& grid,
@@ -78,7 +65,7 @@ std::vector<SweepPoint> Sweep(const Model& model,
   const ParameterGrid grid = ToGrid(model, axes);
   std::vector<SweepPoint> points;
   points.reserve(grid.num_points());
-  RunAnySweep(model, grid, options,
+  RunModelSweep(model, grid, options,
               [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
                 for (std::size_t i = 0; i < block.size(); ++i) {
                   points.push_back(ToSweepPoint(grid, first + i, block[i]));
@@ -106,7 +93,7 @@ std::size_t SweepToFiles(const Model& model,
   eigenvalues_file << EigenvaluesCsvHeader(grid);
   std::string points_csv, eigenvalues_csv;
   std::size_t count = 0;
-  RunAnySweep(model, grid, options,
+  RunModelSweep(model, grid, options,
               [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
                 points_csv.clear();
                 eigenvalues_csv.clear();

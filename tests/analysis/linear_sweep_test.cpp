@@ -1,12 +1,10 @@
-// Sweeps of a linear model (analysis/linear_sweep.h) against the chain's closed form, and the
+// Sweeps of a linear model (analysis/sweep.h) against the chain's closed form, and the
 // reuse of the sparsity pattern: one pattern analysis per thread, not per point.
 //
 // Chain (GenerateChain): N masses, force and output at mass 1, M = m I, K = k T, D = d T. The
 // zero dynamics are the chain beyond mass 1 held at rest (N' = N - 1 masses, fixed-free), so
 // the zeros are the roots of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))),
 // i = 1..N': 2N' zeros (DESIGN.md / README "Large linear models").
-#include "analysis/linear_sweep.h"
-
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
@@ -14,10 +12,13 @@
 #include <filesystem>
 #include <numbers>
 #include <string>
+#include <variant>
 #include <vector>
 
+#include "analysis/sweep.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
+#include "tests/analysis/grid_helpers.h"
 #include "tests/chain_closed_form.h"
 
 namespace servokit {
@@ -51,18 +52,18 @@ struct Collected {
   std::vector<std::size_t> firsts;
 };
 
-Collected Sweep(const LinearModel& model,
+Collected Sweep(const LoadedModel& model,
                 const ParameterGrid& grid,
-                const LinearSweepOptions& options,
-                LinearSweepWorkspaces& workspaces) {
+                const SweepOptions& options,
+                SweepWorkspaces& workspaces) {
   Collected collected;
   const std::size_t done =
-      RunLinearSweep(model, grid, options, 0, workspaces,
-                     [&](std::size_t first, std::span<const SweepPoint> block) {
-                       collected.firsts.push_back(first);
-                       collected.points.insert(collected.points.end(), block.begin(), block.end());
-                       return true;
-                     });
+      RunSweep(model, grid, options, 0, workspaces,
+               [&](std::size_t first, std::span<const SweepPoint> block) {
+                 collected.firsts.push_back(first);
+                 collected.points.insert(collected.points.end(), block.begin(), block.end());
+                 return true;
+               });
   REQUIRE(done == grid.num_points());
   return collected;
 }
@@ -73,13 +74,15 @@ TEST_CASE("linear sweep: every zero of a 30-mass chain at each damping (dense ro
           "[linear_sweep]") {
   const long masses = 30;
   const LinearModel model = Chain(masses);
-  const ParameterGrid grid = ParseLinearParameterGrid(model, {"d=0.01:0.1:5"});
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.01, 0.1, 5)});
   REQUIRE(grid.num_points() == 5);
-  LinearSweepOptions options;
+  SweepOptions options;
   options.threads = 1;
   options.block_size = 2;  // several blocks, one workspace across them
-  LinearSweepWorkspaces workspaces(1);
-  const Collected result = Sweep(model, grid, options, workspaces);
+  const LoadedModel loaded(model);
+  SweepWorkspaces workspaces(loaded, 1);
+  const Collected result = Sweep(loaded, grid, options, workspaces);
   REQUIRE(result.points.size() == 5);
   CHECK(result.firsts == std::vector<std::size_t>{0, 2, 4});
   for (std::size_t p = 0; p < 5; ++p) {
@@ -113,13 +116,15 @@ TEST_CASE(
     "[linear_sweep]") {
   const long masses = 2000;
   const LinearModel model = Chain(masses);
-  const ParameterGrid grid = ParseLinearParameterGrid(model, {"d=0.01:0.1:6"});
-  LinearSweepOptions options;
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.01, 0.1, 6)});
+  SweepOptions options;
   options.threads = 2;
   options.block_size = 3;
-  options.analysis.zero_dynamics.arpack.eigenvalues = 6;
-  LinearSweepWorkspaces workspaces(2);
-  const Collected result = Sweep(model, grid, options, workspaces);
+  options.linear.zero_dynamics.arpack.eigenvalues = 6;
+  const LoadedModel loaded(model);
+  SweepWorkspaces workspaces(loaded, 2);
+  const Collected result = Sweep(loaded, grid, options, workspaces);
   REQUIRE(result.points.size() == 6);
   for (std::size_t p = 0; p < 6; ++p) {
     const double d = p == 5 ? 0.1 : 0.01 + static_cast<double>(p) * (0.1 - 0.01) / 5.0;
@@ -145,11 +150,31 @@ TEST_CASE(
   CHECK(total <= 2);
 }
 
-TEST_CASE("linear sweep: a bad --vary is a usage error", "[linear_sweep]") {
+TEST_CASE("AnalyzePoint analyses a linear model; a factor not finite is a recorded failure",
+          "[linear_sweep]") {
+  const long masses = 12;
+  const LoadedModel model(Chain(masses));
+  PointWorkspace workspace(model);
+  const auto d = static_cast<Eigen::Index>(ParameterIndex(model.parameter_names(), "d"));
+  const ModelAnalysis analysis = AnalyzePoint(model, workspace, {});
+  const auto* linear = std::get_if<LinearAnalysis>(&analysis);
+  REQUIRE(linear != nullptr);
+  const auto expected = testing::ChainZeros(masses, 1, kMass, kStiffness, model.parameters()[d]);
+  REQUIRE(linear->zero_dynamics.eigenvalues.size() == expected.size());
+  for (const auto& zero : linear->zero_dynamics.eigenvalues) {
+    CHECK(DistanceToNearest(zero, expected) / std::abs(zero) < 1e-9);  // dense QZ round-off
+  }
+  workspace.parameters()[d] = INFINITY;  // the damping factor d is then not finite
+  const SweepPoint point = AnalyzeSweepPoint(model, workspace, {});
+  CHECK_FALSE(point.ok);
+  CHECK_THAT(point.error, Catch::Contains("= inf at these parameter values"));
+}
+
+TEST_CASE("linear sweep: an unknown parameter is a usage error naming the known ones",
+          "[linear_sweep]") {
   const LinearModel model = Chain(3);
-  CHECK_THROWS_WITH(ParseLinearParameterGrid(model, {"q=1:2:3"}),
+  CHECK_THROWS_WITH(ParameterIndex(model.parameter_names(), "q"),
                     Catch::Contains("unknown parameter 'q'") && Catch::Contains("d"));
-  CHECK_THROWS_WITH(ParseLinearParameterGrid(model, {"d=1:2:0"}), Catch::Contains("at least 1"));
 }
 
 }  // namespace servokit

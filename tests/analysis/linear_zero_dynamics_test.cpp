@@ -200,6 +200,34 @@ BeamOptions UndampedBeam(long elements) {
 
 }  // namespace
 
+// s^2 + 4 s + 13 = 0 has the roots -2 +- 3i, |lambda| = sqrt(13): one mode of sqrt(13) / (2 pi)
+// Hz and damping ratio 2 / sqrt(13); with a root at -1 (carrying an imaginary round-off part of
+// 1e-14, far below the tolerance 1e-9 * sqrt(13)) all three are in the left half plane.
+TEST_CASE("the finishing step cleans, sorts and classifies the zeros of either route",
+          "[analysis]") {
+  ZeroDynamicsSpectrum spectrum;
+  spectrum.eigenvalues = {{-2.0, -3.0}, {-1.0, 1e-14}, {-2.0, 3.0}};
+  FinishZeroDynamics(spectrum, 1e-9);
+  REQUIRE(spectrum.eigenvalues.size() == 3);
+  CHECK(spectrum.eigenvalues[0] == std::complex<double>(-1.0, 0.0));  // imaginary part cleaned
+  CHECK(spectrum.eigenvalues[1] == std::complex<double>(-2.0, 3.0));  // upper member first
+  CHECK(spectrum.eigenvalues[2] == std::complex<double>(-2.0, -3.0));
+  CHECK(spectrum.stability == Stability::kAsymptoticallyStable);
+  CHECK(spectrum.minimum_phase);
+  REQUIRE(spectrum.modes.size() == 1);
+  // Built from the exact roots; round-off of |lambda| only.
+  CHECK(spectrum.modes[0].frequency_hz == Approx(std::sqrt(13.0) / (2 * std::numbers::pi)));
+  CHECK(spectrum.modes[0].damping_ratio == Approx(2.0 / std::sqrt(13.0)));
+
+  ZeroDynamicsSpectrum unstable;
+  unstable.eigenvalues = {{-1.0, 0.0}, {0.5, 0.0}};
+  FinishZeroDynamics(unstable, 1e-9);
+  CHECK(unstable.eigenvalues.front() == std::complex<double>(0.5, 0.0));
+  CHECK(unstable.stability == Stability::kUnstable);
+  CHECK_FALSE(unstable.minimum_phase);
+  CHECK(unstable.modes.empty());
+}
+
 TEST_CASE("default linear zero-dynamics and ARPACK options are valid", "[analysis]") {
   CHECK_NOTHROW(LinearZeroDynamicsOptions{}.Validate());
   CHECK_NOTHROW(ArpackOptions{}.Validate());

@@ -8,7 +8,9 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <numbers>
+#include <variant>
 
+#include "models/loaded_model.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -86,6 +88,28 @@ TEST_CASE("the fast path of a model with a constant push falls back to the gener
   const SweepPoint point = AnalyzeSweepPoint(model, workspace, {}, SweepPath::kFast);
   CHECK_FALSE(point.ok);
   CHECK_THAT(point.error, Catch::Contains("no equilibrium"));
+}
+
+// Mass on car at alpha = 90 deg (paper Eq. 36 with y_d = 0): m2 s'' + d s' + k s = 0 with the
+// file's m2 = 2, d = 1, k = 5, so s = (-1 +- i sqrt(39)) / 4.
+TEST_CASE("AnalyzePoint classifies a multibody model, and its sweep point agrees", "[analysis]") {
+  const LoadedModel model = LoadModelFile(ModelPath("mass_on_car.yaml"), {{"alpha", "90 deg"}});
+  PointWorkspace workspace(model);
+  const ModelAnalysis analysis = AnalyzePoint(model, workspace, {});
+  const auto* classification = std::get_if<Classification>(&analysis);
+  REQUIRE(classification != nullptr);
+  const std::complex<double> zero(-0.25, std::sqrt(39.0) / 4);
+  const std::vector<std::complex<double>>& eigenvalues = classification->zero_dynamics.eigenvalues;
+  REQUIRE(eigenvalues.size() == 2);
+  // Eigenvalues of a 2 x 2 matrix: round-off of its entries.
+  CHECK(std::abs(eigenvalues[0] - zero) < 1e-12);
+  CHECK(std::abs(eigenvalues[1] - std::conj(zero)) < 1e-12);
+  CHECK(classification->decoupling.realization == Realization::kIdealOrthogonal);
+  const SweepPoint point = AnalyzeSweepPoint(model, workspace, {});
+  REQUIRE(point.ok);
+  REQUIRE(point.eigenvalues.size() == 2);
+  CHECK(std::abs(point.eigenvalues[0] - zero) < 1e-12);
+  CHECK(point.max_real_part == Approx(-0.25));
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 
 #include "models/errors.h"
 #include "tests/analysis/classify_helpers.h"
+#include "tests/analysis/grid_helpers.h"
 
 namespace servokit {
 namespace {
@@ -40,12 +41,13 @@ Collected Sweep(const Model& model,
                 const SweepOptions& options = {},
                 std::size_t first_point = 0) {
   Collected collected;
-  const std::size_t end = RunSweep(
-      model, grid, options, first_point, [&](std::size_t first, std::span<const SweepPoint> block) {
-        collected.firsts.push_back(first);
-        collected.points.insert(collected.points.end(), block.begin(), block.end());
-        return true;
-      });
+  const std::size_t end =
+      RunSweep(LoadedModel(model), grid, options, first_point,
+               [&](std::size_t first, std::span<const SweepPoint> block) {
+                 collected.firsts.push_back(first);
+                 collected.points.insert(collected.points.end(), block.begin(), block.end());
+                 return true;
+               });
   CHECK(end == grid.num_points());
   return collected;
 }
@@ -87,7 +89,9 @@ std::vector<std::complex<double>> MassOnCarZeros(double alpha, double d) {
 TEST_CASE("a sweep of the mass on car over alpha and d agrees with the closed forms",
           "[analysis][paper]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"alpha=0deg:90deg:7", "d=0:2:5"});
+  const ParameterGrid grid = ParameterGrid(std::vector<GridAxis>{
+      testing::RangeAxis(model.parameter_names(), "alpha", 0.0, std::numbers::pi / 2, 7),
+      testing::RangeAxis(model.parameter_names(), "d", 0.0, 2.0, 5)});
   const Collected sweep = Sweep(model, grid);
   REQUIRE(sweep.points.size() == 35);
   std::vector<double> values(2);
@@ -124,7 +128,9 @@ TEST_CASE("a sweep of the mass on car over alpha and d agrees with the closed fo
 
 TEST_CASE("the points do not depend on the number of threads or the block size", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"alpha=0deg:90deg:40", "d=0:2:30"});
+  const ParameterGrid grid = ParameterGrid(std::vector<GridAxis>{
+      testing::RangeAxis(model.parameter_names(), "alpha", 0.0, std::numbers::pi / 2, 40),
+      testing::RangeAxis(model.parameter_names(), "d", 0.0, 2.0, 30)});
   SweepOptions one_thread;
   one_thread.threads = 1;
   SweepOptions two_threads_small_blocks;
@@ -137,7 +143,10 @@ TEST_CASE("the points do not depend on the number of threads or the block size",
 TEST_CASE("blocks come in index order and a sweep started at point K is the tail of a full one",
           "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"alpha=1deg:89deg:10", "d=0.5,1,2"});
+  const ParameterGrid grid = ParameterGrid(std::vector<GridAxis>{
+      testing::RangeAxis(model.parameter_names(), "alpha", std::numbers::pi / 180,
+                         89 * std::numbers::pi / 180, 10),
+      testing::ListAxis(model.parameter_names(), "d", {0.5, 1, 2})});
   SweepOptions options;
   options.threads = 2;
   options.block_size = 4;
@@ -151,12 +160,13 @@ TEST_CASE("blocks come in index order and a sweep started at point K is the tail
 
 TEST_CASE("a consumer that returns false stops the sweep after its block", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"d=0:1:100"});
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.0, 1.0, 100)});
   SweepOptions options;
   options.block_size = 8;
   int calls = 0;
   const std::size_t end =
-      RunSweep(model, grid, options, 0,
+      RunSweep(LoadedModel(model), grid, options, 0,
                [&](std::size_t, std::span<const SweepPoint>) { return ++calls < 2; });
   CHECK(calls == 2);
   CHECK(end == 16);
@@ -165,7 +175,8 @@ TEST_CASE("a consumer that returns false stops the sweep after its block", "[ana
 TEST_CASE("a point without a solution is recorded with its message and the sweep goes on",
           "[analysis]") {
   const Model model = LoadModel(TestDataPath("no_equilibrium.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"a=-1,1,-4"});
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::ListAxis(model.parameter_names(), "a", {-1, 1, -4})});
   SweepOptions options;
   // Newton's Jacobian is singular at z = 0 (d(z^2)/dz = 0): start beside it.
   options.classification.operating_point.q_guess = Eigen::Vector2d(0.0, 0.5);
@@ -185,25 +196,27 @@ TEST_CASE("a point without a solution is recorded with its message and the sweep
 
 TEST_CASE("bad sweep options are refused before any point is evaluated", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"d=0:1:3"});
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.0, 1.0, 3)});
   const auto never = [](std::size_t, std::span<const SweepPoint>) -> bool {
     FAIL("no block expected");
     return false;
   };
   SweepOptions negative_threads;
   negative_threads.threads = -1;
-  CHECK_THROWS_MATCHES(RunSweep(model, grid, negative_threads, 0, never), UsageError,
+  CHECK_THROWS_MATCHES(RunSweep(LoadedModel(model), grid, negative_threads, 0, never), UsageError,
                        Catch::Message("SweepOptions::threads = -1: must be >= 0 (0: all cores)"));
   SweepOptions empty_blocks;
   empty_blocks.block_size = 0;
-  CHECK_THROWS_MATCHES(RunSweep(model, grid, empty_blocks, 0, never), UsageError,
+  CHECK_THROWS_MATCHES(RunSweep(LoadedModel(model), grid, empty_blocks, 0, never), UsageError,
                        Catch::Message("SweepOptions::block_size = 0: must be >= 1"));
 }
 
 TEST_CASE("an exception from the consumer or a loop body reaches the caller", "[analysis]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
-  const ParameterGrid grid = ParseParameterGrid(model, {"d=0:1:3"});
-  CHECK_THROWS_MATCHES(RunSweep(model, grid, {}, 0,
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.0, 1.0, 3)});
+  CHECK_THROWS_MATCHES(RunSweep(LoadedModel(model), grid, {}, 0,
                                 [](std::size_t, std::span<const SweepPoint>) -> bool {
                                   throw std::runtime_error("disk full");
                                 }),

@@ -1,4 +1,4 @@
-// `servokit sweep` on a large linear model (`kind: linear`, analysis/linear_sweep.h): the real
+// `servokit sweep` on a large linear model (`kind: linear`, analysis/sweep.h): the real
 // binary on a chain written by `servokit generate chain`, its eigenvalues.csv against the closed
 // form at every swept damping, and the same bytes whatever the threads, with or without mpirun,
 // interrupted and resumed.

@@ -9,6 +9,7 @@
 
 #include "models/errors.h"
 #include "models/linear_model.h"
+#include "models/loaded_model.h"
 #include "models/matrix_market.h"
 #include "models/model.h"
 
@@ -64,13 +65,13 @@ void EvaluateOnce(const Model& model) {
 void ReadModelFile(std::string_view bytes) {
   static const WorkDirectory directory;
   const std::string path = directory.Write(bytes);
-  // The same dispatch as `servokit analyze` (application/analyze_command.cpp).
-  if (IsLinearModelFile(path)) {
-    const LinearModel model = LoadLinearModel(path);
-    AssembleLinearMatrices(model, model.parameters());
+  // The same reader as `servokit analyze` (application/analyze_command.cpp).
+  const LoadedModel model = LoadModelFile(path);
+  if (const LinearModel* linear = model.linear()) {
+    AssembleLinearMatrices(*linear, linear->parameters());
     return;
   }
-  EvaluateOnce(LoadModelFromString(std::string(bytes), path));
+  EvaluateOnce(*model.multibody());
 }
 
 void ReadExpression(std::string_view bytes) {
@@ -86,14 +87,15 @@ void ReadExpression(std::string_view bytes) {
       "coordinates: [x, s]\n"
       "inputs: [F]\n"
       "mass_matrix: [[m + 1, m*cos(alpha)], [m*cos(alpha), m]]\n"
-      "forces: [0, '" + quoted + "']\n"
+      "forces: [0, '" +
+      quoted +
+      "']\n"
       "input_matrix: [[1], [0]]\n"
-      "outputs: ['x + " + quoted + "']\n";
+      "outputs: ['x + " +
+      quoted + "']\n";
   EvaluateOnce(LoadModelFromString(text, "fuzz.yaml"));
 }
 
-void ReadMatrixMarket(std::string_view bytes) {
-  ParseMatrixMarket(bytes, "fuzz.mtx");
-}
+void ReadMatrixMarket(std::string_view bytes) { ParseMatrixMarket(bytes, "fuzz.mtx"); }
 
 }  // namespace servokit::fuzz

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "models/errors.h"
+#include "models/loaded_model.h"
 #include "models/matrix_market.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"
@@ -26,8 +27,8 @@
 namespace servokit {
 namespace {
 
-using testing::TemporaryDirectory;
 using testing::ReadFile;
+using testing::TemporaryDirectory;
 
 namespace fs = std::filesystem;
 using testing::ModelPath;
@@ -156,13 +157,36 @@ TEST_CASE("the content hash covers the model file and every matrix file", "[mode
   CHECK(LoadLinearModel(directory / "tiny.yaml").content_hash() != changed_matrix);
 }
 
-TEST_CASE("IsLinearModelFile tells the two formats apart and rejects unknown kinds", "[models]") {
-  CHECK(IsLinearModelFile(LinearData("tiny.yaml")));
-  CHECK_FALSE(IsLinearModelFile(ModelPath("mass_on_car.yaml")));
-  CHECK_FALSE(IsLinearModelFile(LinearData("multibody.yaml")));
-  CHECK_THROWS_WITH(IsLinearModelFile(LinearData("unknown_kind.yaml")),
+TEST_CASE("LoadModelFile tells the two formats apart by kind and rejects unknown kinds",
+          "[models]") {
+  const LoadedModel linear = LoadModelFile(LinearData("tiny.yaml"));
+  REQUIRE(linear.kind() == ModelKind::kLinear);
+  REQUIRE(linear.linear() != nullptr);
+  CHECK(linear.multibody() == nullptr);
+  CHECK(linear.linear()->dof() == 2);  // two masses (tiny.yaml)
+  CHECK(linear.name() == "tiny");
+  const LoadedModel multibody = LoadModelFile(ModelPath("mass_on_car.yaml"));
+  REQUIRE(multibody.kind() == ModelKind::kMultibody);
+  CHECK(multibody.multibody()->dof() == 2);  // car position x and mass position s
+  // `kind: multibody` on a linear model's keys: read as a multibody file, which it is not.
+  CHECK_THROWS_WITH(
+      LoadModelFile(LinearData("multibody.yaml")),
+      Catch::StartsWith(LinearData("multibody.yaml") + ": ") && Catch::Contains(": unknown key"));
+  CHECK_THROWS_WITH(LoadModelFile(LinearData("unknown_kind.yaml")),
                     Catch::Contains("unknown_kind.yaml: kind: unknown kind 'finite-element'"));
-  CHECK_THROWS_AS(IsLinearModelFile(LinearData("no_such_model.yaml")), ModelError);
+  CHECK_THROWS_WITH(LoadModelFile(LinearData("no_such_model.yaml")),
+                    Catch::Contains("no_such_model.yaml: cannot read the model file"));
+}
+
+TEST_CASE("LoadModelText reads a linear model with matrix files next to its source", "[models]") {
+  const std::string path = LinearData("tiny.yaml");
+  const LoadedModel from_text = LoadModelText(ReadFile(path), path, {{"k", "7"}});
+  REQUIRE(from_text.linear() != nullptr);
+  const LinearModel from_file = LoadLinearModel(path, {{"k", "7"}});
+  CHECK(from_text.linear()->content_hash() == from_file.content_hash());
+  const std::optional<std::size_t> k = from_text.linear()->FindParameter("k");
+  REQUIRE(k);
+  CHECK(from_text.parameters()[static_cast<Eigen::Index>(*k)] == 7.0);
 }
 
 TEST_CASE("each bad linear model file gives a ModelError naming the file, the key and the line",

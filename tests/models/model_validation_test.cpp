@@ -77,7 +77,7 @@ TEST_CASE("a missing file is reported with its path", "[models]") {
   REQUIRE_THROWS_MATCHES(
       LoadModel("/nonexistent/model.yaml"), ModelError,
       Catch::Message(
-          "/nonexistent/model.yaml: cannot open the model file (No such file or directory)"));
+          "/nonexistent/model.yaml: cannot read the model file (No such file or directory)"));
 }
 
 TEST_CASE("a directory is not a model file", "[models]") {
@@ -110,15 +110,15 @@ TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models
                "mass_matrix, forces, input_matrix, outputs, description or kind)");
 }
 
-// models/linear_model.h: IsLinearModelFile() reads `kind: multibody` (or no kind) as this
-// format, so the multibody reader accepts it; a linear model file is not one of its own.
+// models/loaded_model.h: the reader takes `kind: multibody` (or no kind) as this format, so
+// LoadModel accepts it; a linear model file is not one of its own.
 TEST_CASE("kind: multibody is accepted; kind: linear and unknown kinds are named", "[models]") {
   CHECK_NOTHROW(LoadModelFromString(kValidModel + "kind: multibody\n", kSource));
   RequireError(kValidModel + "kind: linear\n",
                "kind: a linear model (Matrix Market matrices), which only the linear analysis "
                "and its sweep read; this needs a multibody model");
   RequireError(kValidModel + "kind: rigid\n",
-               "kind: unknown kind 'rigid' (expected multibody or linear)");
+               "kind: unknown kind 'rigid' (expected linear or multibody)");
 }
 
 TEST_CASE("a duplicate top-level key is an error", "[models]") {

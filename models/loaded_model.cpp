@@ -1,0 +1,73 @@
+// The model-file reader: one read, one parse, then the builder of the file's kind
+// (models/model_loader.cpp, models/linear_model.cpp). LoadModel and LoadLinearModel are this
+// reader for callers that accept one kind only.
+#include "models/loaded_model.h"
+
+#include <string>
+#include <vector>
+
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "models/loader_support.h"
+#include "models/model.h"
+
+namespace servokit {
+namespace {
+
+LoadedModel LoadDocument(const detail::ModelDocument& document,
+                         const std::vector<ParameterOverride>& overrides) {
+  switch (detail::ReadModelKind(document)) {
+    case ModelKind::kLinear:
+      return LoadedModel(detail::BuildLinearModel(document, overrides));
+    case ModelKind::kMultibody:
+      break;
+  }
+  return LoadedModel(detail::BuildModel(document, overrides));
+}
+
+// LoadModel and LoadModelFromString: a multibody model only.
+Model LoadMultibodyDocument(const detail::ModelDocument& document,
+                            const std::vector<ParameterOverride>& overrides) {
+  if (detail::ReadModelKind(document) == ModelKind::kLinear) {
+    throw ModelError(document.source + ": " + std::string(detail::kKindKey) +
+                     ": a linear model (Matrix Market matrices), which only the linear analysis "
+                     "and its sweep read; this needs a multibody model");
+  }
+  return detail::BuildModel(document, overrides);
+}
+
+}  // namespace
+
+LoadedModel LoadModelFile(const std::string& path,
+                          const std::vector<ParameterOverride>& overrides) {
+  return LoadDocument(detail::ReadModelDocument(path), overrides);
+}
+
+LoadedModel LoadModelText(const std::string& yaml_text,
+                          const std::string& source,
+                          const std::vector<ParameterOverride>& overrides) {
+  return LoadDocument(detail::ParseModelDocument(yaml_text, source), overrides);
+}
+
+Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides) {
+  return LoadMultibodyDocument(detail::ReadModelDocument(path), overrides);
+}
+
+Model LoadModelFromString(const std::string& yaml_text,
+                          const std::string& source,
+                          const std::vector<ParameterOverride>& overrides) {
+  return LoadMultibodyDocument(detail::ParseModelDocument(yaml_text, source), overrides);
+}
+
+LinearModel LoadLinearModel(const std::string& path,
+                            const std::vector<ParameterOverride>& overrides) {
+  const detail::ModelDocument document = detail::ReadModelDocument(path);
+  if (detail::ReadModelKind(document) != ModelKind::kLinear) {
+    throw ModelError(path + ": " + std::string(detail::kKindKey) + ": expected " +
+                     std::string(detail::kLinearKind) +
+                     " (this is a multibody model; load it with LoadModel)");
+  }
+  return detail::BuildLinearModel(document, overrides);
+}
+
+}  // namespace servokit

@@ -1,0 +1,30 @@
+#pragma once
+// Inside the library: what an api::Model holds, and the translations from the API's options to
+// the toolkit's. Not installed (only servokit/servokit.h and servokit/errors.h are).
+#include "analysis/sweep_point.h"
+#include "models/loaded_model.h"
+#include "servokit/servokit.h"
+
+namespace servokit::api {
+
+struct Model::Loaded {
+  LoadedModel model;
+};
+
+/// The toolkit's model behind `model`.
+const LoadedModel& Unwrap(const Model& model);
+
+/// The multibody model behind `model`; throws UsageError naming `operation` for a linear model.
+const servokit::Model& MultibodyModel(const Model& model, const char* operation);
+
+/// The classification options of AnalyzeOptions (its tolerances and operating point).
+ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options);
+
+/// The analysis options of a linear model; throws UsageError naming a bad eigen_solver or which,
+/// or y0 / q_guess given (a linear model is analysed at q = 0, y = 0).
+LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options);
+
+/// The options of AnalyzePoint for `model`'s kind (the other kind's stay at their defaults).
+AnalysisOptions ToAnalysisOptions(const Model& model, const AnalyzeOptions& options);
+
+}  // namespace servokit::api
