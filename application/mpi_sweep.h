@@ -24,7 +24,7 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "models/model.h"
-#include "reports/sweep_files.h"
+#include "application/sweep_store.h"
 
 namespace servokit {
 

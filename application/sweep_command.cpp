@@ -35,7 +35,7 @@
 #include "models/loaded_model.h"
 #include "reports/number_format.h"
 #include "application/progress.h"
-#include "reports/sweep_files.h"
+#include "application/sweep_store.h"
 
 namespace servokit {
 namespace {

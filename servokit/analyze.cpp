@@ -119,7 +119,7 @@ AnalysisOptions ToAnalysisOptions(const Model& model, const AnalyzeOptions& opti
 }
 
 Analysis Analyze(const Model& model, const AnalyzeOptions& options) {
-  const LoadedModel& loaded = Unwrap(model);
+  const LoadedModel& loaded = ToolkitModel(model);
   const AnalysisOptions analysis_options = ToAnalysisOptions(model, options);
   PointWorkspace workspace(loaded);
   ModelAnalysis analysis = AnalyzePoint(loaded, workspace, analysis_options);

@@ -15,15 +15,15 @@ std::vector<ParameterOverride> ToOverrides(const ParameterValues& values) {
 
 template <typename Visitor>
 decltype(auto) Visit(const Model& model, Visitor visitor) {
-  return std::visit(visitor, Unwrap(model).variant());
+  return std::visit(visitor, ToolkitModel(model).variant());
 }
 
 }  // namespace
 
-const LoadedModel& Unwrap(const Model& model) { return model.loaded_->model; }
+const Model::Loaded& Unwrap(const Model& model) { return *model.loaded_; }
 
 const servokit::Model& MultibodyModel(const Model& model, const char* operation) {
-  const servokit::Model* multibody = Unwrap(model).multibody();
+  const servokit::Model* multibody = ToolkitModel(model).multibody();
   if (multibody == nullptr) {
     throw UsageError(std::string(operation) + ": " + model.source() +
                      " is a linear model (`kind: linear`); this applies to multibody models only");
@@ -43,7 +43,7 @@ Model Model::FromString(const std::string& yaml,
 }
 
 ModelKind Model::kind() const {
-  return Unwrap(*this).linear() ? ModelKind::kLinear : ModelKind::kMultibody;
+  return ToolkitModel(*this).linear() ? ModelKind::kLinear : ModelKind::kMultibody;
 }
 const std::string& Model::name() const {
   return Visit(*this, [](const auto& model) -> const std::string& { return model.name(); });

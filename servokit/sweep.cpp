@@ -7,7 +7,7 @@
 #include "analysis/sweep.h"
 #include "models/errors.h"
 #include "models/option_check.h"
-#include "reports/sweep_files.h"
+#include "reports/sweep_tables.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
@@ -35,7 +35,7 @@ void RunModelSweep(const Model& model,
   servokit::SweepOptions sweep_options;
   static_cast<AnalysisOptions&>(sweep_options) = ToAnalysisOptions(model, options.analysis);
   sweep_options.threads = options.threads;
-  RunSweep(Unwrap(model), grid, sweep_options, 0, consume);
+  RunSweep(ToolkitModel(model), grid, sweep_options, 0, consume);
 }
 
 SweepPoint ToSweepPoint(const ParameterGrid& grid,

@@ -11,8 +11,9 @@ struct Model::Loaded {
   LoadedModel model;
 };
 
-/// The toolkit's model behind `model`.
-const LoadedModel& Unwrap(const Model& model);
+/// What `model` holds (the friend of api::Model), and the toolkit's model in it.
+const Model::Loaded& Unwrap(const Model& model);
+inline const LoadedModel& ToolkitModel(const Model& model) { return Unwrap(model).model; }
 
 /// The multibody model behind `model`; throws UsageError naming `operation` for a linear model.
 const servokit::Model& MultibodyModel(const Model& model, const char* operation);

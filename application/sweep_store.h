@@ -1,9 +1,7 @@
 #pragma once
-// The files of `servokit sweep --out DIR` (DESIGN.md "Command line", README "servokit sweep"):
+// Where `servokit sweep --out DIR` keeps its work (DESIGN.md "Command line", README "servokit
+// sweep"): the tables of reports/sweep_tables.h, and
 //
-//   points.csv          one row per grid point: the varied parameters (SI), the class columns
-//                       and `error` (empty, or why the point has no solution)
-//   eigenvalues.csv     one row per zero-dynamics eigenvalue of each point
 //   sweep.json          what was swept (model, grid, options, command line) and `completed`
 //
 // Written so that a sweep stopped at any moment (Ctrl-C, SIGKILL, power loss) leaves no corrupt
@@ -29,9 +27,8 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
-#include "models/linear_model.h"
 #include "models/loaded_model.h"
-#include "models/model.h"
+#include "reports/sweep_tables.h"
 
 namespace servokit {
 
@@ -47,50 +44,6 @@ struct SweepOutputOptions {
   // How often the partial files are made durable (fsync) and the checkpoint is updated.
   std::chrono::duration<double> checkpoint_interval = kSweepCheckpointInterval;
 };
-
-/// The header line of points.csv (with its newline): the varied parameters, then
-/// realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,stability,
-/// max_real_part,error.
-std::string PointsCsvHeader(const ParameterGrid& grid);
-
-/// The header line of eigenvalues.csv: the varied parameters, then
-/// k,re,im,frequency_hz,damping_ratio.
-std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
-
-/// Appends the rows of points first, first + 1, ... to `points_csv` and `eigenvalues_csv`.
-/// Numbers are FormatExact (they read back to the same double). A point without a solution has
-/// empty class columns, its message CSV-quoted in `error`, and no eigenvalue rows;
-/// relative_degree of several outputs is joined with ';'; relative_degree,
-/// differentiation_index and internal_dynamics_order are empty when the internal order is
-/// negative (not determined: a linear model, LinearRelativeDegrees::determined false);
-/// max_real_part is empty when there are no eigenvalues; k numbers a point's eigenvalues from 0 in
-/// SweepPoint order.
-void AppendCsvRows(const ParameterGrid& grid,
-                   std::size_t first,
-                   std::span<const SweepPoint> points,
-                   std::string& points_csv,
-                   std::string& eigenvalues_csv);
-
-/// One block of consecutive points, formatted as AppendCsvRows writes them: what SweepOutput
-/// appends. The rows are held in slices (one per formatting thread), to be written in order.
-struct FormattedBlock {
-  std::size_t first = 0;                                 // index of the block's first point
-  std::size_t points = 0;                                // number of points in the block
-  std::size_t points_without_solution = 0;               // of them, points whose row holds an error
-  std::vector<std::string> points_csv, eigenvalues_csv;  // slices of rows, in order
-};
-
-/// Formats points first, first + 1, ... into `block` (AppendCsvRows), on `threads` threads that
-/// each format one contiguous slice; the bytes, slices joined, do not depend on `threads`.
-/// Reuses the strings `block` holds.
-void FormatBlock(const ParameterGrid& grid,
-                 std::size_t first,
-                 std::span<const SweepPoint> points,
-                 int threads,
-                 FormattedBlock& block);
-
-/// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
-std::string CsvQuote(const std::string& text);
 
 /// What the files record of the swept model, whatever its kind: a multibody model (Model) or a
 /// large linear one (LinearModel, with the options of its analysis, which decide its zeros).
