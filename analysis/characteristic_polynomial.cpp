@@ -5,12 +5,12 @@
 #include <cmath>
 #include <sstream>
 
-#include "numerics/gsl_support.h"
 #include "analysis/operating_point.h"
 #include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/symbolic_model.h"
+#include "numerics/gsl_support.h"
 
 namespace servokit {
 namespace {
@@ -101,8 +101,8 @@ class ParameterFunction {
 // The root of `function` in [left, right], where its sign differs at the ends: GSL's Brent
 // solver (the conditions are smooth in the parameter).
 double LocateRoot(const ParameterFunction& function, double left, double right) {
-  const auto bracket = NarrowBracket(gsl_root_fsolver_brent, function, left, right,
-                                     kSignChangeRelativeTolerance);
+  const auto bracket =
+      NarrowBracket(gsl_root_fsolver_brent, function, left, right, kSignChangeRelativeTolerance);
   return bracket ? bracket->root : 0.5 * (left + right);
 }
 

@@ -99,8 +99,8 @@ LinearRelativeDegrees RelativeDegrees(const LinearSystem& system,
                          "its factors; no input can make it follow a trajectory");
       }
       result.determined = false;
-      result.note = "output y" + std::to_string(i + 1) + ": every Markov parameter C A^k B up to k = " +
-                    std::to_string(search) +
+      result.note = "output y" + std::to_string(i + 1) +
+                    ": every Markov parameter C A^k B up to k = " + std::to_string(search) +
                     " is below rank_tolerance times its factors, so the relative degree is not "
                     "determined numerically (a fine mesh of a continuum, whose coupling decays "
                     "exponentially along the mesh, looks like this: e.g. the tip of a flexible "
@@ -178,8 +178,8 @@ LinearAnalysis AnalyzeLinearSystem(const LinearSystem& system,
     result.zero_dynamics =
         ComputeLinearZeroDynamics(system, workspace, kUnknownZeroCount, options.zero_dynamics);
     // The index is unknown too: Radau, the general method, unless stability decides.
-    result.recommended_solver = RecommendSolver(false, result.zero_dynamics.stability,
-                                                std::numeric_limits<int>::max());
+    result.recommended_solver =
+        RecommendSolver(false, result.zero_dynamics.stability, std::numeric_limits<int>::max());
     return result;
   }
   if (!result.relative_degrees.decoupling_matrix_regular) {

@@ -42,10 +42,10 @@
 #include <string_view>
 #include <vector>
 
-#include "numerics/arpack_eigen.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
 #include "models/linear_model.h"
+#include "numerics/arpack_eigen.h"
 
 namespace servokit {
 

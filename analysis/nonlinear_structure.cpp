@@ -274,7 +274,6 @@ std::optional<std::size_t> RankAt(const std::vector<Row>& rows,
   return static_cast<std::size_t>((svd.singularValues().array() > threshold).count());
 }
 
-
 }  // namespace
 
 int NonlinearStructure::integrators() const {
@@ -287,7 +286,8 @@ std::vector<GiNaC::ex> NonlinearStructure::ProgramInputs() const {
   std::vector<ex> inputs(parameters.begin(), parameters.end());
   inputs.insert(inputs.end(), coordinates.begin(), coordinates.end());
   inputs.insert(inputs.end(), velocities.begin(), velocities.end());
-  for (const auto& symbols : output_derivatives) inputs.insert(inputs.end(), symbols.begin(), symbols.end());
+  for (const auto& symbols : output_derivatives)
+    inputs.insert(inputs.end(), symbols.begin(), symbols.end());
   return inputs;
 }
 
@@ -321,11 +321,11 @@ class StructureAlgorithm {
 
  private:
   NoSolution NotIndependent(std::size_t row) const {
-    return NoSolution("the outputs do not determine the inputs: with output " + OutputName(row) +
-                      " the structure algorithm needs more than 2 dof = " +
-                      std::to_string(states_) +
-                      " constraints on the state (the outputs are not independent; no left "
-                      "inverse exists)");
+    return NoSolution(
+        "the outputs do not determine the inputs: with output " + OutputName(row) +
+        " the structure algorithm needs more than 2 dof = " + std::to_string(states_) +
+        " constraints on the state (the outputs are not independent; no left "
+        "inverse exists)");
   }
 
   // Row i's u-free functions become constraints until u appears in a derivative.
@@ -424,7 +424,8 @@ class StructureAlgorithm {
 
   // kappa = A_dC A_RC^-1, then g_d = drift_d - kappa drift_R, whose u-coefficients
   // a_d - kappa A_R vanish on a neighbourhood (rank rho): row d is u-free again.
-  void CombineWithKeptRows(std::size_t d, const StructureStep& step,
+  void CombineWithKeptRows(std::size_t d,
+                           const StructureStep& step,
                            const GiNaC::matrix& kept_inverse) {
     Row& row = rows_[d];
     const unsigned rho = kept_inverse.rows();

@@ -12,9 +12,9 @@
 #include <utility>
 #include <vector>
 
-#include "numerics/sundials_support.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/sundials_support.h"
 
 namespace servokit {
 namespace {
@@ -171,8 +171,8 @@ void RunKinsol(EquilibriumProblem& problem,
   while (flag == KIN_MXNEWT_5X_EXCEEDED && iterations < options.max_iterations) {
     CheckSundialsCall(namer, KINSetNumMaxIters(kinsol, options.max_iterations - iterations),
                       "KINSetNumMaxIters");
-    flag = KINSol(kinsol, solution.get(), KIN_LINESEARCH, unknown_scale.get(),
-                  residual_scale.get());
+    flag =
+        KINSol(kinsol, solution.get(), KIN_LINESEARCH, unknown_scale.get(), residual_scale.get());
     long int newton_iterations = 0;
     KINGetNumNonlinSolvIters(kinsol, &newton_iterations);
     iterations += static_cast<int>(newton_iterations);
@@ -183,9 +183,10 @@ void RunKinsol(EquilibriumProblem& problem,
     const std::string where = problem.non_finite_at->allFinite()
                                   ? "at q = " + FormatVector(*problem.non_finite_at)
                                   : "after a Newton step overflowed q";
-    throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
-                     ": the equilibrium equations became NaN or Inf " + where +
-                     " (is y0 within the model's range?); try a starting point q0 near the equilibrium");
+    throw NoSolution(
+        "no equilibrium found for y0 = " + FormatVector(problem.y0) +
+        ": the equilibrium equations became NaN or Inf " + where +
+        " (is y0 within the model's range?); try a starting point q0 near the equilibrium");
   }
   if (flag < 0) {
     throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +

@@ -12,9 +12,9 @@
 #include <optional>
 
 #include "analysis/classification.h"
-#include "numerics/gsl_support.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
+#include "numerics/gsl_support.h"
 
 namespace servokit {
 namespace {

@@ -13,9 +13,9 @@
 #include <string>
 
 #include "analysis/classification.h"
-#include "numerics/gsl_support.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/gsl_support.h"
 
 namespace servokit {
 namespace {

@@ -10,12 +10,12 @@
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
 #include "analysis/sweep_point.h"
+#include "application/commands.h"
+#include "application/exit_codes.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/loaded_model.h"
 #include "reports/classification_report.h"
-#include "application/commands.h"
-#include "application/exit_codes.h"
 
 namespace servokit {
 namespace {

@@ -10,12 +10,12 @@
 #include <system_error>
 #include <vector>
 
+#include "application/commands.h"
+#include "application/exit_codes.h"
 #include "models/errors.h"
 #include "models/model.h"
 #include "models/option_check.h"
 #include "models/units.h"
-#include "application/commands.h"
-#include "application/exit_codes.h"
 
 #ifndef SERVOKIT_VERSION
 #error "SERVOKIT_VERSION must be defined by the build"

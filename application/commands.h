@@ -40,8 +40,8 @@ struct LinearModelArguments {
 };
 
 /// Their names, so that a command can refuse them for a multibody model.
-inline constexpr const char* kLinearModelOptions[] = {"--eigenvalues", "--shift",
-                                                      "--eigen-solver", "--which"};
+inline constexpr const char* kLinearModelOptions[] = {"--eigenvalues", "--shift", "--eigen-solver",
+                                                      "--which"};
 
 /// Throws UsageError naming the first of kLinearModelOptions given to `command`: a multibody
 /// model has no use for them, and ignoring them would hide a mistake.
@@ -49,7 +49,9 @@ void RefuseLinearModelOptions(const CLI::App& command);
 
 /// Registers --eigenvalues, --shift, --eigen-solver and --which on `command`; `what` ends each
 /// help text's first words ("zeros", "zeros per point").
-void AddLinearModelOptions(CLI::App& command, LinearModelArguments& arguments, const std::string& what);
+void AddLinearModelOptions(CLI::App& command,
+                           LinearModelArguments& arguments,
+                           const std::string& what);
 
 /// The linear analysis options from `arguments` and the tolerances the commands share. Throws
 /// UsageError naming a bad --eigen-solver or --which, or --y0/--q0 when given (a linear model is

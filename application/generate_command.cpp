@@ -9,12 +9,12 @@
 #include <ostream>
 #include <string>
 
+#include "application/commands.h"
+#include "application/exit_codes.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
 #include "models/option_check.h"
-#include "application/commands.h"
-#include "application/exit_codes.h"
 
 namespace servokit {
 namespace {

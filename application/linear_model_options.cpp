@@ -1,15 +1,17 @@
 #include <string>
 
-#include "models/errors.h"
 #include "application/commands.h"
+#include "models/errors.h"
 
 namespace servokit {
 
-void AddLinearModelOptions(CLI::App& command, LinearModelArguments& arguments, const std::string& what) {
+void AddLinearModelOptions(CLI::App& command,
+                           LinearModelArguments& arguments,
+                           const std::string& what) {
   command
-      .add_option("--eigenvalues", arguments.eigenvalues,
-                  "Linear models: how many " + what +
-                      " ARPACK computes (the dense route computes all)")
+      .add_option(
+          "--eigenvalues", arguments.eigenvalues,
+          "Linear models: how many " + what + " ARPACK computes (the dense route computes all)")
       ->capture_default_str();
   command
       .add_option("--shift", arguments.shift,

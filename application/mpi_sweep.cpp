@@ -27,8 +27,8 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
 #include "application/exit_codes.h"
+#include "models/errors.h"
 
 namespace servokit {
 namespace {

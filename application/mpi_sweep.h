@@ -23,8 +23,8 @@
 
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
-#include "models/model.h"
 #include "application/sweep_store.h"
+#include "models/model.h"
 
 namespace servokit {
 

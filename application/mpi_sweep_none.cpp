@@ -5,8 +5,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "models/errors.h"
 #include "application/mpi_sweep.h"
+#include "models/errors.h"
 
 namespace servokit {
 namespace {

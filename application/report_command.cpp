@@ -6,10 +6,10 @@
 #include <system_error>
 
 #include "analysis/parameter_grid.h"
-#include "models/errors.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
 #include "application/grid_arguments.h"
+#include "models/errors.h"
 #include "models/model.h"
 #include "reports/model_report.h"
 #include "reports/paper_report.h"

@@ -1,5 +1,7 @@
-// servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf TF]
-//     [--t-start TS] --t-end TE --method auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
+// servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf
+// TF]
+//     [--t-start TS] --t-end TE --method
+//     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
 //     [--post-actuation S] [--verify] --out FILE.csv
 #include <cmath>
@@ -48,8 +50,9 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
     return trajectory;
   }
   if (!arguments.y0.empty() || !arguments.yf.empty() || arguments.t0 || arguments.tf) {
-    throw UsageError("--y0, --yf, --t0 and --tf belong to --trajectory rest-to-rest; a "
-                     "trajectory file gives its waypoints itself");
+    throw UsageError(
+        "--y0, --yf, --t0 and --tf belong to --trajectory rest-to-rest; a "
+        "trajectory file gives its waypoints itself");
   }
   if (!std::filesystem::exists(arguments.trajectory)) {
     throw UsageError("--trajectory " + arguments.trajectory +
@@ -88,8 +91,8 @@ std::string FlagFor(SolveSetting setting) {
 
 // The solve, with the library's errors about settings and methods told in flags.
 api::Feedforward SolveTellingFlags(const api::Model& model,
-                       const api::OutputTrajectory& trajectory,
-                       const api::SolveOptions& options) {
+                                   const api::OutputTrajectory& trajectory,
+                                   const api::SolveOptions& options) {
   try {
     return api::Solve(model, trajectory, options);
   } catch (const SettingError& error) {
@@ -117,7 +120,8 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
     throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
   }
-  const api::Model model = api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
+  const api::Model model =
+      api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
   const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
   // One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
   // --yf of different lengths).

@@ -26,16 +26,16 @@
 
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
-#include "models/errors.h"
-#include "models/linear_model.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
 #include "application/grid_arguments.h"
 #include "application/mpi_sweep.h"
-#include "models/loaded_model.h"
-#include "reports/number_format.h"
 #include "application/progress.h"
 #include "application/sweep_store.h"
+#include "models/errors.h"
+#include "models/linear_model.h"
+#include "models/loaded_model.h"
+#include "reports/number_format.h"
 
 namespace servokit {
 namespace {

@@ -5,10 +5,10 @@
 
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/thresholds.h"
-#include "models/errors.h"
-#include "models/units.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "models/errors.h"
+#include "models/units.h"
 #include "reports/number_format.h"
 
 namespace servokit {

@@ -39,8 +39,11 @@ double BestTime(const Model& model,
   return best;
 }
 
-void Measure(const std::string& path, const char* alpha, const char* damping,
-             SolverMethod method, int repetitions) {
+void Measure(const std::string& path,
+             const char* alpha,
+             const char* damping,
+             SolverMethod method,
+             int repetitions) {
   const Model model = LoadModel(path, {{"alpha", alpha}, {"d", damping}});
   Workspace workspace(model);
   const Classification classification = Classify(model, workspace);
@@ -56,8 +59,7 @@ void Measure(const std::string& path, const char* alpha, const char* damping,
     options.atol = 1e-12;
   }
   FeedforwardSolution solution;
-  const double best =
-      BestTime(model, trajectory, classification, options, repetitions, solution);
+  const double best = BestTime(model, trajectory, classification, options, repetitions, solution);
   if (!solution.summary.IsUsable()) {
     std::fprintf(stderr, "bench_solve: %s failed: %s\n", std::string(ToString(method)).c_str(),
                  solution.summary.message.c_str());
@@ -84,15 +86,15 @@ void MeasureCase3(const std::string& path, double rtol, int repetitions) {
   options.rtol = rtol;
   options.atol = rtol * 1e-2;
   FeedforwardSolution solution;
-  const double best =
-      BestTime(model, trajectory, classification, options, repetitions, solution);
+  const double best = BestTime(model, trajectory, classification, options, repetitions, solution);
   if (!solution.summary.IsUsable()) {
     std::fprintf(stderr, "bench_solve: case 3 failed: %s\n", solution.summary.message.c_str());
     std::exit(1);
   }
-  std::printf("{\"method\": \"%s\", \"rtol\": %.1e, \"seconds\": %.6e, \"steps\": %ld, "
-              "\"t\": [",
-              std::string(ToString(solution.method)).c_str(), rtol, best, solution.summary.steps);
+  std::printf(
+      "{\"method\": \"%s\", \"rtol\": %.1e, \"seconds\": %.6e, \"steps\": %ld, "
+      "\"t\": [",
+      std::string(ToString(solution.method)).c_str(), rtol, best, solution.summary.steps);
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
     std::printf("%s%.17g", i ? ", " : "", solution.times[i]);
   }

@@ -42,7 +42,9 @@ std::string InputGrid(const StableInversionSolution& solution, int count) {
 int main(int argc, char** argv) {
   constexpr int kGridPoints = 401;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s MODELS_DIR [tolerance] [repetitions] [window_start window_end]\n", argv[0]);
+    std::fprintf(stderr,
+                 "usage: %s MODELS_DIR [tolerance] [repetitions] [window_start window_end]\n",
+                 argv[0]);
     return 2;
   }
   const std::string path = std::string(argv[1]) + "/rotational_arm.yaml";

@@ -180,13 +180,12 @@ class ExpressionCompiler {
     std::vector<Slot> numerator, denominator;
     for (const Scaled& factor : product.operands) {
       const CanonicalExpressions::Node& node = canonical_.node(factor.node);
-      const bool reciprocal = node.kind == Kind::kPower &&
-                              node.operands[1].node == canonical_.one() &&
-                              node.operands[1].coefficient.is_real() &&
-                              node.operands[1].coefficient.is_negative();
+      const bool reciprocal =
+          node.kind == Kind::kPower && node.operands[1].node == canonical_.one() &&
+          node.operands[1].coefficient.is_real() && node.operands[1].coefficient.is_negative();
       if (reciprocal) {
-        denominator.push_back(PowerSlot(node.operands[0], -node.operands[1].coefficient,
-                                        Text({1, factor.node})));
+        denominator.push_back(
+            PowerSlot(node.operands[0], -node.operands[1].coefficient, Text({1, factor.node})));
       } else {
         numerator.push_back(RegisterNode(factor.node));
       }

@@ -98,7 +98,8 @@ class Parser {
     // 16 GB; found by fuzzing). ReadEntries reports the missing lines.
     const auto possible_entries = std::min<long long>(
         entries_, static_cast<long long>(text_.size() / kShortestEntryLine) + 1);
-    triplets.reserve(static_cast<std::size_t>(symmetric_ ? 2 * possible_entries : possible_entries));
+    triplets.reserve(
+        static_cast<std::size_t>(symmetric_ ? 2 * possible_entries : possible_entries));
     ReadEntries([&](std::size_t, int i, int j, double value) {
       triplets.emplace_back(i, j, value);
       if (symmetric_ && i != j) triplets.emplace_back(j, i, value);

@@ -119,8 +119,8 @@ class Model {
 /// Reads a model file (YAML, DESIGN.md "The model file"), checks it, derives H, h_bar and the
 /// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
 /// for a bad file (a linear model's too; LoadModelFile, models/loaded_model.h, reads a file of
-/// either kind) and ParameterOverrideError for a bad override (unknown name, bad value). Uses GiNaC, which
-/// is not thread-safe: load models from one thread, then share them.
+/// either kind) and ParameterOverrideError for a bad override (unknown name, bad value). Uses
+/// GiNaC, which is not thread-safe: load models from one thread, then share them.
 Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
 
 /// As LoadModel, from YAML text; `source` names it in error messages.

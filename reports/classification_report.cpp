@@ -336,11 +336,11 @@ std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const Lin
       {"relative degree", a.relative_degrees.determined
                               ? IntsToText(a.relative_degrees.relative_degree)
                               : "not determined: " + a.relative_degrees.note},
-      {"differentiation index",
-       a.relative_degrees.determined
-           ? std::to_string(a.differentiation_index) + " (projected DAE: " +
-                 std::to_string(a.projected_index) + ")"
-           : std::string("not determined (needs the relative degrees)")},
+      {"differentiation index", a.relative_degrees.determined
+                                    ? std::to_string(a.differentiation_index) +
+                                          " (projected DAE: " + std::to_string(a.projected_index) +
+                                          ")"
+                                    : std::string("not determined (needs the relative degrees)")},
       {"internal dynamics",
        a.relative_degrees.determined
            ? "order " + std::to_string(a.internal_dynamics_order) + (a.flat ? " (flat)" : "")
@@ -408,8 +408,8 @@ nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
                                      : nlohmann::ordered_json(nullptr)},
       {"relative_degree_note", a.relative_degrees.note},
       {"decoupling_matrix_regular", a.relative_degrees.decoupling_matrix_regular},
-      {"differentiation_index",
-       determined ? nlohmann::ordered_json(a.differentiation_index) : nlohmann::ordered_json(nullptr)},
+      {"differentiation_index", determined ? nlohmann::ordered_json(a.differentiation_index)
+                                           : nlohmann::ordered_json(nullptr)},
       {"projected_index",
        determined ? nlohmann::ordered_json(a.projected_index) : nlohmann::ordered_json(nullptr)},
       {"internal_dynamics_order", determined ? nlohmann::ordered_json(a.internal_dynamics_order)

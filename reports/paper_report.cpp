@@ -77,16 +77,15 @@ void AddMassOnCarTable(Document& document, const std::string& path) {
     const Classification c = Classify(model, workspace);
     MethodChooser chooser(model, c, false);
     const std::string solver(ToString(chooser.Choose(SolverMethod::kAuto).first));
-    table.rows.push_back({paper_case.name, paper_case.alpha, paper_case.damping,
-                          std::string(ToString(c.decoupling.realization)),
-                          FormatShort(c.decoupling.decoupling_matrix(0, 0)),
-                          Join(c.structure.relative_degree),
-                          std::to_string(c.structure.differentiation_index) + " (" +
-                              std::to_string(c.structure.projected_index) + ")",
-                          std::to_string(c.structure.internal_dynamics_order),
-                          c.flat ? "yes" : "no", Eigenvalues(c.zero_dynamics.eigenvalues),
-                          std::string(ToString(c.zero_dynamics.stability)), solver,
-                          paper_case.paper});
+    table.rows.push_back(
+        {paper_case.name, paper_case.alpha, paper_case.damping,
+         std::string(ToString(c.decoupling.realization)),
+         FormatShort(c.decoupling.decoupling_matrix(0, 0)), Join(c.structure.relative_degree),
+         std::to_string(c.structure.differentiation_index) + " (" +
+             std::to_string(c.structure.projected_index) + ")",
+         std::to_string(c.structure.internal_dynamics_order), c.flat ? "yes" : "no",
+         Eigenvalues(c.zero_dynamics.eigenvalues), std::string(ToString(c.zero_dynamics.stability)),
+         solver, paper_case.paper});
   }
   document.Add(table);
 }
@@ -353,10 +352,17 @@ void AddFlatCaseFigures(Document& document,
       "Mass on car with alpha = 0, d = 0: y from 0.5 m to 2.5 m in 0-6 s by Eq. (65), 10 s in "
       "all. The reference is Eq. (47), F = (m1 + m2) y'' + (m1 m2 / k) y''''. Euler backward's "
       "error is one step of delay in the car's inertia term m1 x''."});
-  PlotSpec output{"fig9_trajectory", "Fig. 9: desired output y_d (Eq. 65)", "t [s]", "y_d [m]",
-                  "[0:10]", "", {}, {}};
+  PlotSpec output{"fig9_trajectory",
+                  "Fig. 9: desired output y_d (Eq. 65)",
+                  "t [s]",
+                  "y_d [m]",
+                  "[0:10]",
+                  "",
+                  {},
+                  {}};
   std::vector<std::pair<double, double>> desired;
-  for (int n = 0; n <= 500; ++n) desired.emplace_back(0.02 * n, trajectory.Derivative(0.02 * n, 0)(0));
+  for (int n = 0; n <= 500; ++n)
+    desired.emplace_back(0.02 * n, trajectory.Derivative(0.02 * n, 0)(0));
   output.series.push_back({"y_d", desired, "lines linewidth 2"});
   DrawPlot(directory.string(), output);
   document.Add(FigureOf(output.name, "Fig. 9: desired output trajectory"));
@@ -367,10 +373,17 @@ void AddFlatCaseFigures(Document& document,
   const double m2 = parameters(Eigen::Index(*flat.model.FindParameter("m2")));
   const double k = parameters(Eigen::Index(*flat.model.FindParameter("k")));
   auto paper_force = [&](double t) {  // Eq. (47)
-    return (m1 + m2) * trajectory.Derivative(t, 2)(0) + m1 * m2 / k * trajectory.Derivative(t, 4)(0);
+    return (m1 + m2) * trajectory.Derivative(t, 2)(0) +
+           m1 * m2 / k * trajectory.Derivative(t, 4)(0);
   };
-  PlotSpec inputs{"fig10_case4_input", "Fig. 10: case 4, control input u_d", "t [s]", "F [N]",
-                  "[0:10]", "", {}, {}};
+  PlotSpec inputs{"fig10_case4_input",
+                  "Fig. 10: case 4, control input u_d",
+                  "t [s]",
+                  "F [N]",
+                  "[0:10]",
+                  "",
+                  {},
+                  {}};
   Table accuracy;
   accuracy.header = {"method", "steps", "max abs(F - Eq. 47) / max abs(F)", "paper"};
   struct Run {
@@ -387,9 +400,9 @@ void AddFlatCaseFigures(Document& document,
         Run{SolverMethod::kEuler, 1e-3, 0, "Euler backward, 1 ms", "nearly identical"},
         Run{SolverMethod::kEuler, 1e-2, 0, "Euler backward, 10 ms", "nearly identical"},
         Run{SolverMethod::kEuler, 1e-1, 0, "Euler backward, 100 ms", "time delay"}}) {
-    const FeedforwardSolution solution = SolvePaperCase(
-        flat, trajectory, run.method, run.step > 0 ? run.step : 1e-3,
-        run.rtol > 0 ? std::optional<double>(run.rtol) : std::nullopt);
+    const FeedforwardSolution solution =
+        SolvePaperCase(flat, trajectory, run.method, run.step > 0 ? run.step : 1e-3,
+                       run.rtol > 0 ? std::optional<double>(run.rtol) : std::nullopt);
     const auto [error, scale] = InputErrorAndScale(solution, paper_force);
     // Radau IIA's step count and index-3 error move with round-off (its step controller
     // branches on them), so its row states bounds; Euler's fixed grid is reproducible to the
@@ -408,15 +421,22 @@ void AddFlatCaseFigures(Document& document,
     accuracy.rows.push_back({run.label, steps, relative_error, run.paper});
     if (run.method == SolverMethod::kEuler && run.step == 1e-3) continue;  // drawn as 10 ms
     if (run.method == SolverMethod::kRadau && run.rtol == 1e-8) continue;  // as 1e-6
-    inputs.series.push_back({run.label, Series(solution, 4, 0.02),
-                             run.method == SolverMethod::kAlgebraic ? "lines linewidth 2"
-                                                                    : "points pointsize 0.6"});
+    inputs.series.push_back(
+        {run.label, Series(solution, 4, 0.02),
+         run.method == SolverMethod::kAlgebraic ? "lines linewidth 2" : "points pointsize 0.6"});
     if (run.method == SolverMethod::kAlgebraic) {
-      PlotSpec states{"fig11_case4_states", "Fig. 11: case 4, states q_d and their rates", "t [s]",
-                      "x, s [m];  x_dot, s_dot [m/s]", "[0:10]", "", {}, {}};
+      PlotSpec states{"fig11_case4_states",
+                      "Fig. 11: case 4, states q_d and their rates",
+                      "t [s]",
+                      "x, s [m];  x_dot, s_dot [m/s]",
+                      "[0:10]",
+                      "",
+                      {},
+                      {}};
       const char* names[] = {"x", "s", "x_dot", "s_dot"};
       for (int component = 0; component < 4; ++component) {
-        states.series.push_back({names[component], Series(solution, component), "lines linewidth 2"});
+        states.series.push_back(
+            {names[component], Series(solution, component), "lines linewidth 2"});
       }
       DrawPlot(directory.string(), states);
       document.Add(FigureOf(states.name, "Fig. 11: case 4, states from the algebraic inverse"));
@@ -461,8 +481,8 @@ void AddTangentialCase(Document& document,
   };
   const auto paper_force = [&](double t) {
     const double s = position(t);
-    const double s_dot = (g(t, 0) - k * s) / d;      // Eq. (41)
-    const double s_ddot = (g(t, 1) - k * s_dot) / d;  // Eq. (42)
+    const double s_dot = (g(t, 0) - k * s) / d;                  // Eq. (41)
+    const double s_ddot = (g(t, 1) - k * s_dot) / d;             // Eq. (42)
     return -(m1 + m2) / m2 * (k * s + d * s_dot) - m1 * s_ddot;  // Eq. (39)
   };
   Table accuracy;
@@ -476,8 +496,8 @@ void AddTangentialCase(Document& document,
                          Run{SolverMethod::kRadau, "Radau IIA, rtol 1e-8", 5e-4}}) {
     const FeedforwardSolution solution = SolvePaperCase(tangential, trajectory, run.method);
     const auto [error, scale] = InputErrorAndScale(solution, paper_force);
-    accuracy.rows.push_back(
-        {run.label, "`" + std::to_string(solution.summary.steps) + "`", Below(error / scale, run.bound)});
+    accuracy.rows.push_back({run.label, "`" + std::to_string(solution.summary.steps) + "`",
+                             Below(error / scale, run.bound)});
   }
   document.Add(accuracy);
 }
@@ -494,14 +514,15 @@ void AddStableCaseFigures(Document& document,
       "sin^2 alpha)) from Eq. (36)."});
   Table comparison;
   comparison.header = {"d [N s/m]", "max abs(F_BDF - F_normal form) / max abs(F)",
-                       "amplitude of s at 9-10 s over 6-7 s: normal form",
-                       "Euler backward, 10 ms", "Euler predicted"};
+                       "amplitude of s at 9-10 s over 6-7 s: normal form", "Euler backward, 10 ms",
+                       "Euler predicted"};
   for (const char* damping : {"1", "0"}) {
     const PaperSolve stable = LoadPaperCase(path, "5 deg", damping);
     const FeedforwardSolution bdf = SolvePaperCase(stable, trajectory, SolverMethod::kBdf);
     const FeedforwardSolution normal_form =
         SolvePaperCase(stable, trajectory, SolverMethod::kNormalForm);
-    const FeedforwardSolution euler = SolvePaperCase(stable, trajectory, SolverMethod::kEuler, 1e-2);
+    const FeedforwardSolution euler =
+        SolvePaperCase(stable, trajectory, SolverMethod::kEuler, 1e-2);
     double difference = 0.0, scale = 0.0;
     for (int n = 0; n <= 2000; ++n) {
       const double t = kPaperTEnd * n / 2000.0;
@@ -519,26 +540,36 @@ void AddStableCaseFigures(Document& document,
     auto ratio = [&](const FeedforwardSolution& solution) {
       return Amplitude(solution, omega, 9, 10) / Amplitude(solution, omega, 6, 7);
     };
-    comparison.rows.push_back({damping, Below(difference / scale, 1e-6),
-                               undamped ? FormatShort(ratio(normal_form)) : "-",
-                               undamped ? FormatShort(ratio(euler)) : "-",
-                               undamped ? FormatShort(predicted) : "-"});
+    comparison.rows.push_back(
+        {damping, Below(difference / scale, 1e-6), undamped ? FormatShort(ratio(normal_form)) : "-",
+         undamped ? FormatShort(ratio(euler)) : "-", undamped ? FormatShort(predicted) : "-"});
     PlotSpec force{std::string("fig12_case2_input_d") + damping,
                    std::string("Fig. 12: case 2, control input, d = ") + damping + " N s/m",
-                   "t [s]", "F [N]", "[0:10]", "", {}, {}};
-    force.series.push_back({"normal form (Dormand-Prince)", Series(normal_form, 4), "lines linewidth 2"});
+                   "t [s]",
+                   "F [N]",
+                   "[0:10]",
+                   "",
+                   {},
+                   {}};
+    force.series.push_back(
+        {"normal form (Dormand-Prince)", Series(normal_form, 4), "lines linewidth 2"});
     force.series.push_back({"BDF (IDA)", Series(bdf, 4, 0.02), "points pointsize 0.5"});
     force.series.push_back({"Euler backward, 10 ms", Series(euler, 4), "lines dashtype 2"});
     DrawPlot(directory.string(), force);
     document.Add(FigureOf(force.name, std::string("Fig. 12: case 2, d = ") + damping));
     PlotSpec velocity{std::string("fig13_case2_velocities_d") + damping,
                       std::string("Fig. 13: case 2, velocities, d = ") + damping + " N s/m",
-                      "t [s]", "velocity [m/s]", "[0:10]", "", {}, {}};
+                      "t [s]",
+                      "velocity [m/s]",
+                      "[0:10]",
+                      "",
+                      {},
+                      {}};
     velocity.series.push_back({"x_dot", Series(normal_form, 2), "lines linewidth 2"});
     velocity.series.push_back({"s_dot", Series(normal_form, 3), "lines linewidth 2"});
     DrawPlot(directory.string(), velocity);
-    document.Add(FigureOf(velocity.name, std::string("Fig. 13: case 2, d = ") + damping +
-                                             ", from the normal form"));
+    document.Add(FigureOf(
+        velocity.name, std::string("Fig. 13: case 2, d = ") + damping + ", from the normal form"));
   }
   document.Add(comparison);
 }
@@ -558,8 +589,8 @@ void AddStableInversionFigures(Document& document,
   Workspace workspace(model);
   const Classification classification = Classify(model, workspace);
   const double angle = 1.5 * std::numbers::pi, t0 = 1.0, tf = 3.0;
-  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, angle),
-                                        t0, tf);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1),
+                                        Eigen::VectorXd::Constant(1, angle), t0, tf);
   InverseModelOptions options;
   options.t_end = 4.0;
   const FeedforwardSolution solution =
@@ -567,19 +598,43 @@ void AddStableInversionFigures(Document& document,
   if (!solution.summary.IsUsable()) {
     throw NoSolution("paper report: stable inversion: " + solution.summary.message);
   }
-  PlotSpec output{"fig14_arm_trajectory", "Fig. 14: desired output (end-point angle)", "t [s]",
-                  "y_d [deg]", "[0:4]", "", {}, {}};
+  PlotSpec output{"fig14_arm_trajectory",
+                  "Fig. 14: desired output (end-point angle)",
+                  "t [s]",
+                  "y_d [deg]",
+                  "[0:4]",
+                  "",
+                  {},
+                  {}};
   std::vector<std::pair<double, double>> desired;
   for (int n = 0; n <= 400; ++n) {
     desired.emplace_back(0.01 * n, ToDegrees(trajectory.Derivative(0.01 * n, 0)(0)));
   }
   output.series.push_back({"y_d", desired, "lines linewidth 2"});
-  PlotSpec torque{"fig15_arm_torque", "Fig. 15: control torque T = u_d by stable inversion",
-                  "t [s]", "T [N m]", "[0:4]", "", {}, {}};
-  PlotSpec zoom{"fig15_arm_torque_zoom", "Fig. 15 enlarged: pre-actuation before t0 = 1 s",
-                "t [s]", "T [N m]", "[0.5:1.1]", "", {}, {}};
-  PlotSpec passive{"fig16_arm_beta", "Fig. 16: passive joint angle beta", "t [s]",
-                   "beta [deg]", "[0:4]", "", {}, {}};
+  PlotSpec torque{"fig15_arm_torque",
+                  "Fig. 15: control torque T = u_d by stable inversion",
+                  "t [s]",
+                  "T [N m]",
+                  "[0:4]",
+                  "",
+                  {},
+                  {}};
+  PlotSpec zoom{"fig15_arm_torque_zoom",
+                "Fig. 15 enlarged: pre-actuation before t0 = 1 s",
+                "t [s]",
+                "T [N m]",
+                "[0.5:1.1]",
+                "",
+                {},
+                {}};
+  PlotSpec passive{"fig16_arm_beta",
+                   "Fig. 16: passive joint angle beta",
+                   "t [s]",
+                   "beta [deg]",
+                   "[0:4]",
+                   "",
+                   {},
+                   {}};
   std::vector<std::pair<double, double>> torques, zoomed, betas;
   double largest_torque = 0.0, largest_beta = 0.0;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
@@ -617,13 +672,13 @@ void AddStableInversionFigures(Document& document,
                           std::string(std::isfinite(largest_torque) ? "bounded" : "NOT bounded") +
                               " (`" + ThreeDigits(largest_torque) + " N m`)",
                           "bounded"});
-  numbers.rows.push_back({"largest passive angle",
-                          std::string(largest_beta < std::numbers::pi / 2 ? "below 90 deg"
-                                                                          : "NOT below 90 deg") +
-                              " (`" + ThreeDigits(ToDegrees(largest_beta)) + " deg`)",
-                          "bounded"});
-  numbers.rows.push_back({"collocation residual", Below(window.boundary_value_residual, 1e-8),
-                          "bvp5c"});
+  numbers.rows.push_back(
+      {"largest passive angle",
+       std::string(largest_beta < std::numbers::pi / 2 ? "below 90 deg" : "NOT below 90 deg") +
+           " (`" + ThreeDigits(ToDegrees(largest_beta)) + " deg`)",
+       "bounded"});
+  numbers.rows.push_back(
+      {"collocation residual", Below(window.boundary_value_residual, 1e-8), "bvp5c"});
   document.Add(numbers);
 }
 

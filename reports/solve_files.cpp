@@ -130,9 +130,8 @@ std::string VerificationFailure(const Verification& verification) {
     return "the forward simulation stopped: " + verification.summary.message;
   }
   return "the largest output error " + FormatShort(verification.max_tracking_error) +
-         " (at t = " + FormatShort(verification.time_of_max_error) +
-         " s) exceeds the bound " + FormatShort(verification.bound) + " = " +
-         verification.bound_rule;
+         " (at t = " + FormatShort(verification.time_of_max_error) + " s) exceeds the bound " +
+         FormatShort(verification.bound) + " = " + verification.bound_rule;
 }
 
 }  // namespace servokit

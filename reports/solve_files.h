@@ -2,7 +2,6 @@
 // What `servokit solve` writes (DESIGN.md "solve"): the CSV of the feedforward and the JSON
 // object on stdout.
 #include <nlohmann/json.hpp>
-
 #include <string>
 
 #include "analysis/classification.h"

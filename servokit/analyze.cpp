@@ -24,8 +24,8 @@ ZeroDynamics ToZeroDynamics(const ZeroDynamicsResult& result) {
 }
 
 Analysis FromClassification(const servokit::Model& model,
-                             const Classification& classification,
-                             const ClassificationOptions& options) {
+                            const Classification& classification,
+                            const ClassificationOptions& options) {
   Analysis analysis;
   analysis.q = classification.operating_point.q;
   analysis.u = classification.operating_point.u;
@@ -42,8 +42,7 @@ Analysis FromClassification(const servokit::Model& model,
   analysis.recommended_solver = std::string(ToString(classification.recommended_solver));
   analysis.text = FormatClassification(model, classification, options, ReportFormat::kText);
   analysis.json = FormatClassification(model, classification, options, ReportFormat::kJson);
-  analysis.markdown =
-      FormatClassification(model, classification, options, ReportFormat::kMarkdown);
+  analysis.markdown = FormatClassification(model, classification, options, ReportFormat::kMarkdown);
   return analysis;
 }
 

@@ -31,9 +31,7 @@ std::string Generate(const ChainModel& chain,
   return Write(GenerateChain(options), directory, name);
 }
 
-std::string Generate(const BeamModel& beam,
-                     const std::string& directory,
-                     const std::string& name) {
+std::string Generate(const BeamModel& beam, const std::string& directory, const std::string& name) {
   BeamOptions options;
   options.elements = beam.elements;
   options.length = beam.length;

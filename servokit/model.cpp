@@ -38,8 +38,8 @@ Model Model::FromFile(const std::string& path, const ParameterValues& overrides)
 Model Model::FromString(const std::string& yaml,
                         const std::string& source,
                         const ParameterValues& overrides) {
-  return Model(std::make_shared<const Loaded>(
-      Loaded{LoadModelText(yaml, source, ToOverrides(overrides))}));
+  return Model(
+      std::make_shared<const Loaded>(Loaded{LoadModelText(yaml, source, ToOverrides(overrides))}));
 }
 
 ModelKind Model::kind() const {

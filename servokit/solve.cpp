@@ -87,8 +87,9 @@ Feedforward Solve(const Model& model,
       MakeTrajectory(trajectory, needed_derivatives, note);
   if (desired->outputs() != Eigen::Index(multibody.num_outputs())) {
     const std::size_t outputs = multibody.num_outputs();
-    throw UsageError((trajectory.waypoint_file.empty() ? std::string("OutputTrajectory::y0, yf")
-                                                       : trajectory.waypoint_file + ": waypoints[0].y") +
+    throw UsageError((trajectory.waypoint_file.empty()
+                          ? std::string("OutputTrajectory::y0, yf")
+                          : trajectory.waypoint_file + ": waypoints[0].y") +
                      ": " + std::to_string(desired->outputs()) + " values, but the model has " +
                      std::to_string(outputs) + (outputs == 1 ? " output" : " outputs") +
                      " (one value per output)");
@@ -108,11 +109,10 @@ Feedforward Solve(const Model& model,
   result.usable = solution.summary.IsUsable();
   result.warnings = solution.warnings;
   if (options.verify && solution.extension) {
-    const servokit::Verification verification =
-        VerifyFeedforward(multibody, *desired, solution);
+    const servokit::Verification verification = VerifyFeedforward(multibody, *desired, solution);
     report["verification"] = VerificationToJson(verification);
-    result.verification = Verification{verification.max_tracking_error, verification.bound,
-                                       verification.passed};
+    result.verification =
+        Verification{verification.max_tracking_error, verification.bound, verification.passed};
     result.warnings.insert(result.warnings.end(), verification.warnings.begin(),
                            verification.warnings.end());
     // An answer that fails its check is not within its tolerances: it is not "converged".

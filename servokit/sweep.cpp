@@ -1,10 +1,11 @@
 // api::Sweep and api::SweepToFiles: the classification over a grid of parameter values, for
 // either kind of model, in memory or as the tables of `servokit sweep`.
+#include "analysis/sweep.h"
+
 #include <filesystem>
 #include <fstream>
 
 #include "analysis/parameter_grid.h"
-#include "analysis/sweep.h"
 #include "models/errors.h"
 #include "models/option_check.h"
 #include "reports/sweep_tables.h"
@@ -66,12 +67,12 @@ std::vector<SweepPoint> Sweep(const Model& model,
   std::vector<SweepPoint> points;
   points.reserve(grid.num_points());
   RunModelSweep(model, grid, options,
-              [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
-                for (std::size_t i = 0; i < block.size(); ++i) {
-                  points.push_back(ToSweepPoint(grid, first + i, block[i]));
-                }
-                return true;
-              });
+                [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
+                  for (std::size_t i = 0; i < block.size(); ++i) {
+                    points.push_back(ToSweepPoint(grid, first + i, block[i]));
+                  }
+                  return true;
+                });
   return points;
 }
 
@@ -94,15 +95,15 @@ std::size_t SweepToFiles(const Model& model,
   std::string points_csv, eigenvalues_csv;
   std::size_t count = 0;
   RunModelSweep(model, grid, options,
-              [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
-                points_csv.clear();
-                eigenvalues_csv.clear();
-                AppendCsvRows(grid, first, block, points_csv, eigenvalues_csv);
-                points_file << points_csv;
-                eigenvalues_file << eigenvalues_csv;
-                count = first + block.size();
-                return true;
-              });
+                [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
+                  points_csv.clear();
+                  eigenvalues_csv.clear();
+                  AppendCsvRows(grid, first, block, points_csv, eigenvalues_csv);
+                  points_file << points_csv;
+                  eigenvalues_file << eigenvalues_csv;
+                  count = first + block.size();
+                  return true;
+                });
   points_file.close();
   eigenvalues_file.close();
   if (!points_file || !eigenvalues_file) {

@@ -1,5 +1,6 @@
 // api::LocateThresholds: where the class of a multibody model changes along one parameter.
 #include "analysis/thresholds.h"
+
 #include "models/option_check.h"
 #include "servokit/toolkit_bridge.h"
 

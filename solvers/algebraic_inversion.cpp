@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <limits>
-#include <mutex>
 #include <cstddef>
 #include <exception>
+#include <limits>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -16,11 +16,11 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/nonlinear_structure.h"
 #include "analysis/types.h"
 #include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
-#include "analysis/nonlinear_structure.h"
 #include "models/symbolic_model.h"
 
 namespace servokit {
@@ -175,8 +175,10 @@ void RequireRegularCoefficients(const Eigen::MatrixXd& coefficients,
                                 const Eigen::VectorXd& row_scale,
                                 const Eigen::VectorXd& column_scale,
                                 const std::vector<int>& orders) {
-  const std::string which = "the inputs' coefficients in the input equations (outputs read to "
-                            "order " + JoinOrders(orders) + ")";
+  const std::string which =
+      "the inputs' coefficients in the input equations (outputs read to "
+      "order " +
+      JoinOrders(orders) + ")";
   if (!coefficients.allFinite()) {
     throw NoSolution("algebraic inversion: " + which + " are not finite at the reference state");
   }
@@ -202,8 +204,8 @@ void RequireOrders(const NonlinearStructure& structure, bool internal_dynamics) 
                 JoinOrders(structure.highest_derivative) + ") the outputs fix " +
                 std::to_string(constraints) + " of the " + std::to_string(states) + " states";
     } else if (orders.size() == 1) {
-      degrees = "the output's relative degree is " + std::to_string(orders[0]) + ", not 2 dof = " +
-                std::to_string(states);
+      degrees = "the output's relative degree is " + std::to_string(orders[0]) +
+                ", not 2 dof = " + std::to_string(states);
     } else {
       degrees = "the outputs' relative degrees " + JoinOrders(orders) + " add up to " +
                 std::to_string(constraints) + ", not 2 dof = " + std::to_string(states);
@@ -415,8 +417,7 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     newton_matrix << nominal_jacobian, programs->internal_directions.transpose();
     std::tie(programs->jacobian_row_scale, programs->jacobian_column_scale) =
         EquilibrationScales(newton_matrix);
-    RequireStateFixed(newton_matrix, programs->jacobian_row_scale,
-                      programs->jacobian_column_scale);
+    RequireStateFixed(newton_matrix, programs->jacobian_row_scale, programs->jacobian_column_scale);
     // Constraints affine in the state with a Jacobian free of y_d (linear models, the
     // mass on car at alpha = 0): Newton's matrix is constant for the nominal parameters, so it
     // is factored once here and one step from any start is exact.
@@ -448,8 +449,8 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     }
     if (programs->affine) {
       programs->constraint_values = CompileExpressions(structure.constraints, program_inputs);
-      programs->affine_lu = ScaledLu(newton_matrix, programs->jacobian_row_scale,
-                                     programs->jacobian_column_scale);
+      programs->affine_lu =
+          ScaledLu(newton_matrix, programs->jacobian_row_scale, programs->jacobian_column_scale);
     }
 
     for (std::size_t p : structure.pinned_parameters) {
@@ -499,8 +500,8 @@ void AlgebraicInverse::Programs::PrepareScratch(const Eigen::VectorXd& parameter
   }
   scratch.registers.resize(std::max({constraints.num_registers(), input_equations.num_registers(),
                                      constraint_values.num_registers()}));
-  scratch.outputs.resize(std::max({constraints.num_outputs(), input_equations.num_outputs(),
-                                   constraint_values.num_outputs()}));
+  scratch.outputs.resize(std::max(
+      {constraints.num_outputs(), input_equations.num_outputs(), constraint_values.num_outputs()}));
   scratch.constant_matrix = affine && parameters == nominal_parameters;
   scratch.constant_coefficients = constant_coefficients && parameters == nominal_parameters;
 }
@@ -545,7 +546,8 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
       residual[r] = scratch.outputs[static_cast<std::size_t>(r)];
     }
     for (Eigen::Index r = constraint_rows; r < states; ++r) {
-      residual[r] = internal_directions.col(r - constraint_rows).dot(x) - internal[r - constraint_rows];
+      residual[r] =
+          internal_directions.col(r - constraint_rows).dot(x) - internal[r - constraint_rows];
     }
     scratch.scaled = jacobian_row_scale.asDiagonal() * residual;
     step = jacobian_column_scale.asDiagonal() * affine_lu.solve(scratch.scaled);
@@ -580,9 +582,9 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
         // Jacobian by x, each coefficient with the size of the whole state, since near rest the
         // entries vanish while round-off of the others does not.
         for (Eigen::Index k = 0; k < derivatives; ++k) {
-          size += std::abs(scratch.outputs[by_derivative + row * num_derivatives +
-                                           static_cast<std::size_t>(k)] *
-                           derivative_values[k]);
+          size += std::abs(
+              scratch.outputs[by_derivative + row * num_derivatives + static_cast<std::size_t>(k)] *
+              derivative_values[k]);
         }
       } else {
         const Eigen::Index column = r - constraint_rows;
@@ -600,21 +602,21 @@ bool AlgebraicInverse::Programs::SolveState(const Eigen::VectorXd& internal,
     // are all tiny (a state near rest) cannot get below round-off of the others' sizes.
     // And when the residual stagnates at a level that is round-off for a badly conditioned
     // constraint Jacobian (the six-mass chain's is ~1e10): a further step would only stir it.
-    const bool stagnated = iteration >= 2 && worst >= 0.5 * previous_worst &&
-                           worst <= kStagnationTolerance;
+    const bool stagnated =
+        iteration >= 2 && worst >= 0.5 * previous_worst && worst <= kStagnationTolerance;
     if (worst <= kNewtonTolerance || last_step_at_round_off || stagnated) return true;
     previous_worst = worst;
     if (iteration == kMaxNewtonIterations) break;
     if (!jacobian.allFinite() ||
-        !SolveScaledInto(jacobian, jacobian_row_scale, jacobian_column_scale, residual,
-                         scratch.lu, step)) {
+        !SolveScaledInto(jacobian, jacobian_row_scale, jacobian_column_scale, residual, scratch.lu,
+                         step)) {
       why = "the Jacobian of the output constraints is singular at " + StateText(x);
       return false;
     }
     x -= step;
-    last_step_at_round_off = step.cwiseAbs().maxCoeff() <=
-                             kRoundOffSteps * std::numeric_limits<double>::epsilon() *
-                                 (1.0 + x.cwiseAbs().maxCoeff());
+    last_step_at_round_off =
+        step.cwiseAbs().maxCoeff() <=
+        kRoundOffSteps * std::numeric_limits<double>::epsilon() * (1.0 + x.cwiseAbs().maxCoeff());
   }
   std::ostringstream text;
   text.precision(3);
@@ -674,8 +676,7 @@ bool AlgebraicInverse::Evaluate(const Eigen::MatrixXd& output_derivatives,
     throw UsageError("AlgebraicInverse::Evaluate: " + std::to_string(internal_order()) +
                      " internal coordinates remain; use EvaluateWithInternal");
   }
-  return EvaluateWithInternal(output_derivatives, Eigen::VectorXd(), parameters, q, q_dot, u,
-                              why);
+  return EvaluateWithInternal(output_derivatives, Eigen::VectorXd(), parameters, q, q_dot, u, why);
 }
 
 bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
@@ -694,8 +695,7 @@ AlgebraicInverse::Workspace::Workspace() : scratch_(std::make_unique<AlgebraicIn
 AlgebraicInverse::Workspace::~Workspace() = default;
 bool AlgebraicInverse::Workspace::singular_inputs() const { return scratch_->singular_inputs; }
 AlgebraicInverse::Workspace::Workspace(Workspace&&) noexcept = default;
-AlgebraicInverse::Workspace& AlgebraicInverse::Workspace::operator=(Workspace&&) noexcept =
-    default;
+AlgebraicInverse::Workspace& AlgebraicInverse::Workspace::operator=(Workspace&&) noexcept = default;
 
 bool AlgebraicInverse::EvaluateWithInternal(const Eigen::MatrixXd& output_derivatives,
                                             const Eigen::VectorXd& internal,

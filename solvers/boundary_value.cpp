@@ -174,10 +174,10 @@ class CollocationSolver {
  public:
   virtual ~CollocationSolver() = default;
   CollocationSolver(const BvpRightHandSide& f,
-            const BvpJacobian& jacobian,
-            const BoundaryConditions& conditions,
-            const BoundaryValueOptions& options,
-            Index n)
+                    const BvpJacobian& jacobian,
+                    const BoundaryConditions& conditions,
+                    const BoundaryValueOptions& options,
+                    Index n)
       : f_(f),
         jacobian_(jacobian),
         conditions_(conditions),
@@ -280,7 +280,9 @@ class CollocationSolver {
   }
 
   // Failure when refining would exceed max_mesh_points: names the worst interval.
-  bool TooManyPoints(std::size_t wanted, const std::vector<double>& residuals, Index first_node_stride) {
+  bool TooManyPoints(std::size_t wanted,
+                     const std::vector<double>& residuals,
+                     Index first_node_stride) {
     const auto worst = std::max_element(residuals.begin(), residuals.end());
     const double t = mesh_[std::size_t((worst - residuals.begin()) * first_node_stride)];
     failure_ = {SolveStatus::kTooManySteps,
@@ -914,7 +916,6 @@ class LobattoSolver final : public CollocationSolver {
   // with u as the guess at the new nodes. The margin pays for itself: a prediction that falls
   // short by a little on one interval costs another Newton solve on the whole mesh.
   bool Refine(const std::vector<double>& residuals) override {
-
     std::vector<double> ends;
     std::vector<VectorXd> values;
     for (Index interval = 0; interval < Intervals(); ++interval) {
@@ -924,7 +925,8 @@ class LobattoSolver final : public CollocationSolver {
       const double residual = residuals[std::size_t(interval)];
       int pieces = 1;
       if (residual > options_.tolerance) {
-        pieces = int(std::ceil(std::pow(kRefinementMargin * residual / options_.tolerance, 1.0 / (stages_ + 1))));
+        pieces = int(std::ceil(
+            std::pow(kRefinementMargin * residual / options_.tolerance, 1.0 / (stages_ + 1))));
         pieces = std::clamp(pieces, 2, kMaxPieces);
       }
       if (pieces == 1) {  // kept as it is
@@ -971,14 +973,14 @@ class LobattoSolver final : public CollocationSolver {
   // split_integrals_[p] (row piece (s - 1) + k, column j): integral_0^tau l_j at the new
   // node k of part `piece` when an interval is split into p parts (Refine's guess).
   std::vector<MatrixXd> split_integrals_;
-  MatrixXd node_integrals_;   // (k, j): integral_0^tau_k l_j
+  MatrixXd node_integrals_;  // (k, j): integral_0^tau_k l_j
   // The condensation of each interval (AssembleJacobian): LU of G_II, G_II^-1 G_Ia,
   // G_II^-1 G_Ib and G_eI; and buffers.
   std::vector<Eigen::PartialPivLU<MatrixXd>> interior_lu_;
   std::vector<MatrixXd> to_first_, to_last_, last_row_interior_;
   MatrixXd local_, interior_rhs_;
   VectorXd ends_rhs_, ends_;
-  std::vector<double> check_points_;  // halfway between consecutive nodes
+  std::vector<double> check_points_;        // halfway between consecutive nodes
   MatrixXd check_integrals_, check_basis_;  // integral_0^sigma_m l_j and l_j(sigma_m)
   MatrixXd block_;
 };

@@ -92,8 +92,9 @@ struct BoundaryValueSolution {
   // BoundaryValueOptions::collocation_points otherwise).
   int nodes_per_interval = 2;
   /// The collocation solution at t, size n: the C1 cubic Hermite interpolant through (mesh, y,
-  /// y_prime) for Hermite-Simpson, the interval's collocation polynomial otherwise. Throws UsageError if t is outside [mesh.front(),
-  /// mesh.back()] or the solution has no derivative values.
+  /// y_prime) for Hermite-Simpson, the interval's collocation polynomial otherwise. Throws
+  /// UsageError if t is outside [mesh.front(), mesh.back()] or the solution has no derivative
+  /// values.
   Eigen::VectorXd Evaluate(double t) const;
 };
 

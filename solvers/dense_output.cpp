@@ -27,7 +27,8 @@ std::vector<double> LobattoNodes(double start, double end, int count) {
 void DenseOutput::AppendPiece(const std::vector<double>& times,
                               const std::vector<Eigen::VectorXd>& values) {
   if (times.size() < 2 || values.size() != times.size()) {
-    throw std::invalid_argument("DenseOutput::AppendPiece: needs two or more times, one value each");
+    throw std::invalid_argument(
+        "DenseOutput::AppendPiece: needs two or more times, one value each");
   }
   for (std::size_t i = 1; i < times.size(); ++i) {
     if (!(times[i] > times[i - 1])) {
@@ -35,7 +36,8 @@ void DenseOutput::AppendPiece(const std::vector<double>& times,
     }
   }
   if (!empty() && times.front() != end_) {
-    throw std::invalid_argument("DenseOutput::AppendPiece: a piece must start where the last ended");
+    throw std::invalid_argument(
+        "DenseOutput::AppendPiece: a piece must start where the last ended");
   }
   for (const Eigen::VectorXd& value : values) {
     if (value.size() != size_) {

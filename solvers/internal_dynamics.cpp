@@ -14,7 +14,8 @@ namespace {
 // independent variable of the normal form.
 class FixedOutputTrajectory final : public OutputTrajectory {
  public:
-  explicit FixedOutputTrajectory(Eigen::MatrixXd derivatives) : derivatives_(std::move(derivatives)) {}
+  explicit FixedOutputTrajectory(Eigen::MatrixXd derivatives)
+      : derivatives_(std::move(derivatives)) {}
   Eigen::VectorXd Derivative(double, int order) const override {
     if (order < derivatives_.cols()) return derivatives_.col(order);
     return Eigen::VectorXd::Zero(derivatives_.rows());

@@ -13,14 +13,14 @@
 namespace servokit {
 
 struct LinearInternalDynamics {
-  Eigen::VectorXd equilibrium_state;   // x0, size 2 (dof - outputs)
-  Eigen::VectorXd equilibrium_output;  // Y0, size 3 outputs
-  Eigen::VectorXd equilibrium_input;   // u0, size inputs
-  Eigen::MatrixXd state_matrix;        // A
-  Eigen::MatrixXd drive_matrix;        // G
-  Eigen::MatrixXd input_state;         // U_x
-  Eigen::MatrixXd input_drive;         // U_Y
-  Eigen::MatrixXd internal_directions; // C, dof x (dof - outputs), as the normal form uses it
+  Eigen::VectorXd equilibrium_state;    // x0, size 2 (dof - outputs)
+  Eigen::VectorXd equilibrium_output;   // Y0, size 3 outputs
+  Eigen::VectorXd equilibrium_input;    // u0, size inputs
+  Eigen::MatrixXd state_matrix;         // A
+  Eigen::MatrixXd drive_matrix;         // G
+  Eigen::MatrixXd input_state;          // U_x
+  Eigen::MatrixXd input_drive;          // U_Y
+  Eigen::MatrixXd internal_directions;  // C, dof x (dof - outputs), as the normal form uses it
 };
 
 /// Linearizes the normal form at the equilibrium q (size dof, at rest, h(q) = y). Throws

@@ -81,7 +81,7 @@ struct FeedforwardSolution {
   std::vector<double> times;
   std::vector<Eigen::VectorXd> q, q_dot, u;  // one per time: dof, dof, inputs
   double max_servo_residual = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
-  std::optional<StableInversionWindow> window;  // stable inversion only
+  std::optional<StableInversionWindow> window;                           // stable inversion only
   // Things a user should know that do not stop the solve (the window cut short, ...).
   std::vector<std::string> warnings;
   // q_d, q_d' and u_d at any time of [t_start, where the solve stopped]: the method's own

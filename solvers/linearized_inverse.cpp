@@ -141,10 +141,10 @@ FeedforwardSolution SolveLinearizedInverse(const Model& model,
   InverseModelOptions linear_options = options;
   // Exact inverses of the linearization: algebraic when flat, else the bounded (stable
   // inversion) one; critical zero dynamics have no bounded inverse, the normal form serves.
-  linear_options.method =
-      linear_class.flat ? SolverMethod::kAlgebraic
-      : linear_class.zero_dynamics.stability == Stability::kCritical ? SolverMethod::kNormalForm
-                                                                      : SolverMethod::kStableInversion;
+  linear_options.method = linear_class.flat ? SolverMethod::kAlgebraic
+                          : linear_class.zero_dynamics.stability == Stability::kCritical
+                              ? SolverMethod::kNormalForm
+                              : SolverMethod::kStableInversion;
   FeedforwardSolution solution =
       SolveInverseModel(deviation->model, *deviation->trajectory, linear_class, linear_options);
   const Eigen::VectorXd& q0 = classification.operating_point.q;
@@ -155,12 +155,12 @@ FeedforwardSolution SolveLinearizedInverse(const Model& model,
   }
   if (solution.extension) {
     solution.extension = std::make_shared<const ShiftedMotion>(
-        std::shared_ptr<const DeviationProblem>(std::move(deviation)), solution.extension, q0,
-        u0);
+        std::shared_ptr<const DeviationProblem>(std::move(deviation)), solution.extension, q0, u0);
   }
-  solution.method_reason = "asked for: the exact inverse of the linearization at the operating "
-                           "point (" + std::string(ToString(solution.method)) +
-                           "), applied to the nonlinear model";
+  solution.method_reason =
+      "asked for: the exact inverse of the linearization at the operating "
+      "point (" +
+      std::string(ToString(solution.method)) + "), applied to the nonlinear model";
   solution.method = SolverMethod::kLinearized;
   solution.warnings.push_back(
       "linearized: u_d inverts the linearization at the operating point, not the model; "

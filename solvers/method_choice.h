@@ -71,9 +71,7 @@ class MethodChooser {
   /// that Assess(kNormalForm) or Assess(kStableInversion) derived for a problem with P
   /// singular; null before, when it refused, or when P is regular (the normal form of Eq. 25
   /// serves then).
-  std::shared_ptr<const AlgebraicInverse> output_normal_form() const {
-    return output_normal_form_;
-  }
+  std::shared_ptr<const AlgebraicInverse> output_normal_form() const { return output_normal_form_; }
 
  private:
   MethodVerdict Judge(SolverMethod method);

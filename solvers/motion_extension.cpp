@@ -131,11 +131,11 @@ std::shared_ptr<const MotionExtension> InterpolatedMotion(DenseOutput states, Ei
   return std::make_shared<const Interpolated>(std::move(states), dof);
 }
 
-std::shared_ptr<const MotionExtension> MappedMotion(InternalStateMap map,
-                                                    std::function<Eigen::VectorXd(double)>
-                                                        internal_state,
-                                                    double start,
-                                                    double end) {
+std::shared_ptr<const MotionExtension> MappedMotion(
+    InternalStateMap map,
+    std::function<Eigen::VectorXd(double)> internal_state,
+    double start,
+    double end) {
   return std::make_shared<const Mapped>(std::move(map), std::move(internal_state), start, end);
 }
 
@@ -147,9 +147,9 @@ std::shared_ptr<const MotionExtension> InternalMotion(
     double end) {
   // The last q found starts the next Newton iteration (the motion is smooth).
   auto last_q = std::make_shared<Eigen::VectorXd>(q_guess);
-  InternalStateMap map = [problem, last_q](double t, const Eigen::VectorXd& x,
-                                           Eigen::VectorXd& q, Eigen::VectorXd& q_dot,
-                                           Eigen::VectorXd& u, std::string& why) {
+  InternalStateMap map = [problem, last_q](double t, const Eigen::VectorXd& x, Eigen::VectorXd& q,
+                                           Eigen::VectorXd& q_dot, Eigen::VectorXd& u,
+                                           std::string& why) {
     const Eigen::Index internal = problem->num_internal();
     q = *last_q;
     Eigen::VectorXd q_ddot;
@@ -170,8 +170,8 @@ std::shared_ptr<const MotionExtension> AlgebraicMotion(
     std::vector<double> times,
     std::vector<Eigen::VectorXd> q,
     std::vector<Eigen::VectorXd> q_dot) {
-  return std::make_shared<const Algebraic>(std::move(inverse), model, trajectory,
-                                           std::move(times), std::move(q), std::move(q_dot));
+  return std::make_shared<const Algebraic>(std::move(inverse), model, trajectory, std::move(times),
+                                           std::move(q), std::move(q_dot));
 }
 
 std::shared_ptr<const MotionExtension> PaddedWithRest(std::shared_ptr<const MotionExtension> inner,

@@ -55,11 +55,11 @@ using InternalStateMap = std::function<bool(double t,
                                             std::string& why)>;
 
 /// The internal state at t from `internal_state` on [start, end], mapped by `map`.
-std::shared_ptr<const MotionExtension> MappedMotion(InternalStateMap map,
-                                                    std::function<Eigen::VectorXd(double)>
-                                                        internal_state,
-                                                    double start,
-                                                    double end);
+std::shared_ptr<const MotionExtension> MappedMotion(
+    InternalStateMap map,
+    std::function<Eigen::VectorXd(double)> internal_state,
+    double start,
+    double end);
 
 /// MappedMotion with the map of the normal form for r = 2 (P regular): the internal state
 /// (z, z') mapped to q and q' by the servo constraint (Eqs. 19-20) and to u by Eq. (24) through

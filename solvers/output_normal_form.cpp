@@ -23,8 +23,8 @@ bool OutputNormalFormMap::State(double t,
                                 Eigen::VectorXd& u,
                                 std::string& why) {
   trajectory_.Derivatives(t, form_->highest_output_derivative(), derivatives_);
-  if (!form_->EvaluateWithInternal(derivatives_, internal, model_.parameters(), q_, q_dot_, u,
-                                   why, inverse_workspace_)) {
+  if (!form_->EvaluateWithInternal(derivatives_, internal, model_.parameters(), q_, q_dot_, u, why,
+                                   inverse_workspace_)) {
     return false;
   }
   q = q_;

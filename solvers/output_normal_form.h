@@ -34,7 +34,9 @@ class OutputNormalFormMap {
              std::string& why);
 
   /// z' at the state State() found last, driven by u.
-  bool InternalDerivative(const Eigen::VectorXd& u, Eigen::VectorXd& internal_dot, std::string& why);
+  bool InternalDerivative(const Eigen::VectorXd& u,
+                          Eigen::VectorXd& internal_dot,
+                          std::string& why);
 
   /// z' = f(t, z) in one call (State, then InternalDerivative); u is left as found.
   bool RightHandSide(double t,

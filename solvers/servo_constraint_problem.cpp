@@ -34,9 +34,9 @@ void SolveColumnsWithFactor(const Eigen::LLT<Eigen::MatrixXd>& factor, Eigen::Ma
   }
 }
 
-constexpr unsigned kDynamics = Quantity::kMassMatrix | Quantity::kForces |
-                               Quantity::kInputMatrix | Quantity::kOutput |
-                               Quantity::kOutputJacobian | Quantity::kOutputBias;
+constexpr unsigned kDynamics = Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix |
+                               Quantity::kOutput | Quantity::kOutputJacobian |
+                               Quantity::kOutputBias;
 constexpr unsigned kOutputGeometry = Quantity::kOutput | Quantity::kOutputJacobian;
 
 // [H; C^T] counts as invertible for choosing C = q_u when its reciprocal condition number is
@@ -81,8 +81,10 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
   reference_tangent_basis_ = TangentBasis(output_jacobian, options_.rank_tolerance);
   if (reference_tangent_basis_.cols() != dof() - num_outputs()) {
-    throw NoSolution("the outputs are not independent at the reference point: H = dh/dq has "
-                     "rank < " + std::to_string(num_outputs()));
+    throw NoSolution(
+        "the outputs are not independent at the reference point: H = dh/dq has "
+        "rank < " +
+        std::to_string(num_outputs()));
   }
 
   // The paper's chart (Eq. 19): z = q_u, the coordinates no input acts on directly.
@@ -94,7 +96,8 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
   internal_directions_ = reference_tangent_basis_;
   if (Eigen::Index(unactuated.size()) == dof() - num_outputs()) {
     Eigen::MatrixXd selection = Eigen::MatrixXd::Zero(dof(), Eigen::Index(unactuated.size()));
-    for (std::size_t k = 0; k < unactuated.size(); ++k) selection(unactuated[k], Eigen::Index(k)) = 1.0;
+    for (std::size_t k = 0; k < unactuated.size(); ++k)
+      selection(unactuated[k], Eigen::Index(k)) = 1.0;
     Eigen::MatrixXd chart(dof(), dof());
     chart << output_jacobian, selection.transpose();
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(chart);
@@ -116,15 +119,16 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
     }
     return true;
   };
-  output_is_linear_ = options_.exploit_constant_structure &&
-                     independent_of_q(model.symbolic().output_jacobian());
+  output_is_linear_ =
+      options_.exploit_constant_structure && independent_of_q(model.symbolic().output_jacobian());
   std::string why;
   if (output_is_linear_ && independent_of_q(model.symbolic().mass_matrix()) &&
       independent_of_q(model.symbolic().input_matrix()) &&
       EvaluateDynamics(reference_q, zero_velocity_, why)) {
     constant_mass_factor_ = mass_factor_;
     constant_input_accelerations_ = mass_factor_.solve(workspace_.input_matrix);
-    const Eigen::MatrixXd decoupling = DecouplingMatrix(output_jacobian, constant_input_accelerations_);
+    const Eigen::MatrixXd decoupling =
+        DecouplingMatrix(output_jacobian, constant_input_accelerations_);
     const Eigen::FullPivLU<Eigen::MatrixXd> factor(decoupling);
     const double scale = output_jacobian.norm() * constant_input_accelerations_.norm();
     // Only when P is regular; otherwise NormalForm() reports the singular P as usual.
@@ -147,9 +151,9 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
                                               std::string& why,
                                               bool with_output) {
   // A linear output has a constant H (kept from the constructor) and h_bar = H_dot q_dot = 0.
-  unsigned quantities =
-      output_is_linear_ ? (kDynamics & ~(Quantity::kOutputJacobian | Quantity::kOutputBias))
-                        : kDynamics;
+  unsigned quantities = output_is_linear_
+                            ? (kDynamics & ~(Quantity::kOutputJacobian | Quantity::kOutputBias))
+                            : kDynamics;
   if (!with_output) quantities &= ~static_cast<unsigned>(Quantity::kOutput);
   Evaluate(model_, workspace_, q, q_dot, quantities);
   if (!workspace_.mass_matrix.allFinite() || !workspace_.forces.allFinite() ||
@@ -171,7 +175,8 @@ bool ServoConstraintProblem::EvaluateDynamics(const Eigen::Ref<const Eigen::Vect
   const double diagonal_ratio = diagonal.minCoeff() / diagonal.maxCoeff();
   const double reciprocal_condition = diagonal_ratio * diagonal_ratio;
   if (reciprocal_condition < options_.min_mass_reciprocal_condition) {
-    why = "M(q) is singular (reciprocal condition number " + FormatNumber(reciprocal_condition) + ")";
+    why =
+        "M(q) is singular (reciprocal condition number " + FormatNumber(reciprocal_condition) + ")";
     last_failure_ = SolveStatus::kSingularMass;
     return false;
   }
@@ -231,9 +236,10 @@ bool ServoConstraintProblem::StateFromInternal(double t,
     if (correction_.norm() <= options_.coordinate_tolerance * (1.0 + q.norm())) break;
     if (iteration + 1 >= options_.max_coordinate_iterations) {
       // Near a singular [H; C^T] Newton stalls before the pivot test trips: say how close.
-      why = "Newton's method for q from y_d and the internal coordinates does not converge "
-            "([H; C^T] nearly singular: pivot ratio " +
-            FormatNumber(pivots.minCoeff() / pivots.maxCoeff()) + ")";
+      why =
+          "Newton's method for q from y_d and the internal coordinates does not converge "
+          "([H; C^T] nearly singular: pivot ratio " +
+          FormatNumber(pivots.minCoeff() / pivots.maxCoeff()) + ")";
       last_failure_ = SolveStatus::kNoConvergence;
       return false;
     }
@@ -324,7 +330,8 @@ bool ServoConstraintProblem::ConstantGeometryNormalForm(double t,
   return true;
 }
 
-Eigen::MatrixXd ServoConstraintProblem::TangentBasisAt(const Eigen::MatrixXd& output_jacobian) const {
+Eigen::MatrixXd ServoConstraintProblem::TangentBasisAt(
+    const Eigen::MatrixXd& output_jacobian) const {
   const Eigen::MatrixXd gram = output_jacobian * output_jacobian.transpose();
   return reference_tangent_basis_ -
          output_jacobian.transpose() *
@@ -348,7 +355,8 @@ bool ServoConstraintProblem::ProjectedEquations(double t,
   const Eigen::MatrixXd& output_jacobian = workspace_.output_jacobian;
   // With a constant H, D(q) = D_0 (H D_0 = 0 already).
   if (!output_is_linear_) tangent_basis_ = TangentBasisAt(output_jacobian);
-  const Eigen::MatrixXd& tangent_basis = output_is_linear_ ? reference_tangent_basis_ : tangent_basis_;
+  const Eigen::MatrixXd& tangent_basis =
+      output_is_linear_ ? reference_tangent_basis_ : tangent_basis_;
   applied_.noalias() = workspace_.input_matrix * u;  // B u - f
   applied_ -= workspace_.forces;
   const Eigen::VectorXd& applied = applied_;
@@ -416,7 +424,8 @@ std::vector<int> ProjectedDae::ComponentIndices() const {
   const Eigen::Index f = problem_.dof();
   std::vector<int> indices(std::size_t(size()), 1);
   for (Eigen::Index i = f; i < 2 * f; ++i) indices[std::size_t(i)] = 2;
-  for (Eigen::Index i = 2 * f; i < size(); ++i) indices[std::size_t(i)] = decoupling_regular_ ? 2 : 3;
+  for (Eigen::Index i = 2 * f; i < size(); ++i)
+    indices[std::size_t(i)] = decoupling_regular_ ? 2 : 3;
   return indices;
 }
 

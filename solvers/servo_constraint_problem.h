@@ -156,12 +156,12 @@ class ServoConstraintProblem {
   Eigen::PartialPivLU<Eigen::MatrixXd> chart_factor_;
   Eigen::MatrixXd accelerations_of_inputs_and_forces_;  // M^-1 [B f], one solve for both
   Eigen::VectorXd force_accelerations_;                 // M^-1 f
-  Eigen::MatrixXd decoupling_;           // P
+  Eigen::MatrixXd decoupling_;                          // P
   Eigen::FullPivLU<Eigen::MatrixXd> decoupling_factor_;
-  Eigen::VectorXd decoupling_rhs_;       // H M^-1 f - h_bar + y_d'' (Eq. 24)
-  Eigen::MatrixXd tangent_basis_;        // D(q) of the last evaluation
-  Eigen::VectorXd applied_;              // B u - f
-  Eigen::VectorXd accelerations_;        // M^-1 (B u - f)
+  Eigen::VectorXd decoupling_rhs_;           // H M^-1 f - h_bar + y_d'' (Eq. 24)
+  Eigen::MatrixXd tangent_basis_;            // D(q) of the last evaluation
+  Eigen::VectorXd applied_;                  // B u - f
+  Eigen::VectorXd accelerations_;            // M^-1 (B u - f)
   Eigen::MatrixXd reference_tangent_basis_;  // D_0
   Eigen::MatrixXd internal_directions_;      // C
   bool internal_are_unactuated_ = false;
@@ -189,9 +189,7 @@ class ProjectedDae final : public LinearlyImplicitDae {
  public:
   ProjectedDae(ServoConstraintProblem& problem, bool decoupling_regular)
       : problem_(problem), decoupling_regular_(decoupling_regular) {}
-  Eigen::Index size() const override {
-    return 2 * problem_.dof() + problem_.num_inputs();
-  }
+  Eigen::Index size() const override { return 2 * problem_.dof() + problem_.num_inputs(); }
   std::vector<int> ComponentIndices() const override;
   bool Evaluate(double t,
                 const Eigen::VectorXd& x,

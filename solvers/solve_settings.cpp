@@ -106,14 +106,16 @@ void CheckTolerances(SolverMethod method, std::optional<double> rtol, std::optio
     }
     if (*rtol < settings.min_rtol) {
       throw SettingError(SolveSetting::kRelativeTolerance,
-                         "relative tolerance " + FormatNumber(*rtol) +
-                             " is below the smallest " + std::string(ToString(method)) +
-                             " supports, " + FormatNumber(settings.min_rtol));
+                         "relative tolerance " + FormatNumber(*rtol) + " is below the smallest " +
+                             std::string(ToString(method)) + " supports, " +
+                             FormatNumber(settings.min_rtol));
     }
     if (*rtol > kMaxRelativeTolerance) {
-      throw SettingError(SolveSetting::kRelativeTolerance,
-                         "relative tolerance " + FormatNumber(*rtol) + " is above the largest "
-                         "supported, " + FormatNumber(kMaxRelativeTolerance));
+      throw SettingError(SolveSetting::kRelativeTolerance, "relative tolerance " +
+                                                               FormatNumber(*rtol) +
+                                                               " is above the largest "
+                                                               "supported, " +
+                                                               FormatNumber(kMaxRelativeTolerance));
     }
   }
   if (atol && !(std::isfinite(*atol) && *atol > 0.0)) {

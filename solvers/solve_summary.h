@@ -31,10 +31,10 @@ struct SolveSummary {
   std::string message = "solver was not run";  // one line: why it stopped
   // Where the solver stopped: the end time when converged, else the time of the failure.
   double stop_time = std::numeric_limits<double>::quiet_NaN();
-  long steps = 0;                  // accepted steps
-  long rejected_steps = 0;         // by the error test or a failed Newton iteration
-  long newton_iterations = 0;      // summed over all steps
-  long function_evaluations = 0;   // right-hand side or residual evaluations
+  long steps = 0;                 // accepted steps
+  long rejected_steps = 0;        // by the error test or a failed Newton iteration
+  long newton_iterations = 0;     // summed over all steps
+  long function_evaluations = 0;  // right-hand side or residual evaluations
   long jacobian_evaluations = 0;
   bool IsUsable() const { return status == SolveStatus::kConverged; }
 };

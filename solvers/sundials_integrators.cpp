@@ -17,9 +17,9 @@
 #include <utility>
 #include <vector>
 
-#include "numerics/sundials_support.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/sundials_support.h"
 
 namespace servokit {
 namespace {
@@ -524,8 +524,7 @@ class IdaIntegrator final : public OneStepIntegrator {
   }
 
   void SetMaxStep(double max_step) override {
-    Check(IDASetMaxStep(memory_.get(), std::isfinite(max_step) ? max_step : 0.0),
-          "IDASetMaxStep");
+    Check(IDASetMaxStep(memory_.get(), std::isfinite(max_step) ? max_step : 0.0), "IDASetMaxStep");
   }
   void SetStopTime(double stop_time) override {
     Check(IDASetStopTime(memory_.get(), stop_time), "IDASetStopTime");

@@ -64,8 +64,8 @@ using DaeResidual = std::function<bool(double t,
 /// Called at the start and after every internal step with t, the solution and its derivative
 /// there; returning false stops the integration (kInterrupted). May be empty. For the ODEs the
 /// derivative is g(t, y) itself; for IDA it is x' from IDA's BDF polynomial.
-using IntegratorObserver = std::function<bool(
-    double t, const Eigen::VectorXd& y, const Eigen::VectorXd& y_dot)>;
+using IntegratorObserver =
+    std::function<bool(double t, const Eigen::VectorXd& y, const Eigen::VectorXd& y_dot)>;
 
 /// y' = g(t, y) from (t_start, y_start) to t_end with ARKODE's explicit Dormand-Prince 5(4).
 /// `dense_output`, when given (empty, of the state's size), receives every accepted step's

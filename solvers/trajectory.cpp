@@ -87,8 +87,8 @@ RestToRestTrajectory::RestToRestTrajectory(
       const int m = n - 1 - j;
       const double sign = m % 2 == 0 ? 1.0 : -1.0;
       derivative_terms_[std::size_t(n)].push_back(
-          {j, m, sign * scale * Binomial(n - 1, j) * falling[std::size_t(j)] *
-                     falling[std::size_t(m)]});
+          {j, m,
+           sign * scale * Binomial(n - 1, j) * falling[std::size_t(j)] * falling[std::size_t(m)]});
     }
   }
 }

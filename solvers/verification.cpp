@@ -67,7 +67,9 @@ class Plant {
 
   // The largest real part of the eigenvalues of d(q', q'')/d(q, q') at (q, q', u): how fast
   // nearby motions move apart there (central differences; NaN where M is singular).
-  double GrowthRate(const Eigen::VectorXd& q, const Eigen::VectorXd& q_dot, const Eigen::VectorXd& u) {
+  double GrowthRate(const Eigen::VectorXd& q,
+                    const Eigen::VectorXd& q_dot,
+                    const Eigen::VectorXd& u) {
     const Eigen::Index f = q.size();
     Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(2 * f, 2 * f);
     jacobian.topRightCorner(f, f).setIdentity();
@@ -131,12 +133,10 @@ std::string Number(double value) {
 void VerificationOptions::Validate() const {
   RequireOption(bound_factor > 0.0 && std::isfinite(bound_factor), "VerificationOptions",
                 "bound_factor", bound_factor, "must be a finite number > 0");
-  RequireOption(resolution_factor > 0.0 && std::isfinite(resolution_factor),
-                "VerificationOptions", "resolution_factor", resolution_factor,
-                "must be a finite number > 0");
-  RequireOption(step_bound_factor > 0.0 && std::isfinite(step_bound_factor),
-                "VerificationOptions", "step_bound_factor", step_bound_factor,
-                "must be a finite number > 0");
+  RequireOption(resolution_factor > 0.0 && std::isfinite(resolution_factor), "VerificationOptions",
+                "resolution_factor", resolution_factor, "must be a finite number > 0");
+  RequireOption(step_bound_factor > 0.0 && std::isfinite(step_bound_factor), "VerificationOptions",
+                "step_bound_factor", step_bound_factor, "must be a finite number > 0");
   RequireOption(segment_growth > 1.0 && std::isfinite(segment_growth), "VerificationOptions",
                 "segment_growth", segment_growth, "must be a finite number > 1");
   RequireOption(stable_growth_rate >= 0.0 && std::isfinite(stable_growth_rate),
@@ -168,29 +168,30 @@ Verification VerifyFeedforward(const Model& model,
       exact ? kExactForwardRtol
             : std::clamp(kForwardToleranceRatio * accuracy.rtol, kMinForwardRtol, kMaxForwardRtol);
   verification.forward_atol = kForwardAbsoluteScale * verification.forward_rtol;
-  const double forward_term =
-      verification.forward_rtol * scales.output + verification.forward_atol;
+  const double forward_term = verification.forward_rtol * scales.output + verification.forward_atol;
   const double resolution = options.resolution_factor * forward_term;
   const std::string resolution_rule =
-      Number(options.resolution_factor) + " x (the forward check's own resolution, rtol max|y_d| + "
-      "atol = " + Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
+      Number(options.resolution_factor) +
+      " x (the forward check's own resolution, rtol max|y_d| + "
+      "atol = " +
+      Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
       Number(verification.forward_atol) +
       (solution.method == SolverMethod::kLinearized
            ? "; the bound of an exact inverse: the linearization's inverse passes only where it "
              "is exact to that resolution)"
-           : exact ? "; the inverse is exact)" : ")");
+       : exact ? "; the inverse is exact)"
+               : ")");
   if (accuracy.step) {
     verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
-    verification.bound_rule = Number(options.step_bound_factor) + " x step max|y_d'| = " +
-                              Number(options.step_bound_factor) + " x " +
+    verification.bound_rule = Number(options.step_bound_factor) +
+                              " x step max|y_d'| = " + Number(options.step_bound_factor) + " x " +
                               Number(*accuracy.step) + " * " + Number(scales.velocity) +
                               " (first order: about one step of delay)";
   } else if (!exact) {
-    verification.bound =
-        options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
-    verification.bound_rule = Number(options.bound_factor) + " x (rtol max|y_d| + atol = " +
-                              Number(accuracy.rtol) + " * " + Number(scales.output) + " + " +
-                              Number(accuracy.atol) + ")";
+    verification.bound = options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
+    verification.bound_rule = Number(options.bound_factor) +
+                              " x (rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " +
+                              Number(scales.output) + " + " + Number(accuracy.atol) + ")";
   }
   if (exact || !(verification.bound >= resolution)) {
     verification.bound = resolution;
@@ -201,8 +202,8 @@ Verification VerifyFeedforward(const Model& model,
   Eigen::VectorXd q_solution, q_dot_solution, u_solution;
   std::string why;
   if (!motion.Evaluate(t_start, q_solution, q_dot_solution, u_solution, why)) {
-    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) + " s: " +
-                     why);
+    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) +
+                     " s: " + why);
   }
   Eigen::VectorXd q_start = q_solution, q_dot_start = q_dot_solution, u_start = u_solution;
   if (TrajectoryAtRest(trajectory, t_start)) {
@@ -215,8 +216,7 @@ Verification VerifyFeedforward(const Model& model,
     u_start = rest_point.u;
     q_dot_start = Eigen::VectorXd::Zero(q_start.size());
     verification.start = "rest";
-    verification.start_position_deviation =
-        (q_solution - q_start).lpNorm<Eigen::Infinity>();
+    verification.start_position_deviation = (q_solution - q_start).lpNorm<Eigen::Infinity>();
     verification.start_velocity_deviation = q_dot_solution.lpNorm<Eigen::Infinity>();
     double largest_velocity = 0.0;
     for (const Eigen::VectorXd& velocity : solution.q_dot) {
@@ -232,8 +232,8 @@ Verification VerifyFeedforward(const Model& model,
     if (!verification.solution_starts_at_rest) {
       verification.warnings.push_back(
           "the solution does not start at rest at t_start = " + Number(t_start) +
-          " s (|q - q_rest| = " + Number(verification.start_position_deviation) + ", |q'| = " +
-          Number(verification.start_velocity_deviation) +
+          " s (|q - q_rest| = " + Number(verification.start_position_deviation) +
+          ", |q'| = " + Number(verification.start_velocity_deviation) +
           "); the forward check starts from rest, where the physical system is");
     }
   } else {
@@ -254,8 +254,7 @@ Verification VerifyFeedforward(const Model& model,
   }
   const double span = t_stop - t_start;
   if (verification.plant_growth_rate > options.stable_growth_rate) {
-    verification.segment_length =
-        std::log(options.segment_growth) / verification.plant_growth_rate;
+    verification.segment_length = std::log(options.segment_growth) / verification.plant_growth_rate;
   }
   if (verification.segment_length >= span) {
     verification.segments = 1;
@@ -264,8 +263,7 @@ Verification VerifyFeedforward(const Model& model,
     verification.warnings.push_back(
         "the plant grows so fast (" + Number(verification.plant_growth_rate) +
         " /s) that the forward check's " + std::to_string(kMaxSegments) +
-        " segments let errors grow by more than " + Number(options.segment_growth) +
-        " within one");
+        " segments let errors grow by more than " + Number(options.segment_growth) + " within one");
   } else {
     verification.segments = int(std::ceil(span / verification.segment_length - 1e-9));
   }
@@ -327,13 +325,13 @@ Verification VerifyFeedforward(const Model& model,
     }
   }
   if (verification.summary.IsUsable()) {
-    verification.summary.message =
-        "reached t = " + Number(t_stop) + " s in " + std::to_string(verification.segments) +
-        (verification.segments == 1 ? " run" : " runs") + ", " +
-        std::to_string(verification.summary.steps) + " steps";
+    verification.summary.message = "reached t = " + Number(t_stop) + " s in " +
+                                   std::to_string(verification.segments) +
+                                   (verification.segments == 1 ? " run" : " runs") + ", " +
+                                   std::to_string(verification.summary.steps) + " steps";
   }
-  verification.passed = verification.summary.IsUsable() &&
-                        verification.max_tracking_error <= verification.bound;
+  verification.passed =
+      verification.summary.IsUsable() && verification.max_tracking_error <= verification.bound;
   return verification;
 }
 

@@ -31,9 +31,7 @@ class WaypointTrajectory final : public OutputTrajectory {
   }
 
   Eigen::Index outputs() const override { return segments_.front().outputs(); }
-  int continuous_derivatives() const override {
-    return segments_.front().continuous_derivatives();
-  }
+  int continuous_derivatives() const override { return segments_.front().continuous_derivatives(); }
   std::vector<double> breakpoints() const override { return times_; }
   double start_time() const { return times_.front(); }
   /// The same waypoints joined by segments with `continuous_derivatives` continuous derivatives

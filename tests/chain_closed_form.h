@@ -13,13 +13,12 @@ namespace servokit::testing {
 /// μ_i = 4 sin²((2i - 1)π / (2(2n' + 1))), the eigenvalues of its Laplacian. With d > 0 the
 /// transfer numerator (k + d s)^(j - 1) adds j - 1 zeros at -k/d. Order: for i = 1, 2, ... (the
 /// slowest first) the root with +√ then -√, then the -k/d ones.
-inline std::vector<std::complex<double>> ChainZeros(long masses, long output_mass, double m,
-                                                    double k, double d) {
+inline std::vector<std::complex<double>> ChainZeros(
+    long masses, long output_mass, double m, double k, double d) {
   const long free_masses = masses - output_mass;
   std::vector<std::complex<double>> zeros;
   for (long i = 1; i <= free_masses; ++i) {
-    const double angle =
-        double(2 * i - 1) * std::numbers::pi / (2.0 * double(2 * free_masses + 1));
+    const double angle = double(2 * i - 1) * std::numbers::pi / (2.0 * double(2 * free_masses + 1));
     const double mu = 4.0 * std::sin(angle) * std::sin(angle);
     const std::complex<double> root =
         std::sqrt(std::complex<double>(d * d * mu * mu - 4.0 * m * k * mu, 0.0));

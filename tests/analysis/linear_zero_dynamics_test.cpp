@@ -53,11 +53,11 @@
 #include <string>
 #include <vector>
 
-#include "numerics/gsl_support.h"
 #include "analysis/linear_analysis.h"
 #include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
+#include "numerics/gsl_support.h"
 #include "tests/chain_closed_form.h"
 
 namespace servokit {

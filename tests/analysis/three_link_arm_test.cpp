@@ -6,8 +6,8 @@
 // Holding y = alpha + (2 beta1 + beta2)/3 fixed means q = Z eta with the columns of Z spanning
 // ker H; rows 2 and 3 of the equations carry no input (B = e1), so the zero dynamics are
 //   (W M0 Z) eta'' + d eta' + c eta = 0,  W = [0 I2],  W diag(0,1,1) Z = I2.
-#include <catch2/catch.hpp>
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <complex>
 #include <string>
 #include <vector>
@@ -28,11 +28,10 @@ std::vector<std::complex<double>> ExpectedZeroDynamics(double d) {
   Eigen::Matrix3d centre_y;  // y of the rod centres from the absolute angles, at q = 0
   centre_y << 0.5, 0, 0, 1, 0.5, 0, 1, 1, 0.5;
   centre_y *= kL;
-  const Eigen::Matrix3d mass =
-      chain.transpose() *
-      (kMass * centre_y.transpose() * centre_y +
-       kMass * kL * kL / 12.0 * Eigen::Matrix3d::Identity()) *
-      chain;
+  const Eigen::Matrix3d mass = chain.transpose() *
+                               (kMass * centre_y.transpose() * centre_y +
+                                kMass * kL * kL / 12.0 * Eigen::Matrix3d::Identity()) *
+                               chain;
   Eigen::Matrix<double, 3, 2> kernel;  // H Z = 0 for H = [1, 2/3, 1/3]
   kernel << -2.0 / 3.0, -1.0 / 3.0, 1, 0, 0, 1;
   const Eigen::Matrix2d reduced_mass = mass.bottomRows<2>() * kernel;
@@ -70,8 +69,7 @@ void CheckHyperbolicUnstable(const Classification& c, double d) {
   CHECK(c.zero_dynamics.eigenvalues.front().real() > 0.0);
 }
 
-TEST_CASE("three-link arm: order-4 hyperbolic unstable zero dynamics, index 3",
-          "[analysis]") {
+TEST_CASE("three-link arm: order-4 hyperbolic unstable zero dynamics, index 3", "[analysis]") {
   const Classification c = ClassifyFile(ModelPath("three_link_arm.yaml"));
   CHECK(c.decoupling.realization == Realization::kNonIdealOrthogonal);
   CHECK(c.structure.differentiation_index == 3);

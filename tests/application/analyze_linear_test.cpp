@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "tests/chain_closed_form.h"
 #include "tests/application/run_servokit.h"
+#include "tests/chain_closed_form.h"
 
 namespace servokit {
 namespace {

@@ -99,11 +99,10 @@ TEST_CASE("--version prints the project version", "[reports]") {
   CHECK(version.out == std::string("servokit ") + SERVOKIT_PROJECT_VERSION + "\n");
 }
 
-TEST_CASE("--help of servokit and of every subcommand exits 0 with an example of it",
-          "[reports]") {
+TEST_CASE("--help of servokit and of every subcommand exits 0 with an example of it", "[reports]") {
   const std::vector<std::vector<std::string>> subcommands = {
-      {},           {"analyze"},          {"threshold"},       {"sweep"}, {"solve"},
-      {"report"},   {"generate"},         {"generate", "chain"}, {"generate", "beam"}};
+      {},         {"analyze"},  {"threshold"},         {"sweep"},           {"solve"},
+      {"report"}, {"generate"}, {"generate", "chain"}, {"generate", "beam"}};
   for (const auto& subcommand : subcommands) {
     std::vector<std::string> arguments = subcommand;
     arguments.push_back("--help");

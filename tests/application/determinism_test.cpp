@@ -126,25 +126,34 @@ TEST_CASE("solve through the dynamic extension gives the same bytes in every pro
 TEST_CASE("every method on the shipped models gives the same bytes run after run",
           "[reports][slow]") {
   const std::string car = testing::ModelPath("mass_on_car.yaml");
-  const std::vector<std::string> paper = {"--trajectory", "rest-to-rest", "--y0", "0.5", "--yf",
-                                          "2.5", "--t0", "0", "--tf", "6", "--t-end", "10"};
+  const std::vector<std::string> paper = {"--trajectory", "rest-to-rest",
+                                          "--y0",         "0.5",
+                                          "--yf",         "2.5",
+                                          "--t0",         "0",
+                                          "--tf",         "6",
+                                          "--t-end",      "10"};
   const auto with = [](std::vector<std::string> arguments, const std::vector<std::string>& more) {
     arguments.insert(arguments.end(), more.begin(), more.end());
     return arguments;
   };
   // The paper's cases 2 and 4 by every method that fits them, on the sample grid and checked.
   for (const std::string method : {"bdf", "normal-form", "radau", "euler", "stable-inversion"}) {
-    RequireSameBytesEveryRun(with({"solve", car, "--set", "alpha=5deg", "--set", "d=1"},
-                                  with(paper, {"--method", method, "--sample-time", "0.01",
-                                               "--verify", "--out", "u.csv"})));
+    RequireSameBytesEveryRun(with(
+        {"solve", car, "--set", "alpha=5deg", "--set", "d=1"},
+        with(paper, {"--method", method, "--sample-time", "0.01", "--verify", "--out", "u.csv"})));
   }
   for (const std::string method : {"algebraic", "radau", "euler"}) {
     RequireSameBytesEveryRun(with({"solve", car, "--set", "alpha=0", "--set", "d=0"},
                                   with(paper, {"--method", method, "--verify", "--out", "u.csv"})));
   }
-  const std::vector<std::string> quarter_turn = {"--trajectory", "rest-to-rest", "--y0", "0",
-                                                 "--yf", "1.5", "--t0", "0", "--tf", "2",
-                                                 "--t-end", "3", "--verify", "--out", "u.csv"};
+  const std::vector<std::string> quarter_turn = {"--trajectory", "rest-to-rest",
+                                                 "--y0",         "0",
+                                                 "--yf",         "1.5",
+                                                 "--t0",         "0",
+                                                 "--tf",         "2",
+                                                 "--t-end",      "3",
+                                                 "--verify",     "--out",
+                                                 "u.csv"};
   RequireSameBytesEveryRun(
       with({"solve", testing::ModelPath("three_link_arm.yaml")}, quarter_turn));
   RequireSameBytesEveryRun(

@@ -1,7 +1,8 @@
 // The error catalogue of README.md ("Errors and exit status", issue #7): every row that gives an
 // example command is run in-process, from the repository root, and must exit with the row's
 // status and print exactly one error line on stderr, "servokit: error: ...", containing the
-// row's fragment, after at most some "servokit: warning: ..." lines. Rows without a command (`—`) name the test that covers them instead.
+// row's fragment, after at most some "servokit: warning: ..." lines. Rows without a command (`—`)
+// name the test that covers them instead.
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -146,9 +147,9 @@ TEST_CASE("every error in the README's catalogue is what its example command pri
       CHECK(run.status == row.status);
       // Warnings and notes may come first; then the one error line.
       std::string error = run.err;
-      while ((error.rfind("servokit: warning: ", 0) == 0 ||
-              error.rfind("servokit: note: ", 0) == 0) &&
-             error.find('\n') != std::string::npos) {
+      while (
+          (error.rfind("servokit: warning: ", 0) == 0 || error.rfind("servokit: note: ", 0) == 0) &&
+          error.find('\n') != std::string::npos) {
         error.erase(0, error.find('\n') + 1);
       }
       CHECK(std::count(error.begin(), error.end(), '\n') == 1);

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "application/exit_codes.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
-#include "application/exit_codes.h"
 #include "tests/application/run_servokit.h"
 #include "tests/test_files.h"
 

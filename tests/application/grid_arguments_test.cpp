@@ -1,5 +1,5 @@
-// The `--vary` grammar (application/grid_arguments.h): range a:b:n, list v1,v2,..., degrees, and the
-// exact messages of the usage errors, which name the option. The same reader serves both model
+// The `--vary` grammar (application/grid_arguments.h): range a:b:n, list v1,v2,..., degrees, and
+// the exact messages of the usage errors, which name the option. The same reader serves both model
 // kinds: only the parameter names come from the model.
 #include "application/grid_arguments.h"
 

@@ -35,10 +35,15 @@ std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path)
   return rows;
 }
 
-const std::vector<std::string> kCase4 = {
-    "solve", ModelPath("mass_on_car.yaml"), "--set", "alpha=0", "--set", "d=0",
-    "--trajectory", "rest-to-rest", "--y0", "0.5", "--yf", "2.5", "--t0", "0", "--tf", "6",
-    "--t-end", "10"};
+const std::vector<std::string> kCase4 = {"solve",        ModelPath("mass_on_car.yaml"),
+                                         "--set",        "alpha=0",
+                                         "--set",        "d=0",
+                                         "--trajectory", "rest-to-rest",
+                                         "--y0",         "0.5",
+                                         "--yf",         "2.5",
+                                         "--t0",         "0",
+                                         "--tf",         "6",
+                                         "--t-end",      "10"};
 
 std::vector<std::string> With(std::vector<std::string> arguments,
                               const std::vector<std::string>& more) {
@@ -52,8 +57,8 @@ TEST_CASE("solve writes the CSV columns and JSON keys of DESIGN.md", "[reports]"
   INFO(run.err);
   REQUIRE(run.status == 0);
   const auto json = nlohmann::json::parse(run.out);
-  for (const char* key : {"method", "classification", "steps", "max_servo_residual",
-                          "verification"}) {
+  for (const char* key :
+       {"method", "classification", "steps", "max_servo_residual", "verification"}) {
     CHECK(json.contains(key));
   }
   CHECK(json["method"] == "algebraic");
@@ -77,9 +82,9 @@ TEST_CASE("solve reads a trajectory file of waypoints", "[reports]") {
   const auto file = TemporaryFile("waypoints.yaml");
   std::ofstream(file) << "waypoints:\n  - {t: 0, y: [0.5]}\n  - {t: 6, y: [2.5]}\n";
   const auto csv = TemporaryFile("file.csv");
-  const auto run = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--set", "d=0",
-                                "--trajectory", file.string(), "--t-end", "8", "--out",
-                                csv.string()});
+  const auto run =
+      RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--set", "d=0", "--trajectory",
+                   file.string(), "--t-end", "8", "--out", csv.string()});
   INFO(run.err);
   REQUIRE(run.status == 0);
   const auto json = nlohmann::json::parse(run.out);
@@ -89,13 +94,20 @@ TEST_CASE("solve reads a trajectory file of waypoints", "[reports]") {
   std::filesystem::remove(csv);
 }
 
-TEST_CASE("solve: unstable internal dynamics get stable inversion; forward methods refuse "
-          "unless forced (exit 3)", "[reports]") {
+TEST_CASE(
+    "solve: unstable internal dynamics get stable inversion; forward methods refuse "
+    "unless forced (exit 3)",
+    "[reports]") {
   const auto csv = TemporaryFile("arm.csv");
-  const std::vector<std::string> arm = {
-      "solve", ModelPath("rotational_arm.yaml"), "--set", "s=0.9", "--trajectory",
-      "rest-to-rest", "--y0", "0", "--yf", "0.1", "--t0", "1", "--tf", "3", "--t-end", "3.5",
-      "--out", csv.string()};
+  const std::vector<std::string> arm = {"solve",        ModelPath("rotational_arm.yaml"),
+                                        "--set",        "s=0.9",
+                                        "--trajectory", "rest-to-rest",
+                                        "--y0",         "0",
+                                        "--yf",         "0.1",
+                                        "--t0",         "1",
+                                        "--tf",         "3",
+                                        "--t-end",      "3.5",
+                                        "--out",        csv.string()};
   const auto automatic = RunServokit(arm);
   INFO(automatic.err);
   REQUIRE(automatic.status == 0);
@@ -148,21 +160,28 @@ TEST_CASE("solve: each bad argument gives one error line and exit 2", "[reports]
   CHECK_THAT(no_file.err, Catch::Contains("nowhere.yaml"));
 }
 
-TEST_CASE("solve with a method that does not fit the class says which does (exit 3)",
-          "[reports]") {
+TEST_CASE("solve with a method that does not fit the class says which does (exit 3)", "[reports]") {
   const auto csv = TemporaryFile("bdf.csv").string();
   const auto run = RunServokit(With(kCase4, {"--method", "bdf", "--out", csv}));
   CHECK(run.status == 3);
   CHECK_THAT(run.err, Catch::Contains("use algebraic or normal-form"));
 }
 
-TEST_CASE("solve --sample-time writes the controller's grid; --verify that fails is exit 4 and "
-          "never 'converged'", "[reports]") {
+TEST_CASE(
+    "solve --sample-time writes the controller's grid; --verify that fails is exit 4 and "
+    "never 'converged'",
+    "[reports]") {
   const auto csv = TemporaryFile("cart.csv");
-  const std::vector<std::string> cart = {
-      "solve", testing::TestDataPath("cart_pole.yaml"), "--trajectory", "rest-to-rest", "--y0",
-      "0",     "--yf",  "1", "--t0", "0", "--tf", "2", "--t-end", "5", "--sample-time", "0.002",
-      "--verify", "--out", csv.string()};
+  const std::vector<std::string> cart = {"solve",         testing::TestDataPath("cart_pole.yaml"),
+                                         "--trajectory",  "rest-to-rest",
+                                         "--y0",          "0",
+                                         "--yf",          "1",
+                                         "--t0",          "0",
+                                         "--tf",          "2",
+                                         "--t-end",       "5",
+                                         "--sample-time", "0.002",
+                                         "--verify",      "--out",
+                                         csv.string()};
   const auto good = RunServokit(With(cart, {"--t-start", "-3"}));
   INFO(good.err);
   REQUIRE(good.status == 0);
@@ -216,12 +235,17 @@ TEST_CASE("solve: the gantry crane and a PVTOL invert exactly through the dynami
 // The double-pendulum crane's P vanishes at rest only: no method inverts it exactly there and
 // the refusal offers the method `linearized`; that runs, warns, and --verify measures it honestly
 // (the linearization's inverse is not exact: exit 4 at the exact inverse's bound).
-TEST_CASE("solve --method linearized where the relative degree is undefined at rest",
-          "[reports]") {
+TEST_CASE("solve --method linearized where the relative degree is undefined at rest", "[reports]") {
   const auto csv = TemporaryFile("linearized.csv");
   const std::vector<std::string> crane = {
-      "solve", TestDataPath("double_pendulum_crane.yaml"), "--trajectory", "rest-to-rest",
-      "--y0", "0", "--yf", "0.2", "--t0", "0", "--tf", "3", "--t-end", "4", "--out", csv.string()};
+      "solve",        TestDataPath("double_pendulum_crane.yaml"),
+      "--trajectory", "rest-to-rest",
+      "--y0",         "0",
+      "--yf",         "0.2",
+      "--t0",         "0",
+      "--tf",         "3",
+      "--t-end",      "4",
+      "--out",        csv.string()};
   const auto refused = RunServokit(crane);
   CHECK(refused.status == 3);
   CHECK_THAT(refused.err, Catch::Contains("no exact inverse passes through it") &&

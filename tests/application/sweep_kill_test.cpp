@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "tests/test_files.h"
-#include "tests/test_process.h"
 #include "tests/test_paths.h"
+#include "tests/test_process.h"
 
 namespace servokit {
 namespace {
@@ -187,9 +187,8 @@ TEST_CASE(
         }
         break;
       case KillMoment::kAtTheEnd:
-        status = WaitUntil(child, out, [&] {
-          return CheckpointValue(out, "points_done").value_or(0) == kPoints;
-        });
+        status = WaitUntil(
+            child, out, [&] { return CheckpointValue(out, "points_done").value_or(0) == kPoints; });
         break;
     }
     if (!status) {

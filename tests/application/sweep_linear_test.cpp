@@ -20,6 +20,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
 #include "tests/chain_closed_form.h"
 #include "tests/test_files.h"
 #include "tests/test_process.h"
@@ -27,9 +28,9 @@
 namespace servokit {
 namespace {
 
-using testing::TemporaryDirectory;
-using testing::ReadFile;
 using testing::Lines;
+using testing::ReadFile;
+using testing::TemporaryDirectory;
 
 namespace fs = std::filesystem;
 

@@ -4,7 +4,8 @@
 // with the same relative --out, so that even the command line recorded in sweep.json is the
 // same. An error on any rank gives one error line and its exit status from the whole job, never
 // a hang (every job runs under `timeout`); a stopped MPI sweep resumes, with or without MPI, to
-// the same files. Registered only when servokit is built with MPI (tests/application/CMakeLists.txt).
+// the same files. Registered only when servokit is built with MPI
+// (tests/application/CMakeLists.txt).
 #include <signal.h>
 
 #include <algorithm>
@@ -19,15 +20,15 @@
 #include <vector>
 
 #include "tests/test_files.h"
-#include "tests/test_process.h"
 #include "tests/test_paths.h"
+#include "tests/test_process.h"
 
 namespace servokit {
 namespace {
 
-using testing::TemporaryDirectory;
-using testing::ReadFile;
 using testing::Lines;
+using testing::ReadFile;
+using testing::TemporaryDirectory;
 
 namespace fs = std::filesystem;
 using testing::ModelPath;

@@ -4,7 +4,6 @@
 // load or fail with a servokit::Error whose message is one line naming the file, as a user
 // would see it; `make test-sanitize` replays them under ASan and UBSan as well.
 #include <catch2/catch.hpp>
-
 #include <filesystem>
 #include <functional>
 #include <string>

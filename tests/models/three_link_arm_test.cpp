@@ -2,8 +2,8 @@
 // the three uniform rods are built here from their kinematics (rod centres and absolute angles
 // as functions of q = [alpha, beta1, beta2]), M is assembled from their Jacobians, and the
 // Coriolis/centrifugal forces come from Lagrange's equations by finite differences of that M.
-#include <catch2/catch.hpp>
 #include <array>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -84,7 +84,7 @@ Eigen::Vector3d IndependentCoriolis(const Eigen::Vector3d& q,
   // Step 1e-5: truncation ~ h^2 |M'''| ~ 1e-9, rounding ~ eps |M| / h ~ 1e-10 (|M| ~ 30).
   constexpr double kStep = 1e-5;
   Eigen::Matrix3d mass_rate = Eigen::Matrix3d::Zero();  // dM/dt = sum_k dM/dq_k q_k'
-  Eigen::Vector3d energy_gradient;                       // d(q'^T M q')/dq
+  Eigen::Vector3d energy_gradient;                      // d(q'^T M q')/dq
   for (int k = 0; k < 3; ++k) {
     const Eigen::Vector3d step = kStep * Eigen::Vector3d::Unit(k);
     const Eigen::Matrix3d dmass =
@@ -121,8 +121,7 @@ TEST_CASE("three-link arm: nominal parameters are the paper's Table 2", "[models
   CHECK(p.d == 0.25);
 }
 
-TEST_CASE("three-link arm: M equals the rods' m J_c^T J_c + m l^2/12 J_th^T J_th",
-          "[models]") {
+TEST_CASE("three-link arm: M equals the rods' m J_c^T J_c + m l^2/12 J_th^T J_th", "[models]") {
   for (const auto& overrides : kParameterSets) {
     const Model model = LoadModel(ModelPath("three_link_arm.yaml"), overrides);
     Workspace workspace(model);
@@ -164,8 +163,10 @@ TEST_CASE("three-link arm: f is Lagrange's Coriolis/centrifugal vector plus the 
   }
 }
 
-TEST_CASE("three-link arm: torque on joint 1 only; the output is the end-point angle to first "
-          "order", "[models]") {
+TEST_CASE(
+    "three-link arm: torque on joint 1 only; the output is the end-point angle to first "
+    "order",
+    "[models]") {
   const Model model = LoadModel(ModelPath("three_link_arm.yaml"));
   Workspace workspace(model);
   const ArmParameters p = ParametersOf(model, workspace);

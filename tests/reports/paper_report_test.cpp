@@ -26,8 +26,8 @@
 namespace servokit {
 namespace {
 
-using testing::ReadFile;
 using testing::Lines;
+using testing::ReadFile;
 
 // A backquoted span that is a measured number ("2.28626e-09", "-0.111666 s").
 bool IsMeasuredNumber(const std::string& span) {

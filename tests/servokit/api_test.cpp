@@ -3,7 +3,6 @@
 // Only the public header is used, except in the defaults test, which compares with the
 // internal options structs the API stands for.
 #include <catch2/catch.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -24,7 +23,9 @@ constexpr double kPi = 3.14159265358979323846;
 
 // Mass on car, d = 0 (paper Eq. 36 with y_d = 0): m2 sin^2(alpha) s'' + k s = 0, so the zero
 // dynamics are +-i sqrt(k / (m2 sin^2 alpha)); m2 = 2, k = 5 (models/mass_on_car.yaml).
-double UndampedFrequency(double alpha) { return std::sqrt(5.0 / (2.0 * std::pow(std::sin(alpha), 2))); }
+double UndampedFrequency(double alpha) {
+  return std::sqrt(5.0 / (2.0 * std::pow(std::sin(alpha), 2)));
+}
 
 std::string ReadText(const std::filesystem::path& path) {
   std::ifstream file(path, std::ios::binary);
@@ -92,7 +93,7 @@ TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates a
   REQUIRE(analysis.zero_dynamics.eigenvalues.size() == 2);
   const double omega = UndampedFrequency(5.0 * kPi / 180.0);
   for (const auto& eigenvalue : analysis.zero_dynamics.eigenvalues) {
-    CHECK(eigenvalue.real() == Approx(0.0).margin(1e-9));      // eigen round-off
+    CHECK(eigenvalue.real() == Approx(0.0).margin(1e-9));  // eigen round-off
     CHECK(std::abs(eigenvalue.imag()) == Approx(omega).epsilon(1e-10));
   }
   REQUIRE(analysis.zero_dynamics.modes.size() == 1);
@@ -103,7 +104,8 @@ TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates a
 TEST_CASE("a model from a string is the model from its file", "[servokit]") {
   const std::string yaml = ReadText(ModelPath("mass_on_car.yaml"));
   const sk::Model from_string = sk::Model::FromString(yaml, "inline", {{"alpha", "30 deg"}});
-  const sk::Model from_file = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "30 deg"}});
+  const sk::Model from_file =
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "30 deg"}});
   CHECK(from_string.source() == "inline");
   CHECK(from_string.parameters() == from_file.parameters());
   const sk::Analysis a = sk::Analyze(from_string), b = sk::Analyze(from_file);
@@ -121,8 +123,9 @@ TEST_CASE("API errors carry their kind", "[servokit]") {
   };
   CHECK(kind_of([] { sk::Model::FromString("name: x\ncoordinates: [q]\n", "broken"); }) ==
         servokit::ErrorKind::kModel);
-  CHECK(kind_of([] { sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"nope", "1"}}); }) ==
-        servokit::ErrorKind::kUsage);
+  CHECK(kind_of([] {
+          sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"nope", "1"}});
+        }) == servokit::ErrorKind::kUsage);
   const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"));
   sk::ThresholdQuery query;
   query.parameter = "alpha";
@@ -132,8 +135,7 @@ TEST_CASE("API errors carry their kind", "[servokit]") {
   CHECK(kind_of([&] { sk::LocateThresholds(model, query); }) == servokit::ErrorKind::kUsage);
 }
 
-TEST_CASE("sweep through the API, in memory and to files, follows the closed form",
-          "[servokit]") {
+TEST_CASE("sweep through the API, in memory and to files, follows the closed form", "[servokit]") {
   const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
   const std::vector<sk::SweepAxis> axes = {{"alpha", {0.2, 0.5, 1.0, 1.5}}};
   const std::vector<sk::SweepPoint> points = sk::Sweep(model, axes);

@@ -341,7 +341,7 @@ TEST_CASE("gantry crane: dynamic extension of the hoist, relative degrees (2, 2)
   REQUIRE(inverse.extension_steps().size() == 1);
   const StructureStep& step = inverse.extension_steps()[0];
   CHECK(step.rank == 1);
-  CHECK(step.kept_rows == std::vector<std::size_t>{1});       // the depth keeps its equation
+  CHECK(step.kept_rows == std::vector<std::size_t>{1});  // the depth keeps its equation
   CHECK(step.combined_rows == std::vector<std::size_t>{0});
   CHECK(step.delayed_inputs == std::vector<std::size_t>{1});  // W, the hoist
 
@@ -637,8 +637,8 @@ TEST_CASE("derivations are kept per model, parameters and options", "[solvers]")
       LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}, {"m1", "3"}});
   const auto first = DeriveAlgebraicInverse(case4);
   CHECK(DeriveAlgebraicInverse(case4) == first);
-  CHECK(DeriveAlgebraicInverse(LoadModel(ModelPath("mass_on_car.yaml"),
-                                         {{"alpha", "0"}, {"d", "0"}})) == first);
+  CHECK(DeriveAlgebraicInverse(
+            LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}})) == first);
   CHECK(DeriveAlgebraicInverse(heavier) != first);
   AlgebraicInverseOptions options;
   options.internal_dynamics = true;

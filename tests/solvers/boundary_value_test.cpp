@@ -243,7 +243,8 @@ TEST_CASE("Lobatto collocation converges with order 2s-2 at the interval ends, s
         const double inner_ratio = previous_inner_error / inner_error;
         CAPTURE(end_ratio, inner_ratio);
         // Round-off floor: s = 5 at h = 1/8 reaches ~1e-15 at the ends; skip the ratio there.
-        if (end_error > 1e-13) CHECK(end_ratio == Approx(std::pow(2.0, 2 * points - 2)).epsilon(0.2));
+        if (end_error > 1e-13)
+          CHECK(end_ratio == Approx(std::pow(2.0, 2 * points - 2)).epsilon(0.2));
         CHECK(inner_ratio == Approx(std::pow(2.0, points + 1)).epsilon(0.35));
       }
       previous_end_error = end_error;
@@ -286,8 +287,7 @@ TEST_CASE("7-point Lobatto collocation meets a tight tolerance with few points",
     hermite_simpson.collocation_points = 3;
     const BoundaryValueSolution fourth_order = SolveBoundaryValueProblem(
         ScaledSecondDerivative(1.0 / eps), ScaledSecondDerivativeJacobian(1.0 / eps),
-        Dirichlet(1.0, 1.0), mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)),
-        hermite_simpson);
+        Dirichlet(1.0, 1.0), mesh, ConstantGuess(mesh.size(), VectorXd::Zero(2)), hermite_simpson);
     CAPTURE(solution.mesh.size(), fourth_order.mesh.size(), solution.summary.message);
     CHECK(3 * solution.mesh.size() < fourth_order.mesh.size());
     double max_error = 0.0;
@@ -366,8 +366,9 @@ TEST_CASE("default boundary value options are valid and bad fields are named", "
   {
     BoundaryValueOptions options;
     options.collocation_points = 2;
-    CHECK_THROWS_WITH(options.Validate(), Catch::Contains(
-                                              "BoundaryValueOptions::collocation_points = 2: must be in 3 .. 10"));
+    CHECK_THROWS_WITH(
+        options.Validate(),
+        Catch::Contains("BoundaryValueOptions::collocation_points = 2: must be in 3 .. 10"));
   }
   BoundaryValueOptions options;
   options.tolerance = 1e-15;

@@ -40,8 +40,10 @@ TEST_CASE("mass on car at 5 deg: the linear internal dynamics is Eq. (36), the i
   CHECK(linear.equilibrium_input.norm() == Approx(0.0).margin(1e-12));
 }
 
-TEST_CASE("rotational arm at s = l: the internal dynamics' eigenvalues are the roots of "
-          "Eq. (56)", "[solvers][paper]") {
+TEST_CASE(
+    "rotational arm at s = l: the internal dynamics' eigenvalues are the roots of "
+    "Eq. (56)",
+    "[solvers][paper]") {
   const double l = 1.0, m = 3.438, c = 50.0, d = 0.25, s = 1.0;  // paper Table 2
   const Model model = LoadModel(ModelPath("rotational_arm.yaml"));
   const LinearInternalDynamics linear =
@@ -68,8 +70,8 @@ TEST_CASE("linear stable inversion of the arm's end-point motion is bounded and 
   const HyperbolicSplit split = SplitHyperbolic(linear.state_matrix);
   REQUIRE(split.unstable_basis.cols() == 1);
   const double angle = 0.5 * M_PI / 180, t0 = 1.0, tf = 3.0;
-  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, angle),
-                                        t0, tf);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1),
+                                        Eigen::VectorXd::Constant(1, angle), t0, tf);
   auto drive = [&](double t) {
     Eigen::VectorXd outputs(3);
     for (int order = 0; order < 3; ++order) outputs(order) = trajectory.Derivative(t, order)(0);
@@ -87,7 +89,8 @@ TEST_CASE("linear stable inversion of the arm's end-point motion is bounded and 
   double before = 0.0, during = 0.0, largest = 0.0;
   for (std::size_t i = 0; i < times.size(); ++i) {
     const Eigen::VectorXd input =
-        linear.equilibrium_input + linear.input_state * (result.states[i] - linear.equilibrium_state) +
+        linear.equilibrium_input +
+        linear.input_state * (result.states[i] - linear.equilibrium_state) +
         linear.input_drive * (drive(times[i]) - linear.equilibrium_output);
     largest = std::max(largest, input.cwiseAbs().maxCoeff());
     if (times[i] < t0 - 0.05) before = std::max(before, std::abs(input(0)));

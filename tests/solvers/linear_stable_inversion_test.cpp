@@ -85,8 +85,8 @@ TEST_CASE("linear stable inversion matches the modal closed form, real and compl
   for (std::size_t i = 0; i < times.size(); ++i) {
     Eigen::VectorXcd exact = Eigen::VectorXcd::Zero(4);
     for (Eigen::Index mode = 0; mode < 4; ++mode) {
-      exact += vectors.col(mode) *
-               ModalSolution(eigen.eigenvalues()(mode), weights(mode), times[i]);
+      exact +=
+          vectors.col(mode) * ModalSolution(eigen.eigenvalues()(mode), weights(mode), times[i]);
     }
     CHECK(exact.imag().norm() < 1e-9);  // conjugate modes pair up
     max_error = std::max(max_error, (result.states[i] - exact.real()).cwiseAbs().maxCoeff());

@@ -31,14 +31,14 @@ const std::vector<SolverMethod> kMethods = {
 
 std::vector<Case> Cases() {
   return {
-      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "1"}}},  // case 2: stable
-      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "0"}}},  // critical
-      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "1"}}},      // case 3: tangential
-      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}}},      // case 4: flat
-      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "-1"}}},     // tangential, unstable
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "1"}}},   // case 2: stable
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "5 deg"}, {"d", "0"}}},   // critical
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "1"}}},       // case 3: tangential
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}}},       // case 4: flat
+      {ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "-1"}}},      // tangential, unstable
       {ModelPath("mass_on_car.yaml"), {{"alpha", "90 deg"}, {"d", "1"}}},  // ideal orthogonal
-      {ModelPath("rotational_arm.yaml"), {{"s", "0.5"}}},                 // stable
-      {ModelPath("rotational_arm.yaml"), {}},                             // unstable (s = l)
+      {ModelPath("rotational_arm.yaml"), {{"s", "0.5"}}},                  // stable
+      {ModelPath("rotational_arm.yaml"), {}},                              // unstable (s = l)
       {ModelPath("rotational_arm_tip.yaml"), {}},
       {ModelPath("mass_spring_chain.yaml"), {}},  // flat, relative degree 12
       {ModelPath("gantry_crane.yaml"), {}},       // mixed, flat only by a dynamic extension
@@ -61,8 +61,10 @@ std::vector<SolverMethod> Sorted(std::vector<SolverMethod> methods) {
   return methods;
 }
 
-TEST_CASE("every refusal names a method that fits, or says that none does; auto never refuses "
-          "when one fits", "[solvers][slow]") {
+TEST_CASE(
+    "every refusal names a method that fits, or says that none does; auto never refuses "
+    "when one fits",
+    "[solvers][slow]") {
   for (const Case& test : Cases()) {
     const Model model = LoadModel(test.path, test.set);
     Workspace workspace(model);
@@ -110,8 +112,10 @@ TEST_CASE("every refusal names a method that fits, or says that none does; auto 
 
 // The double-pendulum crane's P vanishes at rest only: its relative degree is not defined
 // there, so no exact inverse passes through it.
-TEST_CASE("no method of servokit solves the double-pendulum crane at rest, and the refusal says "
-          "why for each", "[solvers]") {
+TEST_CASE(
+    "no method of servokit solves the double-pendulum crane at rest, and the refusal says "
+    "why for each",
+    "[solvers]") {
   for (const Case& test : {Case{TestDataPath("double_pendulum_crane.yaml"), {}}}) {
     const Model model = LoadModel(test.path, test.set);
     Workspace workspace(model);
@@ -155,8 +159,10 @@ TEST_CASE("auto's choice runs: no refusal at the start of the solve on any of th
   }
 }
 
-TEST_CASE("forced, the forward methods accept unstable zero dynamics; forcing anything else is "
-          "an error", "[solvers]") {
+TEST_CASE(
+    "forced, the forward methods accept unstable zero dynamics; forcing anything else is "
+    "an error",
+    "[solvers]") {
   const Model arm = LoadModel(ModelPath("rotational_arm.yaml"));
   Workspace workspace(arm);
   const Classification classification = Classify(arm, workspace);
@@ -182,8 +188,7 @@ TEST_CASE("forced, the forward methods accept unstable zero dynamics; forcing an
 // cart_pole_centre_of_percussion.yaml): flat in the linearization, relative degree undefined at
 // rest. auto offers no method (Radau IIA, which would take over, stops after 0.6 s), points to
 // the method `linearized`, and Radau IIA still runs when asked for by name.
-TEST_CASE("relative degree undefined at the operating point: auto offers linearized",
-          "[solvers]") {
+TEST_CASE("relative degree undefined at the operating point: auto offers linearized", "[solvers]") {
   const Model model = LoadModel(TestDataPath("cart_pole_centre_of_percussion.yaml"));
   Workspace workspace(model);
   const Classification classification = Classify(model, workspace);

@@ -10,12 +10,11 @@
 //   every method that accepts it, against its closed form.
 // - The chain observed at x2 - 2 x3: unstable internal dynamics, stable inversion of the
 //   input-output normal form against the exact bounded inverse.
+#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
 #include <vector>
-
-#include <Eigen/Eigenvalues>
 
 #include "analysis/classification.h"
 #include "models/errors.h"
@@ -66,8 +65,7 @@ double RelativeInputError(const FeedforwardSolution& solution,
 
 TEST_CASE("flat problems through normal-form equal the algebraic inverse", "[solvers][paper]") {
   SECTION("paper case 4: Eq. (47)") {
-    const Problem problem =
-        Load(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+    const Problem problem = Load(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
     const RestToRestTrajectory trajectory(Eigen::VectorXd::Constant(1, 0.5),
                                           Eigen::VectorXd::Constant(1, 2.5), 0.0, 6.0);
     const FeedforwardSolution solution =
@@ -84,12 +82,11 @@ TEST_CASE("flat problems through normal-form equal the algebraic inverse", "[sol
   }
   SECTION("six-mass chain: relative degree 12") {
     const Problem problem = Load(ModelPath("mass_spring_chain.yaml"));
-    const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1),
-                                          0.0, 3.0, 12);
+    const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
+                                          3.0, 12);
     const FeedforwardSolution normal_form =
         Solve(problem, trajectory, SolverMethod::kNormalForm, 4.0);
-    const FeedforwardSolution algebraic =
-        Solve(problem, trajectory, SolverMethod::kAlgebraic, 4.0);
+    const FeedforwardSolution algebraic = Solve(problem, trajectory, SolverMethod::kAlgebraic, 4.0);
     REQUIRE(normal_form.summary.IsUsable());
     REQUIRE(algebraic.summary.IsUsable());
     const double error = RelativeInputError(
@@ -177,8 +174,8 @@ TEST_CASE("tangential chain, relative degree 3: normal-form within 1e-8 of the e
   REQUIRE(solution.summary.IsUsable());
   CHECK(solution.method == SolverMethod::kNormalForm);
   const ChainReference reference(trajectory, 0.0, 2.0);
-  const double error =
-      RelativeInputError(solution, [&](double t) { return reference.Force(t); }, 0.0, 4.0);
+  const double error = RelativeInputError(
+      solution, [&](double t) { return reference.Force(t); }, 0.0, 4.0);
   WARN("three-mass chain, normal form: " << solution.summary.steps
                                          << " steps, max |u - exact| / max |u| = " << error);
   CHECK(error <= 1e-8);
@@ -208,10 +205,10 @@ TEST_CASE("stiff internal dynamics: the normal form integrates them with BDF, to
   }
   // u reads x1'' = (... - k x1' ...) / c: a state error reaches u amplified by up to
   // (k/c)^2 m1 / max|u| (here ~1e8), the inverse's own conditioning, not the integrator's.
-  const double error =
-      RelativeInputError(solution, [&](double t) { return reference.Force(t); }, 0.0, 4.0);
-  WARN("stiff chain, BDF: " << solution.summary.steps << " steps, max |x - exact| = "
-                            << state_error << ", max |u - exact| / max |u| = " << error);
+  const double error = RelativeInputError(
+      solution, [&](double t) { return reference.Force(t); }, 0.0, 4.0);
+  WARN("stiff chain, BDF: " << solution.summary.steps << " steps, max |x - exact| = " << state_error
+                            << ", max |u - exact| / max |u| = " << error);
   CHECK(state_error <= 1e-9);
   CHECK(error <= 1e-6);
   CHECK(VerifyFeedforward(problem.model, trajectory, solution).passed);
@@ -250,13 +247,12 @@ TEST_CASE("cubic-spring chain: the normal form converges with rtol", "[solvers]"
 TEST_CASE("flexible-joint arm through every method that accepts it", "[solvers]") {
   const Problem problem = Load(TestDataPath("flexible_joint_arm.yaml"));
   const double il = 0.05, jm = 0.02, mgl = 0.5 * 9.81 * 0.2, k = 20.0;
-  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1),
-                                        Eigen::VectorXd::Constant(1, 1.0), 0.0, 1.5);
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 1.0),
+                                        0.0, 1.5);
   const auto torque = [&](double t) {
     const double y = trajectory.Derivative(t, 0)(0), y1 = trajectory.Derivative(t, 1)(0),
                  y2 = trajectory.Derivative(t, 2)(0), y4 = trajectory.Derivative(t, 4)(0);
-    const double q2_ddot =
-        y2 + (il * y4 + mgl * (std::cos(y) * y2 - std::sin(y) * y1 * y1)) / k;
+    const double q2_ddot = y2 + (il * y4 + mgl * (std::cos(y) * y2 - std::sin(y) * y1 * y1)) / k;
     return jm * q2_ddot + il * y2 + mgl * std::sin(y);
   };
   MethodChooser chooser(problem.model, problem.classification, false);
@@ -271,8 +267,7 @@ TEST_CASE("flexible-joint arm through every method that accepts it", "[solvers]"
     WARN(ToString(method) << ": max |tau - closed form| / max |tau| = " << error);
     // Exact methods to their tolerance; Radau IIA's index-3 input to O(h^2), Euler backward's
     // (1 ms) to O(h).
-    const bool exact =
-        method == SolverMethod::kAlgebraic || method == SolverMethod::kNormalForm;
+    const bool exact = method == SolverMethod::kAlgebraic || method == SolverMethod::kNormalForm;
     CHECK(error <= (exact ? 1e-8 : method == SolverMethod::kRadau ? 1e-3 : 2e-2));
     CHECK(VerifyFeedforward(problem.model, trajectory, solution).passed);
   }
@@ -284,7 +279,8 @@ TEST_CASE("flexible-joint arm through every method that accepts it", "[solvers]"
 // (tests/data/three_mass_chain_unstable_output.yaml): tangential, relative degree 3, internal
 // dynamics xi = (x1, x3, x3') with x2 = y - gamma x3:
 //   m3 x3'' = k (y - (1 + gamma) x3) + c (y' - (1 + gamma) x3'),
-//   c x1'   = m2 (y'' - gamma x3'') - k x1 + 2 k (y - gamma x3) + 2 c (y' - gamma x3') - k x3 - c x3',
+//   c x1'   = m2 (y'' - gamma x3'') - k x1 + 2 k (y - gamma x3) + 2 c (y' - gamma x3') - k x3 - c
+//   x3',
 // i.e. xi' = A xi + G w, w = (y, y', y''). Its bounded solution, mode by mode in A's
 // eigenvectors (eta' = lambda eta + g): on each piece of w (rest before t0, the polynomial, rest
 // after tf) the polynomial particular solution p = -sum_j lambda^-(j+1) g^(j), joined by
@@ -307,7 +303,8 @@ struct UnstableChainReference {
     g.row(2) = g2;
     a.row(1) << 0.0, 0.0, 1.0;
     g.row(1).setZero();
-    a.row(0) = Eigen::RowVector3d(-k, -2 * k * gamma - k, -2 * c * gamma - c) / c - m2 * gamma / c * a2;
+    a.row(0) =
+        Eigen::RowVector3d(-k, -2 * k * gamma - k, -2 * c * gamma - c) / c - m2 * gamma / c * a2;
     g.row(0) = Eigen::RowVector3d(2 * k, 2 * c, m2) / c - m2 * gamma / c * g2;
     const Eigen::EigenSolver<Eigen::Matrix3d> solver(a);
     v = solver.eigenvectors();
@@ -340,14 +337,16 @@ struct UnstableChainReference {
       if (lambda[i].real() < 0) {
         const std::complex<double> at_tf =
             Particular(i, tf) + std::exp(lambda[i] * (tf - t0)) * (before - Particular(i, t0));
-        eta[i] = t <= t0 ? before
-                 : t <= tf ? Particular(i, t) + std::exp(lambda[i] * (t - t0)) * (before - Particular(i, t0))
+        eta[i] = t <= t0   ? before
+                 : t <= tf ? Particular(i, t) +
+                                 std::exp(lambda[i] * (t - t0)) * (before - Particular(i, t0))
                            : after + std::exp(lambda[i] * (t - tf)) * (at_tf - after);
       } else {
         const std::complex<double> at_t0 =
             Particular(i, t0) + std::exp(lambda[i] * (t0 - tf)) * (after - Particular(i, tf));
-        eta[i] = t >= tf ? after
-                 : t >= t0 ? Particular(i, t) + std::exp(lambda[i] * (t - tf)) * (after - Particular(i, tf))
+        eta[i] = t >= tf   ? after
+                 : t >= t0 ? Particular(i, t) +
+                                 std::exp(lambda[i] * (t - tf)) * (after - Particular(i, tf))
                            : before + std::exp(lambda[i] * (t - t0)) * (at_t0 - before);
       }
     }
@@ -356,7 +355,8 @@ struct UnstableChainReference {
   double Force(double t) const {
     const bool moving = t > t0 && t < tf;
     const Eigen::Vector3d xi = State(t);
-    const Eigen::Vector3d w = moving ? W(t, 0) : Eigen::Vector3d(trajectory.Derivative(t, 0)(0), 0, 0);
+    const Eigen::Vector3d w =
+        moving ? W(t, 0) : Eigen::Vector3d(trajectory.Derivative(t, 0)(0), 0, 0);
     const Eigen::Vector3d w_dot = moving ? W(t, 1) : Eigen::Vector3d::Zero();
     const Eigen::Vector3d xi_dot = a * xi + g * w;
     const double x1_ddot = a.row(0).dot(xi_dot) + g.row(0).dot(w_dot);
@@ -365,8 +365,10 @@ struct UnstableChainReference {
   }
 };
 
-TEST_CASE("tangential chain with unstable internal dynamics: stable inversion is bounded, "
-          "non-causal and within 1e-8 of the exact bounded inverse", "[solvers]") {
+TEST_CASE(
+    "tangential chain with unstable internal dynamics: stable inversion is bounded, "
+    "non-causal and within 1e-8 of the exact bounded inverse",
+    "[solvers]") {
   const Problem problem = Load(TestDataPath("three_mass_chain_unstable_output.yaml"));
   REQUIRE(problem.classification.decoupling.rank == 0);  // tangential
   REQUIRE(problem.classification.zero_dynamics.stability == Stability::kUnstable);
@@ -387,11 +389,10 @@ TEST_CASE("tangential chain with unstable internal dynamics: stable inversion is
       solution, [&](double t) { return reference.Force(t); }, solution.t_start, 8.0);
   double largest = 0;
   for (const Eigen::VectorXd& u : solution.u) largest = std::max(largest, u.cwiseAbs().maxCoeff());
-  WARN("unstable chain, stable inversion: " << solution.summary.steps << " mesh points, window ["
-                                            << solution.window->start << ", "
-                                            << solution.window->end
-                                            << "], max |u - exact| / max |u| = " << error
-                                            << ", max |u| = " << largest);
+  WARN("unstable chain, stable inversion: "
+       << solution.summary.steps << " mesh points, window [" << solution.window->start << ", "
+       << solution.window->end << "], max |u - exact| / max |u| = " << error
+       << ", max |u| = " << largest);
   CHECK(error <= 1e-8);
   CHECK(std::abs(reference.Force(solution.t_start)) <= 1e-6 * largest);  // bounded, at rest
   CHECK(VerifyFeedforward(problem.model, trajectory, solution).passed);

@@ -62,8 +62,8 @@ TEST_CASE("the normal form of the mass on car at 5 deg is the paper's Eqs. (35) 
     const double sin2 = std::pow(std::sin(alpha), 2);
     const double spring_damper = kStiffness * s + damping * s_dot;
     // Eq. (35); the 1e-12 is round-off of P^-1, with |P| ~ sin^2(alpha) ~ 8e-3.
-    const double force = (kM1 + kM2 * sin2) / sin2 * y_ddot +
-                         kM1 * std::cos(alpha) * spring_damper / (kM2 * sin2);
+    const double force =
+        (kM1 + kM2 * sin2) / sin2 * y_ddot + kM1 * std::cos(alpha) * spring_damper / (kM2 * sin2);
     CHECK(u(0) == Approx(force).epsilon(1e-12));
     // Eq. (36): m2 sin^2(alpha) s'' + d s' + k s = -y_d'' m2 cos(alpha).
     const double s_ddot = (-spring_damper - y_ddot * kM2 * std::cos(alpha)) / (kM2 * sin2);

@@ -29,8 +29,11 @@ RestToRestTrajectory ArmTrajectory(double angle) {
 Eigen::VectorXd ArmAt(double angle) { return Eigen::Vector2d(angle, 0.0); }
 
 // The input of the linear stable inversion at `times` (the independent reference).
-std::vector<double> LinearInput(const Model& model, const OutputTrajectory& trajectory,
-                                const std::vector<double>& times, double t_a, double t_b) {
+std::vector<double> LinearInput(const Model& model,
+                                const OutputTrajectory& trajectory,
+                                const std::vector<double>& times,
+                                double t_a,
+                                double t_b) {
   const LinearInternalDynamics linear = LinearizeInternalDynamics(model, ArmAt(0.0));
   const HyperbolicSplit split = SplitHyperbolic(linear.state_matrix);
   auto drive = [&](double t) {
@@ -68,10 +71,11 @@ TEST_CASE("arm end point 0 to 270 deg: bounded, pre-actuated, unchanged when the
     largest = std::max(largest, std::abs(solution.u[i](0)));
     largest_beta = std::max(largest_beta, std::abs(solution.q[i](1)));
   }
-  WARN("stable inversion 270 deg: window [" << solution.window.start << ", " << solution.window.end
-       << "] s, " << solution.times.size() << " mesh points, max |T| = " << largest
-       << " N m, max |beta| = " << largest_beta << " rad, pre-actuation from "
-       << solution.window.pre_actuation_start << " s, until " << solution.window.post_actuation_end << " s");
+  WARN("stable inversion 270 deg: window ["
+       << solution.window.start << ", " << solution.window.end << "] s, " << solution.times.size()
+       << " mesh points, max |T| = " << largest << " N m, max |beta| = " << largest_beta
+       << " rad, pre-actuation from " << solution.window.pre_actuation_start << " s, until "
+       << solution.window.post_actuation_end << " s");
   CHECK(std::isfinite(largest));
   CHECK(largest_beta < 1.0);  // bounded: the passive joint stays within a radian
   CHECK(solution.window.pre_actuation_start < kT0);  // T nonzero before t0 (Fig. 15)
@@ -94,8 +98,8 @@ TEST_CASE("arm end point 0 to 270 deg: bounded, pre-actuated, unchanged when the
     REQUIRE(widened.extension->Evaluate(solution.times[i], q, q_dot, u, why));
     change = std::max(change, std::abs(u(0) - solution.u[i](0)));
     Evaluate(model, workspace, solution.q[i], solution.q_dot[i], Quantity::kOutput);
-    servo = std::max(servo, std::abs(workspace.output(0) -
-                                     trajectory.Derivative(solution.times[i], 0)(0)));
+    servo = std::max(
+        servo, std::abs(workspace.output(0) - trajectory.Derivative(solution.times[i], 0)(0)));
   }
   WARN("window doubled: max |T change| = " << change << " N m");
   // The boundary value tolerance 1e-8 on the residual; the tails left out of the first
@@ -123,8 +127,10 @@ TEST_CASE("a linear model: the boundary value problem equals linear stable inver
   CHECK(difference <= 1e-8 * scale);
 }
 
-TEST_CASE("a small motion: nonlinear and linear stable inversion agree to what linearization "
-          "explains", "[solvers][paper]") {
+TEST_CASE(
+    "a small motion: nonlinear and linear stable inversion agree to what linearization "
+    "explains",
+    "[solvers][paper]") {
   const Model model = LoadModel(ModelPath("rotational_arm.yaml"));
   const double angle = 0.5 * M_PI / 180;
   const RestToRestTrajectory trajectory = ArmTrajectory(angle);
@@ -140,14 +146,13 @@ TEST_CASE("a small motion: nonlinear and linear stable inversion agree to what l
     largest_beta = std::max(largest_beta, std::abs(solution.q[i](1)));
   }
   WARN("0.5 deg: max |T_nonlinear - T_linear| / max |T| = " << difference / scale
-       << ", max |beta| = " << largest_beta);
+                                                            << ", max |beta| = " << largest_beta);
   // The neglected terms are of second order in the motion (cos beta, beta' alpha' sin beta):
   // relative size ~ the largest angle and rate involved, here ~1e-2 at most.
   CHECK(difference <= 1e-2 * scale);
 }
 
-TEST_CASE("undamped zero dynamics are refused, naming the eigenvalues on the axis",
-          "[solvers]") {
+TEST_CASE("undamped zero dynamics are refused, naming the eigenvalues on the axis", "[solvers]") {
   // Arm with d = 0 and the output at s = l/2 (stable side): zero dynamics undamped.
   const Model model = LoadModel(ModelPath("rotational_arm.yaml"), {{"d", "0"}, {"s", "0.5"}});
   const RestToRestTrajectory trajectory = ArmTrajectory(0.1);
@@ -179,12 +184,13 @@ TEST_CASE("a three-link arm with two passive joints (two internal coordinates) i
     largest = std::max(largest, std::abs(solution.u[i](0)));
     largest_passive = std::max(largest_passive, solution.q[i].tail(2).cwiseAbs().maxCoeff());
     Evaluate(model, workspace, solution.q[i], solution.q_dot[i], Quantity::kOutput);
-    servo = std::max(servo, std::abs(workspace.output(0) -
-                                     trajectory.Derivative(solution.times[i], 0)(0)));
+    servo = std::max(
+        servo, std::abs(workspace.output(0) - trajectory.Derivative(solution.times[i], 0)(0)));
   }
-  WARN("three-link arm 90 deg: " << solution.times.size() << " mesh points, max |T| = "
-       << largest << " N m, max |beta| = " << largest_passive << " rad, pre-actuation from "
-       << solution.window.pre_actuation_start << " s");
+  WARN("three-link arm 90 deg: " << solution.times.size() << " mesh points, max |T| = " << largest
+                                 << " N m, max |beta| = " << largest_passive
+                                 << " rad, pre-actuation from "
+                                 << solution.window.pre_actuation_start << " s");
   CHECK(std::isfinite(largest));
   CHECK(largest_passive < 1.0);
   CHECK(solution.window.pre_actuation_start < kT0);

@@ -76,12 +76,12 @@ TEST_CASE("high derivatives of a high-order rest-to-rest polynomial are accurate
   for (const int thousandths : {30, 250, 500, 750, 970, 999}) {
     const GiNaC::numeric point(thousandths, 1000);
     for (int order = 0; order <= k + 1; ++order) {
-      const double exact = GiNaC::ex_to<GiNaC::numeric>(
-                               polynomial.diff(tau, unsigned(order)).subs(tau == point))
-                               .to_double();
-      const double scale = GiNaC::ex_to<GiNaC::numeric>(
-                               GiNaC::factorial(k + order) / GiNaC::factorial(k))
-                               .to_double();  // the size of the order-th derivative's terms
+      const double exact =
+          GiNaC::ex_to<GiNaC::numeric>(polynomial.diff(tau, unsigned(order)).subs(tau == point))
+              .to_double();
+      const double scale =
+          GiNaC::ex_to<GiNaC::numeric>(GiNaC::factorial(k + order) / GiNaC::factorial(k))
+              .to_double();  // the size of the order-th derivative's terms
       INFO("tau = " << thousandths / 1000.0 << ", order " << order);
       CHECK(trajectory.Derivative(thousandths / 1000.0, order)(0) ==
             Approx(exact).margin(1e-13 * scale));

@@ -82,9 +82,13 @@ TEST_CASE("Radau IIA on a flat flexible-joint arm: the check reports the size of
   }
   const Verification check = VerifyFeedforward(arm.model, trajectory, radau);
   const Verification exact_check = VerifyFeedforward(arm.model, trajectory, exact);
-  WARN("flexible-joint arm, Radau IIA (" << radau.summary.steps << " steps): max |u - u_exact| / "
-       "max |u| = " << input_error / largest_input << "; tracking error " << check.max_tracking_error
-       << " rad (bound " << check.bound << "); the exact inverse's: " << exact_check.max_tracking_error);
+  WARN("flexible-joint arm, Radau IIA ("
+       << radau.summary.steps
+       << " steps): max |u - u_exact| / "
+          "max |u| = "
+       << input_error / largest_input << "; tracking error " << check.max_tracking_error
+       << " rad (bound " << check.bound
+       << "); the exact inverse's: " << exact_check.max_tracking_error);
   CHECK(check.passed);
   CHECK(exact_check.passed);
   // The output moves by 1 rad: its relative error is no larger than the input's. (A degree-5
@@ -93,8 +97,10 @@ TEST_CASE("Radau IIA on a flat flexible-joint arm: the check reports the size of
   CHECK(check.max_tracking_error > 10 * exact_check.max_tracking_error);  // it sees Radau's error
 }
 
-TEST_CASE("stable inversion of an inverted pendulum on a cart: the unstable plant cannot hide "
-          "the answer", "[solvers]") {
+TEST_CASE(
+    "stable inversion of an inverted pendulum on a cart: the unstable plant cannot hide "
+    "the answer",
+    "[solvers]") {
   const Problem cart = Load(TestDataPath("cart_pole.yaml"));
   REQUIRE(cart.classification.zero_dynamics.stability == Stability::kUnstable);
   const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
@@ -165,8 +171,10 @@ TEST_CASE("a u_d spoiled by 1 % fails every method's check", "[solvers]") {
   }
 }
 
-TEST_CASE("a pre-actuation cut short: the solution does not start at rest, and the check says "
-          "so and starts from rest", "[solvers]") {
+TEST_CASE(
+    "a pre-actuation cut short: the solution does not start at rest, and the check says "
+    "so and starts from rest",
+    "[solvers]") {
   const Problem cart = Load(TestDataPath("cart_pole.yaml"));
   const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0.0,
                                         2.0);
@@ -181,7 +189,8 @@ TEST_CASE("a pre-actuation cut short: the solution does not start at rest, and t
       Solve(cart, trajectory, SolverMethod::kStableInversion, 5.0, short_window);
   CHECK(cut.t_start == Approx(-0.3));
   const Verification check = VerifyFeedforward(cart.model, trajectory, cut);
-  WARN("cart-pole, pre-actuation 0.3 s: the solution starts " << check.start_position_deviation
+  WARN("cart-pole, pre-actuation 0.3 s: the solution starts "
+       << check.start_position_deviation
        << " m from rest; the check from rest: " << check.max_tracking_error << " m");
   CHECK_FALSE(check.solution_starts_at_rest);
   CHECK(check.start_position_deviation > 1e-3);
