@@ -40,10 +40,11 @@ if(NOT output MATCHES "\"realization\"")
   message(FATAL_ERROR "the installed servokit printed no classification")
 endif()
 # The Python module, where `cmake --install` put it (a path relative to the prefix; an absolute
-# SERVOKIT_PYTHON_INSTALL_DIR lies outside the prefix and is not checked here).
+# SERVOKIT_PYTHON_INSTALL_DIR lies outside the prefix and is not checked here). A newline, not
+# ";", between the statements: run() passes its arguments on as a list.
 if(NOT IS_ABSOLUTE "${PYTHON_DIR}")
   run(${CMAKE_COMMAND} -E env PYTHONPATH=${prefix}/${PYTHON_DIR} ${PYTHON} -c
-      "import servokit; print(servokit.load('${prefix}/share/servokit/models/mass_on_car.yaml').analyze().realization)")
+      "import servokit\nprint(servokit.load('${prefix}/share/servokit/models/mass_on_car.yaml').analyze().realization)")
   if(NOT output MATCHES "non-ideal-orthogonal")
     message(FATAL_ERROR "the installed Python module did not classify the model: ${output}")
   endif()
