@@ -14,10 +14,13 @@ CMAKE_FLAGS += -DSERVOKIT_WERROR=$(SERVOKIT_WERROR)
 endif
 MAKEFLAGS   += --no-print-directory
 
-# Build and run dependencies (DESIGN.md, "Dependencies").
+# Build and run dependencies (DESIGN.md, "Dependencies"). The Python module (application/python)
+# needs pybind11 and the interpreter's headers, its tests pytest and numpy; its tables are pandas
+# DataFrames (numpy structured arrays where pandas is missing, which CI must test too).
 PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-dev libgsl-dev \
             catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox \
-            libopenmpi-dev openmpi-bin
+            libopenmpi-dev openmpi-bin pybind11-dev python3-dev python3-pytest python3-numpy \
+            python3-pandas
 # Only the benchmarks need the SciPy peer.
 BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml
 # Only fuzzing needs clang and its libFuzzer runtime.

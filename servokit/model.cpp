@@ -1,5 +1,7 @@
 // api::Model: a model file of either kind, loaded once and shared.
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "models/errors.h"
 #include "servokit/toolkit_bridge.h"
@@ -16,6 +18,17 @@ std::vector<ParameterOverride> ToOverrides(const ParameterValues& values) {
 template <typename Visitor>
 decltype(auto) Visit(const Model& model, Visitor visitor) {
   return std::visit(visitor, ToolkitModel(model).variant());
+}
+
+// A linear model's coordinates or inputs: prefix1, prefix2, ...
+std::vector<std::string> Numbered(const char* prefix, std::size_t count) {
+  std::vector<std::string> names;
+  for (std::size_t i = 1; i <= count; ++i) {
+    std::string name = prefix;  // appended, not prefix + ...: GCC 12 -Wrestrict (model.cpp)
+    name += std::to_string(i);
+    names.push_back(std::move(name));
+  }
+  return names;
 }
 
 }  // namespace
@@ -69,5 +82,15 @@ std::size_t Model::num_inputs() const {
 std::size_t Model::num_outputs() const {
   return Visit(*this, [](const auto& model) { return model.num_outputs(); });
 }
+
+std::vector<std::string> Model::coordinate_names() const {
+  const servokit::Model* multibody = ToolkitModel(*this).multibody();
+  return multibody != nullptr ? multibody->coordinates() : Numbered("q", dof());
+}
+std::vector<std::string> Model::input_names() const {
+  const servokit::Model* multibody = ToolkitModel(*this).multibody();
+  return multibody != nullptr ? multibody->inputs() : Numbered("u", num_inputs());
+}
+std::vector<std::string> Model::output_names() const { return Numbered("y", num_outputs()); }
 
 }  // namespace servokit::api

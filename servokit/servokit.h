@@ -17,6 +17,7 @@
 #include <Eigen/Dense>
 #include <complex>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -61,6 +62,11 @@ class Model {
   std::size_t dof() const;
   std::size_t num_inputs() const;
   std::size_t num_outputs() const;
+  /// Names of the coordinates, the inputs and the outputs (y1, y2, ...), in the order of q, u
+  /// and y: the columns of a solve's CSV. A linear model's are numbered q1.., u1...
+  std::vector<std::string> coordinate_names() const;
+  std::vector<std::string> input_names() const;
+  std::vector<std::string> output_names() const;
 
   struct Loaded;  // the toolkit's model, inside the library
 
@@ -159,6 +165,11 @@ struct SweepPoint {
   int internal_dynamics_order = 0;
   std::string stability;
   std::vector<std::complex<double>> eigenvalues;
+  // The largest real part of `eigenvalues`, NaN when there are none (points.csv's
+  // max_real_part), and the frequency and damping ratio of each eigenvalue, in their order
+  // (eigenvalues.csv's frequency_hz, damping_ratio; 0 Hz and ratio 1 for a zero eigenvalue).
+  double max_real_part = std::numeric_limits<double>::quiet_NaN();
+  std::vector<OscillatoryMode> eigenvalue_modes;
 };
 
 /// Classifies every point of the full grid over `axes` (the first axis varies slowest), the

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "analysis/parameter_grid.h"
+#include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 #include "models/option_check.h"
 #include "reports/sweep_tables.h"
@@ -55,6 +56,12 @@ SweepPoint ToSweepPoint(const ParameterGrid& grid,
   result.internal_dynamics_order = point.internal_dynamics_order;
   result.stability = std::string(ToString(point.stability));
   result.eigenvalues = point.eigenvalues;
+  result.max_real_part = point.max_real_part;
+  result.eigenvalue_modes.reserve(point.eigenvalues.size());
+  for (const std::complex<double> eigenvalue : point.eigenvalues) {
+    const Mode mode = ModeOf(eigenvalue);
+    result.eigenvalue_modes.push_back({mode.frequency_hz, mode.damping_ratio});
+  }
   return result;
 }
 

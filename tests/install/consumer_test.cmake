@@ -1,8 +1,9 @@
 # Installs this build into a fresh prefix, builds tests/install/consumer (a shared library on the
 # public API and a program that calls it) against it and runs it,
 # then runs the installed `servokit` on an installed model (issue #7: cmake --install and
-# find_package). Called by CTest: cmake -DBINARY_DIR=... -DSOURCE_DIR=... -DWORK_DIR=...
-#   -DCXX_COMPILER=... -P consumer_test.cmake
+# find_package), and imports the installed Python module (issue #17). Called by CTest:
+#   cmake -DBINARY_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DCXX_COMPILER=... -DPYTHON=...
+#   -DPYTHON_DIR=... -P consumer_test.cmake
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT status EQUAL 0)
@@ -37,5 +38,15 @@ run(${prefix}/bin/servokit --version)
 run(${prefix}/bin/servokit analyze ${prefix}/share/servokit/models/mass_on_car.yaml --format json)
 if(NOT output MATCHES "\"realization\"")
   message(FATAL_ERROR "the installed servokit printed no classification")
+endif()
+# The Python module, where `cmake --install` put it (a path relative to the prefix; an absolute
+# SERVOKIT_PYTHON_INSTALL_DIR lies outside the prefix and is not checked here). A newline, not
+# ";", between the statements: run() passes its arguments on as a list.
+if(NOT IS_ABSOLUTE "${PYTHON_DIR}")
+  run(${CMAKE_COMMAND} -E env PYTHONPATH=${prefix}/${PYTHON_DIR} ${PYTHON} -c
+      "import servokit\nprint(servokit.load('${prefix}/share/servokit/models/mass_on_car.yaml').analyze().realization)")
+  if(NOT output MATCHES "non-ideal-orthogonal")
+    message(FATAL_ERROR "the installed Python module did not classify the model: ${output}")
+  endif()
 endif()
 file(REMOVE_RECURSE ${WORK_DIR})

@@ -86,6 +86,9 @@ TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates a
   CHECK(model.kind() == sk::ModelKind::kMultibody);
   CHECK(model.name() == "mass_on_car");
   CHECK(model.dof() == 2);
+  CHECK(model.coordinate_names() == std::vector<std::string>{"x", "s"});  // the model file's
+  CHECK(model.input_names() == std::vector<std::string>{"F"});
+  CHECK(model.output_names() == std::vector<std::string>{"y1"});
   const sk::Analysis analysis = sk::Analyze(model);
   CHECK(analysis.realization == "non-ideal-orthogonal");
   CHECK(analysis.relative_degree == std::vector<int>{2});
@@ -144,8 +147,16 @@ TEST_CASE("sweep through the API, in memory and to files, follows the closed for
     REQUIRE(point.solved);
     CHECK(point.stability == "critical");
     REQUIRE(point.eigenvalues.size() == 2);
-    CHECK(std::abs(point.eigenvalues[0].imag()) ==
-          Approx(UndampedFrequency(point.parameter_values[0])).epsilon(1e-10));
+    const double omega = UndampedFrequency(point.parameter_values[0]);
+    CHECK(std::abs(point.eigenvalues[0].imag()) == Approx(omega).epsilon(1e-10));
+    // Undamped: the largest real part is 0 up to round-off, each eigenvalue's mode is omega / 2
+    // pi with damping ratio 0.
+    CHECK(point.max_real_part == Approx(0.0).margin(1e-9 * omega));
+    REQUIRE(point.eigenvalue_modes.size() == 2);
+    for (const sk::OscillatoryMode& mode : point.eigenvalue_modes) {
+      CHECK(mode.frequency_hz == Approx(omega / (2 * kPi)).epsilon(1e-10));
+      CHECK(mode.damping_ratio == Approx(0.0).margin(1e-9));
+    }
   }
   const std::filesystem::path directory =
       std::filesystem::temp_directory_path() / "servokit_api_sweep_test";
@@ -221,6 +232,9 @@ TEST_CASE("a generated two-mass chain through the API: zero dynamics of the free
   const std::string path = sk::Generate(chain, directory.string());
   const sk::Model model = sk::Model::FromFile(path);
   CHECK(model.kind() == sk::ModelKind::kLinear);
+  CHECK(model.coordinate_names() == std::vector<std::string>{"q1", "q2"});
+  CHECK(model.input_names() == std::vector<std::string>{"u1"});
+  CHECK(model.output_names() == std::vector<std::string>{"y1"});
   const sk::Analysis analysis = sk::Analyze(model);
   REQUIRE(analysis.zero_dynamics.eigenvalues.size() == 2);
   for (const auto& eigenvalue : analysis.zero_dynamics.eigenvalues) {

@@ -1,0 +1,68 @@
+"""Errors raise servokit.UsageError, ModelError and NoSolution (all servokit.Error), each by the
+kind of the C++ error and with the command line's one-line message (issue #17)."""
+import pathlib
+import subprocess
+
+import pytest
+
+import servokit
+
+DATA = pathlib.Path(__file__).parents[1] / "data"
+
+
+def command_line_message(binary, *arguments):
+    completed = subprocess.run([binary, *map(str, arguments)], capture_output=True, text=True)
+    assert completed.returncode != 0
+    line = completed.stderr.strip()
+    assert line.startswith("servokit: error: ") and "\n" not in line
+    return line[len("servokit: error: "):]
+
+
+def test_the_classes_form_a_hierarchy():
+    for kind in (servokit.UsageError, servokit.ModelError, servokit.NoSolution):
+        assert issubclass(kind, servokit.Error)
+    assert issubclass(servokit.Error, Exception)
+
+
+def test_a_bad_model_file_is_a_model_error_with_the_command_line_message(servokit_binary):
+    path = DATA / "errors" / "duplicate_key.yaml"
+    with pytest.raises(servokit.ModelError) as raised:
+        servokit.load(str(path))
+    assert str(raised.value) == command_line_message(servokit_binary, "analyze", path)
+
+
+def test_bad_yaml_text_is_a_model_error():
+    with pytest.raises(servokit.ModelError, match="<string>"):
+        servokit.load("name: x\ncoordinates: [q]\n")
+
+
+def test_no_equilibrium_is_no_solution_with_the_command_line_message(servokit_binary):
+    path = DATA / "no_equilibrium.yaml"
+    with pytest.raises(servokit.NoSolution) as raised:
+        servokit.load(str(path)).analyze()
+    assert str(raised.value) == command_line_message(servokit_binary, "analyze", path)
+
+
+def test_bad_arguments_are_usage_errors(mass_on_car):
+    with pytest.raises(servokit.UsageError, match="nope"):
+        servokit.load(mass_on_car, nope=1)
+    with pytest.raises(servokit.UsageError, match="alpha"):
+        servokit.load(mass_on_car, alpha=[1, 2])
+    model = servokit.load(mass_on_car)
+    with pytest.raises(servokit.UsageError, match="weather"):
+        model.threshold("alpha", 0.1, 1.0, event="weather")
+    with pytest.raises(servokit.UsageError, match="ode45"):
+        model.solve(y0=0, yf=1, tf=1, t_end=2, method="ode45")
+    with pytest.raises(servokit.UsageError, match="y0, yf and tf"):
+        model.solve(y0=0, t_end=2)
+    with pytest.raises(servokit.UsageError, match="table"):
+        model.sweep({"d": [0, 1]}, table="excel")
+    with pytest.raises(servokit.UsageError):
+        model.sweep({"nope": [0, 1]})
+    with pytest.raises(servokit.UsageError, match="masses"):
+        servokit.generate.chain(masses=0, out="/nonexistent")
+
+
+def test_a_missing_file_is_an_error(tmp_path):
+    with pytest.raises(servokit.Error):
+        servokit.load(str(tmp_path / "missing.yaml"))

@@ -1,0 +1,102 @@
+"""The paper's mass on a car (Blajer and Kolodziejczyk 2004, Sect. 3, Eqs. 26-27) through the
+Python module, against closed forms (models/mass_on_car.yaml: m1 = 1, m2 = 2, k = 5)."""
+import math
+
+import numpy as np
+import pytest
+
+import servokit
+
+M1, M2, K = 1.0, 2.0, 5.0
+
+
+def test_undamped_zero_dynamics_at_5_deg(mass_on_car):
+    # d = 0 (Eq. 36 with y_d = 0): m2 sin^2(alpha) s'' + k s = 0, so the zero dynamics are
+    # +-i sqrt(k / (m2 sin^2 alpha)) = +-18.1415i at alpha = 5 deg.
+    model = servokit.load(mass_on_car, alpha="5 deg", d=0)
+    assert model.parameters["alpha"] == pytest.approx(math.radians(5), rel=1e-15)
+    analysis = model.analyze()
+    omega = math.sqrt(K / (M2 * math.sin(math.radians(5)) ** 2))
+    assert omega == pytest.approx(18.1415, abs=5e-5)
+    assert analysis.realization == "non-ideal-orthogonal"
+    assert analysis.relative_degree == [2]
+    assert analysis.stability == "critical"
+    eigenvalues = analysis.zero_dynamics.eigenvalues
+    assert eigenvalues.dtype == np.complex128 and eigenvalues.shape == (2,)
+    assert np.allclose(eigenvalues.real, 0.0, atol=1e-9 * omega)
+    assert sorted(eigenvalues.imag) == pytest.approx([-omega, omega], rel=1e-10)
+    assert analysis.zero_dynamics.modes[0].frequency_hz == pytest.approx(omega / (2 * math.pi),
+                                                                         rel=1e-10)
+    assert analysis.P.shape == (1, 1)
+
+
+def test_over_damping_threshold_at_d_1(mass_on_car):
+    # m2 sin^2(alpha) s^2 + d s + k = 0 has a double root where d^2 = 4 m2 k sin^2(alpha):
+    # alpha = asin(sqrt(1/40)) = 9.0974 deg at d = 1.
+    model = servokit.load(mass_on_car, d=1)
+    thresholds = model.threshold("alpha", math.radians(1), math.radians(80), event="oscillation")
+    assert len(thresholds) == 1
+    assert thresholds[0]["value"] == pytest.approx(math.asin(math.sqrt(1 / 40)), rel=1e-9)
+    assert thresholds[0]["from"] != thresholds[0]["to"]
+
+
+def rest_to_rest(t, y0, yf, T, order):
+    """Eq. (65) and its derivatives in time: y0 + (yf - y0) p(t / T)."""
+    coefficients = {5: 126, 6: -420, 7: 540, 8: -315, 9: 70}
+    tau = np.minimum(t, T) / T
+    value = np.zeros_like(t)
+    for power, c in coefficients.items():
+        falling = math.prod(range(power - order + 1, power + 1))
+        value += c * falling * tau ** (power - order)
+    return (y0 if order == 0 else 0.0) + (yf - y0) * value / T ** order
+
+
+def test_flat_case_follows_its_closed_form(mass_on_car):
+    # alpha = 0, d = 0: y = x + s and m2 y'' = -k s, so s = -(m2/k) y'' and
+    # F = (m1 + m2) y'' + (m1 m2 / k) y'''' (flat: no internal dynamics), y_d from Eq. (65).
+    model = servokit.load(mass_on_car, alpha=0, d=0)
+    result = model.solve(y0=0.5, yf=2.5, t0=0, tf=6, t_end=8, sample_time=0.5, verify=True)
+    assert result.method == "algebraic"
+    assert result.status == "converged" and result.usable
+    assert result.summary["verification"]["passed"]
+    table = result.table
+    assert list(table.columns) == ["t", "x", "s", "x_dot", "s_dot", "F", "y1_d"]
+    t = np.asarray(table["t"], dtype=float)
+    assert t == pytest.approx(np.arange(17) * 0.5, abs=1e-12)
+    moving = t < 6
+    force = (M1 + M2) * rest_to_rest(t, 0.5, 2.5, 6.0, 2) + \
+        np.where(moving, M1 * M2 / K * rest_to_rest(t, 0.5, 2.5, 6.0, 4), 0.0)
+    assert np.asarray(table["F"]) == pytest.approx(force, abs=1e-9)  # round-off of p''''
+    assert np.asarray(table["y1_d"]) == pytest.approx(rest_to_rest(t, 0.5, 2.5, 6.0, 0),
+                                                      rel=1e-12)
+    s = -(M2 / K) * np.where(moving, rest_to_rest(t, 0.5, 2.5, 6.0, 2), 0.0)
+    assert np.asarray(table["s"]) == pytest.approx(s, abs=1e-9)
+    assert result.q.shape == (17, 2) and result.u.shape == (17, 1)
+
+
+def test_sweep_follows_the_closed_form(mass_on_car):
+    model = servokit.load(mass_on_car, d=0)
+    alphas = np.radians([5.0, 30.0, 60.0])
+    points, eigenvalues = model.sweep({"alpha": alphas}, threads=2)
+    assert list(points["alpha"]) == list(alphas)
+    assert list(points["stability"]) == ["critical"] * 3
+    omega = np.sqrt(K / (M2 * np.sin(np.asarray(eigenvalues["alpha"])) ** 2))
+    assert np.abs(np.asarray(eigenvalues["im"])) == pytest.approx(omega, rel=1e-10)
+    assert np.asarray(eigenvalues["frequency_hz"]) == pytest.approx(omega / (2 * np.pi),
+                                                                    rel=1e-10)
+
+
+def test_generated_chain_has_the_free_mass_as_zero_dynamics(tmp_path):
+    # Force and output on mass 1 of two: holding it, mass 2 hangs on one spring-damper, so the
+    # zero dynamics are m s^2 + d s + k = 0: s = -0.005 +- i sqrt(1 - 0.005^2).
+    path = servokit.generate.chain(masses=2, out=tmp_path)
+    assert path.endswith(".yaml")
+    model = servokit.load(path)
+    assert model.kind == "linear"
+    assert model.coordinates == ["q1", "q2"]
+    eigenvalues = model.analyze().eigenvalues
+    assert eigenvalues.real == pytest.approx([-0.005, -0.005], rel=1e-10)
+    assert sorted(eigenvalues.imag) == pytest.approx(
+        [-math.sqrt(1 - 0.005**2), math.sqrt(1 - 0.005**2)], rel=1e-10)
+    beam = servokit.load(servokit.generate.beam(elements=4, out=tmp_path / "beam"))
+    assert beam.kind == "linear" and beam.name == "beam_4"
