@@ -2,6 +2,7 @@
 
 #include "application/commands.h"
 #include "models/errors.h"
+#include "servokit/toolkit_bridge.h"
 
 namespace servokit {
 
@@ -35,26 +36,26 @@ LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& argu
                                                 const ClassificationOptions& tolerances,
                                                 bool y0_given,
                                                 bool q0_given) {
+  // The flags' own words first; the conversion itself is the library's (one place for it).
   if (y0_given || q0_given) {
     throw UsageError(std::string(y0_given ? "--y0" : "--q0") +
                      ": a linear model is analysed at q = 0, y = 0; the option does not apply");
   }
-  LinearAnalysisOptions options;
-  options.rank_tolerance = tolerances.rank_tolerance;
-  options.zero_dynamics.imaginary_axis_tolerance = tolerances.imaginary_axis_tolerance;
-  options.zero_dynamics.arpack.eigenvalues = arguments.eigenvalues;
-  options.zero_dynamics.shift = arguments.shift;
-  const auto solver = LinearEigenSolverFromString(arguments.eigen_solver);
-  if (!solver) {
+  if (!LinearEigenSolverFromString(arguments.eigen_solver)) {
     throw UsageError("--eigen-solver " + arguments.eigen_solver +
                      ": expected auto, dense or arpack");
   }
-  options.zero_dynamics.solver = *solver;
-  const auto target = EigenvalueTargetFromString(arguments.which);
-  if (!target) throw UsageError("--which " + arguments.which + ": expected nearest or rightmost");
-  options.zero_dynamics.target = *target;
-  options.Validate();
-  return options;
+  if (!EigenvalueTargetFromString(arguments.which)) {
+    throw UsageError("--which " + arguments.which + ": expected nearest or rightmost");
+  }
+  api::AnalyzeOptions options;
+  options.rank_tolerance = tolerances.rank_tolerance;
+  options.imaginary_axis_tolerance = tolerances.imaginary_axis_tolerance;
+  options.eigenvalues = arguments.eigenvalues;
+  options.shift = arguments.shift;
+  options.eigen_solver = arguments.eigen_solver;
+  options.which = arguments.which;
+  return api::ToLinearAnalysisOptions(options);
 }
 
 void RefuseLinearModelOptions(const CLI::App& command) {
