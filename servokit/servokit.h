@@ -17,6 +17,7 @@
 #include <Eigen/Dense>
 #include <complex>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -151,6 +152,10 @@ struct SweepAxis {
 struct SweepOptions {
   AnalyzeOptions analysis;  // nonlinear_structure is not used: a sweep classifies only
   int threads = 0;          // 0: all cores; the results do not depend on it
+  // Asked on the calling thread after each block of points (4096, or the grid's rest): true
+  // stops the sweep there, so that a caller can honour an interrupt (Ctrl-C) within a block.
+  // Sweep then returns the points done so far and SweepToFiles writes them. Empty: never stops.
+  std::function<bool()> stop_requested;
 };
 
 /// One point of a sweep: the class columns of `servokit sweep`'s points.csv.

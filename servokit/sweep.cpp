@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <span>
 
 #include "analysis/parameter_grid.h"
 #include "analysis/zero_dynamics.h"
@@ -30,14 +32,20 @@ ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
 }
 
 // Runs the sweep block by block into `consume`: the toolkit's one sweep engine, either kind.
-void RunModelSweep(const Model& model,
-                   const ParameterGrid& grid,
-                   const SweepOptions& options,
-                   const SweepConsumer& consume) {
+// Stops after a block when the caller asks to (SweepOptions::stop_requested).
+void RunModelSweep(
+    const Model& model,
+    const ParameterGrid& grid,
+    const SweepOptions& options,
+    const std::function<void(std::size_t, std::span<const servokit::SweepPoint>)>& consume) {
   servokit::SweepOptions sweep_options;
   static_cast<AnalysisOptions&>(sweep_options) = ToAnalysisOptions(model, options.analysis);
   sweep_options.threads = options.threads;
-  RunSweep(ToolkitModel(model), grid, sweep_options, 0, consume);
+  RunSweep(ToolkitModel(model), grid, sweep_options, 0,
+           [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
+             consume(first, block);
+             return !(options.stop_requested && options.stop_requested());
+           });
 }
 
 SweepPoint ToSweepPoint(const ParameterGrid& grid,
@@ -78,7 +86,6 @@ std::vector<SweepPoint> Sweep(const Model& model,
                   for (std::size_t i = 0; i < block.size(); ++i) {
                     points.push_back(ToSweepPoint(grid, first + i, block[i]));
                   }
-                  return true;
                 });
   return points;
 }
@@ -109,7 +116,6 @@ std::size_t SweepToFiles(const Model& model,
                   points_file << points_csv;
                   eigenvalues_file << eigenvalues_csv;
                   count = first + block.size();
-                  return true;
                 });
   points_file.close();
   eigenvalues_file.close();

@@ -337,8 +337,8 @@ std::optional<double> ToOptionalDouble(const py::object& value) {
 
 PYBIND11_MODULE(servokit, module) {
   module.doc() =
-      "servokit: servo-constraint problems of underactuated multibody systems (Blajer and "
-      "Kolodziejczyk 2004). load() a model file, then analyze, sweep, threshold and solve.";
+      "servokit: servo-constraint problems of underactuated multibody systems (Seifried and "
+      "Blajer 2013). load() a model file, then analyze, sweep, threshold and solve.";
   module.attr("__version__") = SERVOKIT_VERSION;
 
   // Errors: servokit.Error and one subclass per kind, with the command line's one-line message.
@@ -514,12 +514,21 @@ PYBIND11_MODULE(servokit, module) {
             options.analysis =
                 ToAnalyzeOptions(py::none(), py::none(), rank_tolerance, imaginary_axis_tolerance);
             options.threads = threads;
+            // Ctrl-C: Python only notes the signal while the GIL is released; after each block
+            // the sweep asks, and stops there, and the KeyboardInterrupt is raised here.
+            bool interrupted = false;
+            options.stop_requested = [&interrupted] {
+              py::gil_scoped_acquire acquire;
+              interrupted = PyErr_CheckSignals() != 0;
+              return interrupted;
+            };
             UsePandas(table);  // a bad `table` before the work
             std::vector<sk::SweepPoint> points;
             {
               py::gil_scoped_release release;
               points = sk::Sweep(model, axes, options);
             }
+            if (interrupted) throw py::error_already_set();
             return SweepTables(model, axes, points, table);
           },
           py::arg("grid"), py::kw_only(), py::arg("threads") = 0,

@@ -1,4 +1,4 @@
-"""The paper's mass on a car (Blajer and Kolodziejczyk 2004, Sect. 3, Eqs. 26-27) through the
+"""The paper's mass on a car (Seifried and Blajer 2013, Sect. 3, Eqs. 26-27) through the
 Python module, against closed forms (models/mass_on_car.yaml: m1 = 1, m2 = 2, k = 5)."""
 import math
 

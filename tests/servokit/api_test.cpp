@@ -172,6 +172,24 @@ TEST_CASE("sweep through the API, in memory and to files, follows the closed for
   std::filesystem::remove_all(directory);
 }
 
+TEST_CASE("a sweep stops after the block in which its caller asks it to", "[servokit]") {
+  // 5000 points are two blocks (SweepOptions::stop_requested: 4096, then the rest); asked to
+  // stop at the first question, the sweep returns the first block, the grid's first points.
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  std::vector<double> alphas(5000);
+  for (std::size_t i = 0; i < alphas.size(); ++i) alphas[i] = 0.1 + 1e-4 * double(i);
+  sk::SweepOptions options;
+  int questions = 0;
+  options.stop_requested = [&questions] { return ++questions >= 1; };
+  const std::vector<sk::SweepPoint> first_block = sk::Sweep(model, {{"alpha", alphas}}, options);
+  CHECK(questions == 1);
+  REQUIRE(first_block.size() == 4096);
+  CHECK(first_block.back().parameter_values[0] == alphas[4095]);
+  options.stop_requested = [&questions] { return ++questions < 0; };  // never
+  CHECK(sk::Sweep(model, {{"alpha", alphas}}, options).size() == 5000);
+  CHECK(questions == 3);  // asked after each of the two blocks
+}
+
 TEST_CASE("thresholds through the API: over-damped below 9.1 deg at d = 1", "[servokit][paper]") {
   // m2 sin^2(alpha) s^2 + d s + k = 0 has a double root where d^2 = 4 m2 k sin^2(alpha):
   // alpha = asin(sqrt(1 / 40)) = 9.0974 deg.
