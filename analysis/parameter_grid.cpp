@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 #include "models/errors.h"
@@ -24,6 +25,14 @@ std::string KnownParameters(const std::vector<std::string>& parameter_names) {
 std::size_t GridAxis::size() const {
   if (const auto* range = std::get_if<ValueRange>(&values)) return range->count;
   return std::get<std::vector<double>>(values).size();
+}
+
+std::string GridAxis::ColumnName() const {
+  return display_unit == DisplayUnit::kDegree ? name + "_deg" : name;
+}
+
+double GridAxis::DisplayValue(double value) const {
+  return display_unit == DisplayUnit::kDegree ? value * (180.0 / std::numbers::pi) : value;
 }
 
 double GridAxis::Value(std::size_t i) const {

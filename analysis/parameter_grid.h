@@ -23,12 +23,24 @@ struct ValueRange {
   std::size_t count = 1;
 };
 
+/// The unit a parameter is shown in (tables, report axes, threshold results). Values are held
+/// and computed in SI whatever it is; a parameter given in degrees (in the model file, or with
+/// "deg" in --set/--vary) is shown in degrees, so that degrees stay degrees.
+enum class DisplayUnit { kSI, kDegree };
+
 /// One varied parameter and the values it takes, in SI units.
 struct GridAxis {
   std::string name;
   std::size_t parameter = 0;  // index in the model's parameter_names() (ParameterIndex)
   // A range or an explicit list.
   std::variant<ValueRange, std::vector<double>> values;
+  DisplayUnit display_unit = DisplayUnit::kSI;
+
+  /// The table column of the parameter: its name, with "_deg" appended when it is shown in
+  /// degrees ("alpha_deg"), so that the unit travels with every table a tool reads.
+  std::string ColumnName() const;
+  /// `value` (SI) in the unit the parameter is shown in.
+  double DisplayValue(double value) const;
 
   /// The number of values (>= 1).
   std::size_t size() const;

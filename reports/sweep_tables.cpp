@@ -11,10 +11,19 @@
 namespace servokit {
 namespace {
 
-std::string ParameterColumns(const ParameterGrid& grid) {
-  std::string columns;
-  for (const GridAxis& axis : grid.axes()) columns += axis.name + ",";
+std::vector<std::string> ParameterColumns(const ParameterGrid& grid) {
+  std::vector<std::string> columns;
+  for (const GridAxis& axis : grid.axes()) columns.push_back(axis.ColumnName());
   return columns;
+}
+
+std::string CsvHeader(const std::vector<std::string>& columns) {
+  std::string header;
+  for (const std::string& column : columns) {
+    if (!header.empty()) header += ',';
+    header += column;
+  }
+  return header + '\n';
 }
 
 std::string JoinRelativeDegrees(const std::vector<int>& relative_degree) {
@@ -74,14 +83,28 @@ void AppendEigenvalueRows(const std::string& values, const SweepPoint& point, st
 
 }  // namespace
 
-std::string PointsCsvHeader(const ParameterGrid& grid) {
-  return ParameterColumns(grid) +
-         "realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,"
-         "stability,max_real_part,error\n";
+std::vector<std::string> PointsColumns(const ParameterGrid& grid) {
+  std::vector<std::string> columns = ParameterColumns(grid);
+  for (const char* column : {"realization", "P_rank", "relative_degree", "differentiation_index",
+                             "internal_dynamics_order", "stability", "max_real_part", "error"}) {
+    columns.emplace_back(column);
+  }
+  return columns;
 }
 
+std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid) {
+  std::vector<std::string> columns = ParameterColumns(grid);
+  columns.emplace_back(kEigenvalueIndexColumn);
+  for (const char* column : {"re", "im", "frequency_hz", "damping_ratio"}) {
+    columns.emplace_back(column);
+  }
+  return columns;
+}
+
+std::string PointsCsvHeader(const ParameterGrid& grid) { return CsvHeader(PointsColumns(grid)); }
+
 std::string EigenvaluesCsvHeader(const ParameterGrid& grid) {
-  return ParameterColumns(grid) + "k,re,im,frequency_hz,damping_ratio\n";
+  return CsvHeader(EigenvaluesColumns(grid));
 }
 
 void AppendCsvRows(const ParameterGrid& grid,
@@ -94,8 +117,8 @@ void AppendCsvRows(const ParameterGrid& grid,
   for (std::size_t i = 0; i < points.size(); ++i) {
     grid.PointValues(first + i, values);
     value_columns.clear();
-    for (const double value : values) {
-      AppendExact(value_columns, value);
+    for (std::size_t axis = 0; axis < values.size(); ++axis) {
+      AppendExact(value_columns, grid.axes()[axis].DisplayValue(values[axis]));
       value_columns += ',';
     }
     AppendPointRow(value_columns, points[i], points_csv);

@@ -9,12 +9,24 @@
 #include <cstddef>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep_point.h"
 
 namespace servokit {
+
+/// The name of eigenvalues.csv's column that numbers a point's eigenvalues from 0.
+inline constexpr std::string_view kEigenvalueIndexColumn = "k";
+
+/// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
+/// realization, P_rank, relative_degree, differentiation_index, internal_dynamics_order,
+/// stability, max_real_part, error. Every format of the table (CSV, HDF5, MAT) uses these names.
+std::vector<std::string> PointsColumns(const ParameterGrid& grid);
+/// The columns of the eigenvalues table: the varied parameters, then kEigenvalueIndexColumn, re,
+/// im, frequency_hz, damping_ratio.
+std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid);
 
 /// The header line of points.csv (with its newline): the varied parameters, then
 /// realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,stability,
