@@ -1,5 +1,5 @@
-// servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE [--y0 A --yf B --t0 T0 --tf
-// TF]
+// servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE.yaml|FILE.csv [--y0 A --yf B
+// --t0 T0 --tf TF]
 //     [--t-start TS] --t-end TE --method
 //     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
@@ -16,6 +16,7 @@
 #include "models/errors.h"
 #include "servokit/servokit.h"
 #include "solvers/method_choice.h"
+#include "solvers/sampled_trajectory.h"
 #include "solvers/solve_settings.h"
 #include "solvers/solve_summary.h"
 
@@ -52,11 +53,18 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
   if (!arguments.y0.empty() || !arguments.yf.empty() || arguments.t0 || arguments.tf) {
     throw UsageError(
         "--y0, --yf, --t0 and --tf belong to --trajectory rest-to-rest; a "
-        "trajectory file gives its waypoints itself");
+        "trajectory file gives its waypoints or samples itself");
   }
   if (!std::filesystem::exists(arguments.trajectory)) {
     throw UsageError("--trajectory " + arguments.trajectory +
-                     ": no such file (expected rest-to-rest or a YAML file of waypoints)");
+                     ": no such file (expected rest-to-rest, a YAML file of waypoints or a CSV "
+                     "file of samples)");
+  }
+  if (std::filesystem::path(arguments.trajectory).extension() == ".csv") {
+    TrajectorySamples samples = LoadTrajectorySamples(arguments.trajectory);
+    trajectory.sample_times = std::move(samples.times);
+    trajectory.sample_values = std::move(samples.values);
+    return trajectory;
   }
   trajectory.waypoint_file = arguments.trajectory;
   return trajectory;
@@ -124,13 +132,20 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
       api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
   const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
   // One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
-  // --yf of different lengths).
-  if (trajectory.waypoint_file.empty() && trajectory.y0.size() == trajectory.yf.size() &&
-      trajectory.y0.size() != Eigen::Index(model.num_outputs())) {
-    const std::size_t outputs = model.num_outputs();
-    throw UsageError("--y0 and --yf: " + std::to_string(trajectory.y0.size()) +
-                     " values, but the model has " + std::to_string(outputs) +
-                     (outputs == 1 ? " output" : " outputs") + " (one value per output)");
+  // --yf of different lengths) or naming the samples file.
+  const std::size_t outputs = model.num_outputs();
+  const std::string per_output = ", but the model has " + std::to_string(outputs) +
+                                 (outputs == 1 ? " output" : " outputs") + " (one per output)";
+  if (arguments.trajectory == "rest-to-rest" && trajectory.y0.size() == trajectory.yf.size() &&
+      trajectory.y0.size() != Eigen::Index(outputs)) {
+    throw UsageError("--y0 and --yf: " + std::to_string(trajectory.y0.size()) + " values" +
+                     per_output);
+  }
+  if (!trajectory.sample_times.empty() &&
+      trajectory.sample_values.cols() != Eigen::Index(outputs)) {
+    throw UsageError(arguments.trajectory + ": " +
+                     std::to_string(trajectory.sample_values.cols()) + " output columns after t" +
+                     per_output);
   }
 
   api::SolveOptions options;
@@ -184,7 +199,9 @@ Command AddSolveCommand(CLI::App& app) {
                     "Override a parameter: name=value (value may end in deg)");
   solve
       ->add_option("--trajectory", arguments->trajectory,
-                   "rest-to-rest (Eq. 65, with --y0 --yf --t0 --tf) or a YAML file of waypoints")
+                   "rest-to-rest (Eq. 65, with --y0 --yf --t0 --tf), a YAML file of waypoints, "
+                   "or a CSV file of samples (t,y1,...: joined by an interpolating spline at "
+                   "rest before the first and after the last)")
       ->required();
   solve->add_option("--y0", arguments->y0, "Rest-to-rest: output at t0, one per output");
   solve->add_option("--yf", arguments->yf, "Rest-to-rest: output at tf, one per output");

@@ -215,12 +215,30 @@ std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery
 
 // ---- solving --------------------------------------------------------------------------------
 
-/// The desired output y_d(t): rest-to-rest (paper Eq. 65, raised in order when the problem
-/// needs more derivatives) from y0 at t0 to yf at tf, or the waypoints of a YAML file.
+/// The desired output y_d(t), one of four kinds (the inverse reads y_d up to order r =
+/// differentiation index - 1, and each kind is made smooth enough for it):
+///   - rest-to-rest (the default): paper Eq. 65, raised in order when the problem needs more
+///     derivatives, from y0 at t0 to yf at tf;
+///   - waypoints: the YAML file `waypoint_file`;
+///   - samples: y_d at `sample_times` (one row of `sample_values` per time, one column per
+///     output), joined by the interpolating spline of degree 2k + 1, k = max(4, r), at rest
+///     before the first sample and after the last (solvers/sampled_trajectory.h);
+///   - a function of the caller's: `function(t, highest, d)` fills d (outputs x (highest + 1))
+///     with y_d and its derivatives up to `highest` at t.
+/// y0, yf, t0 and tf belong to rest-to-rest only.
 struct OutputTrajectory {
   Eigen::VectorXd y0, yf;  // one value per output
   double t0 = 0.0, tf = 1.0;
-  std::string waypoint_file;  // when set, the trajectory is this file and y0..tf are unused
+  std::string waypoint_file;  // when set, the trajectory is this file
+  std::vector<double> sample_times;
+  Eigen::MatrixXd sample_values;
+  std::function<void(double t, int highest, Eigen::MatrixXd& derivatives)> function;
+  int function_outputs = 1;
+  // How many derivatives of `function` are continuous; 0 means as many as the inverse reads.
+  int function_continuous_derivatives = 0;
+  // Where a derivative of `function` above those jumps, increasing; the first is where the
+  // solve starts by default (the start of the motion). Must not be empty.
+  std::vector<double> function_breakpoints;
 };
 
 /// How to solve (defaults: those of `servokit solve`; an unset value is the method's default).

@@ -1,6 +1,8 @@
 // api::Solve: the feedforward of a multibody model for a desired output, checked forward on
 // request: trajectory, classification, inverse model, forward check and the files of a solve.
+#include <algorithm>
 #include <memory>
+#include <vector>
 
 #include "analysis/classification.h"
 #include "models/errors.h"
@@ -8,6 +10,7 @@
 #include "reports/solve_files.h"
 #include "servokit/toolkit_bridge.h"
 #include "solvers/inverse_model.h"
+#include "solvers/sampled_trajectory.h"
 #include "solvers/trajectory.h"
 #include "solvers/verification.h"
 #include "solvers/waypoint_trajectory.h"
@@ -15,31 +18,88 @@
 namespace servokit::api {
 namespace {
 
+// Which kind of OutputTrajectory the caller gave; more than one is a usage error.
+enum class TrajectoryKind { kRestToRest, kWaypoints, kSamples, kFunction };
+
+TrajectoryKind KindOf(const OutputTrajectory& trajectory) {
+  std::vector<TrajectoryKind> given;
+  if (!trajectory.waypoint_file.empty()) given.push_back(TrajectoryKind::kWaypoints);
+  if (!trajectory.sample_times.empty() || trajectory.sample_values.size() > 0) {
+    given.push_back(TrajectoryKind::kSamples);
+  }
+  if (trajectory.function) given.push_back(TrajectoryKind::kFunction);
+  if (given.size() > 1) {
+    throw UsageError(
+        "OutputTrajectory: give one of waypoint_file, sample_times/sample_values and function "
+        "(or none of them for rest-to-rest)");
+  }
+  return given.empty() ? TrajectoryKind::kRestToRest : given.front();
+}
+
+// What the caller calls the trajectory's values, for messages about their number.
+std::string ValuesName(const OutputTrajectory& trajectory, TrajectoryKind kind) {
+  switch (kind) {
+    case TrajectoryKind::kRestToRest:
+      return "OutputTrajectory::y0, yf";
+    case TrajectoryKind::kWaypoints:
+      return trajectory.waypoint_file + ": waypoints[0].y";
+    case TrajectoryKind::kSamples:
+      return "OutputTrajectory::sample_values";
+    case TrajectoryKind::kFunction:
+      return "OutputTrajectory::function_outputs";
+  }
+  return "OutputTrajectory";
+}
+
 // The desired trajectory, raised in order when the problem needs more continuous derivatives
 // of y_d than asked for (the inverse reads y_d up to order differentiation index - 1); `note`
 // says so when it was.
 std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajectory& trajectory,
                                                            int needed_derivatives,
                                                            std::string& note) {
-  if (trajectory.waypoint_file.empty()) {
-    const int order = RestToRestOrderFor(needed_derivatives);
-    if (order > 4) {
-      note = "rest-to-rest raised from Eq. (65) (4 continuous derivatives) to " +
-             std::to_string(order) + ": the inverse reads y_d up to order " +
-             std::to_string(needed_derivatives);
+  const int order = RestToRestOrderFor(needed_derivatives);
+  switch (KindOf(trajectory)) {
+    case TrajectoryKind::kRestToRest:
+      if (order > 4) {
+        note = "rest-to-rest raised from Eq. (65) (4 continuous derivatives) to " +
+               std::to_string(order) + ": the inverse reads y_d up to order " +
+               std::to_string(needed_derivatives);
+      }
+      return std::make_unique<RestToRestTrajectory>(trajectory.y0, trajectory.yf, trajectory.t0,
+                                                    trajectory.tf, order);
+    case TrajectoryKind::kWaypoints: {
+      WaypointTrajectory file = LoadWaypointTrajectory(trajectory.waypoint_file);
+      if (file.continuous_derivatives() < needed_derivatives) {
+        note = trajectory.waypoint_file + ": raised from " +
+               std::to_string(file.continuous_derivatives()) + " to " +
+               std::to_string(needed_derivatives) +
+               " continuous derivatives: the inverse reads y_d up to that order";
+        file = file.WithContinuousDerivatives(needed_derivatives);
+      }
+      return std::make_unique<WaypointTrajectory>(std::move(file));
     }
-    return std::make_unique<RestToRestTrajectory>(trajectory.y0, trajectory.yf, trajectory.t0,
-                                                  trajectory.tf, order);
+    case TrajectoryKind::kSamples:
+      if (order > 4) {
+        note = "samples joined by a spline of degree " + std::to_string(2 * order + 1) +
+               ": the inverse reads y_d up to order " + std::to_string(needed_derivatives);
+      }
+      return std::make_unique<SampledTrajectory>(trajectory.sample_times, trajectory.sample_values,
+                                                 order);
+    case TrajectoryKind::kFunction: {
+      const int declared = trajectory.function_continuous_derivatives;
+      RequireOption(declared >= 0, "OutputTrajectory", "function_continuous_derivatives",
+                    declared, "must be >= 0 (0: as many as the inverse reads)");
+      RequireOption(declared == 0 || declared >= needed_derivatives, "OutputTrajectory",
+                    "function_continuous_derivatives", declared,
+                    "the inverse reads y_d up to order " + std::to_string(needed_derivatives) +
+                        " and needs those derivatives continuous");
+      return std::make_unique<FunctionTrajectory>(
+          trajectory.function, Eigen::Index(trajectory.function_outputs),
+          declared > 0 ? declared : std::max(needed_derivatives, 1),
+          trajectory.function_breakpoints);
+    }
   }
-  WaypointTrajectory file = LoadWaypointTrajectory(trajectory.waypoint_file);
-  if (file.continuous_derivatives() < needed_derivatives) {
-    note = trajectory.waypoint_file + ": raised from " +
-           std::to_string(file.continuous_derivatives()) + " to " +
-           std::to_string(needed_derivatives) +
-           " continuous derivatives: the inverse reads y_d up to that order";
-    file = file.WithContinuousDerivatives(needed_derivatives);
-  }
-  return std::make_unique<WaypointTrajectory>(std::move(file));
+  return nullptr;
 }
 
 InverseModelOptions ToInverseModelOptions(const SolveOptions& options) {
@@ -87,10 +147,8 @@ Feedforward Solve(const Model& model,
       MakeTrajectory(trajectory, needed_derivatives, note);
   if (desired->outputs() != Eigen::Index(multibody.num_outputs())) {
     const std::size_t outputs = multibody.num_outputs();
-    throw UsageError((trajectory.waypoint_file.empty()
-                          ? std::string("OutputTrajectory::y0, yf")
-                          : trajectory.waypoint_file + ": waypoints[0].y") +
-                     ": " + std::to_string(desired->outputs()) + " values, but the model has " +
+    throw UsageError(ValuesName(trajectory, KindOf(trajectory)) + ": " +
+                     std::to_string(desired->outputs()) + " values, but the model has " +
                      std::to_string(outputs) + (outputs == 1 ? " output" : " outputs") +
                      " (one value per output)");
   }

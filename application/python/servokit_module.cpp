@@ -14,7 +14,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -333,6 +335,127 @@ std::optional<double> ToOptionalDouble(const py::object& value) {
   return value.cast<double>();
 }
 
+// samples=(t, y): the times and, per time, one value (a 1-D y) or a row of values per output.
+void SetSamples(const py::object& samples, sk::OutputTrajectory& trajectory) {
+  const auto bad = [&](const std::string& problem) {
+    return servokit::UsageError("solve(samples=...): " + problem);
+  };
+  if (!py::isinstance<py::sequence>(samples) || py::len(samples) != 2) {
+    throw bad("expected a pair (t, y): the sample times and y_d at them");
+  }
+  using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  const py::sequence pair = samples;
+  const Array times = Array::ensure(pair[0]);
+  const Array values = Array::ensure(pair[1]);
+  if (!times || times.ndim() != 1) throw bad("t must be a 1-D array of numbers");
+  if (!values || values.ndim() < 1 || values.ndim() > 2 || values.shape(0) != times.size()) {
+    throw bad("y must have one value, or one row of values (one per output), per time: " +
+              std::to_string(times.size()) + " times");
+  }
+  trajectory.sample_times.assign(times.data(), times.data() + times.size());
+  const py::ssize_t columns = values.ndim() == 2 ? values.shape(1) : 1;
+  trajectory.sample_values.resize(values.shape(0), columns);
+  for (py::ssize_t i = 0; i < values.shape(0); ++i) {
+    for (py::ssize_t j = 0; j < columns; ++j) {
+      trajectory.sample_values(i, j) = values.data()[i * columns + j];
+    }
+  }
+}
+
+// function=f or [f0, f1, ...]: y_d from Python. f(t, order) gives d^order y_d / dt^order at t;
+// f_i(t) gives the i-th derivative. Each gives a number, or one number per output. It is called
+// from inside the solve, which runs without the GIL: the call takes the GIL, and an exception
+// it raises cannot pass through the integrators, so it is kept, the solve is stopped (NaN), and
+// the exception is raised when the solve returns.
+class PythonTrajectory {
+ public:
+  PythonTrajectory(py::object function, Eigen::Index outputs) : state_(std::make_shared<State>()) {
+    state_->function = std::move(function);
+    state_->outputs = outputs;
+    state_->sequence = !PyCallable_Check(state_->function.ptr());
+    if (state_->sequence) {
+      if (!py::isinstance<py::sequence>(state_->function) || py::len(state_->function) == 0) {
+        throw servokit::UsageError(
+            "solve(function=...): expected a callable f(t, order) or a sequence of callables "
+            "[y_d, y_d', y_d'', ...]");
+      }
+      for (const py::handle entry : py::sequence(state_->function)) {
+        if (!PyCallable_Check(entry.ptr())) {
+          throw servokit::UsageError("solve(function=[...]): every entry must be callable");
+        }
+      }
+    }
+  }
+
+  // The API's OutputTrajectory::function. Copies share the state, so that no copy touches a
+  // Python reference count without the GIL.
+  void operator()(double t, int highest, Eigen::MatrixXd& derivatives) const {
+    py::gil_scoped_acquire gil;
+    State& state = *state_;
+    derivatives.resize(state.outputs, highest + 1);
+    if (state.failed()) {
+      derivatives.setConstant(std::nan(""));
+      return;
+    }
+    try {
+      for (int order = 0; order <= highest; ++order) {
+        derivatives.col(order) = Call(state, t, order);
+      }
+    } catch (py::error_already_set& raised) {
+      state.python_error = std::move(raised);
+    } catch (const servokit::UsageError& problem) {
+      state.usage_error = problem.what();
+    }
+    if (state.failed()) derivatives.setConstant(std::nan(""));
+  }
+
+  /// Raises what the function raised, or a UsageError for what it gave wrong.
+  void RaiseIfFailed() const {
+    if (state_->python_error) {
+      py::error_already_set raised = std::move(*state_->python_error);
+      state_->python_error.reset();
+      throw raised;
+    }
+    if (!state_->usage_error.empty()) throw servokit::UsageError(state_->usage_error);
+  }
+
+ private:
+  struct State {
+    py::object function;
+    Eigen::Index outputs = 1;
+    bool sequence = false;
+    std::optional<py::error_already_set> python_error;
+    std::string usage_error;
+    bool failed() const { return python_error.has_value() || !usage_error.empty(); }
+  };
+
+  static Eigen::VectorXd Call(const State& state, double t, int order) {
+    py::object value;
+    if (state.sequence) {
+      const py::sequence functions = state.function;
+      if (py::len(functions) <= std::size_t(order)) {
+        throw servokit::UsageError("solve(function=[...]): the solve reads y_d up to order " +
+                                   std::to_string(order) + ", but " +
+                                   std::to_string(py::len(functions)) +
+                                   " functions were given (y_d and its derivatives, in order)");
+      }
+      value = functions[std::size_t(order)](t);
+    } else {
+      value = state.function(t, order);
+    }
+    const std::optional<Eigen::VectorXd> values = ToOptionalVector(value);
+    if (!values || values->size() != state.outputs || !values->allFinite()) {
+      throw servokit::UsageError(
+          "solve(function=...): at t = " + py::repr(py::float_(t)).cast<std::string>() +
+          ", order " + std::to_string(order) + " gave " + py::repr(value).cast<std::string>() +
+          ": expected " + std::to_string(state.outputs) + " finite number(s), one per output");
+    }
+    return *values;
+  }
+
+  std::shared_ptr<State> state_;
+};
+
 }  // namespace
 
 PYBIND11_MODULE(servokit, module) {
@@ -577,20 +700,42 @@ PYBIND11_MODULE(servokit, module) {
       .def(
           "solve",
           [](const sk::Model& model, const py::object& y0, const py::object& yf, double t0,
-             const py::object& tf, const py::object& waypoints, double t_end,
-             const std::string& method, const py::object& sample_time, bool verify, bool force,
-             const py::object& t_start, const py::object& step, const py::object& rtol,
+             const py::object& tf, const py::object& waypoints, const py::object& samples,
+             const py::object& function, const py::object& breakpoints, int continuous_derivatives,
+             double t_end, const std::string& method, const py::object& sample_time, bool verify,
+             bool force, const py::object& t_start, const py::object& step, const py::object& rtol,
              const py::object& atol, const py::object& pre_actuation,
              const py::object& post_actuation, const py::object& out, const std::string& table) {
             sk::OutputTrajectory trajectory;
+            const int kinds =
+                int(!waypoints.is_none()) + int(!samples.is_none()) + int(!function.is_none());
+            if (kinds > 1) {
+              throw servokit::UsageError(
+                  "solve: give one of waypoints, samples and function (or y0, yf and tf)");
+            }
+            if (kinds == 1 && (!y0.is_none() || !yf.is_none() || !tf.is_none())) {
+              throw servokit::UsageError(
+                  "solve: y0, yf and tf belong to a rest-to-rest trajectory; waypoints, samples "
+                  "and function give their own");
+            }
+            if (function.is_none() && (!breakpoints.is_none() || continuous_derivatives != 0)) {
+              throw servokit::UsageError(
+                  "solve: breakpoints and continuous_derivatives belong to function");
+            }
+            std::optional<PythonTrajectory> python_trajectory;
             if (!waypoints.is_none()) {
-              if (!y0.is_none() || !yf.is_none() || !tf.is_none()) {
-                throw servokit::UsageError(
-                    "solve: y0, yf and tf belong to a rest-to-rest trajectory; waypoints give "
-                    "their own");
-              }
               trajectory.waypoint_file =
                   py::str(py::module_::import("os").attr("fspath")(waypoints));
+            } else if (!samples.is_none()) {
+              SetSamples(samples, trajectory);
+            } else if (!function.is_none()) {
+              python_trajectory.emplace(function, Eigen::Index(model.num_outputs()));
+              trajectory.function = *python_trajectory;
+              trajectory.function_outputs = int(model.num_outputs());
+              trajectory.function_continuous_derivatives = continuous_derivatives;
+              trajectory.function_breakpoints = breakpoints.is_none()
+                                                    ? std::vector<double>{t0}
+                                                    : breakpoints.cast<std::vector<double>>();
             } else {
               if (y0.is_none() || yf.is_none() || tf.is_none()) {
                 throw servokit::UsageError(
@@ -618,24 +763,36 @@ PYBIND11_MODULE(servokit, module) {
             }
             UsePandas(table);
             Solution solution;
-            {
+            try {
               py::gil_scoped_release release;
               solution.feedforward = sk::Solve(model, trajectory, options);
+            } catch (...) {
+              // A Python function that failed stopped the solve: its error is the reason.
+              if (python_trajectory) python_trajectory->RaiseIfFailed();
+              throw;
             }
+            if (python_trajectory) python_trajectory->RaiseIfFailed();
             solution.table = SolveTable(model, solution.feedforward, table);
             return solution;
           },
           py::kw_only(), py::arg("y0") = py::none(), py::arg("yf") = py::none(),
           py::arg("t0") = 0.0, py::arg("tf") = py::none(), py::arg("waypoints") = py::none(),
+          py::arg("samples") = py::none(), py::arg("function") = py::none(),
+          py::arg("breakpoints") = py::none(), py::arg("continuous_derivatives") = 0,
           py::arg("t_end"), py::arg("method") = solve_defaults.method,
           py::arg("sample_time") = py::none(), py::arg("verify") = solve_defaults.verify,
           py::arg("force") = solve_defaults.force, py::arg("t_start") = py::none(),
           py::arg("step") = py::none(), py::arg("rtol") = py::none(), py::arg("atol") = py::none(),
           py::arg("pre_actuation") = py::none(), py::arg("post_actuation") = py::none(),
           py::arg("out") = py::none(), py::arg("table") = "auto",
-          "Solves for the feedforward up to t_end: rest-to-rest (paper Eq. 65) from y0 at t0 "
-          "to yf at tf, or the waypoints of a YAML file. `out` also writes the CSV of "
-          "`servokit solve --out`. Returns a Solution (table, summary).")
+          "Solves for the feedforward up to t_end. The desired output is one of: rest-to-rest "
+          "(paper Eq. 65) from y0 at t0 to yf at tf; `waypoints`, a YAML file; `samples=(t, "
+          "y)`, joined by the interpolating spline of degree 2k+1 (k = max(4, the order the "
+          "inverse reads)) at rest before t[0] and after t[-1]; or `function`, a callable "
+          "f(t, order) giving d^order y_d/dt^order, or a list [y_d, y_d', ...] of callables "
+          "f(t), with `breakpoints` (default [t0]: the solve starts at the first) and "
+          "`continuous_derivatives` (0: as many as the inverse reads). `out` also writes the "
+          "CSV of `servokit solve --out`. Returns a Solution (table, summary).")
       .def("__repr__", [](const sk::Model& model) {
         return "<servokit.Model " + model.name() + " from " + model.source() + ">";
       });

@@ -264,3 +264,78 @@ TEST_CASE("a generated two-mass chain through the API: zero dynamics of the free
   CHECK_THROWS_AS(sk::Analyze(model, at_another_point), servokit::UsageError);
   std::filesystem::remove_all(directory);
 }
+
+namespace {
+
+// The closed-form force of the flat mass on car for Eq. (65) from 0.5 at 0 to 2.5 at 6 (see the
+// test above), checked against a solve of `trajectory`.
+void CheckFlatForce(const sk::OutputTrajectory& trajectory, double margin) {
+  const sk::Model model =
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  sk::SolveOptions options;
+  options.t_end = 8.0;
+  options.sample_time = 0.25;
+  options.verify = true;
+  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
+  CHECK(feedforward.method == "algebraic");
+  CHECK(feedforward.usable);
+  REQUIRE(feedforward.verification);
+  CHECK(feedforward.verification->passed);
+  REQUIRE(feedforward.t.size() == 33);
+  const RestToRest desired{0.5, 2.5, 6.0};
+  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
+    const double t = feedforward.t[i];
+    const double force = 3.0 * desired.Derivative(std::min(t, 6.0), 2) +
+                         (t < 6.0 ? 0.4 * desired.Derivative(t, 4) : 0.0);
+    INFO("t = " << t);
+    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(force).margin(margin));
+  }
+}
+
+}  // namespace
+
+TEST_CASE("solve from samples: Eq. (65) sampled at uneven times gives its closed-form force",
+          "[servokit][paper]") {
+  // The spline of degree 9 at rest to order 4 at both ends reproduces every such polynomial of
+  // degree <= 9, Eq. (65) among them: the samples give back the closed form, to round-off.
+  const RestToRest desired{0.5, 2.5, 6.0};
+  sk::OutputTrajectory trajectory;
+  trajectory.sample_times = {0.0, 0.7, 1.1, 2.0, 2.9, 3.3, 4.5, 5.2, 6.0};
+  trajectory.sample_values.resize(Eigen::Index(trajectory.sample_times.size()), 1);
+  for (std::size_t i = 0; i < trajectory.sample_times.size(); ++i) {
+    trajectory.sample_values(Eigen::Index(i), 0) =
+        desired.Derivative(trajectory.sample_times[i], 0);
+  }
+  CheckFlatForce(trajectory, 1e-7);
+}
+
+TEST_CASE("solve from a function of the caller's: Eq. (65) as a function gives its force",
+          "[servokit][paper]") {
+  const RestToRest desired{0.5, 2.5, 6.0};
+  sk::OutputTrajectory trajectory;
+  trajectory.function = [desired](double t, int highest, Eigen::MatrixXd& derivatives) {
+    for (int order = 0; order <= highest; ++order) {
+      // At rest after t = 6: the value stays, every derivative is 0.
+      derivatives(0, order) =
+          t <= 6.0 ? desired.Derivative(std::max(t, 0.0), order) : (order == 0 ? 2.5 : 0.0);
+      if (t < 0.0 && order > 0) derivatives(0, order) = 0.0;
+    }
+  };
+  trajectory.function_breakpoints = {0.0, 6.0};
+  CheckFlatForce(trajectory, 1e-9);
+
+  trajectory.function_continuous_derivatives = 2;  // the flat inverse reads y_d''''
+  CHECK_THROWS_WITH(CheckFlatForce(trajectory, 1e-9),
+                    Catch::Contains("OutputTrajectory::function_continuous_derivatives = 2"));
+}
+
+TEST_CASE("a trajectory of two kinds at once is refused", "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"));
+  sk::OutputTrajectory trajectory;
+  trajectory.waypoint_file = "waypoints.yaml";
+  trajectory.sample_times = {0.0, 1.0};
+  trajectory.sample_values = Eigen::MatrixXd::Zero(2, 1);
+  sk::SolveOptions options;
+  options.t_end = 1.0;
+  CHECK_THROWS_AS(sk::Solve(model, trajectory, options), servokit::UsageError);
+}

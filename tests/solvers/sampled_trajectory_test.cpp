@@ -1,0 +1,147 @@
+// Trajectories from samples and from a caller's function (solvers/sampled_trajectory.h),
+// against closed forms: polynomials at rest at both ends, which the spline must reproduce, and
+// a smooth motion of higher degree, for which the interpolation error must fall as h^(2k + 2).
+#include "solvers/sampled_trajectory.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// The rest-to-rest polynomial p_k(tau) = tau^(k+1) sum_j C(k+j, j) (1 - tau)^j and its
+// derivatives in tau, summed term by term (no shared code with the toolkit): p_4 is the paper's
+// Eq. (65).
+double Binomial(int n, int k) {
+  double value = 1.0;
+  for (int i = 1; i <= k; ++i) value = value * (n - k + i) / i;
+  return value;
+}
+
+// d^order/dtau^order of tau^a (1 - tau)^b, by Leibniz.
+double MonomialDerivative(double tau, int a, int b, int order) {
+  double sum = 0.0;
+  for (int i = 0; i <= order; ++i) {
+    const int j = order - i;  // derivatives on (1 - tau)^b
+    if (i > a || j > b) continue;
+    double left = 1.0, right = 1.0;
+    for (int m = 0; m < i; ++m) left *= a - m;
+    for (int m = 0; m < j; ++m) right *= -(b - m);
+    sum += Binomial(order, i) * left * std::pow(tau, a - i) * right * std::pow(1.0 - tau, b - j);
+  }
+  return sum;
+}
+
+double RestToRest(int k, double tau, int order) {
+  double value = 0.0;
+  for (int j = 0; j <= k; ++j)
+    value += Binomial(k + j, j) * MonomialDerivative(tau, k + 1, j, order);
+  return value;
+}
+
+// y(t) = 1 - 3 p(t / 2) on [0, 2] (a motion from 1 to -2), order-th time derivative.
+double Motion(int k, double t, int order) {
+  return (order == 0 ? 1.0 : 0.0) - 3.0 * RestToRest(k, t / 2.0, order) / std::pow(2.0, order);
+}
+
+SampledTrajectory SampleMotion(int motion_order, const std::vector<double>& times) {
+  Eigen::MatrixXd values(Eigen::Index(times.size()), 2);
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    values(Eigen::Index(i), 0) = Motion(motion_order, times[i], 0);
+    values(Eigen::Index(i), 1) = 2.0 * Motion(motion_order, times[i], 0);  // a second output
+  }
+  return SampledTrajectory(times, values, 4);
+}
+
+TEST_CASE("samples of Eq. (65) give Eq. (65) back, with its derivatives", "[solvers][paper]") {
+  // Eq. (65) has degree 9 and rests to order 4 at both ends: it lies in the spline's space and
+  // meets its conditions, so the unique interpolant is Eq. (65) itself, from any samples.
+  for (const std::vector<double>& times :
+       {std::vector<double>{0.0, 2.0}, std::vector<double>{0.0, 0.3, 0.35, 1.2, 1.9, 2.0}}) {
+    const SampledTrajectory trajectory = SampleMotion(4, times);
+    CHECK(trajectory.outputs() == 2);
+    CHECK(trajectory.continuous_derivatives() == 4);
+    for (double t = 0.0; t <= 2.0; t += 0.0625) {
+      const Eigen::VectorXd scale = Eigen::Vector2d(1.0, 2.0);
+      for (int order = 0; order <= 6; ++order) {
+        INFO(times.size() << " samples, t = " << t << ", order " << order);
+        const double expected = Motion(4, t, order);
+        const Eigen::VectorXd derivative = trajectory.Derivative(t, order);
+        CHECK(derivative(0) == Approx(expected).margin(1e-9 * std::pow(10.0, order)));
+        CHECK(derivative(1) == Approx(scale(1) * expected).margin(2e-9 * std::pow(10.0, order)));
+      }
+    }
+  }
+}
+
+TEST_CASE("a sampled motion is at rest before its first sample and after its last", "[solvers]") {
+  const SampledTrajectory trajectory = SampleMotion(4, {0.0, 0.5, 1.0, 1.5, 2.0});
+  Eigen::MatrixXd derivatives;
+  trajectory.Derivatives(-1.0, 5, derivatives);
+  CHECK(derivatives(0, 0) == 1.0);
+  CHECK(derivatives.block(0, 1, 2, 5).isZero(0.0));
+  trajectory.Derivatives(3.0, 5, derivatives);
+  CHECK(derivatives(0, 0) == -2.0);
+  CHECK(derivatives(1, 0) == -4.0);
+  CHECK(derivatives.block(0, 1, 2, 5).isZero(0.0));
+  for (int order = 1; order <= 4; ++order) {  // continuous where it joins the rest
+    CHECK(trajectory.Derivative(0.0, order).norm() == Approx(0.0).margin(1e-9));
+    CHECK(trajectory.Derivative(2.0, order).norm() == Approx(0.0).margin(1e-9));
+  }
+  CHECK(trajectory.breakpoints() == std::vector<double>{0.0, 2.0});
+}
+
+TEST_CASE("the interpolation error of a smoother motion falls as h^10", "[solvers]") {
+  // p_6 (degree 13) rests to order 6 at the ends but is not a spline of degree 9: the error of
+  // the value falls as h^10 (degree 2k + 1 = 9 interpolation), so halving h divides it by about
+  // 2^10; 2^8 leaves room for the asymptotics not yet being reached.
+  const auto max_error = [](int intervals) {
+    std::vector<double> times;
+    for (int i = 0; i <= intervals; ++i) times.push_back(2.0 * i / intervals);
+    const SampledTrajectory trajectory = SampleMotion(6, times);
+    double error = 0.0;
+    for (double t = 0.0; t <= 2.0; t += 1.0 / 512.0) {
+      error = std::max(error, std::abs(trajectory.Derivative(t, 0)(0) - Motion(6, t, 0)));
+    }
+    return error;
+  };
+  const double coarse = max_error(8), fine = max_error(16);
+  INFO("errors " << coarse << " and " << fine);
+  CHECK(coarse > 0.0);
+  CHECK(fine < coarse / 256.0);
+  CHECK(fine < 1e-7);
+}
+
+TEST_CASE("bad samples are refused with the sample named", "[solvers]") {
+  const Eigen::MatrixXd one = Eigen::MatrixXd::Zero(1, 1), three = Eigen::MatrixXd::Zero(3, 1);
+  CHECK_THROWS_WITH(SampledTrajectory({0.0}, one), Catch::Contains("at least two"));
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1.0, 1.0}, three),
+                    Catch::Contains("time 2 = 1 is not after time 1 = 1"));
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1.0}, three), Catch::Contains("3 rows of values"));
+  Eigen::MatrixXd not_finite = three;
+  not_finite(1, 0) = std::nan("");
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1.0, 2.0}, not_finite),
+                    Catch::Contains("sample 1 is not finite"));
+}
+
+TEST_CASE("a function trajectory answers with the caller's function", "[solvers]") {
+  const FunctionTrajectory trajectory(
+      [](double t, int highest, Eigen::MatrixXd& derivatives) {
+        for (int order = 0; order <= highest; ++order) {
+          derivatives(0, order) = std::pow(2.0, order) * std::exp(2.0 * t);  // e^(2t)
+        }
+      },
+      1, 6, {0.0});
+  CHECK(trajectory.Derivative(0.5, 3)(0) == Approx(8.0 * std::exp(1.0)).epsilon(1e-15));
+  CHECK(trajectory.breakpoints() == std::vector<double>{0.0});
+  const FunctionTrajectory wrong_shape(
+      [](double, int, Eigen::MatrixXd& derivatives) { derivatives.resize(3, 1); }, 1, 4, {0.0});
+  CHECK(std::isnan(wrong_shape.Derivative(0.0, 2)(0)));  // the solve stops on it
+  CHECK_THROWS_AS(FunctionTrajectory(nullptr, 1, 4, {}), UsageError);
+}
+
+}  // namespace
+}  // namespace servokit
