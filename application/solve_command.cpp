@@ -143,9 +143,8 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   }
   if (!trajectory.sample_times.empty() &&
       trajectory.sample_values.cols() != Eigen::Index(outputs)) {
-    throw UsageError(arguments.trajectory + ": " +
-                     std::to_string(trajectory.sample_values.cols()) + " output columns after t" +
-                     per_output);
+    throw UsageError(arguments.trajectory + ": " + std::to_string(trajectory.sample_values.cols()) +
+                     " output columns after t" + per_output);
   }
 
   api::SolveOptions options;
