@@ -193,6 +193,8 @@ Command AddSolveCommand(CLI::App& app) {
       "--format mat (the default for an --out ending in .mat) writes them as MAT v5 column\n"
       "vectors of those names plus a struct `solve` of the summary (MATLAB: load u.mat;\n"
       "plot(t, F)); --format modelica writes t and the inputs as the CombiTimeTable u_d.\n"
+      "The endings belong to their formats: mat needs .mat, csv and modelica refuse .mat,\n"
+      "modelica refuses .csv (use .txt); a contradiction is an error (status 2).\n"
       "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
       "with --verify the largest output error when u_d drives the model from rest, against a\n"
       "bound from the tolerances; a failed check exits with status 4).\n\n"
@@ -244,9 +246,9 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--out", arguments->out, "File to write (CSV unless --format or .mat says)")
       ->required();
   solve->add_option("--format", arguments->format,
-                    "csv (default), mat (MAT v5 for MATLAB and scipy; the default for a name "
-                    "ending in .mat, which mat requires) or modelica (CombiTimeTable text of t "
-                    "and the inputs, table u_d)");
+                    "csv (default), mat (MAT v5 for MATLAB and scipy; the default for an --out "
+                    "ending in .mat) or modelica (CombiTimeTable text of t and the inputs, "
+                    "table u_d)");
   return {solve, [arguments](std::ostream& out, std::ostream& err) {
             return RunSolve(*arguments, out, err);
           }};

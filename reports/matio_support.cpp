@@ -51,36 +51,33 @@ Variable DoubleMatrix(const char* name, std::size_t rows, std::size_t columns, c
       name ? name : "(field)");
 }
 
-// UTF-8 to UTF-16 code units; a malformed byte becomes U+FFFD.
+// UTF-8 to the UTF-16 code units MATLAB stores text in. A malformed byte, and a character
+// beyond the Basic Multilingual Plane (two units in MATLAB, which scipy.io.loadmat cannot
+// read), become U+FFFD. servokit's own text is ASCII; file names in messages may not be.
 std::vector<std::uint16_t> Utf16(const std::string& text) {
+  constexpr std::uint16_t kReplacement = 0xFFFD;
   std::vector<std::uint16_t> units;
   units.reserve(text.size());
   for (std::size_t i = 0; i < text.size();) {
     const auto lead = static_cast<unsigned char>(text[i]);
-    const std::size_t length = lead < 0x80         ? 1
-                               : lead >> 5 == 0x6  ? 2
-                               : lead >> 4 == 0xE  ? 3
-                               : lead >> 3 == 0x1E ? 4
-                                                   : 0;
+    const std::size_t length = lead < 0x80           ? 1
+                               : (lead >> 5) == 0x6  ? 2
+                               : (lead >> 4) == 0xE  ? 3
+                               : (lead >> 3) == 0x1E ? 4
+                                                     : 0;
     bool valid = length != 0 && i + length <= text.size();
-    char32_t code = length == 1 ? lead : lead & (0x7F >> length);
+    char32_t code = length == 1 ? lead : (lead & (0x7F >> length));
     for (std::size_t k = 1; valid && k < length; ++k) {
       const auto next = static_cast<unsigned char>(text[i + k]);
       valid = (next & 0xC0) == 0x80;
       code = (code << 6) | (next & 0x3F);
     }
     if (!valid) {
-      units.push_back(0xFFFD);
+      units.push_back(kReplacement);
       ++i;
       continue;
     }
-    if (code >= 0x10000) {
-      code -= 0x10000;
-      units.push_back(static_cast<std::uint16_t>(0xD800 + (code >> 10)));
-      units.push_back(static_cast<std::uint16_t>(0xDC00 + (code & 0x3FF)));
-    } else {
-      units.push_back(static_cast<std::uint16_t>(code));
-    }
+    units.push_back(code < 0x10000 ? static_cast<std::uint16_t>(code) : kReplacement);
     i += length;
   }
   return units;

@@ -32,7 +32,8 @@ class MatFileWriter {
   /// A JSON object as a 1 x 1 struct named `name`, fields in the object's order: a number
   /// becomes a double, true/false a logical, a string a char row (UTF-16, as MATLAB stores
   /// text), null and an empty array the empty double [], an object a struct, an array of
-  /// numbers a double row vector, any other array a cell row.
+  /// numbers a double row vector, any other array a cell row. Characters beyond the Basic
+  /// Multilingual Plane become U+FFFD (scipy.io.loadmat cannot read MATLAB's surrogate pairs).
   void WriteStruct(const std::string& name, const nlohmann::ordered_json& object);
 
   /// Closes the file and renames it into place.
