@@ -25,7 +25,7 @@ nlohmann::ordered_json NumberOrNull(double value) {
   return WithoutNegativeZero(value);
 }
 
-// What a solve's file holds, by format.
+// The formats' names (--format, SolveOptions::file_format), one table both ways.
 constexpr std::array<std::pair<SolveFileFormat, std::string_view>, 3> kSolveFileFormatNames{{
     {SolveFileFormat::kCsv, "csv"},
     {SolveFileFormat::kMat, "mat"},
@@ -59,8 +59,8 @@ Eigen::VectorXd FeedforwardRow(const OutputTrajectory& trajectory,
   return row;
 }
 
-// Writes `text` to FILE.partial and renames it to FILE, so that an interrupted write never
-// leaves a truncated FILE.
+// Writes what `write_text` writes to FILE.partial and renames it to FILE, so that an
+// interrupted write never leaves a truncated FILE.
 template <typename WriteText>
 void WriteAndRename(const std::string& path, WriteText write_text) {
   const std::string partial = path + ".partial";
@@ -152,7 +152,7 @@ void WriteFeedforwardFile(const std::string& path,
       WriteFeedforwardMat(path, model, trajectory, solution, summary);
       return;
     case SolveFileFormat::kModelica:
-      WriteFeedforwardModelica(path, model, solution);
+      WriteFeedforwardModelica(path, model, solution, summary);
       return;
   }
 }
@@ -208,7 +208,8 @@ void WriteFeedforwardMat(const std::string& path,
 
 void WriteFeedforwardModelica(const std::string& path,
                               const Model& model,
-                              const FeedforwardSolution& solution) {
+                              const FeedforwardSolution& solution,
+                              const nlohmann::ordered_json& summary) {
   const std::size_t rows = solution.times.size();
   // CombiTimeTable needs increasing times, at most two equal in a row (a jump); the solvers'
   // rows increase strictly, so anything else is a broken invariant, reported, not written.
@@ -219,11 +220,18 @@ void WriteFeedforwardModelica(const std::string& path,
                   FormatExact(solution.times[i]) + " (CombiTimeTable needs them increasing)");
     }
   }
+  for (std::size_t i = 0; i < rows; ++i) {
+    if (!solution.u[i].allFinite()) {
+      throw Error("cannot write " + path +
+                  ": u_d is not a number at t = " + FormatExact(solution.times[i]));
+    }
+  }
   const std::vector<std::string>& inputs = model.inputs();
   WriteAndRename(path, [&](std::ofstream& file) {
     file << "#1\n"
          << "# servokit solve: the feedforward u_d(t) of the model " << model.name() << " ("
-         << ToString(solution.method) << ", " << ToString(solution.summary.status) << ")\n"
+         << summary.at("method").get<std::string>() << ", "
+         << summary.at("status").get<std::string>() << ")\n"
          << "# for Modelica.Blocks.Sources.CombiTimeTable(tableOnFile = true, tableName = \""
          << kModelicaTableName << "\", columns = 2:" << inputs.size() + 1 << ")\n"
          << "# column 1: t [s]\n";
@@ -237,10 +245,6 @@ void WriteFeedforwardModelica(const std::string& path,
       line.clear();
       AppendExact(line, solution.times[i]);
       for (Eigen::Index k = 0; k < solution.u[i].size(); ++k) {
-        if (!std::isfinite(solution.u[i](k))) {
-          throw Error("cannot write " + path +
-                      ": u_d is not a number at t = " + FormatExact(solution.times[i]));
-        }
         line += ' ';
         AppendExact(line, solution.u[i](k));
       }

@@ -72,13 +72,15 @@ void WriteFeedforwardMat(const std::string& path,
                          const nlohmann::ordered_json& summary);
 
 /// Writes the table `u_d` for Modelica.Blocks.Sources.CombiTimeTable (text format "#1"): a
-/// comment header naming the model, the method and the columns with their units, then
+/// comment header naming the model, the method and status of `summary` (the JSON object
+/// `servokit solve` prints) and the columns with their units, then
 /// `double u_d(N, 1 + inputs)` and one row `t u1 ... um` per sample, numbers exact (shortest
 /// round-trip form). The times are the CSV's, which increase strictly. Written to FILE.partial
 /// and renamed. Throws Error when the file cannot be written or a number is not finite.
 void WriteFeedforwardModelica(const std::string& path,
                               const Model& model,
-                              const FeedforwardSolution& solution);
+                              const FeedforwardSolution& solution,
+                              const nlohmann::ordered_json& summary);
 
 /// method, method_reason, status, message, stop_time, t_start, t_end, sample_time, tolerances,
 /// the counters, max_servo_residual, samples, trajectory_note (when the trajectory was raised
