@@ -170,12 +170,9 @@ def test_a_format_that_contradicts_the_name_is_refused_before_solving(
 
 def test_a_column_matlab_cannot_load_is_refused_before_solving(servokit_binary, mass_on_car,
                                                                tmp_path):
-    # The coordinate s renamed `end`, a MATLAB keyword: `load` could not make it a variable.
-    text = pathlib.Path(mass_on_car).read_text()
-    model = tmp_path / "keyword.yaml"
-    model.write_text(text.replace("[x, s]", "[x, end]").replace("k*s + d*s_dot",
-                                                                 "k*end + d*end_dot")
-                     .replace("x + s*cos", "x + end*cos"))
+    # The mass on car with the coordinate s named `end`, which `load` cannot make a variable.
+    model = (pathlib.Path(mass_on_car).parents[1] / "tests" / "data" / "errors" /
+             "matlab_keyword_coordinate.yaml")
     out = tmp_path / "u.mat"
     completed = subprocess.run([servokit_binary, "solve", str(model), *CASE_2, "--out", str(out)],
                                capture_output=True, text=True)
