@@ -3,7 +3,7 @@
 //     [--t-start TS] --t-end TE --method
 //     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
-//     [--post-actuation S] [--verify] --out FILE.csv
+//     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica]
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +14,7 @@
 #include "application/commands.h"
 #include "application/exit_codes.h"
 #include "models/errors.h"
+#include "reports/solve_files.h"
 #include "servokit/servokit.h"
 #include "solvers/method_choice.h"
 #include "solvers/sampled_trajectory.h"
@@ -35,6 +36,7 @@ struct SolveArguments {
   std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
   bool verify = false;
   std::string out;
+  std::optional<std::string> format;
 };
 
 // The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
@@ -117,6 +119,20 @@ api::Feedforward SolveTellingFlags(const api::Model& model,
   }
 }
 
+// The format of --out: --format when given, else from the name (.mat: mat, else csv); a name
+// that belongs to another format is refused (SolveFileNameProblem).
+SolveFileFormat ChooseFormat(const SolveArguments& arguments) {
+  if (!arguments.format) return SolveFileFormatOfName(arguments.out);
+  const std::optional<SolveFileFormat> format = SolveFileFormatFromString(*arguments.format);
+  if (!format) {
+    throw UsageError("--format " + *arguments.format + ": expected csv, mat or modelica");
+  }
+  if (const std::optional<std::string> problem = SolveFileNameProblem(arguments.out, *format)) {
+    throw UsageError("--format " + *arguments.format + " --out " + arguments.out + ": " + *problem);
+  }
+  return *format;
+}
+
 int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
   if (!SolverMethodFromString(arguments.method)) {
     throw UsageError("--method " + arguments.method +
@@ -124,6 +140,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
                      "stable-inversion or linearized");
   }
   // Before any work: a solve whose answer cannot be written is wasted.
+  const SolveFileFormat format = ChooseFormat(arguments);
   const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
   if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
     throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
@@ -160,6 +177,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
   options.csv_file = arguments.out;
+  options.file_format = ToString(format);
   const api::Feedforward feedforward = SolveTellingFlags(model, trajectory, options);
   for (const std::string& note : feedforward.notes) err << "servokit: note: " << note << "\n";
   out << feedforward.json << "\n";
@@ -186,6 +204,11 @@ Command AddSolveCommand(CLI::App& app) {
       "solve", "Compute the feedforward u_d(t) and motion q_d(t) for a desired output");
   solve->footer(
       "The CSV has the columns t, each coordinate, each <coordinate>_dot, each input, y1_d, ...;\n"
+      "--format mat (the default for an --out ending in .mat) writes them as MAT v5 column\n"
+      "vectors of those names plus a struct `solve` of the summary (MATLAB: load u.mat;\n"
+      "plot(t, F)); --format modelica writes t and the inputs as the CombiTimeTable u_d.\n"
+      "The endings belong to their formats: mat needs .mat, csv and modelica refuse .mat,\n"
+      "modelica refuses .csv (use .txt); a contradiction is an error (status 2).\n"
       "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
       "with --verify the largest output error when u_d drives the model from rest, against a\n"
       "bound from the tolerances; a failed check exits with status 4).\n\n"
@@ -236,7 +259,12 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_flag("--verify", arguments->verify,
                   "Drive the model with u_d from rest (CVODE) and check the output error "
                   "against a bound from the tolerances (exit status 4 when it fails)");
-  solve->add_option("--out", arguments->out, "CSV file to write")->required();
+  solve->add_option("--out", arguments->out, "File to write (CSV unless --format or .mat says)")
+      ->required();
+  solve->add_option("--format", arguments->format,
+                    "csv (default), mat (MAT v5 for MATLAB and scipy; the default for an --out "
+                    "ending in .mat) or modelica (CombiTimeTable text of t and the inputs, "
+                    "table u_d)");
   return {solve, [arguments](std::ostream& out, std::ostream& err) {
             return RunSolve(*arguments, out, err);
           }};

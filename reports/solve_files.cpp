@@ -1,13 +1,19 @@
 #include "reports/solve_files.h"
 
+#include <algorithm>
+#include <array>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <utility>
 
 #include "models/errors.h"
 #include "reports/classification_report.h"
+#include "reports/matio_support.h"
 #include "reports/number_format.h"
 
 namespace servokit {
@@ -19,44 +25,232 @@ nlohmann::ordered_json NumberOrNull(double value) {
   return WithoutNegativeZero(value);
 }
 
-void AppendRow(std::string& line, const Eigen::VectorXd& values) {
-  for (Eigen::Index i = 0; i < values.size(); ++i) {
-    line += ',';
-    AppendExact(line, WithoutNegativeZero(values(i)));
-  }
+// The formats' names (--format, SolveOptions::file_format), one table both ways.
+constexpr std::array<std::pair<SolveFileFormat, std::string_view>, 3> kSolveFileFormatNames{{
+    {SolveFileFormat::kCsv, "csv"},
+    {SolveFileFormat::kMat, "mat"},
+    {SolveFileFormat::kModelica, "modelica"},
+}};
+
+// The name of the MAT file's summary struct and of the Modelica table (README "servokit solve").
+constexpr const char* kMatSummaryName = "solve";
+constexpr const char* kModelicaTableName = "u_d";
+
+// The JSON summary's members left out of the MAT file: the analyze object, whose keys include
+// the model's parameter names (not always MATLAB names; `servokit analyze` gives it), and the
+// file's own name, so that the bytes do not depend on where the file was written.
+constexpr std::array<const char*, 2> kKeysNotInMat = {"classification", "out"};
+
+std::string LowerCaseExtension(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension;
 }
 
-}  // namespace
+// Row `i` of the file: t, q, q', u, y_d (the order of FeedforwardColumns).
+Eigen::VectorXd FeedforwardRow(const OutputTrajectory& trajectory,
+                               const FeedforwardSolution& solution,
+                               std::size_t i) {
+  const Eigen::Index dof = solution.q[i].size(), inputs = solution.u[i].size();
+  Eigen::VectorXd row(1 + 2 * dof + inputs + trajectory.outputs());
+  row << solution.times[i], solution.q[i], solution.q_dot[i], solution.u[i],
+      trajectory.Derivative(solution.times[i], 0);
+  return row;
+}
 
-void WriteFeedforwardCsv(const std::string& path,
-                         const Model& model,
-                         const OutputTrajectory& trajectory,
-                         const FeedforwardSolution& solution) {
+// Writes what `write_text` writes to FILE.partial and renames it to FILE, so that an
+// interrupted write never leaves a truncated FILE.
+template <typename WriteText>
+void WriteAndRename(const std::string& path, WriteText write_text) {
   const std::string partial = path + ".partial";
   {
     std::ofstream file(partial);
     if (!file) throw Error("cannot write " + path + " (" + std::strerror(errno) + ")");
-    std::string line = "t";
-    for (const std::string& name : model.coordinates()) line += "," + name;
-    for (const std::string& name : model.coordinates()) line += "," + name + "_dot";
-    for (const std::string& name : model.inputs()) line += "," + name;
-    for (const std::string& name : model.output_names()) line += "," + name + "_d";
-    file << line << '\n';
-    for (std::size_t i = 0; i < solution.times.size(); ++i) {
-      line.clear();
-      AppendExact(line, WithoutNegativeZero(solution.times[i]));
-      AppendRow(line, solution.q[i]);
-      AppendRow(line, solution.q_dot[i]);
-      AppendRow(line, solution.u[i]);
-      AppendRow(line, trajectory.Derivative(solution.times[i], 0));
-      file << line << '\n';
-    }
+    write_text(file);
     file.flush();
     if (!file) throw Error("cannot write " + path);
   }
   std::error_code error;
   std::filesystem::rename(partial, path, error);
   if (error) throw Error("cannot write " + path + ": " + error.message());
+}
+
+}  // namespace
+
+std::string_view ToString(SolveFileFormat format) {
+  for (const auto& [key, name] : kSolveFileFormatNames) {
+    if (key == format) return name;
+  }
+  return "unknown";
+}
+
+std::optional<SolveFileFormat> SolveFileFormatFromString(std::string_view text) {
+  for (const auto& [key, name] : kSolveFileFormatNames) {
+    if (name == text) return key;
+  }
+  return std::nullopt;
+}
+
+SolveFileFormat SolveFileFormatOfName(const std::string& path) {
+  return LowerCaseExtension(path) == ".mat" ? SolveFileFormat::kMat : SolveFileFormat::kCsv;
+}
+
+std::optional<std::string> SolveFileNameProblem(const std::string& path, SolveFileFormat format) {
+  const std::string extension = LowerCaseExtension(path);
+  if (format == SolveFileFormat::kMat && extension != ".mat") {
+    return std::string(
+        "a MAT file's name must end in .mat (MATLAB's load reads any other name "
+        "as text)");
+  }
+  if (format != SolveFileFormat::kMat && extension == ".mat") {
+    return "a name ending in .mat is for a MAT file, not " + std::string(ToString(format));
+  }
+  if (format == SolveFileFormat::kModelica && extension == ".csv") {
+    return std::string("a name ending in .csv is for CSV, not a Modelica table (use .txt)");
+  }
+  return std::nullopt;
+}
+
+std::vector<std::string> FeedforwardColumns(const Model& model) {
+  std::vector<std::string> columns = {"t"};
+  for (const std::string& name : model.coordinates()) columns.push_back(name);
+  for (const std::string& name : model.coordinates()) columns.push_back(name + "_dot");
+  for (const std::string& name : model.inputs()) columns.push_back(name);
+  for (const std::string& name : model.output_names()) columns.push_back(name + "_d");
+  return columns;
+}
+
+std::optional<std::string> MatColumnsProblem(const Model& model) {
+  std::set<std::string> seen = {kMatSummaryName};
+  for (const std::string& column : FeedforwardColumns(model)) {
+    if (const std::optional<std::string> problem = MatlabNameProblem(column)) {
+      return "the column '" + column + "' cannot be a MAT variable: " + *problem +
+             "; rename it in the model file or write CSV";
+    }
+    if (!seen.insert(column).second) {
+      return "the column '" + column + "' cannot be a MAT variable: " +
+             (column == kMatSummaryName ? std::string("the summary struct has that name")
+                                        : std::string("two columns have that name")) +
+             "; rename it in the model file or write CSV";
+    }
+  }
+  return std::nullopt;
+}
+
+void WriteFeedforwardFile(const std::string& path,
+                          SolveFileFormat format,
+                          const Model& model,
+                          const OutputTrajectory& trajectory,
+                          const FeedforwardSolution& solution,
+                          const nlohmann::ordered_json& summary) {
+  switch (format) {
+    case SolveFileFormat::kCsv:
+      WriteFeedforwardCsv(path, model, trajectory, solution);
+      return;
+    case SolveFileFormat::kMat:
+      WriteFeedforwardMat(path, model, trajectory, solution, summary);
+      return;
+    case SolveFileFormat::kModelica:
+      WriteFeedforwardModelica(path, model, solution, summary);
+      return;
+  }
+}
+
+void WriteFeedforwardCsv(const std::string& path,
+                         const Model& model,
+                         const OutputTrajectory& trajectory,
+                         const FeedforwardSolution& solution) {
+  WriteAndRename(path, [&](std::ofstream& file) {
+    std::string line;
+    for (const std::string& column : FeedforwardColumns(model)) {
+      line += (line.empty() ? "" : ",") + column;
+    }
+    file << line << '\n';
+    for (std::size_t i = 0; i < solution.times.size(); ++i) {
+      const Eigen::VectorXd row = FeedforwardRow(trajectory, solution, i);
+      line.clear();
+      for (Eigen::Index j = 0; j < row.size(); ++j) {
+        if (j > 0) line += ',';
+        AppendExact(line, row(j));
+      }
+      file << line << '\n';
+    }
+  });
+}
+
+void WriteFeedforwardMat(const std::string& path,
+                         const Model& model,
+                         const OutputTrajectory& trajectory,
+                         const FeedforwardSolution& solution,
+                         const nlohmann::ordered_json& summary) {
+  if (const std::optional<std::string> problem = MatColumnsProblem(model)) {
+    throw UsageError(path + ": " + *problem);
+  }
+  const std::vector<std::string> columns = FeedforwardColumns(model);
+  Eigen::MatrixXd values(Eigen::Index(solution.times.size()), Eigen::Index(columns.size()));
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    values.row(Eigen::Index(i)) = FeedforwardRow(trajectory, solution, i).transpose();
+  }
+  // The CSV's numbers: -0 is written as 0 there (WithoutNegativeZero), so here too.
+  values = values.unaryExpr([](double value) { return WithoutNegativeZero(value); });
+
+  MatFileWriter file(path);
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    file.WriteColumn(columns[j], values.col(Eigen::Index(j)));
+  }
+  nlohmann::ordered_json facts = summary;
+  for (const char* key : kKeysNotInMat) facts.erase(key);
+  facts["columns"] = columns;
+  file.WriteStruct(kMatSummaryName, facts);
+  file.Commit();
+}
+
+void WriteFeedforwardModelica(const std::string& path,
+                              const Model& model,
+                              const FeedforwardSolution& solution,
+                              const nlohmann::ordered_json& summary) {
+  const std::size_t rows = solution.times.size();
+  // CombiTimeTable needs increasing times, at most two equal in a row (a jump); the solvers'
+  // rows increase strictly, so anything else is a broken invariant, reported, not written.
+  for (std::size_t i = 1; i < rows; ++i) {
+    const bool repeated_twice = i >= 2 && solution.times[i] == solution.times[i - 2];
+    if (solution.times[i] < solution.times[i - 1] || repeated_twice) {
+      throw Error("cannot write " + path + ": the times do not increase at t = " +
+                  FormatExact(solution.times[i]) + " (CombiTimeTable needs them increasing)");
+    }
+  }
+  for (std::size_t i = 0; i < rows; ++i) {
+    if (!solution.u[i].allFinite()) {
+      throw Error("cannot write " + path +
+                  ": u_d is not a number at t = " + FormatExact(solution.times[i]));
+    }
+  }
+  const std::vector<std::string>& inputs = model.inputs();
+  WriteAndRename(path, [&](std::ofstream& file) {
+    file << "#1\n"
+         << "# servokit solve: the feedforward u_d(t) of the model " << model.name() << " ("
+         << summary.at("method").get<std::string>() << ", "
+         << summary.at("status").get<std::string>() << ")\n"
+         << "# for Modelica.Blocks.Sources.CombiTimeTable(tableOnFile = true, tableName = \""
+         << kModelicaTableName << "\", columns = 2:" << inputs.size() + 1 << ")\n"
+         << "# column 1: t [s]\n";
+    for (std::size_t k = 0; k < inputs.size(); ++k) {
+      file << "# column " << k + 2 << ": " << inputs[k] << " (input " << k + 1
+           << ", in the model's SI unit)\n";
+    }
+    file << "double " << kModelicaTableName << "(" << rows << ", " << inputs.size() + 1 << ")\n";
+    std::string line;
+    for (std::size_t i = 0; i < rows; ++i) {
+      line.clear();
+      AppendExact(line, solution.times[i]);
+      for (Eigen::Index k = 0; k < solution.u[i].size(); ++k) {
+        line += ' ';
+        AppendExact(line, solution.u[i](k));
+      }
+      file << line << '\n';
+    }
+  });
 }
 
 nlohmann::ordered_json SolveToJson(const Model& model,

@@ -1,8 +1,11 @@
 #pragma once
-// What `servokit solve` writes (DESIGN.md "solve"): the CSV of the feedforward and the JSON
-// object on stdout.
+// What `servokit solve` writes (DESIGN.md "solve"): the file of the feedforward (CSV, MAT or a
+// Modelica table) and the JSON object on stdout.
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "analysis/classification.h"
 #include "models/model.h"
@@ -12,6 +15,42 @@
 
 namespace servokit {
 
+/// The formats of a solve's file.
+enum class SolveFileFormat {
+  kCsv,       // "csv": every column, one row per sample (the default)
+  kMat,       // "mat": MAT v5, one double column vector per CSV column and a struct `solve`
+  kModelica,  // "modelica": CombiTimeTable text of t and the inputs, the table `u_d`
+};
+
+std::string_view ToString(SolveFileFormat format);
+std::optional<SolveFileFormat> SolveFileFormatFromString(std::string_view text);
+
+/// The format a file name asks for when none is given: a name ending in .mat (any case) is a MAT
+/// file, any other CSV (what every name meant before there were formats).
+SolveFileFormat SolveFileFormatOfName(const std::string& path);
+
+/// Why `format` cannot be written to `path`, or nullopt. The endings .csv and .mat belong to
+/// their formats: a MAT file must end in .mat (MATLAB's `load` reads any other name as text),
+/// and neither CSV nor a Modelica table may be named .mat, nor a Modelica table .csv.
+std::optional<std::string> SolveFileNameProblem(const std::string& path, SolveFileFormat format);
+
+/// The columns of a solve's file: t, each coordinate, each <coordinate>_dot, each input, y1_d,
+/// ... (DESIGN.md "solve"); the one list every format writes.
+std::vector<std::string> FeedforwardColumns(const Model& model);
+
+/// Why the columns of `model` cannot be MAT variables (a name that is not a MATLAB name, a
+/// keyword, twice the same, or the summary's `solve`), or nullopt. Asked before solving.
+std::optional<std::string> MatColumnsProblem(const Model& model);
+
+/// Writes the feedforward in `format` (see WriteFeedforwardCsv, WriteFeedforwardMat,
+/// WriteFeedforwardModelica); `summary` is the JSON object `servokit solve` prints.
+void WriteFeedforwardFile(const std::string& path,
+                          SolveFileFormat format,
+                          const Model& model,
+                          const OutputTrajectory& trajectory,
+                          const FeedforwardSolution& solution,
+                          const nlohmann::ordered_json& summary);
+
 /// Writes t, each coordinate, each <coordinate>_dot, each input, y1_d, ... one row per sample,
 /// numbers exact (shortest round-trip form). Written to FILE.partial and renamed, so an
 /// interrupted write never leaves a truncated FILE. Throws Error when the file cannot be written.
@@ -19,6 +58,29 @@ void WriteFeedforwardCsv(const std::string& path,
                          const Model& model,
                          const OutputTrajectory& trajectory,
                          const FeedforwardSolution& solution);
+
+/// Writes a MAT v5 file (MATLAB's `load`, scipy.io.loadmat): one double column vector per CSV
+/// column, named as the column and holding the same numbers, then the struct `solve`: every
+/// field of `summary` but `classification` and `out` (numbers as doubles, null as [], text as char,
+/// see MatFileWriter::WriteStruct) and `columns`, a cell row of the column names in order. Written
+/// to FILE.partial and renamed; byte-identical run to run. Throws UsageError when a column is
+/// not a MATLAB name (MatColumnsProblem), Error when the file cannot be written.
+void WriteFeedforwardMat(const std::string& path,
+                         const Model& model,
+                         const OutputTrajectory& trajectory,
+                         const FeedforwardSolution& solution,
+                         const nlohmann::ordered_json& summary);
+
+/// Writes the table `u_d` for Modelica.Blocks.Sources.CombiTimeTable (text format "#1"): a
+/// comment header naming the model, the method and status of `summary` (the JSON object
+/// `servokit solve` prints) and the columns with their units, then
+/// `double u_d(N, 1 + inputs)` and one row `t u1 ... um` per sample, numbers exact (shortest
+/// round-trip form). The times are the CSV's, which increase strictly. Written to FILE.partial
+/// and renamed. Throws Error when the file cannot be written or a number is not finite.
+void WriteFeedforwardModelica(const std::string& path,
+                              const Model& model,
+                              const FeedforwardSolution& solution,
+                              const nlohmann::ordered_json& summary);
 
 /// method, method_reason, status, message, stop_time, t_start, t_end, sample_time, tolerances,
 /// the counters, max_servo_residual, samples, trajectory_note (when the trajectory was raised

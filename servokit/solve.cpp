@@ -129,6 +129,26 @@ Eigen::MatrixXd Rows(const std::vector<Eigen::VectorXd>& values, std::size_t col
   return rows;
 }
 
+// The format of options.csv_file, checked against its name and, for MAT, the model's columns
+// (before any work: a solve whose answer cannot be written is wasted).
+SolveFileFormat ChooseFileFormat(const servokit::Model& model, const SolveOptions& options) {
+  std::optional<SolveFileFormat> format = SolveFileFormatFromString(options.file_format);
+  RequireOption(options.file_format.empty() || format.has_value(), "SolveOptions", "file_format",
+                options.file_format, "expected csv, mat or modelica (or empty: from csv_file)");
+  if (options.csv_file.empty()) return format.value_or(SolveFileFormat::kCsv);
+  if (!format) format = SolveFileFormatOfName(options.csv_file);
+  if (const std::optional<std::string> problem = SolveFileNameProblem(options.csv_file, *format)) {
+    throw UsageError("SolveOptions::file_format = " + options.file_format +
+                     ", csv_file = " + options.csv_file + ": " + *problem);
+  }
+  if (*format == SolveFileFormat::kMat) {
+    if (const std::optional<std::string> problem = MatColumnsProblem(model)) {
+      throw UsageError(options.csv_file + ": " + *problem);
+    }
+  }
+  return *format;
+}
+
 }  // namespace
 
 Feedforward Solve(const Model& model,
@@ -136,6 +156,8 @@ Feedforward Solve(const Model& model,
                   const SolveOptions& options) {
   const servokit::Model& multibody = MultibodyModel(model, "Solve");
   const InverseModelOptions inverse_options = ToInverseModelOptions(options);
+  // Checked even without a file, so that a bad file_format is never silently ignored.
+  const SolveFileFormat file_format = ChooseFileFormat(multibody, options);
   Workspace workspace(multibody);
   const ClassificationOptions classification_options;
   const Classification classification = Classify(multibody, workspace, classification_options);
@@ -156,9 +178,6 @@ Feedforward Solve(const Model& model,
 
   const FeedforwardSolution solution =
       SolveInverseModel(multibody, *desired, classification, inverse_options);
-  if (!options.csv_file.empty()) {
-    WriteFeedforwardCsv(options.csv_file, multibody, *desired, solution);
-  }
   nlohmann::ordered_json report =
       SolveToJson(multibody, classification, classification_options, solution, note);
   result.method = std::string(ToString(solution.method));
@@ -183,7 +202,11 @@ Feedforward Solve(const Model& model,
     }
   }
   report["warnings"] = result.warnings;
-  if (!options.csv_file.empty()) report["out"] = options.csv_file;
+  if (!options.csv_file.empty()) {
+    report["out"] = options.csv_file;
+    // After the check: the MAT file's summary holds its verdict.
+    WriteFeedforwardFile(options.csv_file, file_format, multibody, *desired, solution, report);
+  }
   result.json = report.dump(2);
 
   result.t = solution.times;

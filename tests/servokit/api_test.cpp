@@ -238,6 +238,49 @@ TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its c
   }
 }
 
+TEST_CASE("solve through the API writes its file in the format asked for or named", "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"));
+  sk::OutputTrajectory trajectory;
+  trajectory.y0 = Eigen::VectorXd::Constant(1, 0.5);
+  trajectory.yf = Eigen::VectorXd::Constant(1, 2.5);
+  trajectory.t0 = 0.0;
+  trajectory.tf = 6.0;
+  sk::SolveOptions options;
+  options.t_end = 8.0;
+  options.sample_time = 0.5;
+  const std::filesystem::path directory =
+      std::filesystem::temp_directory_path() / "servokit_api_test_solve_files";
+  std::filesystem::create_directories(directory);
+  const auto first_line = [](const std::filesystem::path& path) {
+    const std::string text = ReadText(path);
+    return text.substr(0, text.find('\n'));
+  };
+
+  options.csv_file = (directory / "u.mat").string();  // the format from the name
+  sk::Solve(model, trajectory, options);
+  CHECK(ReadText(options.csv_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
+  options.csv_file = (directory / "u.txt").string();
+  options.file_format = "modelica";
+  sk::Solve(model, trajectory, options);
+  CHECK(first_line(options.csv_file) == "#1");
+  options.file_format = "";
+  sk::Solve(model, trajectory, options);
+  CHECK(first_line(options.csv_file) == "t,x,s,x_dot,s_dot,F,y1_d");
+
+  options.csv_file = (directory / "v.csv").string();
+  for (const char* refused : {"mat", "modelica", "hdf5"}) {
+    options.file_format = refused;
+    CHECK_THROWS_MATCHES(sk::Solve(model, trajectory, options), servokit::Error,
+                         Catch::Predicate<servokit::Error>([](const servokit::Error& error) {
+                           return error.kind() == servokit::ErrorKind::kUsage &&
+                                  std::string(error.what()).find("file_format") !=
+                                      std::string::npos;
+                         }));
+  }
+  CHECK_FALSE(std::filesystem::exists(options.csv_file));
+  std::filesystem::remove_all(directory);
+}
+
 TEST_CASE("a generated two-mass chain through the API: zero dynamics of the free mass",
           "[servokit]") {
   // Force and output on mass 1: holding it, mass 2 hangs on one spring-damper, so the zero

@@ -1,0 +1,220 @@
+#include "reports/matio_support.h"
+
+#include <matio.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "models/errors.h"
+
+namespace servokit {
+namespace {
+
+// MATLAB's namelengthmax.
+constexpr std::size_t kMatlabNameLength = 63;
+
+// MATLAB's iskeyword list: names `load` cannot give a variable.
+constexpr std::array<const char*, 20> kMatlabKeywords = {
+    "break",      "case",   "catch",    "classdef", "continue", "else",      "elseif",
+    "end",        "for",    "function", "global",   "if",       "otherwise", "parfor",
+    "persistent", "return", "spmd",     "switch",   "try",      "while"};
+
+// The text at the start of a MAT v5 file (116 bytes, the last a null from matio, the rest
+// padded with spaces here as MATLAB pads its own). MATLAB's begins the same way; this one has
+// no date, so that the file is the same each run.
+constexpr std::size_t kHeaderTextLength = 115;
+const std::string kHeaderText = [] {
+  std::string text = "MATLAB 5.0 MAT-file, written by servokit";
+  text.resize(kHeaderTextLength, ' ');
+  return text;
+}();
+
+struct VariableDeleter {
+  void operator()(matvar_t* variable) const { Mat_VarFree(variable); }
+};
+using Variable = std::unique_ptr<matvar_t, VariableDeleter>;
+
+Variable Checked(matvar_t* variable, const std::string& what) {
+  if (variable == nullptr) throw Error("matio cannot make the MAT variable " + what);
+  return Variable(variable);
+}
+
+Variable DoubleMatrix(const char* name, std::size_t rows, std::size_t columns, const double* data) {
+  std::array<std::size_t, 2> dims = {rows, columns};
+  // matio copies the data (no MAT_F_DONT_COPY_DATA), so `data` may be const and short-lived.
+  return Checked(
+      Mat_VarCreate(name, MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims.data(), const_cast<double*>(data), 0),
+      name ? name : "(field)");
+}
+
+// UTF-8 to the UTF-16 code units MATLAB stores text in. A malformed byte, and a character
+// beyond the Basic Multilingual Plane (two units in MATLAB, which scipy.io.loadmat cannot
+// read), become U+FFFD. servokit's own text is ASCII; file names in messages may not be.
+std::vector<std::uint16_t> Utf16(const std::string& text) {
+  constexpr std::uint16_t kReplacement = 0xFFFD;
+  std::vector<std::uint16_t> units;
+  units.reserve(text.size());
+  for (std::size_t i = 0; i < text.size();) {
+    const auto lead = static_cast<unsigned char>(text[i]);
+    const std::size_t length = lead < 0x80           ? 1
+                               : (lead >> 5) == 0x6  ? 2
+                               : (lead >> 4) == 0xE  ? 3
+                               : (lead >> 3) == 0x1E ? 4
+                                                     : 0;
+    bool valid = length != 0 && i + length <= text.size();
+    char32_t code = length == 1 ? lead : (lead & (0x7F >> length));
+    for (std::size_t k = 1; valid && k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      valid = (next & 0xC0) == 0x80;
+      code = (code << 6) | (next & 0x3F);
+    }
+    if (!valid) {
+      units.push_back(kReplacement);
+      ++i;
+      continue;
+    }
+    units.push_back(code < 0x10000 ? static_cast<std::uint16_t>(code) : kReplacement);
+    i += length;
+  }
+  return units;
+}
+
+Variable FromJson(const char* name, const nlohmann::ordered_json& value);
+
+Variable CharRow(const char* name, const std::string& text) {
+  std::vector<std::uint16_t> units = Utf16(text);
+  std::array<std::size_t, 2> dims = {units.empty() ? std::size_t{0} : std::size_t{1}, units.size()};
+  return Checked(Mat_VarCreate(name, MAT_C_CHAR, MAT_T_UINT16, 2, dims.data(), units.data(), 0),
+                 name ? name : "(text)");
+}
+
+Variable Logical(const char* name, bool value) {
+  std::array<std::size_t, 2> dims = {1, 1};
+  std::uint8_t byte = value ? 1 : 0;
+  return Checked(
+      Mat_VarCreate(name, MAT_C_UINT8, MAT_T_UINT8, 2, dims.data(), &byte, MAT_F_LOGICAL),
+      name ? name : "(logical)");
+}
+
+Variable Struct(const char* name, const nlohmann::ordered_json& object) {
+  std::vector<std::string> keys;
+  for (const auto& item : object.items()) {
+    if (const std::optional<std::string> problem = MatlabNameProblem(item.key())) {
+      throw UsageError("field '" + item.key() + "': " + *problem);
+    }
+    keys.push_back(item.key());
+  }
+  std::vector<const char*> fields;
+  for (const std::string& key : keys) fields.push_back(key.c_str());
+  fields.push_back(nullptr);  // matio reads the field names up to a null
+  std::array<std::size_t, 2> dims = {1, 1};
+  Variable variable =
+      Checked(Mat_VarCreateStruct2(name, 2, dims.data(), fields.data()), name ? name : "(struct)");
+  for (const auto& item : object.items()) {
+    Variable field = FromJson(item.key().c_str(), item.value());
+    // The struct owns the field from here; it returns the previous one (none).
+    Mat_VarFree(Mat_VarSetStructFieldByName(variable.get(), item.key().c_str(), 0, field.get()));
+    field.release();
+  }
+  return variable;
+}
+
+Variable Array(const char* name, const nlohmann::ordered_json& array) {
+  if (array.empty()) return DoubleMatrix(name, 0, 0, nullptr);
+  const bool numbers = std::all_of(array.begin(), array.end(),
+                                   [](const auto& element) { return element.is_number(); });
+  if (numbers) {
+    std::vector<double> values;
+    for (const auto& element : array) values.push_back(element.template get<double>());
+    return DoubleMatrix(name, 1, values.size(), values.data());
+  }
+  std::array<std::size_t, 2> dims = {1, array.size()};
+  Variable cell = Checked(Mat_VarCreate(name, MAT_C_CELL, MAT_T_CELL, 2, dims.data(), nullptr, 0),
+                          name ? name : "(cell)");
+  for (std::size_t i = 0; i < array.size(); ++i) {
+    Variable element = FromJson(nullptr, array[i]);
+    Mat_VarFree(Mat_VarSetCell(cell.get(), static_cast<int>(i), element.get()));
+    element.release();
+  }
+  return cell;
+}
+
+Variable FromJson(const char* name, const nlohmann::ordered_json& value) {
+  if (value.is_null()) return DoubleMatrix(name, 0, 0, nullptr);
+  if (value.is_boolean()) return Logical(name, value.get<bool>());
+  if (value.is_number()) {
+    const double number = value.get<double>();
+    return DoubleMatrix(name, 1, 1, &number);
+  }
+  if (value.is_string()) return CharRow(name, value.get<std::string>());
+  if (value.is_object()) return Struct(name, value);
+  return Array(name, value);
+}
+
+}  // namespace
+
+std::optional<std::string> MatlabNameProblem(const std::string& name) {
+  const auto is_letter = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); };
+  const auto is_name_char = [&](char c) {
+    return is_letter(c) || (c >= '0' && c <= '9') || c == '_';
+  };
+  if (name.empty() || !is_letter(name.front()) ||
+      !std::all_of(name.begin(), name.end(), is_name_char)) {
+    return std::string("not a MATLAB name (a letter, then letters, digits and _)");
+  }
+  if (name.size() > kMatlabNameLength) {
+    return "longer than MATLAB's " + std::to_string(kMatlabNameLength) + " characters";
+  }
+  if (std::find_if(kMatlabKeywords.begin(), kMatlabKeywords.end(),
+                   [&](const char* keyword) { return name == keyword; }) != kMatlabKeywords.end()) {
+    return std::string("a MATLAB keyword");
+  }
+  return std::nullopt;
+}
+
+MatFileWriter::MatFileWriter(const std::string& path) : path_(path), partial_(path + ".partial") {
+  file_ = Mat_CreateVer(partial_.c_str(), kHeaderText.c_str(), MAT_FT_MAT5);
+  if (file_ == nullptr) throw Error("cannot write " + path_ + " (matio cannot create it)");
+}
+
+MatFileWriter::~MatFileWriter() {
+  if (file_ == nullptr) return;
+  Mat_Close(file_);
+  std::error_code ignored;  // an uncommitted file is abandoned; its removal may fail quietly
+  std::filesystem::remove(partial_, ignored);
+}
+
+void MatFileWriter::WriteColumn(const std::string& name,
+                                const Eigen::Ref<const Eigen::VectorXd>& values) {
+  const Eigen::VectorXd contiguous = values;
+  Variable variable =
+      DoubleMatrix(name.c_str(), std::size_t(contiguous.size()), 1, contiguous.data());
+  if (Mat_VarWrite(file_, variable.get(), MAT_COMPRESSION_NONE) != 0) {
+    throw Error("cannot write " + path_ + " (matio failed on the variable " + name + ")");
+  }
+}
+
+void MatFileWriter::WriteStruct(const std::string& name, const nlohmann::ordered_json& object) {
+  Variable variable = Struct(name.c_str(), object);
+  if (Mat_VarWrite(file_, variable.get(), MAT_COMPRESSION_NONE) != 0) {
+    throw Error("cannot write " + path_ + " (matio failed on the variable " + name + ")");
+  }
+}
+
+void MatFileWriter::Commit() {
+  const int closed = Mat_Close(file_);
+  file_ = nullptr;
+  std::error_code error;
+  if (closed != 0) {
+    std::filesystem::remove(partial_, error);
+    throw Error("cannot write " + path_ + " (matio cannot close it)");
+  }
+  std::filesystem::rename(partial_, path_, error);
+  if (error) throw Error("cannot write " + path_ + ": " + error.message());
+}
+
+}  // namespace servokit

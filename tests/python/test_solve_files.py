@@ -1,0 +1,184 @@
+"""`servokit solve --format mat|modelica` (issue #17): the files MATLAB, SciPy and Modelica read
+hold the numbers of the CSV that the same solve writes. The MAT file is read with
+scipy.io.loadmat, the Modelica table with the small parser below; every number compares
+exactly with the CSV field (both are written to read back to the same double), and the MAT
+file's struct `solve` with the JSON summary the run prints. Both files are byte-identical run
+to run."""
+import csv
+import json
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+scipy_io = pytest.importorskip("scipy.io")
+
+# Paper Sect. 5.1 case 2 (alpha = 5 deg, d = 1), sampled every 10 ms; and the rotational arm with
+# s = l (unstable zero dynamics), whose stable inversion adds the pre- and post-actuation times.
+CASE_2 = ["--set", "alpha=5 deg", "--trajectory", "rest-to-rest", "--y0", "0.5", "--yf", "2.5",
+          "--t0", "0", "--tf", "6", "--t-end", "10", "--sample-time", "0.01", "--verify"]
+ARM = ["--trajectory", "rest-to-rest", "--y0", "0", "--yf", "1", "--t0", "0", "--tf", "2",
+       "--t-end", "4", "--verify"]
+
+
+def solve(binary, model, arguments, out, *more):
+    completed = subprocess.run([binary, "solve", model, *arguments, "--out", str(out), *more],
+                               capture_output=True, text=True)
+    assert completed.returncode == 0, completed.stderr
+    return json.loads(completed.stdout)
+
+
+def read_csv(path):
+    with open(path, newline="") as file:
+        rows = list(csv.reader(file))
+    return rows[0], rows[1:]
+
+
+def assert_equals_json(value, expected, where):
+    """A MAT value (as loadmat gives it) equals the JSON value: numbers exactly, null and []
+    as empty, text as text, true/false as logical, objects as structs, lists as rows or cells."""
+    if expected is None or expected == []:
+        assert value.size == 0, where
+    elif isinstance(expected, bool):
+        assert value.dtype == np.uint8 and value.shape == (1, 1) and bool(value[0, 0]) == expected, where
+    elif isinstance(expected, (int, float)):
+        assert value.dtype == np.float64 and value.shape == (1, 1), where
+        assert value[0, 0] == float(expected), where
+    elif isinstance(expected, str):
+        assert value.shape == (1,) and str(value[0]) == expected, where
+    elif isinstance(expected, dict):
+        assert value.shape == (1, 1), where
+        assert list(value.dtype.names) == list(expected), where
+        for key, item in expected.items():
+            assert_equals_json(value[0, 0][key], item, where + "." + key)
+    elif all(isinstance(item, (int, float)) and not isinstance(item, bool) for item in expected):
+        assert value.dtype == np.float64 and value.shape == (1, len(expected)), where
+        assert list(value[0]) == [float(item) for item in expected], where
+    else:
+        assert value.dtype == object and value.shape == (1, len(expected)), where
+        for k, item in enumerate(expected):
+            assert_equals_json(value[0, k], item, f"{where}[{k}]")
+
+
+def assert_mat_equals_csv_and_json(mat_path, csv_path, summary):
+    header, rows = read_csv(csv_path)
+    mat = scipy_io.loadmat(mat_path)
+    variables = [name for name in mat if not name.startswith("__")]
+    assert variables == header + ["solve"]
+    for j, name in enumerate(header):
+        column = mat[name]
+        assert column.dtype == np.float64 and column.shape == (len(rows), 1), name
+        assert [float(row[j]) for row in rows] == list(column[:, 0]), name
+    facts = mat["solve"]
+    expected = {key: value for key, value in summary.items()
+                if key not in ("classification", "out")}
+    expected["columns"] = header
+    assert_equals_json(facts, expected, "solve")
+
+
+def test_mat_file_holds_the_csv_columns_and_the_json_summary(servokit_binary, mass_on_car,
+                                                            tmp_path):
+    csv_summary = solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.csv")
+    # The format from the name, and the same asked for.
+    summary = solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.mat")
+    solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "v.mat", "--format", "mat")
+    assert summary["out"] == str(tmp_path / "u.mat")
+    assert summary["verification"]["passed"] is True
+    assert {k: v for k, v in summary.items() if k != "out"} == \
+        {k: v for k, v in csv_summary.items() if k != "out"}
+    assert_mat_equals_csv_and_json(tmp_path / "u.mat", tmp_path / "u.csv", summary)
+    # The bytes do not depend on the run, nor on the file's name.
+    first = (tmp_path / "u.mat").read_bytes()
+    solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.mat")
+    assert (tmp_path / "u.mat").read_bytes() == first
+    assert (tmp_path / "v.mat").read_bytes() == first
+    assert first[:40] == b"MATLAB 5.0 MAT-file, written by servokit"
+    assert not list(tmp_path.glob("*.partial"))
+
+
+def test_mat_file_of_a_stable_inversion_gives_the_actuation_times(servokit_binary, mass_on_car,
+                                                                 tmp_path):
+    arm = str(pathlib.Path(mass_on_car).with_name("rotational_arm.yaml"))
+    solve(servokit_binary, arm, ARM, tmp_path / "u.csv")
+    summary = solve(servokit_binary, arm, ARM, tmp_path / "u.mat")
+    assert summary["method"] == "stable-inversion"
+    assert_mat_equals_csv_and_json(tmp_path / "u.mat", tmp_path / "u.csv", summary)
+    facts = scipy_io.loadmat(tmp_path / "u.mat")["solve"][0, 0]
+    assert facts["pre_actuation_start"][0, 0] == summary["pre_actuation_start"]
+    assert facts["post_actuation_end"][0, 0] == summary["post_actuation_end"]
+    assert facts["pre_actuation_start"][0, 0] < 0  # non-causal: u_d starts before the motion
+
+
+def read_modelica_table(path):
+    """CombiTimeTable's text format: "#1", comment lines (#), `double NAME(ROWS, COLUMNS)`,
+    then the rows, numbers separated by blanks."""
+    lines = pathlib.Path(path).read_text().splitlines()
+    assert lines[0] == "#1"
+    k = 1
+    while lines[k].startswith("#"):
+        k += 1
+    declaration = lines[k]
+    assert declaration.startswith("double ") and declaration.endswith(")")
+    name, dimensions = declaration[len("double "):-1].split("(")
+    rows, columns = (int(text) for text in dimensions.split(","))
+    table = [[float(text) for text in line.split()] for line in lines[k + 1:]]
+    return name, (rows, columns), table, lines[1:k]
+
+
+def test_modelica_table_holds_t_and_the_inputs_of_the_csv(servokit_binary, mass_on_car,
+                                                         tmp_path):
+    solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.csv")
+    solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.txt", "--format", "modelica")
+    header, rows = read_csv(tmp_path / "u.csv")
+    name, dimensions, table, comments = read_modelica_table(tmp_path / "u.txt")
+    assert name == "u_d"
+    inputs = ["F"]  # models/mass_on_car.yaml
+    assert dimensions == (len(rows), 1 + len(inputs)) == (1001, 2)
+    assert len(table) == dimensions[0]
+    assert all(len(row) == dimensions[1] for row in table)
+    for j, column in enumerate(["t"] + inputs):
+        assert [float(row[header.index(column)]) for row in rows] == [row[j] for row in table]
+    times = [row[0] for row in table]
+    assert all(later > earlier for earlier, later in zip(times, times[1:]))
+    assert times[0] == 0 and times[-1] == 10
+    assert any("column 2: F" in comment for comment in comments)
+    first = (tmp_path / "u.txt").read_bytes()
+    solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.txt", "--format", "modelica")
+    assert (tmp_path / "u.txt").read_bytes() == first
+
+
+@pytest.mark.parametrize("arguments, says", [
+    (["--format", "mat", "--out", "u.csv"],
+     "--format mat --out u.csv: a MAT file's name must end in .mat"),
+    (["--format", "csv", "--out", "u.mat"],
+     "--format csv --out u.mat: a name ending in .mat is for a MAT file, not csv"),
+    (["--format", "modelica", "--out", "u.csv"],
+     "--format modelica --out u.csv: a name ending in .csv is for CSV, not a Modelica table"),
+    (["--format", "hdf5", "--out", "u.h5"], "--format hdf5: expected csv, mat or modelica"),
+])
+def test_a_format_that_contradicts_the_name_is_refused_before_solving(
+        servokit_binary, mass_on_car, tmp_path, arguments, says):
+    completed = subprocess.run([servokit_binary, "solve", mass_on_car, *CASE_2, *arguments],
+                               capture_output=True, text=True, cwd=tmp_path)
+    assert completed.returncode == 2
+    assert completed.stderr.startswith("servokit: error: " + says)
+    assert completed.stderr.count("\n") == 1
+    assert completed.stdout == ""
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_column_matlab_cannot_load_is_refused_before_solving(servokit_binary, mass_on_car,
+                                                               tmp_path):
+    # The mass on car with the coordinate s named `end`, which `load` cannot make a variable.
+    model = (pathlib.Path(mass_on_car).parents[1] / "tests" / "data" / "errors" /
+             "matlab_keyword_coordinate.yaml")
+    out = tmp_path / "u.mat"
+    completed = subprocess.run([servokit_binary, "solve", str(model), *CASE_2, "--out", str(out)],
+                               capture_output=True, text=True)
+    assert completed.returncode == 2
+    assert completed.stderr == (f"servokit: error: {out}: the column 'end' cannot be a MAT "
+                                "variable: a MATLAB keyword; rename it in the model file or "
+                                "write CSV\n")
+    assert not out.exists()
+    solve(servokit_binary, str(model), CASE_2, tmp_path / "u.csv")  # CSV takes any name
