@@ -176,7 +176,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.pre_actuation = arguments.pre_actuation;
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
-  options.csv_file = arguments.out;
+  options.out_file = arguments.out;
   options.file_format = ToString(format);
   const api::Feedforward feedforward = SolveTellingFlags(model, trajectory, options);
   for (const std::string& note : feedforward.notes) err << "servokit: note: " << note << "\n";

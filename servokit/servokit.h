@@ -253,11 +253,11 @@ struct SolveOptions {
   // Drive the model with u_d from rest and compare its output with y_d (the forward check).
   bool verify = false;
   // When set, the feedforward is written to this file as `servokit solve --out` writes it, in
-  // file_format (named for the default format, CSV: t, each coordinate, each <coordinate>_dot,
-  // each input, y1_d, ...), and `json` names it. Written also when the solve stops early or
+  // file_format (CSV by default: t, each coordinate, each <coordinate>_dot, each input, y1_d,
+  // ...), and `json` names it. Written also when the solve stops early or
   // fails its check, with the rows up to where it stopped.
-  std::string csv_file;
-  // The format of csv_file: "csv", "mat" (MAT v5 for MATLAB and scipy.io.loadmat: a column
+  std::string out_file;
+  // The format of out_file: "csv", "mat" (MAT v5 for MATLAB and scipy.io.loadmat: a column
   // vector per CSV column and the struct `solve` of the summary) or "modelica" (the
   // CombiTimeTable `u_d` of t and the inputs). Empty: from the name, "mat" for a name ending
   // in .mat, else "csv". A name of the other format's ending (.mat for CSV or Modelica, .csv

@@ -87,8 +87,8 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
                                                  order);
     case TrajectoryKind::kFunction: {
       const int declared = trajectory.function_continuous_derivatives;
-      RequireOption(declared >= 0, "OutputTrajectory", "function_continuous_derivatives",
-                    declared, "must be >= 0 (0: as many as the inverse reads)");
+      RequireOption(declared >= 0, "OutputTrajectory", "function_continuous_derivatives", declared,
+                    "must be >= 0 (0: as many as the inverse reads)");
       RequireOption(declared == 0 || declared >= needed_derivatives, "OutputTrajectory",
                     "function_continuous_derivatives", declared,
                     "the inverse reads y_d up to order " + std::to_string(needed_derivatives) +
@@ -129,21 +129,21 @@ Eigen::MatrixXd Rows(const std::vector<Eigen::VectorXd>& values, std::size_t col
   return rows;
 }
 
-// The format of options.csv_file, checked against its name and, for MAT, the model's columns
+// The format of options.out_file, checked against its name and, for MAT, the model's columns
 // (before any work: a solve whose answer cannot be written is wasted).
 SolveFileFormat ChooseFileFormat(const servokit::Model& model, const SolveOptions& options) {
   std::optional<SolveFileFormat> format = SolveFileFormatFromString(options.file_format);
   RequireOption(options.file_format.empty() || format.has_value(), "SolveOptions", "file_format",
-                options.file_format, "expected csv, mat or modelica (or empty: from csv_file)");
-  if (options.csv_file.empty()) return format.value_or(SolveFileFormat::kCsv);
-  if (!format) format = SolveFileFormatOfName(options.csv_file);
-  if (const std::optional<std::string> problem = SolveFileNameProblem(options.csv_file, *format)) {
+                options.file_format, "expected csv, mat or modelica (or empty: from out_file)");
+  if (options.out_file.empty()) return format.value_or(SolveFileFormat::kCsv);
+  if (!format) format = SolveFileFormatOfName(options.out_file);
+  if (const std::optional<std::string> problem = SolveFileNameProblem(options.out_file, *format)) {
     throw UsageError("SolveOptions::file_format = " + options.file_format +
-                     ", csv_file = " + options.csv_file + ": " + *problem);
+                     ", out_file = " + options.out_file + ": " + *problem);
   }
   if (*format == SolveFileFormat::kMat) {
     if (const std::optional<std::string> problem = MatColumnsProblem(model)) {
-      throw UsageError(options.csv_file + ": " + *problem);
+      throw UsageError(options.out_file + ": " + *problem);
     }
   }
   return *format;
@@ -202,10 +202,10 @@ Feedforward Solve(const Model& model,
     }
   }
   report["warnings"] = result.warnings;
-  if (!options.csv_file.empty()) {
-    report["out"] = options.csv_file;
+  if (!options.out_file.empty()) {
+    report["out"] = options.out_file;
     // After the check: the MAT file's summary holds its verdict.
-    WriteFeedforwardFile(options.csv_file, file_format, multibody, *desired, solution, report);
+    WriteFeedforwardFile(options.out_file, file_format, multibody, *desired, solution, report);
   }
   result.json = report.dump(2);
 

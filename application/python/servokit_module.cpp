@@ -705,7 +705,8 @@ PYBIND11_MODULE(servokit, module) {
              double t_end, const std::string& method, const py::object& sample_time, bool verify,
              bool force, const py::object& t_start, const py::object& step, const py::object& rtol,
              const py::object& atol, const py::object& pre_actuation,
-             const py::object& post_actuation, const py::object& out, const std::string& table) {
+             const py::object& post_actuation, const py::object& out,
+             const std::string& file_format, const std::string& table) {
             sk::OutputTrajectory trajectory;
             const int kinds =
                 int(!waypoints.is_none()) + int(!samples.is_none()) + int(!function.is_none());
@@ -759,8 +760,9 @@ PYBIND11_MODULE(servokit, module) {
             options.pre_actuation = ToOptionalDouble(pre_actuation);
             options.post_actuation = ToOptionalDouble(post_actuation);
             if (!out.is_none()) {
-              options.csv_file = py::str(py::module_::import("os").attr("fspath")(out));
+              options.out_file = py::str(py::module_::import("os").attr("fspath")(out));
             }
+            options.file_format = file_format;
             UsePandas(table);
             Solution solution;
             try {
@@ -784,7 +786,8 @@ PYBIND11_MODULE(servokit, module) {
           py::arg("force") = solve_defaults.force, py::arg("t_start") = py::none(),
           py::arg("step") = py::none(), py::arg("rtol") = py::none(), py::arg("atol") = py::none(),
           py::arg("pre_actuation") = py::none(), py::arg("post_actuation") = py::none(),
-          py::arg("out") = py::none(), py::arg("table") = "auto",
+          py::arg("out") = py::none(), py::arg("format") = solve_defaults.file_format,
+          py::arg("table") = "auto",
           "Solves for the feedforward up to t_end. The desired output is one of: rest-to-rest "
           "(paper Eq. 65) from y0 at t0 to yf at tf; `waypoints`, a YAML file; `samples=(t, "
           "y)`, joined by the interpolating spline of degree 2k+1 (k = max(4, the order the "
@@ -792,7 +795,8 @@ PYBIND11_MODULE(servokit, module) {
           "f(t, order) giving d^order y_d/dt^order, or a list [y_d, y_d', ...] of callables "
           "f(t), with `breakpoints` (default [t0]: the solve starts at the first) and "
           "`continuous_derivatives` (0: as many as the inverse reads). `out` also writes the "
-          "CSV of `servokit solve --out`. Returns a Solution (table, summary).")
+          "file of `servokit solve --out`, in `format` (csv, mat or modelica; empty: mat for a "
+          "name ending in .mat, else csv). Returns a Solution (table, summary).")
       .def("__repr__", [](const sk::Model& model) {
         return "<servokit.Model " + model.name() + " from " + model.source() + ">";
       });

@@ -182,3 +182,16 @@ def test_a_column_matlab_cannot_load_is_refused_before_solving(servokit_binary, 
                                 "write CSV\n")
     assert not out.exists()
     solve(servokit_binary, str(model), CASE_2, tmp_path / "u.csv")  # CSV takes any name
+
+
+def test_the_module_writes_the_same_files_as_the_command(servokit_binary, mass_on_car, tmp_path):
+    import servokit
+
+    model = servokit.load(mass_on_car)
+    for name, file_format in [("u.mat", ""), ("u.txt", "modelica")]:
+        arguments = CASE_2 + (["--format", file_format] if file_format else [])
+        solve(servokit_binary, mass_on_car, arguments, tmp_path / ("command-" + name))
+        model.solve(y0=0.5, yf=2.5, t0=0, tf=6, t_end=10, sample_time=0.01, verify=True,
+                    out=tmp_path / ("module-" + name), format=file_format)
+        assert ((tmp_path / ("module-" + name)).read_bytes() ==
+                (tmp_path / ("command-" + name)).read_bytes())

@@ -256,18 +256,18 @@ TEST_CASE("solve through the API writes its file in the format asked for or name
     return text.substr(0, text.find('\n'));
   };
 
-  options.csv_file = (directory / "u.mat").string();  // the format from the name
+  options.out_file = (directory / "u.mat").string();  // the format from the name
   sk::Solve(model, trajectory, options);
-  CHECK(ReadText(options.csv_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
-  options.csv_file = (directory / "u.txt").string();
+  CHECK(ReadText(options.out_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
+  options.out_file = (directory / "u.txt").string();
   options.file_format = "modelica";
   sk::Solve(model, trajectory, options);
-  CHECK(first_line(options.csv_file) == "#1");
+  CHECK(first_line(options.out_file) == "#1");
   options.file_format = "";
   sk::Solve(model, trajectory, options);
-  CHECK(first_line(options.csv_file) == "t,x,s,x_dot,s_dot,F,y1_d");
+  CHECK(first_line(options.out_file) == "t,x,s,x_dot,s_dot,F,y1_d");
 
-  options.csv_file = (directory / "v.csv").string();
+  options.out_file = (directory / "v.csv").string();
   for (const char* refused : {"mat", "modelica", "hdf5"}) {
     options.file_format = refused;
     CHECK_THROWS_MATCHES(sk::Solve(model, trajectory, options), servokit::Error,
@@ -277,7 +277,7 @@ TEST_CASE("solve through the API writes its file in the format asked for or name
                                       std::string::npos;
                          }));
   }
-  CHECK_FALSE(std::filesystem::exists(options.csv_file));
+  CHECK_FALSE(std::filesystem::exists(options.out_file));
   std::filesystem::remove_all(directory);
 }
 
