@@ -337,7 +337,7 @@ TEST_CASE("SIGINT to mpirun stops every rank; the same command resumes to the sa
                                           "--vary",
                                           "m=0.5:2:" + std::to_string(kInterruptedChainMasses),
                                           "--vary",
-                                          "k=50:150:200",
+                                          "k=50:150:n=200",
                                           "--out",
                                           "out",
                                           "--threads",
