@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cassert>
 #include <limits>
-#include <numbers>
 #include <utility>
 
 #include "models/errors.h"
@@ -32,7 +31,7 @@ std::string GridAxis::ColumnName() const {
 }
 
 double GridAxis::DisplayValue(double value) const {
-  return display_unit == DisplayUnit::kDegree ? value * (180.0 / std::numbers::pi) : value;
+  return display_unit == DisplayUnit::kDegree ? DisplayDegrees(value) : value;
 }
 
 double GridAxis::Value(std::size_t i) const {
@@ -41,6 +40,13 @@ double GridAxis::Value(std::size_t i) const {
   const ValueRange& range = std::get<ValueRange>(values);
   if (i == 0) return range.first;               // also count = 1: first only
   if (i + 1 == range.count) return range.last;  // exact, whatever the rounding of the step
+  if (display_unit == DisplayUnit::kDegree) {
+    // Evenly spaced in the degrees shown, so that 0deg:90deg:91 holds 1 deg, 2 deg, ... exactly
+    // as "1 deg", "2 deg" would be converted, and its table shows 1, 2, ...
+    const double first = DisplayDegrees(range.first), last = DisplayDegrees(range.last);
+    const double step = (last - first) / static_cast<double>(range.count - 1);
+    return DegreesToRadians(first + static_cast<double>(i) * step);
+  }
   const double step = (range.last - range.first) / static_cast<double>(range.count - 1);
   return range.first + static_cast<double>(i) * step;
 }

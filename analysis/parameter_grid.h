@@ -12,21 +12,19 @@
 #include <variant>
 #include <vector>
 
+#include "models/units.h"
+
 namespace servokit {
 
-/// `count` values evenly spaced from `first` to `last`, both included, as numpy.linspace:
+/// `count` values evenly spaced from `first` to `last` (SI), both included, as numpy.linspace:
 /// value i is first + i (last - first) / (count - 1), and the last one is exactly `last`.
-/// count = 1 means `first` only.
+/// count = 1 means `first` only. On an axis shown in degrees the spacing is even in degrees
+/// (GridAxis::Value).
 struct ValueRange {
   double first = 0.0;
   double last = 0.0;
   std::size_t count = 1;
 };
-
-/// The unit a parameter is shown in (tables, report axes, threshold results). Values are held
-/// and computed in SI whatever it is; a parameter given in degrees (in the model file, or with
-/// "deg" in --set/--vary) is shown in degrees, so that degrees stay degrees.
-enum class DisplayUnit { kSI, kDegree };
 
 /// One varied parameter and the values it takes, in SI units.
 struct GridAxis {
@@ -39,12 +37,15 @@ struct GridAxis {
   /// The table column of the parameter: its name, with "_deg" appended when it is shown in
   /// degrees ("alpha_deg"), so that the unit travels with every table a tool reads.
   std::string ColumnName() const;
-  /// `value` (SI) in the unit the parameter is shown in.
+  /// `value` (SI) in the unit the parameter is shown in: itself, or DisplayDegrees(value) (the
+  /// shortest degree value that converts back to exactly `value`, so that "5 deg" shows as 5).
   double DisplayValue(double value) const;
 
   /// The number of values (>= 1).
   std::size_t size() const;
-  /// Value i, 0 <= i < size().
+  /// Value i (SI), 0 <= i < size(). A range shown in degrees is spaced evenly in degrees, from
+  /// DisplayDegrees(first) to DisplayDegrees(last), each value converted with DegreesToRadians,
+  /// so that 0deg:90deg:91 takes exactly the values "1 deg", "2 deg", ... would.
   double Value(std::size_t i) const;
 };
 

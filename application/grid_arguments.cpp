@@ -1,12 +1,17 @@
 #include "application/grid_arguments.h"
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
+#include <cmath>
+#include <numbers>
 #include <optional>
 #include <system_error>
 #include <utility>
 
 #include "models/errors.h"
 #include "models/units.h"
+#include "reports/sweep_tables.h"
 
 namespace servokit {
 namespace {
@@ -36,8 +41,8 @@ UsageError VaryError(std::string_view text, const std::string& problem) {
   return UsageError("--vary " + std::string(text) + ": " + problem);
 }
 
-double ParseValue(std::string_view text, std::string_view item) {
-  const std::optional<double> value = ParseQuantity(item);
+ParsedQuantity ParseValue(std::string_view text, std::string_view item) {
+  const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(item);
   if (!value) {
     throw VaryError(
         text, "'" + std::string(Trim(item)) + "' is not a number (use e.g. 0.5 or \"5 deg\")");
@@ -69,37 +74,164 @@ std::size_t VariedParameter(const std::vector<std::string>& parameter_names,
   }
 }
 
+// A step's (b - a) / h counts as whole within this relative tolerance, so that 0:1:step=0.1
+// includes 1 although (1 - 0) / 0.1 is not exactly 10 in floating point.
+constexpr double kWholeStepsTolerance = 1e-9;
+// More values than this on one axis is refused in the step form (beyond it a double no longer
+// counts steps exactly).
+constexpr double kMaxStepCount = 9007199254740992.0;  // 2^53
+
+std::string ShortNumber(double value) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, result.ptr);
+}
+
+// "name=a:b:step=h": a ValueRange from a to the last a + i h <= b (kWholeStepsTolerance).
+ValueRange StepRange(std::string_view text,
+                     const ParsedQuantity& a,
+                     const ParsedQuantity& b,
+                     const ParsedQuantity& h,
+                     bool degrees) {
+  if (!(h.value > 0.0)) throw VaryError(text, "the step h of a:b:step=h must be > 0");
+  if (!(b.value >= a.value)) throw VaryError(text, "a:b:step=h needs a <= b");
+  // Counted in the unit the axis is shown in, so that 0deg:90deg:step=5deg is exactly 18 steps.
+  const auto shown = [&](const ParsedQuantity& q) {
+    return degrees ? DisplayDegrees(q.value) : q.value;
+  };
+  const double steps = (shown(b) - shown(a)) / shown(h);
+  if (!(steps < kMaxStepCount)) throw VaryError(text, "the step h is too small for a..b");
+  const double whole = std::round(steps);
+  if (std::abs(steps - whole) <= kWholeStepsTolerance * std::max(1.0, whole)) {
+    return {a.value, b.value, static_cast<std::size_t>(whole) + 1};
+  }
+  const double below = std::floor(steps);
+  const double last = shown(a) + below * shown(h);
+  return {a.value, degrees ? DegreesToRadians(last) : last, static_cast<std::size_t>(below) + 1};
+}
+
+// A bare a:b:n that MATLAB's start:step:end would read otherwise (a, a + b, ..., n).
+std::string MatlabWarning(std::string_view text,
+                          std::string_view name,
+                          const ParsedQuantity& a,
+                          const ParsedQuantity& b,
+                          std::size_t n) {
+  const double count = static_cast<double>(n);
+  if (a.unit != DisplayUnit::kSI || b.unit != DisplayUnit::kSI) return {};
+  if (!(b.value > a.value) || !(count > b.value)) return {};
+  const double steps = (count - a.value) / b.value;
+  if (steps != std::floor(steps)) return {};
+  const std::string first = ShortNumber(a.value), second = ShortNumber(b.value),
+                    third = std::to_string(n), label = std::string(name);
+  return "--vary " + std::string(text) + " is read as " + third + " values from " + first + " to " +
+         second + " (servokit's a:b:n), not as MATLAB's start:step:end (" + first + ", " +
+         ShortNumber(a.value + b.value) + ", ..., " + third + "); write " + label + "=" + first +
+         ":" + second + ":n=" + third + " for the first, " + label + "=" + first + ":" + third +
+         ":step=" + second + " for the second";
+}
+
 }  // namespace
 
-GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text) {
+bool IsAngleLike(std::string_view name, DisplayUnit unit) {
+  if (unit == DisplayUnit::kDegree) return true;
+  std::string lower(name);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const std::string_view angle : {"alpha", "beta", "gamma", "theta", "phi", "psi"}) {
+    if (lower == angle) return true;
+  }
+  return lower.find("angle") != std::string::npos;
+}
+
+std::string AngleSpanWarning(std::string_view option,
+                             std::string_view name,
+                             DisplayUnit unit,
+                             bool has_unit,
+                             double low,
+                             double high) {
+  if (has_unit || !IsAngleLike(name, unit)) return {};
+  if (!(std::abs(high - low) > 2.0 * std::numbers::pi)) return {};
+  return std::string(option) + ": the values of the angle '" + std::string(name) +
+         "' carry no unit and span " + ShortNumber(std::abs(high - low)) +
+         " rad, more than a full turn (2 pi); they are read as radians (SI): if you meant " +
+         "degrees, write them with deg (e.g. 0deg:90deg:n=91)";
+}
+
+GridAxis ParseGridAxis(const GridParameters& parameters,
+                       std::string_view text,
+                       std::vector<std::string>* warnings) {
   const std::size_t equals = text.find('=');
   const std::string_view name = Trim(text.substr(0, equals));
   if (equals == std::string_view::npos || name.empty()) {
     throw VaryError(text,
                     "expected name=a:b:n or name=v1,v2,... (e.g. --vary alpha=0deg:90deg:91)");
   }
-  GridAxis axis{std::string(name), VariedParameter(parameter_names, text, name), {}};
+  GridAxis axis{std::string(name), VariedParameter(parameters.names, text, name), {}};
+  const DisplayUnit declared = axis.parameter < parameters.units.size()
+                                   ? parameters.units[axis.parameter]
+                                   : DisplayUnit::kSI;
   const std::string_view spec = text.substr(equals + 1);
+  const auto warn = [&](std::string warning) {
+    if (warnings && !warning.empty()) warnings->push_back(std::move(warning));
+  };
+  bool has_unit = false;
+  double low = 0.0, high = 0.0;
   if (spec.find(':') != std::string_view::npos) {
     const std::vector<std::string_view> parts = Split(spec, ':');
     if (parts.size() != 3) {
-      throw VaryError(text, "a range is a:b:n, e.g. alpha=0deg:90deg:91 (n values from a to b)");
+      throw VaryError(text,
+                      "a range is a:b:n, a:b:n=N or a:b:step=h, e.g. alpha=0deg:90deg:n=91 (91 "
+                      "values from a to b) or alpha=0deg:90deg:step=1deg");
     }
-    axis.values = ValueRange{ParseValue(text, parts[0]), ParseValue(text, parts[1]),
-                             ParseCount(text, parts[2])};
+    const ParsedQuantity a = ParseValue(text, parts[0]), b = ParseValue(text, parts[1]);
+    const std::string_view last = Trim(parts[2]);
+    has_unit = a.unit == DisplayUnit::kDegree || b.unit == DisplayUnit::kDegree;
+    if (last.starts_with("step=")) {
+      const ParsedQuantity h = ParseValue(text, last.substr(5));
+      has_unit = has_unit || h.unit == DisplayUnit::kDegree;
+      axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
+      axis.values = StepRange(text, a, b, h, axis.display_unit == DisplayUnit::kDegree);
+    } else {
+      const bool explicit_count = last.starts_with("n=");
+      const std::size_t n = ParseCount(text, explicit_count ? last.substr(2) : last);
+      axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
+      axis.values = ValueRange{a.value, b.value, n};
+      if (!explicit_count) warn(MatlabWarning(text, name, a, b, n));
+    }
+    low = a.value;
+    high = b.value;
   } else {
     std::vector<double> list;
-    for (const std::string_view item : Split(spec, ',')) list.push_back(ParseValue(text, item));
+    for (const std::string_view item : Split(spec, ',')) {
+      const ParsedQuantity value = ParseValue(text, item);
+      has_unit = has_unit || value.unit == DisplayUnit::kDegree;
+      list.push_back(value.value);
+    }
+    low = *std::min_element(list.begin(), list.end());
+    high = *std::max_element(list.begin(), list.end());
+    axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
     axis.values = std::move(list);
   }
+  warn(AngleSpanWarning("--vary " + std::string(text), name, declared, has_unit, low, high));
   return axis;
+}
+
+GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text) {
+  static const std::vector<DisplayUnit> kNoUnits;
+  return ParseGridAxis(GridParameters{parameter_names, kNoUnits}, text);
 }
 
 ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
                                  const std::vector<std::string>& texts) {
+  static const std::vector<DisplayUnit> kNoUnits;
+  return ParseParameterGrid(GridParameters{parameter_names, kNoUnits}, texts);
+}
+
+ParameterGrid ParseParameterGrid(const GridParameters& parameters,
+                                 const std::vector<std::string>& texts,
+                                 std::vector<std::string>* warnings) {
   std::vector<GridAxis> axes;
   axes.reserve(texts.size());
-  for (const std::string& text : texts) axes.push_back(ParseGridAxis(parameter_names, text));
+  for (const std::string& text : texts) axes.push_back(ParseGridAxis(parameters, text, warnings));
   // Checked here too, so that the message can say what to do on the command line.
   for (std::size_t i = 0; i < axes.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
@@ -109,11 +241,18 @@ ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names
       }
     }
   }
+  std::optional<ParameterGrid> grid;
   try {
-    return ParameterGrid(std::move(axes));
+    grid.emplace(std::move(axes));
   } catch (const UsageError& error) {
     throw UsageError("--vary: " + std::string(error.what()));  // too many points
   }
+  try {
+    CheckSweepColumns(*grid);
+  } catch (const UsageError& error) {
+    throw UsageError("--vary: " + std::string(error.what()));
+  }
+  return std::move(*grid);
 }
 
 }  // namespace servokit

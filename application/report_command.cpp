@@ -43,7 +43,7 @@ std::string ModelsDirectory(const ReportArguments& arguments) {
   return SERVOKIT_MODELS_DIR;
 }
 
-int RunReport(const ReportArguments& arguments, std::ostream& out) {
+int RunReport(const ReportArguments& arguments, std::ostream& out, std::ostream& err) {
   if (arguments.subject == "paper") {
     if (!arguments.vary.empty() || !arguments.overrides.empty()) {
       throw UsageError("report paper: --vary and --set are for `report MODEL`");
@@ -58,8 +58,12 @@ int RunReport(const ReportArguments& arguments, std::ostream& out) {
   } else {
     const Model model = LoadModel(arguments.subject, ParseOverrides(arguments.overrides));
     std::vector<GridAxis> axes;
-    for (const std::string& text : arguments.vary)
-      axes.push_back(ParseGridAxis(model.parameter_names(), text));
+    std::vector<std::string> warnings;
+    for (const std::string& text : arguments.vary) {
+      axes.push_back(ParseGridAxis({model.parameter_names(), model.parameter_display_units()}, text,
+                                   &warnings));
+    }
+    for (const std::string& warning : warnings) err << "servokit: warning: " << warning << "\n";
     MakeOutputDirectory(arguments.out);
     WriteModelReport(arguments.out, model, axes);
   }
@@ -76,18 +80,20 @@ Command AddReportCommand(CLI::App& app) {
       "report", "Write a Markdown and HTML report with figures: the paper's, or any model's");
   report->footer(
       "Examples:\n  servokit report paper --out paper-report\n  servokit report "
-      "models/rotational_arm.yaml --vary s=0:1:201 --out arm-report");
+      "models/rotational_arm.yaml --vary s=0:1:n=201 --out arm-report");
   report->add_option("SUBJECT", arguments->subject, "`paper`, or a model file (YAML)")->required();
   report->add_option("--out", arguments->out, "Directory for report.md, report.html, figures")
       ->required();
   report->add_option("--vary", arguments->vary,
-                     "A parameter study: name=a:b:n or name=v1,v2,.. (deg allowed)");
+                     "A parameter study: name=a:b:n, name=a:b:n=N, name=a:b:step=h or "
+                     "name=v1,v2,.. (deg allowed)");
   report->add_option("--set", arguments->overrides,
                      "Override a parameter: name=value (value may end in deg)");
   report->add_option("--models", arguments->models_directory,
                      "Directory of the shipped models (for `report paper`)");
-  return {report,
-          [arguments](std::ostream& out, std::ostream&) { return RunReport(*arguments, out); }};
+  return {report, [arguments](std::ostream& out, std::ostream& err) {
+            return RunReport(*arguments, out, err);
+          }};
 }
 
 }  // namespace servokit

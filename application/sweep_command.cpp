@@ -218,6 +218,7 @@ struct SweepSetup {
   SweepOptions options;
   SweepOutputOptions output_options;
   TestHooks test_hooks;
+  std::vector<std::string> warnings;  // of the --vary texts, printed by rank 0
 };
 
 SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
@@ -235,7 +236,9 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   } else {
     RefuseLinearModelOptions(sweep);
   }
-  ParameterGrid grid = ParseParameterGrid(model.parameter_names(), arguments.vary);
+  std::vector<std::string> warnings;
+  ParameterGrid grid = ParseParameterGrid(
+      {model.parameter_names(), model.parameter_display_units()}, arguments.vary, &warnings);
   RejectSetAndVary(overrides, grid);
   SweepOptions options = MakeSweepOptions(arguments, sweep, model);
   options.linear = linear_options;
@@ -246,8 +249,8 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
   SweepModelInfo info = DescribeSweepModel(model, options);
-  return {std::move(model), std::move(info), std::move(grid),
-          options,          output_options,  TestHooksFromEnvironment()};
+  return {std::move(model),           std::move(info),    std::move(grid), options, output_options,
+          TestHooksFromEnvironment(), std::move(warnings)};
 }
 
 // Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
@@ -314,6 +317,9 @@ int RunSweepCommand(const SweepArguments& arguments,
                     std::ostream& err) {
   std::optional<SweepSetup> setup;
   OnEveryProcess([&] { setup.emplace(MakeSweepSetup(arguments, sweep)); });
+  // `err` of a rank other than 0 is a null stream (mpi_sweep.h): rank 0 alone warns.
+  for (const std::string& warning : setup->warnings)
+    err << "servokit: warning: " << warning << "\n";
   CheckSameSweepOnEveryProcess(*setup);
   const bool root = Processes().IsRoot();
   std::optional<SweepOutput> output;
@@ -359,8 +365,10 @@ Command AddSweepCommand(CLI::App& app) {
       "sweep", "Classify the problem at every point of a parameter grid (CSV tables)");
   sweep->footer(
       "Each --vary adds one axis of a full grid; the first varies slowest (row-major).\n"
-      "A range a:b:n is n values from a to b inclusive; a list is v1,v2,...; values may end\n"
-      "in deg. Interrupted (Ctrl-C), the sweep exits with status 130; the same command\n"
+      "A range a:b:n (or a:b:n=N) is n values from a to b inclusive; a:b:step=h is a, a+h,\n"
+      "... up to b; a list is v1,v2,...; values may end in deg, and a parameter given in deg\n"
+      "is written in degrees (column <name>_deg). Interrupted (Ctrl-C), the sweep exits with "
+      "status 130; the same command\n"
       "resumes it. `mpirun -np K servokit sweep ...` shares the blocks out over K ranks and\n"
       "writes the same files.\n"
       "Example:\n  servokit sweep models/mass_on_car.yaml --vary alpha=0deg:90deg:91 "
@@ -371,7 +379,8 @@ Command AddSweepCommand(CLI::App& app) {
       ->required();
   sweep
       ->add_option("--vary", arguments->vary,
-                   "A varied parameter: name=a:b:n (n values from a to b) or name=v1,v2,...")
+                   "A varied parameter: name=a:b:n (n values from a to b), name=a:b:n=N, "
+                   "name=a:b:step=h or name=v1,v2,...")
       ->required();
   sweep->add_option("--out", arguments->out, "Output directory")->required();
   sweep->add_option("--threads", arguments->threads,

@@ -153,6 +153,9 @@ nlohmann::ordered_json GridToJson(const ParameterGrid& grid) {
     } else {
       entry["values"] = std::get<std::vector<double>>(axis.values);
     }
+    // The values above are SI; the tables show the parameter in this unit, in this column.
+    entry["display_unit"] = ToString(axis.display_unit);
+    entry["column"] = axis.ColumnName();
     axes.push_back(std::move(entry));
   }
   return axes;
@@ -211,6 +214,8 @@ std::string SweepFingerprint(const SweepModelInfo& model,
     } else {
       text += "[" + JoinExact(std::get<std::vector<double>>(axis.values)) + "]";
     }
+    // The unit changes the files (column name, values shown), so it is part of the sweep.
+    text += " " + std::string(ToString(axis.display_unit));
   }
   if (model.linear) return text + "; linear " + DescribeLinearSweepOptions(*model.linear);
   const OperatingPointOptions& point = options.operating_point;

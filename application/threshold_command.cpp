@@ -7,6 +7,7 @@
 #include "analysis/thresholds.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "application/grid_arguments.h"
 #include "models/errors.h"
 #include "models/units.h"
 #include "reports/number_format.h"
@@ -27,6 +28,7 @@ struct ThresholdArguments {
 struct Range {
   std::string parameter;
   double low = 0.0, high = 0.0;
+  bool in_degrees = false;  // low or high was written with deg
 };
 
 // "p=a:b", each end a number that may end in "deg".
@@ -37,13 +39,14 @@ Range ParseRange(const std::string& text) {
       text.find(':', colon + 1) != std::string::npos) {
     throw UsageError("--vary " + text + ": expected name=low:high (e.g. --vary s=0:1)");
   }
-  const auto low = ParseQuantity(text.substr(equals + 1, colon - equals - 1));
-  const auto high = ParseQuantity(text.substr(colon + 1));
+  const auto low = ParseQuantityWithUnit(text.substr(equals + 1, colon - equals - 1));
+  const auto high = ParseQuantityWithUnit(text.substr(colon + 1));
   if (!low || !high) {
     throw UsageError("--vary " + text + ": low and high must be numbers (may end in deg)");
   }
-  if (!(*low < *high)) throw UsageError("--vary " + text + ": needs low < high");
-  return {text.substr(0, equals), *low, *high};
+  if (!(low->value < high->value)) throw UsageError("--vary " + text + ": needs low < high");
+  return {text.substr(0, equals), low->value, high->value,
+          low->unit == DisplayUnit::kDegree || high->unit == DisplayUnit::kDegree};
 }
 
 nlohmann::ordered_json ClosedFormToJson(const CharacteristicPolynomial& closed_form) {
@@ -63,7 +66,7 @@ nlohmann::ordered_json ClosedFormToJson(const CharacteristicPolynomial& closed_f
           {"discriminant_sign_changes", closed_form.discriminant_sign_changes}};
 }
 
-int RunThreshold(const ThresholdArguments& arguments, std::ostream& out) {
+int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::ostream& err) {
   const std::optional<ThresholdEvent> event = ThresholdEventFromString(arguments.event);
   if (!event) {
     throw UsageError("--event " + arguments.event +
@@ -76,6 +79,16 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out) {
   if (!parameter) {
     throw UsageError("--vary " + arguments.vary + ": the model has no parameter '" +
                      range.parameter + "'");
+  }
+  // Values stay SI; a parameter given in degrees (model file, --set or --vary) also gets its
+  // values in degrees.
+  const DisplayUnit declared = model.parameter_display_units()[*parameter];
+  const bool degrees = range.in_degrees || declared == DisplayUnit::kDegree;
+  if (const std::string warning =
+          AngleSpanWarning("--vary " + arguments.vary, range.parameter, declared, range.in_degrees,
+                           range.low, range.high);
+      !warning.empty()) {
+    err << "servokit: warning: " << warning << "\n";
   }
   ThresholdOptions options = arguments.options;
   if (!arguments.y0.empty()) {
@@ -91,6 +104,7 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out) {
                                     {"to", crossing.to}};
     if (!crossing.via.empty()) entry["via"] = crossing.via;
     entry["bracket_width"] = crossing.bracket_width;
+    if (degrees) entry["value_deg"] = WithoutNegativeZero(RadiansToDegrees(crossing.value));
     events.push_back(entry);
   }
   nlohmann::ordered_json result = {{"parameter", search.parameter},
@@ -100,7 +114,9 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out) {
                                    {"range", {search.low, search.high}},
                                    {"scan_intervals", options.scan_intervals},
                                    {"relative_tolerance", options.relative_tolerance},
-                                   {"classifications", search.classifications}};
+                                   {"classifications", search.classifications},
+                                   {"unit", degrees ? "rad" : "SI"}};
+  if (degrees) result["display_unit"] = "deg";
   if (arguments.closed_form && !options.classification.operating_point.y0) {
     const auto closed_form =
         DeriveCharacteristicPolynomial(model, *parameter, range.low, range.high);
@@ -140,8 +156,9 @@ Command AddThresholdCommand(CLI::App& app) {
   threshold->add_flag("!--no-closed-form", arguments->closed_form,
                       "Skip the symbolic characteristic polynomial and its Routh-Hurwitz "
                       "conditions");
-  return {threshold,
-          [arguments](std::ostream& out, std::ostream&) { return RunThreshold(*arguments, out); }};
+  return {threshold, [arguments](std::ostream& out, std::ostream& err) {
+            return RunThreshold(*arguments, out, err);
+          }};
 }
 
 }  // namespace servokit

@@ -64,10 +64,10 @@ fi
 run_servokit() {  # run_servokit THREADS
   local n=$1 out="$work/servokit_$1" start end
   echo "servokit: $servokit sweep $model --vary alpha=0deg:90deg:$servokit_grid" \
-    "--vary d=0:2:$servokit_grid --out $out --threads $n"
+    "--vary d=0:2:n=$servokit_grid --out $out --threads $n"
   start=$(date +%s.%N)
   if ! "$servokit" sweep "$model" --vary "alpha=0deg:90deg:$servokit_grid" \
-      --vary "d=0:2:$servokit_grid" --out "$out" --threads "$n" >"$work/servokit_$n.log"; then
+      --vary "d=0:2:n=$servokit_grid" --out "$out" --threads "$n" >"$work/servokit_$n.log"; then
     echo "compare_sweep: servokit sweep --threads $n failed; its output:" >&2
     cat "$work/servokit_$n.log" >&2
     exit 1

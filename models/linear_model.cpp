@@ -202,11 +202,12 @@ class LinearModelBuilder {
         const std::string& name = entry.first.Scalar();
         const std::string where = "parameters." + name;
         CheckParameterName(name, where);
-        const std::optional<double> value =
-            entry.second.IsScalar() ? ParseQuantity(entry.second.Scalar()) : std::nullopt;
+        const std::optional<ParsedQuantity> value =
+            entry.second.IsScalar() ? ParseQuantityWithUnit(entry.second.Scalar()) : std::nullopt;
         if (!value) Fail(where, "not a number " + std::string(kQuantityHint));
         model_.parameter_names_.push_back(name);
-        values.push_back(*value);
+        model_.parameter_units_.push_back(value->unit);
+        values.push_back(value->value);
       }
     }
     model_.parameters_ =
@@ -219,7 +220,8 @@ class LinearModelBuilder {
   }
 
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
-    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
+    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_,
+                                    model_.parameter_units_);
   }
 
   void MakeSymbols() {

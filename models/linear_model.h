@@ -64,6 +64,8 @@ class LinearModel {
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
   /// Nominal parameter values (SI) after overrides, in the order of parameter_names().
   const Eigen::VectorXd& parameters() const { return parameters_; }
+  /// The unit each parameter is shown in (Model::parameter_display_units()).
+  const std::vector<DisplayUnit>& parameter_display_units() const { return parameter_units_; }
   std::optional<std::size_t> FindParameter(std::string_view name) const;
 
   const std::vector<LinearModelTerm>& mass_terms() const { return mass_terms_; }
@@ -78,6 +80,7 @@ class LinearModel {
   std::string name_, description_, source_, content_hash_;
   std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0;
   std::vector<std::string> parameter_names_;
+  std::vector<DisplayUnit> parameter_units_;
   Eigen::VectorXd parameters_;
   std::vector<LinearModelTerm> mass_terms_, damping_terms_, stiffness_terms_;
   SparseMatrix input_matrix_, output_matrix_;

@@ -50,6 +50,13 @@ class LoadedModel {
         },
         model_);
   }
+  const std::vector<DisplayUnit>& parameter_display_units() const {
+    return std::visit(
+        [](const auto& model) -> const std::vector<DisplayUnit>& {
+          return model.parameter_display_units();
+        },
+        model_);
+  }
   const Eigen::VectorXd& parameters() const {
     return std::visit(
         [](const auto& model) -> const Eigen::VectorXd& { return model.parameters(); }, model_);

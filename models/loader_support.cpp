@@ -419,7 +419,8 @@ std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
 
 void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                              const std::vector<ParameterOverride>& overrides,
-                             Eigen::VectorXd& parameters) {
+                             Eigen::VectorXd& parameters,
+                             std::vector<DisplayUnit>& units) {
   for (const ParameterOverride& override_ : overrides) {
     const auto found = std::find(parameter_names.begin(), parameter_names.end(), override_.name);
     if (found == parameter_names.end()) {
@@ -429,11 +430,13 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                                                   : "known: " + Join(parameter_names)) +
                          ")");
     }
-    const std::optional<double> value = ParseQuantity(override_.value);
+    const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(override_.value);
     if (!value) {
       throw ParameterOverrideError(override_, "not a number " + std::string(kQuantityHint));
     }
-    parameters[static_cast<Eigen::Index>(found - parameter_names.begin())] = *value;
+    const auto index = static_cast<std::size_t>(found - parameter_names.begin());
+    parameters[static_cast<Eigen::Index>(index)] = value->value;
+    if (value->unit == DisplayUnit::kDegree) units[index] = DisplayUnit::kDegree;
   }
 }
 

@@ -142,9 +142,11 @@ std::optional<std::string> FindUnsupported(const GiNaC::ex& expression);
 
 /// Applies the parameter overrides to `parameters` (in the order of `parameter_names`). Throws
 /// ParameterOverrideError for an unknown name (listing the known ones) or a value that is not a
-/// number (optionally with "deg").
+/// number (optionally with "deg"). An override in degrees marks its parameter kDegree in `units`
+/// (same order); one without leaves the parameter's unit as it was.
 void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                              const std::vector<ParameterOverride>& overrides,
-                             Eigen::VectorXd& parameters);
+                             Eigen::VectorXd& parameters,
+                             std::vector<DisplayUnit>& units);
 
 }  // namespace servokit::detail

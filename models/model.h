@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "models/errors.h"
+#include "models/units.h"
 
 namespace servokit {
 
@@ -94,6 +95,9 @@ class Model {
   std::vector<std::string> output_names() const;
   /// Nominal parameter values in SI units, in the order of parameter_names(), after overrides.
   const Eigen::VectorXd& parameters() const { return parameters_; }
+  /// The unit each parameter is shown in, in the order of parameter_names(): kDegree for one
+  /// the model file or an override gave in degrees ("5 deg"), kSI otherwise. Values stay SI.
+  const std::vector<DisplayUnit>& parameter_display_units() const { return parameter_units_; }
   /// Index of a parameter by name, or nullopt.
   std::optional<std::size_t> FindParameter(std::string_view name) const;
 
@@ -109,6 +113,7 @@ class Model {
   friend class ModelBuilder;  // models/model_loader.cpp fills a Model
   std::string name_, description_, source_, content_hash_;
   std::vector<std::string> coordinates_, inputs_, parameter_names_;
+  std::vector<DisplayUnit> parameter_units_;
   std::size_t num_outputs_ = 0;
   bool has_zero_dynamics_polynomial_ = false;
   Eigen::VectorXd parameters_;

@@ -207,20 +207,22 @@ class ModelBuilder {
         Fail("parameters", "parameter names must be plain names");
       }
       const std::string& name = entry.first.Scalar();
-      const std::optional<double> value =
-          entry.second.IsScalar() ? ParseQuantity(entry.second.Scalar()) : std::nullopt;
+      const std::optional<ParsedQuantity> value =
+          entry.second.IsScalar() ? ParseQuantityWithUnit(entry.second.Scalar()) : std::nullopt;
       if (!value) {
         Fail("parameters." + name, "not a number " + std::string(kQuantityHint));
       }
       model_.parameter_names_.push_back(name);
-      values.push_back(*value);
+      model_.parameter_units_.push_back(value->unit);
+      values.push_back(value->value);
     }
     model_.parameters_ =
         Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
   }
 
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {
-    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_);
+    detail::ApplyParameterOverrides(model_.parameter_names_, overrides, model_.parameters_,
+                                    model_.parameter_units_);
   }
 
   std::vector<std::string> ReadNameList(const std::string& key) const {

@@ -5,6 +5,7 @@
 
 #include "analysis/classification.h"
 #include "models/errors.h"
+#include "models/units.h"
 #include "reports/classification_report.h"
 #include "reports/number_format.h"
 #include "reports/report_support.h"
@@ -16,12 +17,20 @@ void AddStudy(Document& document,
               const std::filesystem::path& directory,
               const Model& model,
               const GridAxis& axis) {
-  std::vector<double> values;
-  for (std::size_t i = 0; i < axis.size(); ++i) values.push_back(axis.Value(i));
+  // Values are SI; a parameter given in degrees is shown in degrees (axis label "alpha [deg]").
+  const bool degrees = axis.display_unit == DisplayUnit::kDegree;
+  const std::string label = axis.name + (degrees ? " [deg]" : "");
+  std::vector<double> values, shown;
+  for (std::size_t i = 0; i < axis.size(); ++i) {
+    values.push_back(axis.Value(i));
+    shown.push_back(axis.DisplayValue(values.back()));
+  }
   const auto [low_it, high_it] = std::minmax_element(values.begin(), values.end());
   const double low = *low_it, high = *high_it;
-  document.Add(Heading{
-      2, "Study of " + axis.name + " from " + FormatShort(low) + " to " + FormatShort(high)});
+  const std::string span = label + " from " + FormatShort(axis.DisplayValue(low)) + " to " +
+                           FormatShort(axis.DisplayValue(high));
+  double (*const to_display)(double) = degrees ? RadiansToDegrees : AsIs;
+  document.Add(Heading{2, "Study of " + span});
   const std::vector<SweepPoint> points = SweepParameter(model, axis.parameter, values);
   const std::string stem = "study_" + axis.name;
   PlotSpec locus{stem + "_root_locus",
@@ -34,11 +43,11 @@ void AddStudy(Document& document,
                  {}};
   PlotSpec real_part{stem + "_real_part",
                      "Real parts over " + axis.name,
-                     axis.name,
+                     label,
                      "Re(lambda) [1/s]",
                      "",
                      "",
-                     {{"Re(lambda)", EigenvalueCurve(points, values, false)}},
+                     {{"Re(lambda)", EigenvalueCurve(points, shown, false)}},
                      {}};
   std::vector<ThresholdSearch> searches;
   if (high > low) {
@@ -46,14 +55,13 @@ void AddStudy(Document& document,
          {ThresholdEvent::kStability, ThresholdEvent::kOscillation, ThresholdEvent::kRealization}) {
       searches.push_back(FindThresholds(model, axis.parameter, low, high, event));
       for (const ThresholdCrossing& crossing : searches.back().events) {
-        real_part.markers.push_back({crossing.value, std::string(ToString(event))});
+        real_part.markers.push_back({to_display(crossing.value), std::string(ToString(event))});
       }
     }
   }
   DrawPlot(directory.string(), locus);
   DrawPlot(directory.string(), real_part);
-  document.Add(FigureOf(locus.name, "Zero-dynamics eigenvalues, " + axis.name + " from " +
-                                        FormatShort(low) + " to " + FormatShort(high)));
+  document.Add(FigureOf(locus.name, "Zero-dynamics eigenvalues, " + span));
   document.Add(FigureOf(real_part.name, "Real parts of the eigenvalues over " + axis.name));
   std::size_t failed = 0;
   for (const SweepPoint& point : points) failed += point.ok ? 0 : 1;
@@ -63,7 +71,7 @@ void AddStudy(Document& document,
   }
   if (!searches.empty()) {
     document.Add(Heading{3, "Located thresholds"});
-    document.Add(ThresholdTable(searches, "", AsIs));
+    document.Add(ThresholdTable(searches, degrees ? "deg" : "", to_display));
     if (const auto closed_form = DeriveCharacteristicPolynomial(model, axis.parameter, low, high)) {
       AddClosedForm(document, *closed_form, axis.name);
     }

@@ -1,15 +1,29 @@
 #include "reports/sweep_tables.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "analysis/sweep.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "models/errors.h"
 #include "reports/number_format.h"
 
 namespace servokit {
 namespace {
+
+// The columns after the varied parameters, in order (sweep_tables.h).
+constexpr std::array<std::string_view, 8> kPointsFixedColumns = {"realization",
+                                                                 "P_rank",
+                                                                 "relative_degree",
+                                                                 "differentiation_index",
+                                                                 "internal_dynamics_order",
+                                                                 "stability",
+                                                                 "max_real_part",
+                                                                 "error"};
+constexpr std::array<std::string_view, 5> kEigenvaluesFixedColumns = {
+    kEigenvalueIndexColumn, "re", "im", "frequency_hz", "damping_ratio"};
 
 std::vector<std::string> ParameterColumns(const ParameterGrid& grid) {
   std::vector<std::string> columns;
@@ -83,21 +97,41 @@ void AppendEigenvalueRows(const std::string& values, const SweepPoint& point, st
 
 }  // namespace
 
-std::vector<std::string> PointsColumns(const ParameterGrid& grid) {
-  std::vector<std::string> columns = ParameterColumns(grid);
-  for (const char* column : {"realization", "P_rank", "relative_degree", "differentiation_index",
-                             "internal_dynamics_order", "stability", "max_real_part", "error"}) {
-    columns.emplace_back(column);
+void CheckSweepColumns(const ParameterGrid& grid) {
+  const std::vector<std::string> parameters = ParameterColumns(grid);
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const std::string& name = grid.axes()[i].name;
+    const auto clash = [&](const std::string& where) {
+      throw UsageError("parameter '" + name + "': its column '" + parameters[i] +
+                       "' would also be " + where +
+                       " (a table cannot have two columns of one name); rename the parameter " +
+                       "in the model file to vary it");
+    };
+    for (const std::string_view column : kPointsFixedColumns) {
+      if (parameters[i] == column) clash("a fixed column of points.csv");
+    }
+    for (const std::string_view column : kEigenvaluesFixedColumns) {
+      if (parameters[i] == column) clash("a fixed column of eigenvalues.csv");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (parameters[i] == parameters[j]) {
+        clash("the column of the varied parameter '" + grid.axes()[j].name + "'");
+      }
+    }
   }
+}
+
+std::vector<std::string> PointsColumns(const ParameterGrid& grid) {
+  CheckSweepColumns(grid);
+  std::vector<std::string> columns = ParameterColumns(grid);
+  columns.insert(columns.end(), kPointsFixedColumns.begin(), kPointsFixedColumns.end());
   return columns;
 }
 
 std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid) {
+  CheckSweepColumns(grid);
   std::vector<std::string> columns = ParameterColumns(grid);
-  columns.emplace_back(kEigenvalueIndexColumn);
-  for (const char* column : {"re", "im", "frequency_hz", "damping_ratio"}) {
-    columns.emplace_back(column);
-  }
+  columns.insert(columns.end(), kEigenvaluesFixedColumns.begin(), kEigenvaluesFixedColumns.end());
   return columns;
 }
 

@@ -3,7 +3,8 @@
 // rows, formatted the same by `servokit sweep` (whose durable store, application/sweep_store.h,
 // writes them) and by the library's api::SweepToFiles.
 //
-//   points.csv          one row per grid point: the varied parameters (SI), the class columns
+//   points.csv          one row per grid point: the varied parameters (SI, or degrees in a
+//                       column "<name>_deg" for one given in degrees), the class columns
 //                       and `error` (empty, or why the point has no solution)
 //   eigenvalues.csv     one row per zero-dynamics eigenvalue of each point
 #include <cstddef>
@@ -17,8 +18,15 @@
 
 namespace servokit {
 
-/// The name of eigenvalues.csv's column that numbers a point's eigenvalues from 0.
-inline constexpr std::string_view kEigenvalueIndexColumn = "k";
+/// The name of eigenvalues.csv's column that numbers a point's eigenvalues from 0 (not "k", which
+/// a stiffness parameter is often called).
+inline constexpr std::string_view kEigenvalueIndexColumn = "eigenvalue_index";
+
+/// Throws UsageError "parameter 'name': its column 'column' ..." when a varied parameter's column
+/// (GridAxis::ColumnName) is also a fixed column of points.csv or eigenvalues.csv, or another
+/// varied parameter's column: a table cannot have two columns of one name. PointsColumns and
+/// EigenvaluesColumns call it; commands call it first, to refuse before writing anything.
+void CheckSweepColumns(const ParameterGrid& grid);
 
 /// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
 /// realization, P_rank, relative_degree, differentiation_index, internal_dynamics_order,
@@ -34,7 +42,7 @@ std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid);
 std::string PointsCsvHeader(const ParameterGrid& grid);
 
 /// The header line of eigenvalues.csv: the varied parameters, then
-/// k,re,im,frequency_hz,damping_ratio.
+/// eigenvalue_index,re,im,frequency_hz,damping_ratio.
 std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
 
 /// Appends the rows of points first, first + 1, ... to `points_csv` and `eigenvalues_csv`.
@@ -43,8 +51,9 @@ std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
 /// relative_degree of several outputs is joined with ';'; relative_degree,
 /// differentiation_index and internal_dynamics_order are empty when the internal order is
 /// negative (not determined: a linear model, LinearRelativeDegrees::determined false);
-/// max_real_part is empty when there are no eigenvalues; k numbers a point's eigenvalues from 0 in
-/// SweepPoint order.
+/// max_real_part is empty when there are no eigenvalues; eigenvalue_index numbers a point's
+/// eigenvalues from 0 in SweepPoint order. The varied parameters are written in the unit they are
+/// shown in (GridAxis::DisplayValue: degrees for a parameter given in degrees).
 void AppendCsvRows(const ParameterGrid& grid,
                    std::size_t first,
                    std::span<const SweepPoint> points,

@@ -37,7 +37,7 @@ commands() {
   echo "analyze GEN/chain/chain_300.yaml --eigen-solver arpack --eigenvalues 6 --format text"
   echo "analyze GEN/beam/beam_40.yaml --format md"
   echo "sweep $models/mass_on_car.yaml --vary alpha=0deg:90deg:19 --vary d=0:2:5 --out OUT/sweep"
-  echo "sweep $models/rotational_arm.yaml --vary s=0:1:21 --threads 2 --out OUT/arm-sweep"
+  echo "sweep $models/rotational_arm.yaml --vary s=0:1:n=21 --threads 2 --out OUT/arm-sweep"
   echo "sweep GEN/chain/chain_300.yaml --vary d=0.01,0.1 --out OUT/chain-sweep"
   echo "threshold $models/mass_on_car.yaml --vary alpha=1deg:80deg --event oscillation --set d=1"
   echo "threshold $models/mass_on_car.yaml --vary alpha=1deg:89deg --event realization"

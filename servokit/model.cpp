@@ -73,6 +73,13 @@ const Eigen::VectorXd& Model::parameters() const {
   return Visit(*this,
                [](const auto& model) -> const Eigen::VectorXd& { return model.parameters(); });
 }
+std::vector<std::string> Model::parameter_display_units() const {
+  std::vector<std::string> units;
+  for (const DisplayUnit unit : ToolkitModel(*this).parameter_display_units()) {
+    units.emplace_back(ToString(unit));
+  }
+  return units;
+}
 std::size_t Model::dof() const {
   return Visit(*this, [](const auto& model) { return model.dof(); });
 }

@@ -59,6 +59,9 @@ class Model {
   /// Parameter names, and their values in SI units after overrides (same order).
   const std::vector<std::string>& parameter_names() const;
   const Eigen::VectorXd& parameters() const;
+  /// The unit each parameter is shown in (same order): "deg" for one the model file or an
+  /// override gave in degrees ("5 deg"), "SI" otherwise. Values are SI whatever it says.
+  std::vector<std::string> parameter_display_units() const;
   /// Generalized coordinates q and inputs u; a linear model's are numbered q1.., u1...
   std::size_t dof() const;
   std::size_t num_inputs() const;
@@ -160,8 +163,11 @@ struct SweepOptions {
 
 /// One point of a sweep: the class columns of `servokit sweep`'s points.csv.
 struct SweepPoint {
-  std::vector<double> parameter_values;  // one per axis, in the order of the axes
-  bool solved = false;                   // false: `error` says why this point has no answer
+  std::vector<double> parameter_values;  // one per axis, in the order of the axes (SI)
+  // The same in the unit each parameter is shown in (SweepTableColumns): degrees for a parameter
+  // given in degrees (the shortest value that converts back exactly, so "5 deg" gives 5).
+  std::vector<double> parameter_display_values;
+  bool solved = false;  // false: `error` says why this point has no answer
   std::string error;
   std::string realization;
   int P_rank = 0;
@@ -182,6 +188,15 @@ struct SweepPoint {
 std::vector<SweepPoint> Sweep(const Model& model,
                               const std::vector<SweepAxis>& axes,
                               const SweepOptions& options = {});
+
+/// The column names of points.csv and eigenvalues.csv for a sweep of `model` over `axes`, as
+/// every table format names them: the varied parameters ("<name>_deg" for a parameter shown in
+/// degrees), then the fixed columns (eigenvalues.csv's eigenvalue index is "eigenvalue_index").
+/// Throws UsageError when a parameter's column would clash with another column.
+struct SweepColumns {
+  std::vector<std::string> points, eigenvalues;
+};
+SweepColumns SweepTableColumns(const Model& model, const std::vector<SweepAxis>& axes);
 
 /// The same sweep written to `directory` as points.csv and eigenvalues.csv, byte for byte the
 /// tables `servokit sweep --out` writes. Returns the number of points. Throws Error when the
@@ -208,6 +223,9 @@ struct Threshold {
   double value = 0.0;
   std::string from, to;
   std::string via;  // a thin state passed through (e.g. "tangential"), or empty
+  // `value` * 180 / pi when the parameter is shown in degrees (Model::parameter_display_units()
+  // says "deg": the model file or an override gave it in degrees), else empty.
+  std::optional<double> value_deg;
 };
 
 /// Every threshold in [low, high], ascending, each to 1e-12 relative. Multibody models only.

@@ -26,9 +26,12 @@ ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
     grid_axis.name = axis.parameter;
     grid_axis.parameter = ParameterIndex(model.parameter_names(), axis.parameter);
     grid_axis.values = axis.values;
+    grid_axis.display_unit = ToolkitModel(model).parameter_display_units()[grid_axis.parameter];
     grid_axes.push_back(std::move(grid_axis));
   }
-  return ParameterGrid(std::move(grid_axes));
+  ParameterGrid grid(std::move(grid_axes));
+  CheckSweepColumns(grid);
+  return grid;
 }
 
 // Runs the sweep block by block into `consume`: the toolkit's one sweep engine, either kind.
@@ -54,6 +57,11 @@ SweepPoint ToSweepPoint(const ParameterGrid& grid,
   SweepPoint result;
   result.parameter_values.resize(grid.axes().size());
   grid.PointValues(index, result.parameter_values);
+  result.parameter_display_values.reserve(grid.axes().size());
+  for (std::size_t axis = 0; axis < grid.axes().size(); ++axis) {
+    result.parameter_display_values.push_back(
+        grid.axes()[axis].DisplayValue(result.parameter_values[axis]));
+  }
   result.solved = point.ok;
   result.error = point.error;
   if (!point.ok) return result;
@@ -88,6 +96,11 @@ std::vector<SweepPoint> Sweep(const Model& model,
                   }
                 });
   return points;
+}
+
+SweepColumns SweepTableColumns(const Model& model, const std::vector<SweepAxis>& axes) {
+  const ParameterGrid grid = ToGrid(model, axes);
+  return {PointsColumns(grid), EigenvaluesColumns(grid)};
 }
 
 std::size_t SweepToFiles(const Model& model,

@@ -2,6 +2,7 @@
 #include "analysis/thresholds.h"
 
 #include "models/option_check.h"
+#include "models/units.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
@@ -18,9 +19,12 @@ std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery
   options.classification = ToClassificationOptions(query.analysis);
   const ThresholdSearch search =
       FindThresholds(multibody, *parameter, query.low, query.high, *event, options);
+  const bool degrees = multibody.parameter_display_units()[*parameter] == DisplayUnit::kDegree;
   std::vector<Threshold> thresholds;
   for (const ThresholdCrossing& crossing : search.events) {
-    thresholds.push_back({crossing.value, crossing.from, crossing.to, crossing.via});
+    thresholds.push_back(
+        {crossing.value, crossing.from, crossing.to, crossing.via,
+         degrees ? std::optional<double>(RadiansToDegrees(crossing.value)) : std::nullopt});
   }
   return thresholds;
 }

@@ -240,9 +240,10 @@ py::tuple SweepTables(const sk::Model& model,
                       const std::string& table) {
   const bool joined_degrees = model.num_outputs() != 1;  // "1;2", as the CSV writes it
   std::vector<Column> point_columns, eigenvalue_columns;
-  for (const sk::SweepAxis& axis : axes) {
-    point_columns.push_back(Column::Float(axis.parameter));
-    eigenvalue_columns.push_back(Column::Float(axis.parameter));
+  const sk::SweepColumns names = sk::SweepTableColumns(model, axes);  // "alpha_deg" in degrees
+  for (std::size_t axis = 0; axis < axes.size(); ++axis) {
+    point_columns.push_back(Column::Float(names.points[axis]));
+    eigenvalue_columns.push_back(Column::Float(names.eigenvalues[axis]));
   }
   Column realization = Column::Text("realization"), P_rank = Column::Integer("P_rank", true),
          relative_degree = joined_degrees ? Column::Text("relative_degree")
@@ -251,11 +252,12 @@ py::tuple SweepTables(const sk::Model& model,
          internal_order = Column::Integer("internal_dynamics_order", true),
          stability = Column::Text("stability"), max_real_part = Column::Float("max_real_part"),
          error = Column::Text("error");
-  Column k = Column::Integer("k", false), re = Column::Float("re"), im = Column::Float("im"),
-         frequency = Column::Float("frequency_hz"), damping = Column::Float("damping_ratio");
+  Column k = Column::Integer(names.eigenvalues[axes.size()], false), re = Column::Float("re"),
+         im = Column::Float("im"), frequency = Column::Float("frequency_hz"),
+         damping = Column::Float("damping_ratio");
   for (const sk::SweepPoint& point : points) {
     for (std::size_t axis = 0; axis < axes.size(); ++axis) {
-      point_columns[axis].numbers.push_back(point.parameter_values[axis]);
+      point_columns[axis].numbers.push_back(point.parameter_display_values[axis]);
     }
     realization.texts.push_back(point.realization);
     P_rank.AddInteger(point.solved ? std::optional<std::int64_t>(point.P_rank) : std::nullopt);
@@ -278,7 +280,7 @@ py::tuple SweepTables(const sk::Model& model,
     error.texts.push_back(point.error);
     for (std::size_t i = 0; i < point.eigenvalues.size(); ++i) {
       for (std::size_t axis = 0; axis < axes.size(); ++axis) {
-        eigenvalue_columns[axis].numbers.push_back(point.parameter_values[axis]);
+        eigenvalue_columns[axis].numbers.push_back(point.parameter_display_values[axis]);
       }
       k.AddInteger(std::int64_t(i));
       re.numbers.push_back(point.eigenvalues[i].real());
@@ -687,6 +689,7 @@ PYBIND11_MODULE(servokit, module) {
               entry["to"] = threshold.to;
               entry["via"] = threshold.via.empty() ? py::object(py::none())
                                                    : py::object(py::str(threshold.via));
+              if (threshold.value_deg) entry["value_deg"] = *threshold.value_deg;
               result.append(entry);
             }
             return result;

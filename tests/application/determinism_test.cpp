@@ -71,12 +71,12 @@ TEST_CASE("threshold prints the same closed forms and values in every process", 
 }
 
 TEST_CASE("sweep writes the same files in every process", "[reports][slow]") {
-  RequireSameBytesEveryRun({"sweep", kArm, "--vary", "kappa=-1:2:61", "--vary", "d2=0:0.1:3",
+  RequireSameBytesEveryRun({"sweep", kArm, "--vary", "kappa=-1:2:n=61", "--vary", "d2=0:0.1:n=3",
                             "--threads", "2", "--out", "sweep"});
 }
 
 TEST_CASE("report writes the same files in every process", "[reports][slow]") {
-  RequireSameBytesEveryRun({"report", kArm, "--vary", "kappa=-1:2:31", "--out", "report"});
+  RequireSameBytesEveryRun({"report", kArm, "--vary", "kappa=-1:2:n=31", "--out", "report"});
 }
 
 TEST_CASE("solve writes the same CSV and JSON in every process, by every method",

@@ -57,8 +57,9 @@ TEST_CASE("deg is accepted on each value of a range or list, with or without a b
   CHECK(ninety == std::numbers::pi / 2);
   for (const char* text : {"alpha=0deg:90deg:3", "alpha=0 deg:90 deg:3", "alpha=0:90deg:3"}) {
     INFO(text);
+    // A range with a value in degrees is spaced evenly in degrees: its middle is "45 deg".
     CHECK(AxisValues(ParseGridAxis(MassOnCar(), text)) ==
-          std::vector<double>{0.0, ninety / 2, ninety});
+          std::vector<double>{0.0, *ParseQuantity("45 deg"), ninety});
   }
   CHECK(AxisValues(ParseGridAxis(MassOnCar(), "alpha=90deg, 0.5,45 deg")) ==
         std::vector<double>{ninety, 0.5, *ParseQuantity("45 deg")});
@@ -85,9 +86,21 @@ TEST_CASE("--vary errors name the argument and the problem", "[reports]") {
   CHECK(UsageErrorOf({"=1,2"}) ==
         "--vary =1,2: expected name=a:b:n or name=v1,v2,... (e.g. --vary alpha=0deg:90deg:91)");
   CHECK(UsageErrorOf({"alpha=0:1"}) ==
-        "--vary alpha=0:1: a range is a:b:n, e.g. alpha=0deg:90deg:91 (n values from a to b)");
+        "--vary alpha=0:1: a range is a:b:n, a:b:n=N or a:b:step=h, e.g. alpha=0deg:90deg:n=91 "
+        "(91 values from a to b) or alpha=0deg:90deg:step=1deg");
   CHECK(UsageErrorOf({"alpha=0:1:2:3"}) ==
-        "--vary alpha=0:1:2:3: a range is a:b:n, e.g. alpha=0deg:90deg:91 (n values from a to b)");
+        "--vary alpha=0:1:2:3: a range is a:b:n, a:b:n=N or a:b:step=h, e.g. "
+        "alpha=0deg:90deg:n=91 (91 values from a to b) or alpha=0deg:90deg:step=1deg");
+  CHECK(UsageErrorOf({"alpha=0:1:step=0"}) ==
+        "--vary alpha=0:1:step=0: the step h of a:b:step=h must be > 0");
+  CHECK(UsageErrorOf({"alpha=0:1:step=-0.5"}) ==
+        "--vary alpha=0:1:step=-0.5: the step h of a:b:step=h must be > 0");
+  CHECK(UsageErrorOf({"alpha=1:0:step=0.5"}) ==
+        "--vary alpha=1:0:step=0.5: a:b:step=h needs a <= b");
+  CHECK(UsageErrorOf({"alpha=0:1:step=x"}) ==
+        "--vary alpha=0:1:step=x: 'x' is not a number (use e.g. 0.5 or \"5 deg\")");
+  CHECK(UsageErrorOf({"alpha=0:1:n=0"}) ==
+        "--vary alpha=0:1:n=0: the number of values must be at least 1, got 0");
   CHECK(UsageErrorOf({"alpha=0:x:3"}) ==
         "--vary alpha=0:x:3: 'x' is not a number (use e.g. 0.5 or \"5 deg\")");
   CHECK(UsageErrorOf({"alpha=1,,2"}) ==
@@ -116,6 +129,158 @@ TEST_CASE("a linear model's parameters are read by the same grammar", "[reports]
   CHECK(grid.axes().front().parameter == 2);
   CHECK_THROWS_WITH(ParseParameterGrid(model.parameter_names(), {"q=1:2:3"}),
                     "--vary q=1:2:3: unknown parameter 'q' (the model has m, k, d, alpha)");
+}
+
+// ---- explicit forms, units and warnings (issue #17) ---------------------------------------------
+
+const Model& MassOnCarModel() {
+  static const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
+  return model;
+}
+
+GridParameters MassOnCarParameters() {
+  return {MassOnCarModel().parameter_names(), MassOnCarModel().parameter_display_units()};
+}
+
+std::vector<std::string> WarningsOf(const std::string& text) {
+  std::vector<std::string> warnings;
+  ParseGridAxis(MassOnCarParameters(), text, &warnings);
+  return warnings;
+}
+
+TEST_CASE("a:b:n=N is N values from a to b, as a:b:N", "[reports]") {
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=0:2:n=5")) ==
+        AxisValues(ParseGridAxis(MassOnCar(), "d=0:2:5")));
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=3:7:n=1")) == std::vector<double>{3.0});
+}
+
+TEST_CASE("a:b:step=h is a, a + h, ... up to b, b included within a rounding tolerance",
+          "[reports]") {
+  // (1 - 0) / 0.1 = 10.000000000000002 in floating point: whole within 1e-9, so 11 values and
+  // the last is exactly 1.
+  const std::vector<double> tenths = AxisValues(ParseGridAxis(MassOnCar(), "d=0:1:step=0.1"));
+  REQUIRE(tenths.size() == 11);
+  CHECK(tenths.front() == 0.0);
+  CHECK(tenths.back() == 1.0);
+  CHECK(tenths[3] == Approx(0.3).epsilon(1e-15));
+  // 1 / 0.3 = 3.33: b is not reached; the values stop at 0.9.
+  const std::vector<double> thirds = AxisValues(ParseGridAxis(MassOnCar(), "d=0:1:step=0.3"));
+  REQUIRE(thirds.size() == 4);
+  CHECK(thirds.back() == Approx(0.9).epsilon(1e-15));
+  CHECK(thirds.back() < 1.0);
+  // a = b is one value; a step larger than b - a too.
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=2:2:step=1")) == std::vector<double>{2.0});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=2:3:step=5")) == std::vector<double>{2.0});
+  // Degrees: 0, 5, ..., 90 is 19 values, each exactly what "<v> deg" converts to.
+  const GridAxis alpha = ParseGridAxis(MassOnCar(), "alpha=0deg:90deg:step=5deg");
+  REQUIRE(alpha.size() == 19);
+  CHECK(alpha.display_unit == DisplayUnit::kDegree);
+  for (std::size_t i = 0; i < alpha.size(); ++i) {
+    const double degrees = 5.0 * static_cast<double>(i);
+    CHECK(alpha.Value(i) == DegreesToRadians(degrees));
+    CHECK(alpha.DisplayValue(alpha.Value(i)) == degrees);
+  }
+}
+
+TEST_CASE("a --vary in degrees, or of a parameter the model gives in degrees, is shown in degrees",
+          "[reports]") {
+  // mass_on_car.yaml: alpha: 5 deg, the others in SI.
+  const std::vector<DisplayUnit> units = MassOnCarModel().parameter_display_units();
+  CHECK(units == std::vector<DisplayUnit>{DisplayUnit::kSI, DisplayUnit::kSI, DisplayUnit::kSI,
+                                          DisplayUnit::kSI, DisplayUnit::kDegree});
+  const GridAxis listed = ParseGridAxis(MassOnCarParameters(), "alpha=5deg,30deg");
+  CHECK(listed.display_unit == DisplayUnit::kDegree);
+  CHECK(listed.ColumnName() == "alpha_deg");
+  // The given degrees come back exactly, although 5 pi/180 * 180/pi need not be 5.
+  CHECK(listed.DisplayValue(listed.Value(0)) == 5.0);
+  CHECK(listed.DisplayValue(listed.Value(1)) == 30.0);
+  // Declared in degrees by the model: shown in degrees even when given in radians.
+  const GridAxis radians = ParseGridAxis(MassOnCarParameters(), "alpha=0.5,1");
+  CHECK(radians.display_unit == DisplayUnit::kDegree);
+  CHECK(radians.Value(0) == 0.5);
+  CHECK(radians.DisplayValue(0.5) == Approx(0.5 * 180.0 / std::numbers::pi).epsilon(1e-15));
+  // A deg on any value marks the axis, whatever the model says.
+  CHECK(ParseGridAxis(MassOnCarParameters(), "d=0:1:3").display_unit == DisplayUnit::kSI);
+  CHECK(ParseGridAxis(MassOnCar(), "d=0deg:1deg:n=3").display_unit == DisplayUnit::kDegree);
+  // A range in degrees is evenly spaced in degrees: 0deg:90deg:91 reads 0, 1, ..., 90.
+  const GridAxis range = ParseGridAxis(MassOnCar(), "alpha=0deg:90deg:91");
+  for (std::size_t i = 0; i < range.size(); ++i) {
+    CHECK(range.DisplayValue(range.Value(i)) == static_cast<double>(i));
+    CHECK(range.Value(i) == *ParseQuantity(std::to_string(i) + " deg"));
+  }
+}
+
+TEST_CASE("a bare a:b:n that MATLAB would read as start:step:end warns, saying both spellings",
+          "[reports]") {
+  CHECK(WarningsOf("d=0:5:90") ==
+        std::vector<std::string>{
+            "--vary d=0:5:90 is read as 90 values from 0 to 5 (servokit's a:b:n), not as "
+            "MATLAB's start:step:end (0, 5, ..., 90); write d=0:5:n=90 for the first, "
+            "d=0:90:step=5 for the second"});
+  CHECK(WarningsOf("d=-1:2:61").size() == 1);  // (61 + 1) / 2 = 31 steps
+  // No warning: explicit forms, a unit, n <= b, b <= a, or (n - a)/b not whole.
+  for (const char* text : {"d=0:5:n=90", "d=0:90:step=5", "d=0:2:21", "d=0:90:5", "d=5:0:90",
+                           "m1=1:3:2", "d=0.01:0.1:50", "d=0:1:1"}) {
+    INFO(text);
+    CHECK(WarningsOf(text).empty());
+  }
+  CHECK(WarningsOf("alpha=0deg:5deg:90").empty());
+}
+
+TEST_CASE("an angle without a unit spanning more than a turn warns", "[reports]") {
+  // alpha: given in degrees by the model; 0..90 without a unit is 90 rad.
+  CHECK(WarningsOf("alpha=0:90:n=91") ==
+        std::vector<std::string>{
+            "--vary alpha=0:90:n=91: the values of the angle 'alpha' carry no unit and span 90 "
+            "rad, more than a full turn (2 pi); they are read as radians (SI): if you meant "
+            "degrees, write them with deg (e.g. 0deg:90deg:n=91)"});
+  CHECK(WarningsOf("alpha=0,10").size() == 1);
+  CHECK(WarningsOf("alpha=0:6:n=7").empty());        // within a turn
+  CHECK(WarningsOf("alpha=0deg:90deg:91").empty());  // a unit
+  CHECK(WarningsOf("d=0:90:n=91").empty());          // not an angle
+  CHECK(IsAngleLike("theta", DisplayUnit::kSI));
+  CHECK(IsAngleLike("joint_angle", DisplayUnit::kSI));
+  CHECK(IsAngleLike("q", DisplayUnit::kDegree));
+  CHECK_FALSE(IsAngleLike("alphabet", DisplayUnit::kSI));
+  CHECK_FALSE(IsAngleLike("k", DisplayUnit::kSI));
+}
+
+TEST_CASE("a varied parameter whose column clashes with another column is refused", "[reports]") {
+  // A model with parameters named like fixed columns, and one named like another's "_deg"
+  // column.
+  const Model model = LoadModelFromString(R"(name: clash
+parameters: {re: 1.0, error: 2.0, a: 5 deg, a_deg: 1.0, k: 3.0}
+coordinates: [x]
+inputs: [F]
+mass_matrix: [[1]]
+forces: [re*error*a_deg*k*x + a*x]
+input_matrix: [[1]]
+outputs: [x]
+)",
+                                          "clash.yaml");
+  const GridParameters parameters{model.parameter_names(), model.parameter_display_units()};
+  const auto error_of = [&](const std::vector<std::string>& texts) -> std::string {
+    try {
+      ParseParameterGrid(parameters, texts);
+    } catch (const UsageError& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  CHECK(error_of({"re=1,2"}) ==
+        "--vary: parameter 're': its column 're' would also be a fixed column of eigenvalues.csv "
+        "(a table cannot have two columns of one name); rename the parameter in the model file "
+        "to vary it");
+  CHECK(error_of({"error=1,2"}) ==
+        "--vary: parameter 'error': its column 'error' would also be a fixed column of points.csv "
+        "(a table cannot have two columns of one name); rename the parameter in the model file "
+        "to vary it");
+  CHECK(error_of({"a_deg=1,2", "a=1,2"}) ==
+        "--vary: parameter 'a': its column 'a_deg' would also be the column of the varied "
+        "parameter 'a_deg' (a table cannot have two columns of one name); rename the parameter "
+        "in the model file to vary it");
+  // k is no longer a column name: eigenvalues.csv numbers its eigenvalues in eigenvalue_index.
+  CHECK(error_of({"k=1,2"}) == "no error");
 }
 
 }  // namespace

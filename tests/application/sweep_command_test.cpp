@@ -46,15 +46,6 @@ using testing::TestDataPath;
 using testing::Run;
 using testing::RunServokit;
 
-// The shortest text that reads back to `value` (std::to_chars), as the sweep files write numbers
-// (README "The files").
-std::string ShortestText(double value) {
-  char text[32];
-  const auto result = std::to_chars(text, text + sizeof text, value);
-  REQUIRE(result.ec == std::errc());
-  return std::string(text, result.ptr);
-}
-
 std::vector<std::string> Sweep(const std::string& model,
                                const std::vector<std::string>& vary,
                                const fs::path& out,
@@ -164,7 +155,7 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
           "[reports]") {
   const TemporaryDirectory work;
   const Run run = RunServokit(
-      Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0deg,90deg", "d=0:1:2"}, work / "out"));
+      Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0deg,90deg", "d=0:1:n=2"}, work / "out"));
   REQUIRE(run.status == 0);
   CHECK(run.out == "swept 4 points of mass_on_car into " + (work / "out").string() +
                        " (points.csv, eigenvalues.csv, sweep.json); 0 without a solution\n");
@@ -172,7 +163,7 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   const std::vector<std::string> points = Lines(ReadFile(work / "out" / "points.csv"));
   REQUIRE(points.size() == 5);
   CHECK(points[0] ==
-        "alpha,d,realization,P_rank,relative_degree,differentiation_index,"
+        "alpha_deg,d,realization,P_rank,relative_degree,differentiation_index,"
         "internal_dynamics_order,stability,max_real_part,error");
   // The classes of the paper's mass-on-car cases (Sect. 3; README "Structure": index 3, 3, 4, 5
   // for cases 1-4), P = sin^2(alpha) / (m1 + m2 sin^2(alpha)):
@@ -184,14 +175,15 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   //  - alpha = 90 deg, d = 0 (case 1): H = [1, 0], ker H = [0, 1] and D^T B = 0: ideal
   //    orthogonal, rank 1, relative degree 2, index 3, internal order 2 n - 2 = 2; the undamped
   //    vibration +-i sqrt(k / m2) is critical.
-  // 90 deg is written in SI, pi/2.
-  const std::string right_angle = ShortestText(std::numbers::pi / 2);
+  // alpha was given in degrees (by the model file and by --vary): its column is alpha_deg and
+  // 90 deg reads 90, not pi/2 (README "Units of the parameter columns").
+  const std::string right_angle = "90";
   CHECK(points[1] == "0,0,tangential,0,4,5,0,none,,");
   CHECK_THAT(points[2], Catch::StartsWith("0,1,tangential,0,3,4,1,asymptotically-stable,-"));
   CHECK_THAT(points[3], Catch::StartsWith(right_angle + ",0,ideal-orthogonal,1,2,3,2,critical,"));
   const std::vector<std::string> eigenvalues = Lines(ReadFile(work / "out" / "eigenvalues.csv"));
   REQUIRE(eigenvalues.size() == 6);  // one root at (0, 1), a pair at each alpha = 90 deg point
-  CHECK(eigenvalues[0] == "alpha,d,k,re,im,frequency_hz,damping_ratio");
+  CHECK(eigenvalues[0] == "alpha_deg,d,eigenvalue_index,re,im,frequency_hz,damping_ratio");
   // alpha = 0, d = 1: the root -k/d = -5 of d s + k, a real mode (frequency 5/2pi, damping 1).
   double alpha = 0, d = 0, re = 0, im = 0, frequency = 0, damping = 0;
   int k = -1;
@@ -210,6 +202,94 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   CHECK_THAT(eigenvalues[2], Catch::StartsWith(right_angle + ",0,0,0,"));
   CHECK_THAT(eigenvalues[3], Catch::StartsWith(right_angle + ",0,1,0,-"));
   CheckOnlyFinalFiles(work / "out");
+}
+
+TEST_CASE("a parameter given in degrees gets a _deg column holding the degrees given, exactly",
+          "[reports]") {
+  const TemporaryDirectory work;
+  const Run run =
+      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"alpha=5deg,30deg", "d=1"}, work / "out"));
+  REQUIRE(run.status == 0);
+  CHECK(run.err.empty());
+  const std::vector<std::string> points = Lines(ReadFile(work / "out" / "points.csv"));
+  REQUIRE(points.size() == 3);
+  CHECK_THAT(points[0], Catch::StartsWith("alpha_deg,d,realization,"));
+  // The given degrees, not 5 pi/180 * 180/pi (which the search in DisplayDegrees undoes).
+  CHECK_THAT(points[1], Catch::StartsWith("5,1,"));
+  CHECK_THAT(points[2], Catch::StartsWith("30,1,"));
+  for (const std::string& row : Lines(ReadFile(work / "out" / "eigenvalues.csv"))) {
+    CHECK((row.starts_with("alpha_deg,d,eigenvalue_index,re,im,") || row.starts_with("5,1,") ||
+           row.starts_with("30,1,")));
+  }
+  // A --set in degrees marks its parameter too, and the unit is part of the sweep: the same
+  // grid in SI is another sweep for --out.
+  const Run set = RunServokit(
+      Sweep(ModelPath("mass_on_car.yaml"), {"d=1,2"}, work / "set", {"--set", "alpha=30deg"}));
+  REQUIRE(set.status == 0);
+  CHECK_THAT(Lines(ReadFile(work / "set" / "points.csv"))[0], Catch::StartsWith("d,"));
+  const Run degrees =
+      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=1deg,2deg"}, work / "degrees"));
+  REQUIRE(degrees.status == 0);
+  const std::vector<std::string> degree_points = Lines(ReadFile(work / "degrees" / "points.csv"));
+  CHECK_THAT(degree_points[0], Catch::StartsWith("d_deg,"));
+  CHECK_THAT(degree_points[1], Catch::StartsWith("1,"));
+  const auto record = nlohmann::json::parse(ReadFile(work / "degrees" / "sweep.json"));
+  CHECK(record["grid"][0]["values"][0].get<double>() == std::numbers::pi / 180);  // SI
+  CHECK(record["grid"][0]["display_unit"] == "deg");
+  const SweepModelInfo info{"m", "m.yaml", "0", {}, {}, std::nullopt};
+  GridAxis axis{"d", 0, std::vector<double>{1.0}};
+  const std::string si = SweepFingerprint(info, ParameterGrid({axis}), {});
+  axis.display_unit = DisplayUnit::kDegree;
+  CHECK(SweepFingerprint(info, ParameterGrid({axis}), {}) != si);
+}
+
+TEST_CASE("grid warnings go to stderr on one line each, never to stdout", "[reports]") {
+  const TemporaryDirectory work;
+  const Run matlab =
+      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:2"}, work / "matlab"));
+  REQUIRE(matlab.status == 0);
+  CHECK(matlab.err ==
+        "servokit: warning: --vary d=0:1:2 is read as 2 values from 0 to 1 (servokit's a:b:n), "
+        "not as MATLAB's start:step:end (0, 1, ..., 2); write d=0:1:n=2 for the first, "
+        "d=0:2:step=1 for the second\n");
+  CHECK_THAT(matlab.out, !Catch::Contains("warning"));
+  REQUIRE(Lines(ReadFile(work / "matlab" / "points.csv")).size() == 3);  // two values
+  const Run angle =
+      RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0:90:n=3"}, work / "angle"));
+  REQUIRE(angle.status == 0);
+  CHECK_THAT(angle.err, Catch::StartsWith("servokit: warning: --vary alpha=0:90:n=3: the values "
+                                          "of the angle 'alpha' carry no unit"));
+  CHECK(std::count(angle.err.begin(), angle.err.end(), '\n') == 1);
+  for (const std::vector<std::string>& vary : {std::vector<std::string>{"d=0:1:n=2"},
+                                               {"d=0:2:step=1"},
+                                               {"alpha=0deg:90deg:step=45deg"},
+                                               {"alpha=0:1.5:n=3"}}) {
+    INFO(vary[0]);
+    const Run quiet = RunServokit(Sweep(ModelPath("mass_on_car.yaml"), vary, work / vary[0]));
+    REQUIRE(quiet.status == 0);
+    CHECK(quiet.err.empty());
+  }
+  // The step form counts: 0, 45, 90.
+  CHECK(Lines(ReadFile(work / "alpha=0deg:90deg:step=45deg" / "points.csv")).size() == 4);
+}
+
+TEST_CASE("a varied parameter named like a column is refused, naming it", "[reports]") {
+  const TemporaryDirectory work;
+  const fs::path model = work / "clash.yaml";
+  std::ofstream(model) << "name: clash\nparameters: {re: 1.0, k: 2.0}\ncoordinates: [x]\n"
+                          "inputs: [F]\nmass_matrix: [[1]]\nforces: [re*k*x]\n"
+                          "input_matrix: [[1]]\noutputs: [x]\n";
+  const Run run = RunServokit(Sweep(model.string(), {"re=1,2"}, work / "out"));
+  CHECK(run.status == 2);
+  CHECK(run.err ==
+        "servokit: error: --vary: parameter 're': its column 're' would also be a fixed column of "
+        "eigenvalues.csv (a table cannot have two columns of one name); rename the parameter in "
+        "the model file to vary it\n");
+  CHECK_FALSE(fs::exists(work / "out"));
+  // k, a stiffness, no longer clashes with the eigenvalue index column.
+  REQUIRE(RunServokit(Sweep(model.string(), {"k=1,2"}, work / "k")).status == 0);
+  CHECK(Lines(ReadFile(work / "k" / "eigenvalues.csv"))[0] ==
+        "k,eigenvalue_index,re,im,frequency_hz,damping_ratio");
 }
 
 TEST_CASE("several outputs' relative degrees are joined with ';'", "[reports]") {
@@ -262,8 +342,14 @@ TEST_CASE("sweep.json records the model, command line, grid, points, version and
   // --vary alpha=0deg:90deg:3 (in SI: 0 to pi/2) and d=0,2.
   CHECK(record["grid"] ==
         nlohmann::json::array(
-            {nlohmann::json{{"name", "alpha"}, {"a", 0}, {"b", std::numbers::pi / 2}, {"n", 3}},
-             nlohmann::json{{"name", "d"}, {"values", {0, 2}}}}));
+            {nlohmann::json{{"name", "alpha"},
+                            {"a", 0},
+                            {"b", std::numbers::pi / 2},
+                            {"n", 3},
+                            {"display_unit", "deg"},
+                            {"column", "alpha_deg"}},
+             nlohmann::json{
+                 {"name", "d"}, {"values", {0, 2}}, {"display_unit", "SI"}, {"column", "d"}}}));
   CHECK(record["grid"][0]["b"].get<double>() == std::numbers::pi / 2);  // reads back exactly
   CHECK(record["points"] == 6);
   CHECK(record["servokit_version"].is_string());
@@ -273,9 +359,10 @@ TEST_CASE("sweep.json records the model, command line, grid, points, version and
 TEST_CASE("--threads 1 and --threads 2 write the same bytes", "[reports]") {
   const TemporaryDirectory work;
   for (const char* threads : {"1", "2"}) {
-    REQUIRE(RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0deg:90deg:100", "d=0:2:200"},
-                              work / threads, {"--threads", threads}))
-                .status == 0);
+    REQUIRE(
+        RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0deg:90deg:100", "d=0:2:n=200"},
+                          work / threads, {"--threads", threads}))
+            .status == 0);
   }
   CheckSameTables(work / "1", work / "2");
 }
@@ -293,15 +380,15 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
        "--vary alpha: expected name=a:b:n or name=v1,v2,... (e.g. --vary alpha=0deg:90deg:91)"},
       {Sweep(model, {"alpha=0:1:0"}, out),
        "--vary alpha=0:1:0: the number of values must be at least 1, got 0"},
-      {Sweep(model, {"alpha=0:1:2", "alpha=3"}, out),
+      {Sweep(model, {"alpha=0:1:n=2", "alpha=3"}, out),
        "--vary alpha: the parameter is varied twice (give all its values in one --vary)"},
-      {Sweep(model, {"alpha=0:1:2"}, out, {"--threads", "0"}),
+      {Sweep(model, {"alpha=0:1:n=2"}, out, {"--threads", "0"}),
        "--threads 0: must be at least 1 (default: all cores)"},
-      {Sweep(model, {"alpha=0:1:2"}, out, {"--checkpoint-interval", "0"}),
+      {Sweep(model, {"alpha=0:1:n=2"}, out, {"--checkpoint-interval", "0"}),
        "--checkpoint-interval 0: must be > 0 seconds"},
-      {Sweep(model, {"alpha=0:1:2"}, out, {"--set", "alpha=1"}),
+      {Sweep(model, {"alpha=0:1:n=2"}, out, {"--set", "alpha=1"}),
        "--vary alpha: the parameter is also given by --set; drop one of them"},
-      {{"sweep", model, "--vary", "alpha=0:1:2"}, "--out is required"},
+      {{"sweep", model, "--vary", "alpha=0:1:n=2"}, "--out is required"},
   };
   for (const auto& [arguments, message] : cases) {
     const Run run = RunServokit(arguments);
@@ -315,7 +402,7 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
 TEST_CASE("a finished sweep run again is reported complete and not computed again", "[reports]") {
   const TemporaryDirectory work;
   const std::vector<std::string> arguments =
-      Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out");
+      Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:n=11"}, work / "out");
   REQUIRE(RunServokit(arguments).status == 0);
   const auto written = fs::last_write_time(work / "out" / "points.csv");
   const Run again = RunServokit(arguments);
@@ -334,8 +421,8 @@ TEST_CASE("a sweep killed while writing its last checkpoint finishes with no tem
   const TemporaryDirectory work;
   const fs::path reference = work / "reference", out = work / "out";
   const std::string model = ModelPath("mass_on_car.yaml");
-  REQUIRE(RunServokit(Sweep(model, {"d=0:1:11"}, reference)).status == 0);
-  REQUIRE(RunServokit(Sweep(model, {"d=0:1:11"}, out)).status == 0);
+  REQUIRE(RunServokit(Sweep(model, {"d=0:1:n=11"}, reference)).status == 0);
+  REQUIRE(RunServokit(Sweep(model, {"d=0:1:n=11"}, out)).status == 0);
   // Back to the moment of the kill: partial tables, an all-done checkpoint, a torn temporary.
   fs::rename(out / "points.csv", out / "points.csv.partial");
   fs::rename(out / "eigenvalues.csv", out / "eigenvalues.csv.partial");
@@ -349,7 +436,7 @@ TEST_CASE("a sweep killed while writing its last checkpoint finishes with no tem
   std::ofstream(out / ".sweep-checkpoint") << checkpoint;
   std::ofstream(out / ".sweep-checkpoint.tmp") << checkpoint.substr(0, checkpoint.size() / 2);
   std::ofstream(out / "sweep.json.tmp") << "{\"model\": ";
-  const Run resumed = RunServokit(Sweep(model, {"d=0:1:11"}, out));
+  const Run resumed = RunServokit(Sweep(model, {"d=0:1:n=11"}, out));
   INFO("stderr: " << resumed.err);
   REQUIRE(resumed.status == 0);
   CheckSameTables(reference, out);
@@ -361,7 +448,7 @@ TEST_CASE("a stale temporary that cannot be removed stops the sweep with status 
   const TemporaryDirectory work;
   // A directory with a file in it, where the checkpoint's temporary would be.
   fs::create_directories(work / "out" / ".sweep-checkpoint.tmp" / "inside");
-  const Run run = RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:11"}, work / "out"));
+  const Run run = RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:n=11"}, work / "out"));
   CHECK(run.status == 1);
   CHECK_THAT(run.err, Catch::StartsWith("servokit: error: "));
   CHECK_THAT(run.err, Catch::Contains(".sweep-checkpoint.tmp: cannot remove"));
@@ -375,11 +462,12 @@ TEST_CASE("a directory holding another sweep is refused, finished or not", "[rep
   const std::string refusal = "servokit: error: --out " + (work / "out").string() +
                               " holds another sweep (a different model, grid or options); use " +
                               "another --out or delete that directory\n";
-  REQUIRE(RunServokit(Sweep(model, {"d=0:1:11"}, work / "out")).status == 0);
-  for (const auto& other : {Sweep(model, {"d=0:1:12"}, work / "out"),
-                            Sweep(model, {"d=0:1:11"}, work / "out", {"--set", "k=4"}),
-                            Sweep(model, {"d=0:1:11"}, work / "out", {"--rank-tolerance", "1e-8"}),
-                            Sweep(TestDataPath("no_equilibrium.yaml"), {"a=1"}, work / "out")}) {
+  REQUIRE(RunServokit(Sweep(model, {"d=0:1:n=11"}, work / "out")).status == 0);
+  for (const auto& other :
+       {Sweep(model, {"d=0:1:n=12"}, work / "out"),
+        Sweep(model, {"d=0:1:n=11"}, work / "out", {"--set", "k=4"}),
+        Sweep(model, {"d=0:1:n=11"}, work / "out", {"--rank-tolerance", "1e-8"}),
+        Sweep(TestDataPath("no_equilibrium.yaml"), {"a=1"}, work / "out")}) {
     const Run run = RunServokit(other);
     CHECK(run.status == 2);
     CHECK(run.err == refusal);
@@ -389,7 +477,7 @@ TEST_CASE("a directory holding another sweep is refused, finished or not", "[rep
   std::ofstream(work / "unfinished" / ".sweep-checkpoint")
       << "servokit-sweep-checkpoint 1\nfingerprint=another\npoints_done=0\n"
          "points_without_solution=0\npoints_bytes=0\neigenvalues_bytes=0\n";
-  const Run run = RunServokit(Sweep(model, {"d=0:1:11"}, work / "unfinished"));
+  const Run run = RunServokit(Sweep(model, {"d=0:1:n=11"}, work / "unfinished"));
   CHECK(run.status == 2);
   CHECK_THAT(run.err, Catch::Contains("unfinished holds another sweep"));
 }

@@ -85,7 +85,7 @@ double Damping(std::size_t i) {
 std::map<double, std::vector<std::complex<double>>> ReadEigenvalues(const fs::path& out) {
   const std::vector<std::string> lines = Lines(ReadFile(out / "eigenvalues.csv"));
   REQUIRE(!lines.empty());
-  CHECK(lines[0] == "d,k,re,im,frequency_hz,damping_ratio");
+  CHECK(lines[0] == "d,eigenvalue_index,re,im,frequency_hz,damping_ratio");
   std::map<double, std::vector<std::complex<double>>> zeros;
   for (std::size_t row = 1; row < lines.size(); ++row) {
     const std::vector<std::string> fields = Split(lines[row], ',');

@@ -188,6 +188,22 @@ TEST_CASE("more ranks than blocks: the ranks without a block wait and exit 0", "
   CheckSameFiles(single, work / "mpi" / "out");
 }
 
+TEST_CASE("a grid warning under mpirun is printed once, by rank 0", "[reports][mpi]") {
+  const TemporaryDirectory work;
+  // d=0:1:2 could be MATLAB's 0, 1, 2 (README "Not MATLAB's colon"): every rank parses it, rank
+  // 0 alone warns.
+  const std::vector<std::string> sweep = {
+      SERVOKIT_BINARY, "sweep", ModelPath("mass_on_car.yaml"), "--vary", "d=0:1:2", "--out", "out"};
+  const Job job = RunIn(work / "warn", Concatenate(MpiRun(2), sweep));
+  INFO(job.err);
+  REQUIRE(job.status == 0);
+  CHECK(job.err ==
+        "servokit: warning: --vary d=0:1:2 is read as 2 values from 0 to 1 (servokit's a:b:n), "
+        "not as MATLAB's start:step:end (0, 1, ..., 2); write d=0:1:n=2 for the first, "
+        "d=0:2:step=1 for the second\n");
+  CHECK_THAT(job.out, !Catch::Contains("warning"));
+}
+
 // ---- errors ----------------------------------------------------------------------------------
 
 TEST_CASE("a usage error under mpirun is one error line and status 2 from the whole job",
@@ -337,7 +353,7 @@ TEST_CASE("SIGINT to mpirun stops every rank; the same command resumes to the sa
                                           "--vary",
                                           "m=0.5:2:" + std::to_string(kInterruptedChainMasses),
                                           "--vary",
-                                          "k=50:150:200",
+                                          "k=50:150:n=200",
                                           "--out",
                                           "out",
                                           "--threads",

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -52,10 +53,77 @@ TEST_CASE("threshold accepts degrees and rejects a bad event or range", "[report
   CHECK_THAT(unknown.err, Catch::Contains("no parameter 'q'"));
 }
 
+TEST_CASE("threshold names the unit and gives a degree parameter's values in degrees too",
+          "[reports]") {
+  // mass_on_car.yaml gives alpha in degrees. At d = 1 the zero dynamics m2 sin^2(alpha) s^2 +
+  // d s + k = 0 are over-damped where d^2 >= 4 m2 k sin^2(alpha): alpha = asin(sqrt(1/40))
+  // (m2 = 2, k = 5), 9.0974 deg (tests/servokit/api_test.cpp).
+  const double expected = std::asin(std::sqrt(1.0 / 40.0));
+  const auto run =
+      RunServokit({"threshold", ModelPath("mass_on_car.yaml"), "--vary", "alpha=1deg:80deg",
+                   "--event", "oscillation", "--set", "d=1", "--no-closed-form"});
+  REQUIRE(run.status == 0);
+  CHECK(run.err.empty());
+  const auto object = nlohmann::json::parse(run.out);
+  CHECK(object["unit"] == "rad");
+  CHECK(object["display_unit"] == "deg");
+  REQUIRE(object["events"].size() == 1);
+  const auto& event = object["events"][0];
+  const double value = event["value"].get<double>();
+  CHECK(value == Approx(expected).epsilon(1e-9));  // SI, as before
+  CHECK(event["value_deg"].get<double>() == value * 180.0 / std::numbers::pi);
+  CHECK(event["value_deg"].get<double>() ==
+        Approx(expected * 180.0 / std::numbers::pi).epsilon(1e-9));
+  // The contract's keys are all still there.
+  for (const char* key : {"value", "from", "to"}) CHECK(event.contains(key));
+  // A parameter in SI: "unit": "SI", no display_unit, no value_deg.
+  const auto si =
+      nlohmann::json::parse(RunServokit({"threshold", ModelPath("rotational_arm.yaml"), "--vary",
+                                         "s=0:1", "--event", "stability", "--no-closed-form"})
+                                .out);
+  CHECK(si["unit"] == "SI");
+  CHECK_FALSE(si.contains("display_unit"));
+  CHECK_FALSE(si["events"][0].contains("value_deg"));
+  // An angle range without a unit beyond a full turn warns on stderr, JSON on stdout unchanged.
+  const auto radians =
+      RunServokit({"threshold", ModelPath("mass_on_car.yaml"), "--vary", "alpha=0.1:10", "--event",
+                   "oscillation", "--set", "d=1", "--no-closed-form"});
+  REQUIRE(radians.status == 0);
+  CHECK_THAT(radians.err, Catch::StartsWith("servokit: warning: --vary alpha=0.1:10: the values "
+                                            "of the angle 'alpha' carry no unit"));
+  CHECK(nlohmann::json::parse(radians.out)["display_unit"] == "deg");
+}
+
+TEST_CASE("report MODEL shows a parameter given in degrees in degrees", "[reports]") {
+  const auto directory = std::filesystem::temp_directory_path() / "servokit_model_report_deg_test";
+  std::filesystem::remove_all(directory);
+  const auto run = RunServokit({"report", ModelPath("mass_on_car.yaml"), "--set", "d=1", "--vary",
+                                "alpha=1deg:80deg:n=80", "--out", directory.string()});
+  REQUIRE(run.status == 0);
+  CHECK(run.err.empty());
+  std::ifstream file(directory / "report.md");
+  std::stringstream text;
+  text << file.rdbuf();
+  CHECK_THAT(text.str(), Catch::Contains("## Study of alpha [deg] from 1 to 80") &&
+                             Catch::Contains("value [deg]"));
+  // The oscillation row holds the threshold in degrees: asin(sqrt(1/40)) = 9.0974 deg.
+  static const std::regex oscillation_row(R"(\| oscillation \| alpha \| ([^ |]+) \|)");
+  std::smatch row;
+  const std::string report = text.str();
+  REQUIRE(std::regex_search(report, row, oscillation_row));
+  CHECK(std::stod(row[1].str()) ==
+        Approx(std::asin(std::sqrt(1.0 / 40.0)) * 180.0 / std::numbers::pi).epsilon(1e-9));
+  std::ifstream plot(directory / "study_alpha_real_part.gp");
+  std::stringstream script;
+  script << plot.rdbuf();
+  CHECK_THAT(script.str(), Catch::Contains("alpha [deg]"));
+  std::filesystem::remove_all(directory);
+}
+
 TEST_CASE("report MODEL writes the classification, a study per axis and its figures", "[reports]") {
   const auto directory = std::filesystem::temp_directory_path() / "servokit_model_report_test";
   std::filesystem::remove_all(directory);
-  const auto run = RunServokit({"report", ModelPath("rotational_arm.yaml"), "--vary", "s=0:1:51",
+  const auto run = RunServokit({"report", ModelPath("rotational_arm.yaml"), "--vary", "s=0:1:n=51",
                                 "--out", directory.string()});
   REQUIRE(run.status == 0);
   std::ifstream file(directory / "report.md");
@@ -83,7 +151,7 @@ TEST_CASE("report MODEL writes the classification, a study per axis and its figu
 }
 
 TEST_CASE("report paper refuses --vary", "[reports]") {
-  const auto run = RunServokit({"report", "paper", "--out", "/tmp/unused", "--vary", "s=0:1:3"});
+  const auto run = RunServokit({"report", "paper", "--out", "/tmp/unused", "--vary", "s=0:1:n=3"});
   CHECK(run.status == 2);
   CHECK_THAT(run.err, Catch::Contains("--vary and --set are for `report MODEL`"));
 }

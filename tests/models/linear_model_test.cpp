@@ -77,6 +77,10 @@ TEST_CASE("the tiny linear model assembles to its matrices written out by hand",
   // "30 deg" in the file; pi/6 computed here independently of units.cpp.
   CHECK(model.parameters()[3] == Approx(std::numbers::pi / 6).epsilon(1e-15));
   CHECK(model.FindParameter("k") == std::optional<std::size_t>(1));
+  // alpha: 30 deg is remembered as given in degrees (shown in degrees; the value is SI).
+  CHECK(model.parameter_display_units() ==
+        std::vector<DisplayUnit>{DisplayUnit::kSI, DisplayUnit::kSI, DisplayUnit::kSI,
+                                 DisplayUnit::kDegree});
   CHECK_FALSE(model.FindParameter("beta").has_value());
   REQUIRE(model.mass_terms().size() == 2);
   CHECK(model.mass_terms()[1].factor_text == "m*sin(alpha)");

@@ -79,6 +79,10 @@ TEST_CASE("the three shipped models load with their names and sizes", "[models]"
 TEST_CASE("mass on car: parameters in file order, alpha in radians", "[models]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
   CHECK(model.parameter_names() == std::vector<std::string>{"m1", "m2", "k", "d", "alpha"});
+  // alpha: 5 deg is remembered as given in degrees; the others are SI.
+  CHECK(model.parameter_display_units() ==
+        std::vector<DisplayUnit>{DisplayUnit::kSI, DisplayUnit::kSI, DisplayUnit::kSI,
+                                 DisplayUnit::kSI, DisplayUnit::kDegree});
   CHECK(model.coordinates() == std::vector<std::string>{"x", "s"});
   CHECK(model.inputs() == std::vector<std::string>{"F"});
   CHECK(model.FindParameter("alpha") == 4u);
@@ -290,6 +294,15 @@ TEST_CASE("the symbolic view holds the expressions the programs were compiled fr
   REQUIRE(GiNaC::is_a<GiNaC::numeric>(nominal.evalf()));
   CHECK(GiNaC::ex_to<GiNaC::numeric>(nominal.evalf()).to_double() ==
         Approx(std::cos(model.parameters()[4])).epsilon(kRoundOff));
+}
+
+TEST_CASE("an override in degrees marks its parameter as given in degrees", "[models]") {
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"d", "2 deg"}, {"alpha", "0.1"}});
+  // d is now shown in degrees; alpha stays in degrees (the file gave it so), its value SI.
+  CHECK(model.parameter_display_units()[3] == DisplayUnit::kDegree);
+  CHECK(model.parameter_display_units()[4] == DisplayUnit::kDegree);
+  CHECK(model.parameters()[4] == 0.1);
+  CHECK(model.parameter_display_units()[2] == DisplayUnit::kSI);
 }
 
 }  // namespace

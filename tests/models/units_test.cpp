@@ -40,5 +40,39 @@ TEST_CASE("radians convert back to degrees", "[models]") {
   CHECK(RadiansToDegrees(*ParseQuantity("5 deg")) == Approx(5.0).epsilon(kRelativeTolerance));
 }
 
+TEST_CASE("the unit a quantity was written in is kept beside its SI value", "[models]") {
+  CHECK(ParseQuantityWithUnit("5 deg")->unit == DisplayUnit::kDegree);
+  CHECK(ParseQuantityWithUnit("5 deg")->value == DegreesToRadians(5.0));
+  CHECK(ParseQuantityWithUnit("0.1")->unit == DisplayUnit::kSI);
+  CHECK(ParseQuantityWithUnit("0.1")->value == 0.1);
+  CHECK_FALSE(ParseQuantityWithUnit("5 rad").has_value());
+  CHECK(ToString(DisplayUnit::kDegree) == "deg");
+  CHECK(ToString(DisplayUnit::kSI) == "SI");
+}
+
+TEST_CASE("degrees shown for an angle given in degrees are the degrees given, exactly",
+          "[models]") {
+  // x pi/180 * 180/pi is not always x in floating point; DisplayDegrees finds the shortest
+  // degree value that converts back to the same radians, which is the one given. Checked on
+  // every tenth of a degree in [-720, 720] and on a few long decimals.
+  std::size_t inexact_products = 0;
+  for (int tenths = -7200; tenths <= 7200; ++tenths) {
+    const double degrees = tenths / 10.0;
+    const double radians = DegreesToRadians(degrees);
+    INFO(degrees);
+    CHECK(DisplayDegrees(radians) == degrees);
+    if (RadiansToDegrees(radians) != degrees) ++inexact_products;
+  }
+  CHECK(inexact_products > 0);  // so that the search is needed (else this test says little)
+  for (const double degrees : {9.0974361693, 0.001, 1e-300, 123456.789, -33.3}) {
+    INFO(degrees);
+    CHECK(DisplayDegrees(DegreesToRadians(degrees)) == degrees);
+  }
+  CHECK(DisplayDegrees(0.0) == 0.0);
+  // Radians that no short degree value gives are shown as the product.
+  CHECK(DisplayDegrees(1.0) == Approx(RadiansToDegrees(1.0)).epsilon(1e-15));
+  CHECK(DegreesToRadians(DisplayDegrees(1.0)) == Approx(1.0).epsilon(1e-15));
+}
+
 }  // namespace
 }  // namespace servokit

@@ -83,7 +83,7 @@ def test_sweep_dataframes_equal_the_command_line_csv(cli_sweep, mass_on_car):
 
 def test_sweep_structured_arrays_equal_the_command_line_csv(cli_sweep, mass_on_car):
     points, eigenvalues = servokit.load(mass_on_car).sweep(GRID, table="numpy")
-    assert isinstance(points, np.ndarray) and points.dtype.names[:2] == ("alpha", "d")
+    assert isinstance(points, np.ndarray) and points.dtype.names[:2] == ("alpha_deg", "d")
     assert points["P_rank"].dtype == np.int64
     assert_table_equals_csv(points, cli_sweep / "points.csv", missing_integer=-1)
     assert_table_equals_csv(eigenvalues, cli_sweep / "eigenvalues.csv", missing_integer=-1)

@@ -37,6 +37,8 @@ def test_over_damping_threshold_at_d_1(mass_on_car):
     thresholds = model.threshold("alpha", math.radians(1), math.radians(80), event="oscillation")
     assert len(thresholds) == 1
     assert thresholds[0]["value"] == pytest.approx(math.asin(math.sqrt(1 / 40)), rel=1e-9)
+    # alpha is given in degrees by the model: the value in degrees too.
+    assert thresholds[0]["value_deg"] == thresholds[0]["value"] * 180 / math.pi
     assert thresholds[0]["from"] != thresholds[0]["to"]
 
 
@@ -78,9 +80,11 @@ def test_sweep_follows_the_closed_form(mass_on_car):
     model = servokit.load(mass_on_car, d=0)
     alphas = np.radians([5.0, 30.0, 60.0])
     points, eigenvalues = model.sweep({"alpha": alphas}, threads=2)
-    assert list(points["alpha"]) == list(alphas)
+    # The model gives alpha in degrees: the tables show it in degrees, as alpha_deg (values are
+    # SI inside; numpy's radians may round differently from servokit's "deg" by an ulp).
+    assert list(points["alpha_deg"]) == pytest.approx([5.0, 30.0, 60.0], rel=1e-15)
     assert list(points["stability"]) == ["critical"] * 3
-    omega = np.sqrt(K / (M2 * np.sin(np.asarray(eigenvalues["alpha"])) ** 2))
+    omega = np.sqrt(K / (M2 * np.sin(np.radians(np.asarray(eigenvalues["alpha_deg"]))) ** 2))
     assert np.abs(np.asarray(eigenvalues["im"])) == pytest.approx(omega, rel=1e-10)
     assert np.asarray(eigenvalues["frequency_hz"]) == pytest.approx(omega / (2 * np.pi),
                                                                     rel=1e-10)

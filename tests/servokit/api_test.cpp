@@ -165,7 +165,8 @@ TEST_CASE("sweep through the API, in memory and to files, follows the closed for
   std::istringstream rows(ReadText(directory / "points.csv"));
   std::string line;
   std::getline(rows, line);
-  CHECK(line.rfind("alpha,realization,", 0) == 0);
+  // alpha is given in degrees by the model file: its column is alpha_deg, in degrees.
+  CHECK(line.rfind("alpha_deg,realization,", 0) == 0);
   int count = 0;
   while (std::getline(rows, line)) ++count;
   CHECK(count == 4);
@@ -202,6 +203,34 @@ TEST_CASE("thresholds through the API: over-damped below 9.1 deg at d = 1", "[se
   const std::vector<sk::Threshold> thresholds = sk::LocateThresholds(model, query);
   REQUIRE(thresholds.size() == 1);
   CHECK(thresholds[0].value == Approx(std::asin(std::sqrt(1.0 / 40.0))).epsilon(1e-9));
+  // alpha is given in degrees (mass_on_car.yaml): the value in degrees too.
+  REQUIRE(thresholds[0].value_deg.has_value());
+  CHECK(*thresholds[0].value_deg == thresholds[0].value * 180.0 / kPi);
+  query.parameter = "k";
+  query.low = 1.0;
+  query.high = 2.0;
+  for (const sk::Threshold& threshold : sk::LocateThresholds(model, query)) {
+    CHECK_FALSE(threshold.value_deg.has_value());
+  }
+}
+
+TEST_CASE("the API names the sweep columns and gives a degree parameter in degrees", "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  CHECK(model.parameter_display_units() == std::vector<std::string>{"SI", "SI", "SI", "SI", "deg"});
+  const double five = 5.0 * kPi / 180.0, thirty = 30.0 * kPi / 180.0;
+  const std::vector<sk::SweepAxis> axes = {{"alpha", {five, thirty}}, {"k", {5.0}}};
+  const sk::SweepColumns columns = sk::SweepTableColumns(model, axes);
+  CHECK(columns.points == std::vector<std::string>{"alpha_deg", "k", "realization", "P_rank",
+                                                   "relative_degree", "differentiation_index",
+                                                   "internal_dynamics_order", "stability",
+                                                   "max_real_part", "error"});
+  CHECK(columns.eigenvalues == std::vector<std::string>{"alpha_deg", "k", "eigenvalue_index", "re",
+                                                        "im", "frequency_hz", "damping_ratio"});
+  const std::vector<sk::SweepPoint> points = sk::Sweep(model, axes);
+  REQUIRE(points.size() == 2);
+  CHECK(points[0].parameter_values == std::vector<double>{five, 5.0});
+  CHECK(points[0].parameter_display_values == std::vector<double>{5.0, 5.0});
+  CHECK(points[1].parameter_display_values == std::vector<double>{30.0, 5.0});
 }
 
 TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its closed form",
