@@ -81,15 +81,8 @@ void WriteStringListAttribute(hid_t object,
 
 // The width of each text column: its longest value (at least 1: HDF5 has no empty string type).
 std::vector<std::size_t> TextWidths(TableRecordReader& table) {
-  std::vector<std::size_t> widths(table.columns().size(), 1);
-  table.Rewind();
-  TableChunk chunk;
-  while (table.Read(kRowsPerWrite, chunk) > 0) {
-    for (std::size_t c = 0; c < widths.size(); ++c) {
-      for (const std::string& text : chunk.texts[c]) widths[c] = std::max(widths[c], text.size());
-    }
-  }
-  table.Rewind();
+  std::vector<std::size_t> widths = table.TextWidths();
+  for (std::size_t& width : widths) width = std::max<std::size_t>(width, 1);
   return widths;
 }
 
@@ -124,6 +117,9 @@ void WriteTable(hid_t file,
   const hsize_t rows = table.rows();
   Handle file_space(H5Screate_simple(1, &rows, nullptr), H5Sclose, path, "make a dataspace");
   const Handle dataset_properties = UntimedObjectProperties(H5P_DATASET_CREATE, path);
+  // Every row is written: filling the datasets first would write them twice.
+  Check(H5Pset_fill_time(dataset_properties.get(), H5D_FILL_TIME_NEVER), path,
+        "turn fill values off");
   std::vector<Handle> datasets, types;
   datasets.reserve(columns.size());
   types.reserve(columns.size());

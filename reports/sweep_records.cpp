@@ -1,9 +1,16 @@
 #include "reports/sweep_records.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string_view>
 #include <utility>
 
 #include "analysis/types.h"
@@ -69,68 +76,70 @@ PointHead TakePointHead(const char* bytes) {
   return head;
 }
 
-// The records file, read in large pieces.
+// The records file, mapped into memory: read in place, without copies.
 class RecordFile {
  public:
-  explicit RecordFile(const std::filesystem::path& path)
-      : path_(path), file_(path, std::ios::binary) {
-    if (!file_) throw Error(path.string() + ": cannot read: " + std::strerror(errno));
-    std::error_code error;
-    size_ = std::filesystem::file_size(path, error);
-    if (error) throw Error(path.string() + ": cannot read: " + error.message());
+  explicit RecordFile(const std::filesystem::path& path) : path_(path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error(path.string() + ": cannot read: " + std::strerror(errno));
+    struct stat status = {};
+    if (::fstat(fd, &status) != 0) {
+      ::close(fd);
+      throw Error(path.string() + ": cannot read: " + std::strerror(errno));
+    }
+    size_ = static_cast<std::size_t>(status.st_size);
+    if (size_ > 0) {
+      void* data = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+      if (data == MAP_FAILED) {
+        ::close(fd);
+        throw Error(path.string() + ": cannot map: " + std::strerror(errno));
+      }
+      data_ = static_cast<const char*>(data);
+      ::madvise(data, size_, MADV_SEQUENTIAL);  // advisory: read ahead
+    }
+    ::close(fd);  // the mapping stays valid
   }
-  std::uintmax_t size() const { return size_; }
-  void Rewind() {
-    file_.clear();
-    file_.seekg(0);
-    buffer_.clear();
-    position_ = 0;
+  ~RecordFile() {
+    if (data_ != nullptr) ::munmap(const_cast<char*>(data_), size_);
   }
-  // The next `bytes` bytes, valid until the next call.
-  const char* Next(std::size_t bytes) {
-    if (buffer_.size() - position_ < bytes) Refill(bytes);
-    const char* next = buffer_.data() + position_;
-    position_ += bytes;
-    return next;
-  }
-  bool AtEnd() { return position_ == buffer_.size() && file_.peek() == EOF; }
-  const std::filesystem::path& path() const { return path_; }
+  RecordFile(const RecordFile&) = delete;
+  RecordFile& operator=(const RecordFile&) = delete;
 
- private:
-  void Refill(std::size_t bytes) {
-    constexpr std::size_t kPiece = std::size_t{1} << 22;
-    buffer_.erase(0, position_);
-    position_ = 0;
-    const std::size_t want = std::max(bytes, kPiece);
-    const std::size_t kept = buffer_.size();
-    buffer_.resize(kept + want);
-    file_.read(buffer_.data() + kept, static_cast<std::streamsize>(want));
-    buffer_.resize(kept + static_cast<std::size_t>(file_.gcount()));
-    if (buffer_.size() < bytes) {
+  std::size_t size() const { return size_; }
+  void Rewind() { position_ = 0; }
+  // The next `bytes` bytes, in place.
+  const char* Next(std::size_t bytes) {
+    if (size_ - position_ < bytes) {
       throw Error(path_.string() + ": the sweep's records end in the middle of a row; delete " +
                   "the output directory to start the sweep again");
     }
+    const char* next = data_ + position_;
+    position_ += bytes;
+    return next;
   }
+  bool AtEnd() const { return position_ == size_; }
+  const std::filesystem::path& path() const { return path_; }
 
+ private:
   std::filesystem::path path_;
-  std::ifstream file_;
-  std::uintmax_t size_ = 0;
-  std::string buffer_;
+  const char* data_ = nullptr;
+  std::size_t size_ = 0;
   std::size_t position_ = 0;
 };
 
-// Sizes `chunk` for `rows` rows of `columns`, NaN and "" everywhere.
+// Sizes `chunk` for `rows` rows of `columns`; the reader sets every cell. Text cells keep their
+// strings' storage from chunk to chunk.
 void ResetChunk(const std::vector<TableColumn>& columns, std::size_t rows, TableChunk& chunk) {
   chunk.rows = rows;
   chunk.numbers.resize(columns.size());
   chunk.texts.resize(columns.size());
   for (std::size_t c = 0; c < columns.size(); ++c) {
     if (columns[c].kind == ColumnKind::kNumber) {
-      chunk.numbers[c].assign(rows, kNone);
+      chunk.numbers[c].resize(rows);
       chunk.texts[c].clear();
     } else {
       chunk.numbers[c].clear();
-      chunk.texts[c].assign(rows, std::string());
+      chunk.texts[c].resize(rows);
     }
   }
 }
@@ -157,6 +166,28 @@ class PointRecordReader final : public TableRecordReader {
     file_.Rewind();
     next_ = 0;
   }
+  std::vector<std::size_t> TextWidths() override {
+    const std::size_t axes = grid_.axes().size();
+    std::vector<std::size_t> widths(columns_.size(), 0);
+    Rewind();
+    for (std::size_t i = 0; i < rows(); ++i) {
+      const PointHead head = TakePointHead(file_.Next(kPointHeadBytes));
+      file_.Next(std::size_t{head.relative_degree_bytes} + head.error_bytes);
+      if (head.ok == 0) {
+        widths[axes + 7] = std::max<std::size_t>(widths[axes + 7], head.error_bytes);
+        continue;
+      }
+      widths[axes] =
+          std::max(widths[axes], ToString(static_cast<Realization>(head.realization)).size());
+      if (head.internal_dynamics_order >= 0) {
+        widths[axes + 2] = std::max<std::size_t>(widths[axes + 2], head.relative_degree_bytes);
+      }
+      widths[axes + 5] =
+          std::max(widths[axes + 5], ToString(static_cast<Stability>(head.stability)).size());
+    }
+    Rewind();
+    return widths;
+  }
   std::size_t Read(std::size_t max_rows, TableChunk& chunk) override {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
@@ -165,23 +196,23 @@ class PointRecordReader final : public TableRecordReader {
     for (std::size_t row = 0; row < count; ++row, ++next_) {
       SetParameterValues(grid_, next_, row, values, chunk);
       const PointHead head = TakePointHead(file_.Next(kPointHeadBytes));
-      std::string relative_degree(file_.Next(head.relative_degree_bytes),
-                                  head.relative_degree_bytes);
-      std::string error(file_.Next(head.error_bytes), head.error_bytes);
-      // Columns after the parameters, in the order of PointsTableColumns.
-      if (!head.ok) {
-        chunk.texts[axes + 7][row] = std::move(error);
-        continue;
-      }
-      chunk.texts[axes][row] = ToString(static_cast<Realization>(head.realization));
-      chunk.numbers[axes + 1][row] = static_cast<double>(head.rank);
-      if (head.internal_dynamics_order >= 0) {
-        chunk.texts[axes + 2][row] = std::move(relative_degree);
-        chunk.numbers[axes + 3][row] = head.differentiation_index;
-        chunk.numbers[axes + 4][row] = head.internal_dynamics_order;
-      }
-      chunk.texts[axes + 5][row] = ToString(static_cast<Stability>(head.stability));
-      chunk.numbers[axes + 6][row] = head.max_real_part;
+      const std::size_t relative_degree_bytes = head.relative_degree_bytes;
+      const char* relative_degree = file_.Next(relative_degree_bytes + head.error_bytes);
+      const char* error = relative_degree + relative_degree_bytes;
+      // Columns after the parameters, in the order of PointsTableColumns; empty CSV fields are
+      // NaN and "".
+      const bool ok = head.ok != 0;
+      const bool structure = ok && head.internal_dynamics_order >= 0;
+      chunk.texts[axes][row] =
+          ok ? ToString(static_cast<Realization>(head.realization)) : std::string_view();
+      chunk.numbers[axes + 1][row] = ok ? static_cast<double>(head.rank) : kNone;
+      chunk.texts[axes + 2][row].assign(relative_degree, structure ? relative_degree_bytes : 0);
+      chunk.numbers[axes + 3][row] = structure ? head.differentiation_index : kNone;
+      chunk.numbers[axes + 4][row] = structure ? head.internal_dynamics_order : kNone;
+      chunk.texts[axes + 5][row] =
+          ok ? ToString(static_cast<Stability>(head.stability)) : std::string_view();
+      chunk.numbers[axes + 6][row] = ok ? head.max_real_part : kNone;
+      chunk.texts[axes + 7][row].assign(error, ok ? 0 : head.error_bytes);
     }
     if (next_ == rows() && !file_.AtEnd()) {
       throw Error(file_.path().string() + ": more records than the grid has points");
@@ -213,11 +244,16 @@ class EigenvalueRecordReader final : public TableRecordReader {
     file_.Rewind();
     next_ = 0;
   }
+  std::vector<std::size_t> TextWidths() override {
+    Rewind();
+    return std::vector<std::size_t>(columns_.size(), 0);  // numbers only
+  }
   std::size_t Read(std::size_t max_rows, TableChunk& chunk) override {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
     const std::size_t axes = grid_.axes().size();
     std::vector<double> values(axes);
+    std::uint64_t values_point = std::numeric_limits<std::uint64_t>::max();
     for (std::size_t row = 0; row < count; ++row, ++next_) {
       const char* record = file_.Next(kEigenvalueRecordBytes);
       const auto point = Take<std::uint64_t>(record);
@@ -228,7 +264,15 @@ class EigenvalueRecordReader final : public TableRecordReader {
         throw Error(file_.path().string() + ": a record names point " + std::to_string(point) +
                     ", outside the grid");
       }
-      SetParameterValues(grid_, static_cast<std::size_t>(point), row, values, chunk);
+      // A point's eigenvalues are consecutive: its values are computed once.
+      if (point != values_point) {
+        grid_.PointValues(static_cast<std::size_t>(point), values);
+        for (std::size_t axis = 0; axis < axes; ++axis) {
+          values[axis] = grid_.axes()[axis].DisplayValue(values[axis]);
+        }
+        values_point = point;
+      }
+      for (std::size_t axis = 0; axis < axes; ++axis) chunk.numbers[axis][row] = values[axis];
       const Mode mode = ModeOf({re, im});
       chunk.numbers[axes][row] = static_cast<double>(k);
       chunk.numbers[axes + 1][row] = re;

@@ -16,7 +16,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <span>
 #include <string>
@@ -57,6 +56,9 @@ class TableRecordReader {
   virtual std::size_t rows() const = 0;
   /// Goes back to the first row.
   virtual void Rewind() = 0;
+  /// The length of the longest value of each column (0 for a number column), found without
+  /// decoding the rows; leaves the reader at the first row.
+  virtual std::vector<std::size_t> TextWidths() = 0;
   /// Replaces `chunk` by the next rows, at most `max_rows`; returns how many (0 at the end).
   /// Throws Error when the file is cut short or holds a bad record.
   virtual std::size_t Read(std::size_t max_rows, TableChunk& chunk) = 0;
