@@ -454,24 +454,28 @@ void SweepOutput::Checkpoint() {
 void SweepOutput::Finish() {
   assert(points_done_ == grid_.num_points());
   if (already_complete_) return;
-  // The checkpoint must say "all done" before the first rename: a crash between the renames
-  // then resumes here instead of missing a partial file.
-  if (points_fd_ >= 0) Checkpoint();
-  CloseTables();
   if (format_ == SweepFileFormat::kCsv) {
+    // The checkpoint must say "all done" before the first rename: a crash between the renames
+    // then resumes here instead of missing a partial file.
+    if (points_fd_ >= 0) Checkpoint();
+    CloseTables();
     RenameCsvTables();
   } else {
+    // The records are read back as written (the page cache holds them); they need not be made
+    // durable first: a crash before sweep.json says completed resumes at the last checkpoint,
+    // and the file built again then has the same bytes.
+    CloseTables();
     WriteTableFile();
   }
   SyncDirectory();
   WriteRecord(true);
-  // The records go before the checkpoint: a crash in between finds the table file and the
-  // checkpoint saying "all done", and Finish has nothing left to build.
+  std::filesystem::remove(paths_.checkpoint);
+  // The records go after the checkpoint: a crash in between finds sweep.json completed and the
+  // table file, and the constructor removes the stale records.
   if (format_ != SweepFileFormat::kCsv) {
     std::filesystem::remove(paths_.points_partial);
     std::filesystem::remove(paths_.eigenvalues_partial);
   }
-  std::filesystem::remove(paths_.checkpoint);
   SyncDirectory();
   already_complete_ = true;
 }

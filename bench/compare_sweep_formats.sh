@@ -8,8 +8,9 @@
 # Environment: GRID (default 1000: alpha = 0.01..1.5 rad x d = 0..2, GRID x GRID points),
 #              MAT_GRID (default 300: MAT 5 is built in memory and is slow for 10^6 points; 0
 #              skips it), REPEAT (default 3), PYTHON (default /usr/bin/python3, with h5py).
-# Each run is timed with `date +%s.%N` around the whole command (start-up, model load, writing
-# and the final fsync included).
+# Each run is timed by bash's `time` around the whole command (start-up, model load, writing and
+# the final fsync included): wall time, and CPU time (user + system), which a busy machine
+# disturbs less; the best of REPEAT runs of each is shown, with the speed-up over CSV.
 set -euo pipefail
 
 build=${1:-build}
@@ -29,19 +30,19 @@ fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# seconds FORMAT N: one sweep of N x N points in FORMAT into $work/FORMAT-N; prints its time.
+# seconds FORMAT N: one sweep of N x N points in FORMAT into $work/FORMAT-N; prints its wall
+# time and its CPU time (user + system), in seconds.
 seconds() {
-  local format=$1 n=$2 out="$work/$1-$2" start end
+  local format=$1 n=$2 out="$work/$1-$2" times
   rm -rf "$out"
-  start=$(date +%s.%N)
-  if ! "$servokit" sweep "$model" --vary "alpha=0.01:1.5:$n" --vary "d=0:2:$n" --out "$out" \
-      --format "$format" --threads 1 >"$work/log" 2>&1; then
+  local TIMEFORMAT='%3R %3U %3S'
+  if ! times=$( { time "$servokit" sweep "$model" --vary "alpha=0.01:1.5:$n" --vary "d=0:2:$n" \
+      --out "$out" --format "$format" --threads 1 >"$work/log" 2>&1; } 2>&1); then
     echo "compare_sweep_formats: servokit sweep --format $format failed; its output:" >&2
     cat "$work/log" >&2
     exit 1
   fi
-  end=$(date +%s.%N)
-  awk -v a="$start" -v b="$end" 'BEGIN { printf "%.3f\n", b - a }'
+  awk '{ printf "%.3f %.3f\n", $1, $2 + $3 }' <<<"$times"
 }
 
 # rows OUT FORMAT: the number of rows of the points table in OUT.
@@ -58,11 +59,15 @@ rows() {
 min() { awk -v a="$1" -v b="$2" 'BEGIN { print (b == "" || a < b) ? a : b }'; }
 
 compare() {  # compare N FORMAT...: best times of each format on N x N points, and x CSV
-  local n=$1 format
+  local n=$1 format wall cpu
   shift
-  declare -A best=()
+  declare -A best=() best_cpu=()
   for ((i = 0; i < repeat; ++i)); do
-    for format in "$@"; do best[$format]=$(min "$(seconds "$format" "$n")" "${best[$format]:-}"); done
+    for format in "$@"; do
+      read -r wall cpu <<<"$(seconds "$format" "$n")"
+      best[$format]=$(min "$wall" "${best[$format]:-}")
+      best_cpu[$format]=$(min "$cpu" "${best_cpu[$format]:-}")
+    done
   done
   for format in "$@"; do
     local expected=$((n * n)) got
@@ -72,12 +77,13 @@ compare() {  # compare N FORMAT...: best times of each format on N x N points, a
       exit 1
     fi
   done
-  printf '%-8s %10s %10s %10s %8s\n' format points seconds MB "x CSV"
+  printf '%-8s %10s %8s %8s %8s %8s %6s\n' format points wall "x CSV" cpu "x CSV" MB
   for format in "$@"; do
     local megabytes
     megabytes=$(du -sm "$work/$format-$n" | cut -f1)
     awk -v f="$format" -v p="$((n * n))" -v s="${best[$format]}" -v c="${best[csv]}" \
-      -v m="$megabytes" 'BEGIN { printf "%-8s %10d %10.3f %10d %8.2f\n", f, p, s, m, c / s }'
+      -v u="${best_cpu[$format]}" -v uc="${best_cpu[csv]}" -v m="$megabytes" \
+      'BEGIN { printf "%-8s %10d %8.3f %8.2f %8.3f %8.2f %6d\n", f, p, s, c / s, u, uc / u, m }'
   done
 }
 

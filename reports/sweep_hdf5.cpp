@@ -1,5 +1,6 @@
 #include "reports/sweep_hdf5.h"
 
+#include <fcntl.h>
 #include <hdf5.h>
 
 #include <algorithm>
@@ -97,6 +98,15 @@ Handle ColumnType(const TableColumn& column, std::size_t width, const std::files
   return type;
 }
 
+// Starts writing the file's dirty pages to disk without waiting, so that the caller's fsync at
+// the end finds little left and the disk works while the next rows are decoded. Advisory: the
+// fsync that follows is what counts.
+void StartWriteback(hid_t file) {
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) < 0 || handle == nullptr) return;
+  ::sync_file_range(*static_cast<int*>(handle), 0, 0, SYNC_FILE_RANGE_WRITE);  // sec2 driver
+}
+
 void WriteTable(hid_t file,
                 const char* name,
                 TableRecordReader& table,
@@ -159,6 +169,7 @@ void WriteTable(hid_t file,
             path, "write a column");
     }
     start += block;
+    StartWriteback(file);
   }
 }
 

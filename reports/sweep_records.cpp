@@ -144,22 +144,35 @@ void ResetChunk(const std::vector<TableColumn>& columns, std::size_t rows, Table
   }
 }
 
-// The varied parameters of point `index`, shown as in the CSV, into columns 0.. of row `row`.
-void SetParameterValues(const ParameterGrid& grid,
-                        std::size_t index,
-                        std::size_t row,
-                        std::vector<double>& values,
-                        TableChunk& chunk) {
-  grid.PointValues(index, values);
-  for (std::size_t axis = 0; axis < values.size(); ++axis) {
-    chunk.numbers[axis][row] = grid.axes()[axis].DisplayValue(values[axis]);
+// The varied parameters of every point, shown as in the CSV (GridAxis::Value, DisplayValue),
+// from a table of each axis's values: a point's values are looked up, not computed.
+class DisplayedValues {
+ public:
+  explicit DisplayedValues(const ParameterGrid& grid) {
+    for (const GridAxis& axis : grid.axes()) {
+      std::vector<double>& values = axes_.emplace_back(axis.size());
+      for (std::size_t i = 0; i < values.size(); ++i) {
+        values[i] = axis.DisplayValue(axis.Value(i));
+      }
+    }
   }
-}
+  // Point `index`'s values into columns 0.. of row `row` (row-major: the last axis fastest).
+  void Set(std::size_t index, std::size_t row, TableChunk& chunk) const {
+    for (std::size_t k = axes_.size(); k-- > 0;) {
+      const std::size_t size = axes_[k].size();
+      chunk.numbers[k][row] = axes_[k][index % size];
+      index /= size;
+    }
+  }
+
+ private:
+  std::vector<std::vector<double>> axes_;
+};
 
 class PointRecordReader final : public TableRecordReader {
  public:
   PointRecordReader(const ParameterGrid& grid, const std::filesystem::path& path)
-      : grid_(grid), columns_(PointsTableColumns(grid)), file_(path) {}
+      : grid_(grid), columns_(PointsTableColumns(grid)), values_(grid), file_(path) {}
   const std::vector<TableColumn>& columns() const override { return columns_; }
   std::size_t rows() const override { return grid_.num_points(); }
   void Rewind() override {
@@ -192,9 +205,8 @@ class PointRecordReader final : public TableRecordReader {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
     const std::size_t axes = grid_.axes().size();
-    std::vector<double> values(axes);
     for (std::size_t row = 0; row < count; ++row, ++next_) {
-      SetParameterValues(grid_, next_, row, values, chunk);
+      values_.Set(next_, row, chunk);
       const PointHead head = TakePointHead(file_.Next(kPointHeadBytes));
       const std::size_t relative_degree_bytes = head.relative_degree_bytes;
       const char* relative_degree = file_.Next(relative_degree_bytes + head.error_bytes);
@@ -223,6 +235,7 @@ class PointRecordReader final : public TableRecordReader {
  private:
   const ParameterGrid& grid_;
   std::vector<TableColumn> columns_;
+  DisplayedValues values_;
   RecordFile file_;
   std::size_t next_ = 0;
 };
@@ -230,7 +243,7 @@ class PointRecordReader final : public TableRecordReader {
 class EigenvalueRecordReader final : public TableRecordReader {
  public:
   EigenvalueRecordReader(const ParameterGrid& grid, const std::filesystem::path& path)
-      : grid_(grid), columns_(EigenvaluesTableColumns(grid)), file_(path) {
+      : grid_(grid), columns_(EigenvaluesTableColumns(grid)), values_(grid), file_(path) {
     if (file_.size() % kEigenvalueRecordBytes != 0) {
       throw Error(path.string() + ": the sweep's records end in the middle of a row; delete " +
                   "the output directory to start the sweep again");
@@ -252,8 +265,6 @@ class EigenvalueRecordReader final : public TableRecordReader {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
     const std::size_t axes = grid_.axes().size();
-    std::vector<double> values(axes);
-    std::uint64_t values_point = std::numeric_limits<std::uint64_t>::max();
     for (std::size_t row = 0; row < count; ++row, ++next_) {
       const char* record = file_.Next(kEigenvalueRecordBytes);
       const auto point = Take<std::uint64_t>(record);
@@ -264,15 +275,7 @@ class EigenvalueRecordReader final : public TableRecordReader {
         throw Error(file_.path().string() + ": a record names point " + std::to_string(point) +
                     ", outside the grid");
       }
-      // A point's eigenvalues are consecutive: its values are computed once.
-      if (point != values_point) {
-        grid_.PointValues(static_cast<std::size_t>(point), values);
-        for (std::size_t axis = 0; axis < axes; ++axis) {
-          values[axis] = grid_.axes()[axis].DisplayValue(values[axis]);
-        }
-        values_point = point;
-      }
-      for (std::size_t axis = 0; axis < axes; ++axis) chunk.numbers[axis][row] = values[axis];
+      values_.Set(static_cast<std::size_t>(point), row, chunk);
       const Mode mode = ModeOf({re, im});
       chunk.numbers[axes][row] = static_cast<double>(k);
       chunk.numbers[axes + 1][row] = re;
@@ -286,6 +289,7 @@ class EigenvalueRecordReader final : public TableRecordReader {
  private:
   const ParameterGrid& grid_;
   std::vector<TableColumn> columns_;
+  DisplayedValues values_;
   RecordFile file_;
   std::size_t next_ = 0;
 };
