@@ -120,8 +120,7 @@ void WriteTable(hid_t file,
         path, "track the order of the columns");
   Handle group(H5Gcreate2(file, name, H5P_DEFAULT, group_properties.get(), H5P_DEFAULT), H5Gclose,
                path, "create a group");
-  std::vector<std::string> names;
-  for (const TableColumn& column : columns) names.push_back(column.name);
+  const std::vector<std::string> names = UniqueColumnNames(columns);
   WriteStringListAttribute(group.get(), "columns", names, path);
 
   const hsize_t rows = table.rows();
@@ -136,8 +135,8 @@ void WriteTable(hid_t file,
   for (std::size_t c = 0; c < columns.size(); ++c) {
     types.push_back(ColumnType(columns[c], widths[c], path));
     datasets.emplace_back(
-        H5Dcreate2(group.get(), columns[c].name.c_str(), types.back().get(), file_space.get(),
-                   H5P_DEFAULT, dataset_properties.get(), H5P_DEFAULT),
+        H5Dcreate2(group.get(), names[c].c_str(), types.back().get(), file_space.get(), H5P_DEFAULT,
+                   dataset_properties.get(), H5P_DEFAULT),
         H5Dclose, path, "create a dataset");
     WriteStringAttribute(datasets.back().get(), "unit", columns[c].unit, path);
   }

@@ -92,9 +92,8 @@ MatVariable TableStruct(const char* name,
     }
     row += count;
   }
-  std::vector<std::string> fields;
+  const std::vector<std::string> fields = UniqueColumnNames(columns);
   for (std::size_t c = 0; c < columns.size(); ++c) {
-    fields.push_back(columns[c].name);
     if (columns[c].kind == ColumnKind::kNumber) {
       values[c] = Checked(
           Mat_VarCreate(nullptr, MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims, numbers[c].data(), 0), path);
@@ -106,13 +105,9 @@ MatVariable TableStruct(const char* name,
 // The unit of each column, as a struct of char fields named by the columns.
 MatVariable UnitsStruct(const std::vector<TableColumn>& columns,
                         const std::filesystem::path& path) {
-  std::vector<std::string> fields;
   std::vector<MatVariable> values;
-  for (const TableColumn& column : columns) {
-    fields.push_back(column.name);
-    values.push_back(CharRow(column.unit, path));
-  }
-  return Struct(nullptr, fields, std::move(values), path);
+  for (const TableColumn& column : columns) values.push_back(CharRow(column.unit, path));
+  return Struct(nullptr, UniqueColumnNames(columns), std::move(values), path);
 }
 
 void Write(mat_t* file, MatVariable variable, const std::filesystem::path& path) {
@@ -148,7 +143,11 @@ void WriteSweepMat(const std::filesystem::path& path,
 }
 
 void CheckMatColumnNames(const ParameterGrid& grid) {
-  for (const std::string& name : PointsColumns(grid)) {
+  std::vector<std::string> names = UniqueColumnNames(PointsTableColumns(grid));
+  for (const std::string& name : UniqueColumnNames(EigenvaluesTableColumns(grid))) {
+    names.push_back(name);
+  }
+  for (const std::string& name : names) {
     const auto is_word = [](char c) {
       return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
     };

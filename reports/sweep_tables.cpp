@@ -126,6 +126,16 @@ std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid) {
   return columns;
 }
 
+std::vector<std::string> UniqueColumnNames(const std::vector<TableColumn>& columns) {
+  std::vector<std::string> names;
+  for (const TableColumn& column : columns) {
+    std::string name = column.name;
+    while (std::find(names.begin(), names.end(), name) != names.end()) name += '_';
+    names.push_back(std::move(name));
+  }
+  return names;
+}
+
 std::vector<std::string> PointsColumns(const ParameterGrid& grid) {
   return ColumnNames(PointsTableColumns(grid));
 }

@@ -41,6 +41,12 @@ std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid);
 /// The columns of the eigenvalues table with their kinds and units (names as EigenvaluesColumns).
 std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid);
 
+/// The names of `columns` where each must be unique (HDF5 datasets, MAT struct fields): a name
+/// equal to an earlier one gets '_' appended until it is unique. Only the eigenvalues table of a
+/// sweep over a parameter named like kEigenvalueIndexColumn has such a pair: its index column is
+/// `k_` there (the CSV keeps both `k`).
+std::vector<std::string> UniqueColumnNames(const std::vector<TableColumn>& columns);
+
 /// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
 /// realization, P_rank, relative_degree, differentiation_index, internal_dynamics_order,
 /// stability, max_real_part, error. Every format of the table (CSV, HDF5, MAT) uses these names.

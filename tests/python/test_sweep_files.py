@@ -1,7 +1,7 @@
 """`servokit sweep --format hdf5|mat` writes the tables of points.csv and eigenvalues.csv into
 sweep.h5 and sweep.mat (issue #17). The reference is the CSV of the same sweep, read with pandas:
-every number must be the same double (the CSV holds shortest round-trip text), every text the
-same, an empty CSV field NaN (numbers) or "" (text). Interrupted and resumed, or run on more
+every number must be the same double (the CSV holds shortest round-trip text; Python's float()
+reads it exactly), every text the same, an empty CSV field NaN (numbers) or "" (text). Interrupted and resumed, or run on more
 threads, a sweep must give the same bytes."""
 import math
 import os
@@ -29,15 +29,6 @@ def sweep(binary, model, vary, out, *extra, env=None, status=0):
     return completed
 
 
-def read_csv(path, number_columns):
-    """The CSV as pandas reads it, every field as text, then the number columns parsed exactly
-    (Python's float() rounds correctly; an empty field is NaN)."""
-    table = pandas.read_csv(path, dtype=str, keep_default_na=False)
-    for name in number_columns:
-        table[name] = [float(text) if text else math.nan for text in table[name]]
-    return table
-
-
 def hdf5_table(group):
     """A group of sweep.h5 as a DataFrame: one column per dataset, in the order of `columns`."""
     columns = {}
@@ -60,10 +51,26 @@ def mat_table(structure):
     return pandas.DataFrame(columns)
 
 
+def unique_names(names):
+    """HDF5 datasets and MAT fields need unique names: a name equal to an earlier one gets '_'
+    appended (the eigenvalue index `k` of a sweep over a parameter `k` is `k_` there)."""
+    unique = []
+    for name in names:
+        while name in unique:
+            name += "_"
+        unique.append(name)
+    return unique
+
+
 def assert_same_table(table, csv_path):
+    with open(csv_path) as file:
+        header = file.readline().rstrip("\n").split(",")
+    assert list(table.columns) == unique_names(header)
     number_columns = [name for name in table.columns if table[name].dtype.kind == "f"]
-    expected = read_csv(csv_path, number_columns)
-    assert list(table.columns) == list(expected.columns)
+    expected = pandas.read_csv(csv_path, dtype=str, keep_default_na=False)
+    expected.columns = table.columns  # pandas renames a repeated name its own way ("k.1")
+    for name in number_columns:
+        expected[name] = [float(text) if text else math.nan for text in expected[name]]
     # check_exact: the same doubles, not close ones; NaN equals NaN here.
     assert len(table) == len(expected)
     pandas.testing.assert_frame_equal(table.reset_index(drop=True),
@@ -77,6 +84,8 @@ SWEEPS = {
     "mass_on_car": ("models/mass_on_car.yaml", ["alpha=0deg:90deg:7", "d=0:2:5"], []),
     "gantry_crane": ("models/gantry_crane.yaml", ["m=5,10"], []),
     "no_equilibrium": ("tests/data/no_equilibrium.yaml", ["a=-1,1"], ["--q0", "0,0.5"]),
+    # A varied parameter named like the eigenvalue index column k.
+    "chain": ("tests/data/chain_output_x3.yaml", ["m=0.5,2", "k=50:150:3"], []),
 }
 
 
@@ -169,3 +178,39 @@ def test_an_unknown_format_is_a_usage_error(servokit_binary, tmp_path, mass_on_c
                       "xlsx", status=2)
     assert completed.stderr == "servokit: error: --format xlsx: must be csv, hdf5 or mat\n"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("file_format,file_name", [("hdf5", "sweep.h5"), ("mat", "sweep.mat")])
+def test_a_sweep_killed_again_and_again_resumes_to_the_same_bytes(servokit_binary, tmp_path,
+                                                                  file_format, file_name):
+    """SIGKILL at random moments (fixed seed), with checkpoints every 20 ms: while records are
+    written past the checkpoint, and while the file is built; the same command resumes."""
+    import random
+    import time
+    model = DATA / "chain_output_x3.yaml"  # six eigenvalues a point, about 25 000 points/s
+    arguments = [servokit_binary, "sweep", str(model), "--vary", "m=0.5:2:100", "--vary",
+                 "k=50:150:100", "--out", "out", "--format", file_format, "--threads", "1",
+                 "--block-size", "250", "--checkpoint-interval", "0.02"]
+    (tmp_path / "reference").mkdir()
+    (tmp_path / "killed").mkdir()
+    subprocess.run(arguments, cwd=tmp_path / "reference", check=True, capture_output=True)
+    generator = random.Random(20261126)
+    kills = 0
+    for _ in range(12):
+        process = subprocess.Popen(arguments, cwd=tmp_path / "killed",
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(generator.uniform(0.0, 0.3))
+        process.kill()  # SIGKILL; no effect once it has exited
+        status = process.wait()
+        if status == 0:
+            break
+        assert status == -9
+        kills += 1
+    assert kills >= 3
+    # The last run goes to the end (building the MAT file alone may take longer than a delay).
+    subprocess.run(arguments, cwd=tmp_path / "killed", check=True, capture_output=True)
+    out = tmp_path / "killed" / "out"
+    assert (out / file_name).read_bytes() == (tmp_path / "reference" / "out" / file_name).read_bytes()
+    assert (out / "sweep.json").read_bytes() == (
+        tmp_path / "reference" / "out" / "sweep.json").read_bytes()
+    assert sorted(p.name for p in out.iterdir()) == sorted([file_name, "sweep.json"])
