@@ -33,7 +33,7 @@ MatVariable Checked(matvar_t* variable, const std::filesystem::path& path) {
   return MatVariable(variable);
 }
 
-MatVariable CharRow(const std::string& text, const std::filesystem::path& path) {
+MatVariable CharRow(std::string_view text, const std::filesystem::path& path) {
   std::size_t dims[2] = {text.empty() ? 0u : 1u, text.size()};
   return Checked(
       Mat_VarCreate(nullptr, MAT_C_CHAR, MAT_T_UINT8, 2, dims, const_cast<char*>(text.data()), 0),

@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -48,18 +50,31 @@ T Take(const char*& bytes) {
   return value;
 }
 
-void PutPointHead(std::string& bytes, const PointHead& head) {
-  const std::size_t start = bytes.size();
-  Put(bytes, head.max_real_part);
-  Put(bytes, head.rank);
-  Put(bytes, head.differentiation_index);
-  Put(bytes, head.internal_dynamics_order);
-  Put(bytes, head.relative_degree_bytes);
-  Put(bytes, head.error_bytes);
-  Put(bytes, head.ok);
-  Put(bytes, head.realization);
-  Put(bytes, head.stability);
-  bytes.append(kPointHeadBytes - (bytes.size() - start), '\0');
+// `value` in decimal, as std::to_string writes it (the relative degrees of JoinRelativeDegrees).
+void AppendInteger(std::string& text, int value) {
+  char digits[16];
+  const auto [end, error] = std::to_chars(digits, digits + sizeof(digits), value);
+  assert(error == std::errc());
+  text.append(digits, end);
+}
+
+// Writes `head` into the kPointHeadBytes at `bytes`, its padding zero.
+void EncodePointHead(const PointHead& head, char* bytes) {
+  const auto put = [&bytes](const auto& value) {
+    std::memcpy(bytes, &value, sizeof(value));
+    bytes += sizeof(value);
+  };
+  const char* const end = bytes + kPointHeadBytes;
+  put(head.max_real_part);
+  put(head.rank);
+  put(head.differentiation_index);
+  put(head.internal_dynamics_order);
+  put(head.relative_degree_bytes);
+  put(head.error_bytes);
+  put(head.ok);
+  put(head.realization);
+  put(head.stability);
+  std::memset(bytes, 0, static_cast<std::size_t>(end - bytes));
 }
 
 PointHead TakePointHead(const char* bytes) {
@@ -218,13 +233,13 @@ class PointRecordReader final : public TableRecordReader {
       chunk.texts[axes][row] =
           ok ? ToString(static_cast<Realization>(head.realization)) : std::string_view();
       chunk.numbers[axes + 1][row] = ok ? static_cast<double>(head.rank) : kNone;
-      chunk.texts[axes + 2][row].assign(relative_degree, structure ? relative_degree_bytes : 0);
+      chunk.texts[axes + 2][row] = {relative_degree, structure ? relative_degree_bytes : 0};
       chunk.numbers[axes + 3][row] = structure ? head.differentiation_index : kNone;
       chunk.numbers[axes + 4][row] = structure ? head.internal_dynamics_order : kNone;
       chunk.texts[axes + 5][row] =
           ok ? ToString(static_cast<Stability>(head.stability)) : std::string_view();
       chunk.numbers[axes + 6][row] = ok ? head.max_real_part : kNone;
-      chunk.texts[axes + 7][row].assign(error, ok ? 0 : head.error_bytes);
+      chunk.texts[axes + 7][row] = {error, head.error_bytes};  // empty for a point with a solution
     }
     if (next_ == rows() && !file_.AtEnd()) {
       throw Error(file_.path().string() + ": more records than the grid has points");
@@ -300,24 +315,31 @@ void AppendRecordRows(std::size_t first,
                       std::span<const SweepPoint> points,
                       std::string& points_records,
                       std::string& eigenvalue_records) {
-  std::string relative_degree;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SweepPoint& point = points[i];
-    relative_degree = point.ok ? JoinRelativeDegrees(point.relative_degree) : std::string();
-    const std::string& error = point.ok ? std::string() : point.error;
+    // Room for the head first; it is written once the texts after it have their lengths.
+    const std::size_t head_at = points_records.size();
     PointHead head;
     head.max_real_part = point.max_real_part;
     head.rank = point.rank;
     head.differentiation_index = point.differentiation_index;
     head.internal_dynamics_order = point.internal_dynamics_order;
-    head.relative_degree_bytes = static_cast<std::uint32_t>(relative_degree.size());
-    head.error_bytes = static_cast<std::uint32_t>(error.size());
     head.ok = point.ok ? 1 : 0;
     head.realization = static_cast<std::uint8_t>(point.realization);
     head.stability = static_cast<std::uint8_t>(point.stability);
-    PutPointHead(points_records, head);
-    points_records += relative_degree;
-    points_records += error;
+    points_records.append(kPointHeadBytes, '\0');
+    if (point.ok) {
+      for (std::size_t k = 0; k < point.relative_degree.size(); ++k) {
+        if (k > 0) points_records += ';';
+        AppendInteger(points_records, point.relative_degree[k]);
+      }
+      head.relative_degree_bytes =
+          static_cast<std::uint32_t>(points_records.size() - head_at - kPointHeadBytes);
+    } else {
+      points_records += point.error;
+      head.error_bytes = static_cast<std::uint32_t>(point.error.size());
+    }
+    EncodePointHead(head, points_records.data() + head_at);
     for (std::size_t k = 0; k < point.eigenvalues.size(); ++k) {
       Put(eigenvalue_records, static_cast<std::uint64_t>(first + i));
       Put(eigenvalue_records, static_cast<std::uint64_t>(k));

@@ -19,6 +19,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/parameter_grid.h"
@@ -39,11 +40,12 @@ void AppendRecordRows(std::size_t first,
 
 /// Some consecutive rows of a table, by column (in the order of its TableColumn list): a number
 /// column in `numbers[c]`, a text column in `texts[c]` (the other vector of that column is empty).
-/// An empty CSV field is NaN in a number column and "" in a text column.
+/// An empty CSV field is NaN in a number column and "" in a text column. A text points into the
+/// reader's records or to a constant: valid as long as the reader lives.
 struct TableChunk {
   std::size_t rows = 0;
   std::vector<std::vector<double>> numbers;
-  std::vector<std::vector<std::string>> texts;
+  std::vector<std::vector<std::string_view>> texts;
 };
 
 /// Reads the rows of one table back from its records file, a chunk at a time, from the start.
