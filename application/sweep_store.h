@@ -46,7 +46,8 @@ enum class SweepFileFormat {
 };
 std::string_view ToString(SweepFileFormat format);
 std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text);
-/// The names of the table files of `format`, for messages ("points.csv, eigenvalues.csv").
+/// The names of the table files of `format`: "points.csv, eigenvalues.csv", "sweep.h5" or
+/// "sweep.mat" (the file's name for HDF5 and MAT).
 std::string SweepTableFileNames(SweepFileFormat format);
 /// Throws UsageError when a column of `grid` cannot be written in `format` (CheckHdf5ColumnNames,
 /// CheckMatColumnNames).

@@ -49,7 +49,8 @@ std::vector<std::string> UniqueColumnNames(const std::vector<TableColumn>& colum
 
 /// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
 /// realization, P_rank, relative_degree, differentiation_index, internal_dynamics_order,
-/// stability, max_real_part, error. Every format of the table (CSV, HDF5, MAT) uses these names.
+/// stability, max_real_part, error. Every format of the table (CSV, HDF5, MAT) uses these names
+/// (HDF5 and MAT through UniqueColumnNames).
 std::vector<std::string> PointsColumns(const ParameterGrid& grid);
 /// The columns of the eigenvalues table: the varied parameters, then kEigenvalueIndexColumn, re,
 /// im, frequency_hz, damping_ratio.
