@@ -16,12 +16,13 @@ MAKEFLAGS   += --no-print-directory
 
 # Build and run dependencies (DESIGN.md, "Dependencies"). The Python module (application/python)
 # needs pybind11 and the interpreter's headers, its tests pytest and numpy; its tables are pandas
-# DataFrames (numpy structured arrays where pandas is missing, which CI must test too). MAT files
-# are written with matio; the tests read them back with SciPy (scipy.io.loadmat).
+# DataFrames (numpy structured arrays where pandas is missing, which CI must test too).
+# `sweep --format hdf5|mat` needs HDF5 and matio; its tests read the files back with h5py and
+# scipy.io.loadmat.
 PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-dev libgsl-dev \
             catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox \
             libopenmpi-dev openmpi-bin pybind11-dev python3-dev python3-pytest python3-numpy \
-            python3-pandas libmatio-dev python3-scipy
+            python3-pandas libhdf5-dev libmatio-dev python3-h5py python3-scipy
 # Only the benchmarks need the SciPy peer.
 BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml
 # Only fuzzing needs clang and its libFuzzer runtime.

@@ -290,10 +290,11 @@ void ComputeBlock(const SweepRunner& run,
                   const SweepOptions& options,
                   const BlockPlan& plan,
                   std::size_t b,
+                  TableEncoding encoding,
                   FormattedBlock& block) {
   const int threads = SweepThreads(options);
   run(plan.first(b), [&](std::size_t first, std::span<const SweepPoint> points) {
-    FormatBlock(grid, first, points, threads, block);
+    FormatBlock(grid, first, points, threads, encoding, block);
     return false;  // one block only
   });
 }
@@ -309,6 +310,7 @@ class Root {
   DistributedSweepEnd Run(const SweepRunner& run,
                           const ParameterGrid& grid,
                           const SweepOptions& options,
+                          TableEncoding encoding,
                           const std::function<void(const FormattedBlock&)>& write,
                           const std::function<bool()>& stop_requested) {
     Verdict verdict;
@@ -318,7 +320,7 @@ class Root {
       for (std::size_t b = 0; b < plan_.count(); ++b) {
         const int owner = plan_.owner(b, group_.size);
         if (owner == 0) {
-          ComputeBlock(run, grid, options, plan_, b, block_);
+          ComputeBlock(run, grid, options, plan_, b, encoding, block_);
         } else if (!ReceiveBlock(owner, plan_.first(b), plan_.size(b))) {
           verdict.kind = VerdictKind::kStopped;
           break;
@@ -404,6 +406,7 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
                               const SweepRunner& run,
                               const ParameterGrid& grid,
                               const SweepOptions& options,
+                              TableEncoding encoding,
                               const std::function<bool()>& stop_requested) {
   SendQueue sends;
   MessageKind end = MessageKind::kFinished;
@@ -413,7 +416,7 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
     for (std::size_t b = static_cast<std::size_t>(group.rank); b < plan.count();
          b += static_cast<std::size_t>(group.size)) {
       if (VerdictArrived()) break;  // rank 0 has ended the sweep
-      ComputeBlock(run, grid, options, plan, b, block);
+      ComputeBlock(run, grid, options, plan, b, encoding, block);
       sends.Send(BlockMessage(block), 0, kResultTag, kSendsInFlight);
       if (stop_requested()) {
         end = MessageKind::kStopped;
@@ -517,13 +520,16 @@ DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
                                         const ParameterGrid& grid,
                                         const SweepOptions& options,
                                         std::size_t first_point,
+                                        TableEncoding encoding,
                                         const std::function<void(const FormattedBlock&)>& write,
                                         const std::function<bool()>& stop_requested) {
   if (!mpi_active) throw Error("RunDistributedSweep: MPI is not initialised");
   const BlockPlan plan = {first_point, std::max<std::size_t>(options.block_size, 1),
                           std::max(grid.num_points(), first_point)};
-  if (world.IsRoot()) return Root(world, plan).Run(run, grid, options, write, stop_requested);
-  return RunWorker(world, plan, run, grid, options, stop_requested);
+  if (world.IsRoot()) {
+    return Root(world, plan).Run(run, grid, options, encoding, write, stop_requested);
+  }
+  return RunWorker(world, plan, run, grid, options, encoding, stop_requested);
 }
 
 }  // namespace servokit

@@ -87,11 +87,13 @@ using SweepRunner =
     std::function<std::size_t(std::size_t first_point, const SweepConsumer& consume)>;
 
 /// RunDistributedSweep for any kind of model: blocks are computed by `run` (SweepRunner), whose
-/// blocks must be options.block_size points.
+/// blocks must be options.block_size points, and formatted with `encoding` (CSV text, or the
+/// binary records of the HDF5 and MAT formats) by the rank that computes them.
 DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
                                         const ParameterGrid& grid,
                                         const SweepOptions& options,
                                         std::size_t first_point,
+                                        TableEncoding encoding,
                                         const std::function<void(const FormattedBlock&)>& write,
                                         const std::function<bool()>& stop_requested);
 

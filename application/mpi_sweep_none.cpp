@@ -47,6 +47,7 @@ DistributedSweepEnd RunDistributedSweep(const SweepRunner&,
                                         const ParameterGrid&,
                                         const SweepOptions&,
                                         std::size_t,
+                                        TableEncoding,
                                         const std::function<void(const FormattedBlock&)>&,
                                         const std::function<bool()>&) {
   throw Error("this servokit was built without MPI: it cannot run a distributed sweep");

@@ -1,4 +1,5 @@
 // servokit sweep MODEL --vary p=a:b:n | p=v1,v2,... [--vary ...] --out DIR [--threads N]
+//                [--format csv|hdf5|mat]
 //                [--set p=v]... [--y0 v]... [--q0 v]... [--rank-tolerance r] [--axis-tolerance a]
 //                [--checkpoint-interval s] [--block-size n]
 //                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
@@ -48,6 +49,7 @@ struct SweepArguments {
   std::string model_path;
   std::vector<std::string> vary;  // "name=a:b:n" or "name=v1,v2,..."
   std::string out;                // the output directory
+  std::string format = "csv";     // SweepFileFormat's name
   int threads = 0;                // 0: not given, all cores
   std::size_t block_size = kSweepBlockSize;
   std::vector<std::string> overrides;  // "name=value"
@@ -217,9 +219,16 @@ struct SweepSetup {
   ParameterGrid grid;
   SweepOptions options;
   SweepOutputOptions output_options;
+  SweepFileFormat format = SweepFileFormat::kCsv;
   TestHooks test_hooks;
   std::vector<std::string> warnings;  // of the --vary texts, printed by rank 0
 };
+
+SweepFileFormat ParseSweepFileFormat(const std::string& text) {
+  const std::optional<SweepFileFormat> format = SweepFileFormatFromString(text);
+  if (!format) throw UsageError("--format " + text + ": must be csv, hdf5 or mat");
+  return *format;
+}
 
 SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
   if (Processes().size > 1 && !BuiltWithMpi()) {
@@ -240,6 +249,8 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   ParameterGrid grid = ParseParameterGrid(
       {model.parameter_names(), model.parameter_display_units()}, arguments.vary, &warnings);
   RejectSetAndVary(overrides, grid);
+  const SweepFileFormat format = ParseSweepFileFormat(arguments.format);
+  CheckSweepFileColumns(format, grid);
   SweepOptions options = MakeSweepOptions(arguments, sweep, model);
   options.linear = linear_options;
   if (!(arguments.checkpoint_interval > 0.0)) {
@@ -249,8 +260,14 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
   const SweepOutputOptions output_options = {
       SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
   SweepModelInfo info = DescribeSweepModel(model, options);
-  return {std::move(model),           std::move(info),    std::move(grid), options, output_options,
-          TestHooksFromEnvironment(), std::move(warnings)};
+  return {std::move(model),
+          std::move(info),
+          std::move(grid),
+          options,
+          output_options,
+          format,
+          TestHooksFromEnvironment(),
+          std::move(warnings)};
 }
 
 // Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
@@ -270,7 +287,7 @@ void OnEveryProcess(Step step) {
 void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
   if (Processes().size == 1) return;
   const std::string fingerprint =
-      SweepFingerprint(setup.info, setup.grid, setup.options.classification);
+      SweepFingerprint(setup.info, setup.grid, setup.options.classification, setup.format);
   OnEveryProcess([&] {
     if (BroadcastFromRoot(fingerprint) != fingerprint) {
       throw UsageError("this rank computes another sweep than rank 0 (" + fingerprint +
@@ -303,6 +320,7 @@ std::size_t ComputeSweep(const SweepSetup& setup,
   }
   return RunDistributedSweep(
              run, setup.grid, setup.options, first_point,
+             setup.format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords,
              [&](const FormattedBlock& block) {
                output->Append(block);
                progress.Update(block.first + block.points);
@@ -326,7 +344,7 @@ int RunSweepCommand(const SweepArguments& arguments,
   OnEveryProcess([&] {
     if (root) {
       output.emplace(arguments.out, setup->info, setup->grid, setup->options.classification,
-                     CommandLine(sweep), setup->output_options);
+                     CommandLine(sweep), setup->output_options, setup->format);
     }
   });
   const std::size_t total = setup->grid.num_points();
@@ -351,9 +369,9 @@ int RunSweepCommand(const SweepArguments& arguments,
     return kInterruptedExitStatus;
   }
   output->Finish();
-  out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out
-      << " (points.csv, eigenvalues.csv, sweep.json); " << output->points_without_solution()
-      << " without a solution\n";
+  out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out << " ("
+      << SweepTableFileNames(setup->format) << ", sweep.json); "
+      << output->points_without_solution() << " without a solution\n";
   return static_cast<int>(ExitCode::kSuccess);
 }
 
@@ -362,7 +380,8 @@ int RunSweepCommand(const SweepArguments& arguments,
 Command AddSweepCommand(CLI::App& app) {
   auto arguments = std::make_shared<SweepArguments>();
   CLI::App* sweep = app.add_subcommand(
-      "sweep", "Classify the problem at every point of a parameter grid (CSV tables)");
+      "sweep",
+      "Classify the problem at every point of a parameter grid (CSV tables, HDF5 or MAT file)");
   sweep->footer(
       "Each --vary adds one axis of a full grid; the first varies slowest (row-major).\n"
       "A range a:b:n (or a:b:n=N) is n values from a to b inclusive; a:b:step=h is a, a+h,\n"
@@ -383,6 +402,11 @@ Command AddSweepCommand(CLI::App& app) {
                    "name=a:b:step=h or name=v1,v2,...")
       ->required();
   sweep->add_option("--out", arguments->out, "Output directory")->required();
+  sweep
+      ->add_option("--format", arguments->format,
+                   "Files of the tables: csv (points.csv, eigenvalues.csv), hdf5 (sweep.h5) or "
+                   "mat (sweep.mat, MAT 5)")
+      ->capture_default_str();
   sweep->add_option("--threads", arguments->threads,
                     "Threads (default: all cores; under mpirun, per rank: the cores of its "
                     "machine shared among its ranks)");

@@ -21,6 +21,9 @@
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
+#include "reports/sweep_hdf5.h"
+#include "reports/sweep_mat.h"
+#include "reports/sweep_records.h"
 
 #ifndef SERVOKIT_VERSION
 #error "SERVOKIT_VERSION must be defined by the build"
@@ -134,6 +137,17 @@ CheckpointRecord ReadCheckpoint(const std::filesystem::path& path) {
           number("eigenvalues_bytes")};
 }
 
+// The one table of SweepFileFormat's names.
+constexpr std::pair<SweepFileFormat, std::string_view> kFormatNames[] = {
+    {SweepFileFormat::kCsv, "csv"},
+    {SweepFileFormat::kHdf5, "hdf5"},
+    {SweepFileFormat::kMat, "mat"},
+};
+
+TableEncoding EncodingOf(SweepFileFormat format) {
+  return format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords;
+}
+
 UsageError AnotherSweep(const std::filesystem::path& directory) {
   return UsageError("--out " + directory.string() +
                     " holds another sweep (a different model, grid or options); use another " +
@@ -184,6 +198,59 @@ std::string OptionalVectorText(const std::optional<Eigen::VectorXd>& values) {
 
 }  // namespace
 
+std::string_view ToString(SweepFileFormat format) {
+  for (const auto& [value, name] : kFormatNames) {
+    if (value == format) return name;
+  }
+  return "unknown";
+}
+
+std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text) {
+  for (const auto& [value, name] : kFormatNames) {
+    if (name == text) return value;
+  }
+  return std::nullopt;
+}
+
+std::string SweepTableFileNames(SweepFileFormat format) {
+  switch (format) {
+    case SweepFileFormat::kCsv:
+      return "points.csv, eigenvalues.csv";
+    case SweepFileFormat::kHdf5:
+      return "sweep.h5";
+    case SweepFileFormat::kMat:
+      return "sweep.mat";
+  }
+  return "";
+}
+
+void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid) {
+  try {
+    if (format == SweepFileFormat::kHdf5) CheckHdf5ColumnNames(grid);
+    if (format == SweepFileFormat::kMat) CheckMatColumnNames(grid);
+  } catch (const UsageError& problem) {
+    throw UsageError("--format " + std::string(ToString(format)) + ": " + problem.what());
+  }
+}
+
+std::string DescribeGrid(const ParameterGrid& grid) {
+  std::string text;
+  for (const GridAxis& axis : grid.axes()) {
+    if (!text.empty()) text += ' ';
+    text += axis.name + "=";
+    if (const auto* range = std::get_if<ValueRange>(&axis.values)) {
+      text += FormatExact(range->first) + ":" + FormatExact(range->last) + ":" +
+              std::to_string(range->count);
+    } else {
+      text += "[" + JoinExact(std::get<std::vector<double>>(axis.values)) + "]";
+    }
+    // The unit changes the files (column name, values shown), so it is part of the sweep; the
+    // values here are SI whatever it is.
+    if (axis.display_unit == DisplayUnit::kDegree) text += " shown in deg";
+  }
+  return text;
+}
+
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options) {
   SweepModelInfo info = std::visit(
       [&](const auto& kind) {
@@ -198,32 +265,27 @@ SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& 
 
 std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
-                             const ClassificationOptions& options) {
+                             const ClassificationOptions& options,
+                             SweepFileFormat format) {
   std::string text = std::string("servokit ") + SERVOKIT_VERSION + "; model " + model.content_hash +
                      "; parameters";
   for (std::size_t i = 0; i < model.parameter_names.size(); ++i) {
     text += (i == 0 ? " " : ",") + model.parameter_names[i] + "=" +
             FormatExact(model.parameters[static_cast<Eigen::Index>(i)]);
   }
-  text += "; vary";
-  for (const GridAxis& axis : grid.axes()) {
-    text += " " + axis.name + "=";
-    if (const auto* range = std::get_if<ValueRange>(&axis.values)) {
-      text += FormatExact(range->first) + ":" + FormatExact(range->last) + ":" +
-              std::to_string(range->count);
-    } else {
-      text += "[" + JoinExact(std::get<std::vector<double>>(axis.values)) + "]";
-    }
-    // The unit changes the files (column name, values shown), so it is part of the sweep.
-    text += " " + std::string(ToString(axis.display_unit));
+  text += "; vary " + DescribeGrid(grid);
+  if (model.linear) {
+    text += "; linear " + DescribeLinearSweepOptions(*model.linear);
+  } else {
+    const OperatingPointOptions& point = options.operating_point;
+    text += "; rank_tolerance=" + FormatExact(options.rank_tolerance) +
+            " imaginary_axis_tolerance=" + FormatExact(options.imaginary_axis_tolerance) +
+            " residual_tolerance=" + FormatExact(point.residual_tolerance) +
+            " max_iterations=" + std::to_string(point.max_iterations) +
+            " y0=" + OptionalVectorText(point.y0) + " q0=" + OptionalVectorText(point.q_guess);
   }
-  if (model.linear) return text + "; linear " + DescribeLinearSweepOptions(*model.linear);
-  const OperatingPointOptions& point = options.operating_point;
-  return text + "; rank_tolerance=" + FormatExact(options.rank_tolerance) +
-         " imaginary_axis_tolerance=" + FormatExact(options.imaginary_axis_tolerance) +
-         " residual_tolerance=" + FormatExact(point.residual_tolerance) +
-         " max_iterations=" + std::to_string(point.max_iterations) +
-         " y0=" + OptionalVectorText(point.y0) + " q0=" + OptionalVectorText(point.q_guess);
+  if (format != SweepFileFormat::kCsv) text += "; format " + std::string(ToString(format));
+  return text;
 }
 
 SweepOutput::SweepOutput(const std::filesystem::path& directory,
@@ -231,16 +293,29 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
                          const ParameterGrid& grid,
                          const ClassificationOptions& options,
                          std::vector<std::string> command_line,
-                         const SweepOutputOptions& output_options)
+                         const SweepOutputOptions& output_options,
+                         SweepFileFormat format)
     : directory_(directory),
-      paths_{directory / "points.csv",      directory / "points.csv.partial",
-             directory / "eigenvalues.csv", directory / "eigenvalues.csv.partial",
-             directory / "sweep.json",      directory / ".sweep-checkpoint"},
+      paths_(format == SweepFileFormat::kCsv ? Paths{directory / "points.csv",
+                                                     directory / "points.csv.partial",
+                                                     directory / "eigenvalues.csv",
+                                                     directory / "eigenvalues.csv.partial",
+                                                     directory / "sweep.json",
+                                                     directory / ".sweep-checkpoint",
+                                                     {}}
+                                             : Paths{{},
+                                                     directory / "points.records.partial",
+                                                     {},
+                                                     directory / "eigenvalues.records.partial",
+                                                     directory / "sweep.json",
+                                                     directory / ".sweep-checkpoint",
+                                                     directory / SweepTableFileNames(format)}),
       model_(std::move(model)),
       grid_(grid),
       options_(options),
       command_line_(std::move(command_line)),
-      fingerprint_(SweepFingerprint(model_, grid, options)),
+      format_(format),
+      fingerprint_(SweepFingerprint(model_, grid, options, format)),
       checkpoint_interval_(output_options.checkpoint_interval),
       format_threads_(std::max(output_options.threads, 1)) {
   Lock();
@@ -261,10 +336,13 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
                          " is not a servokit sweep record; use another --out or delete it");
       }
       if (record["fingerprint"] != fingerprint_) throw AnotherSweep(directory_);
-      already_complete_ = record.value("completed", false) &&
-                          std::filesystem::exists(paths_.points) &&
-                          std::filesystem::exists(paths_.eigenvalues);
+      already_complete_ = record.value("completed", false) && FinalFilesExist();
       if (already_complete_) {
+        // A crash right after the record said completed may have left the records behind.
+        if (format_ != SweepFileFormat::kCsv) {
+          std::filesystem::remove(paths_.points_partial);
+          std::filesystem::remove(paths_.eigenvalues_partial);
+        }
         points_done_ = grid_.num_points();
         points_without_solution_ = record.value("points_without_solution", std::size_t{0});
         return;
@@ -301,7 +379,8 @@ void SweepOutput::RemoveStaleTemporaries() const {
   // A run killed inside WriteDurably leaves its temporary behind. Most resumed runs overwrite
   // it at their next checkpoint, but one killed after its last checkpoint never writes another,
   // and the finished directory would keep a stray file. We hold the lock: nobody else writes.
-  for (const std::filesystem::path& path : {paths_.checkpoint, paths_.record}) {
+  for (const std::filesystem::path& path : {paths_.checkpoint, paths_.record, paths_.table_file}) {
+    if (path.empty()) continue;
     std::error_code error;
     std::filesystem::remove(TemporaryPath(path), error);
     if (error) {
@@ -317,8 +396,10 @@ void SweepOutput::StartAfresh() {
   constexpr int kCreate = O_WRONLY | O_CREAT | O_TRUNC | O_APPEND;
   points_fd_ = OpenFile(paths_.points_partial, kCreate);
   eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, kCreate);
-  const std::string points_header = PointsCsvHeader(grid_);
-  const std::string eigenvalues_header = EigenvaluesCsvHeader(grid_);
+  // Binary records have no header: the columns are known from the grid.
+  const bool csv = format_ == SweepFileFormat::kCsv;
+  const std::string points_header = csv ? PointsCsvHeader(grid_) : std::string();
+  const std::string eigenvalues_header = csv ? EigenvaluesCsvHeader(grid_) : std::string();
   WriteAll(points_fd_, points_header, paths_.points_partial);
   WriteAll(eigenvalues_fd_, eigenvalues_header, paths_.eigenvalues_partial);
   sizes_ = {points_header.size(), eigenvalues_header.size()};
@@ -346,7 +427,7 @@ void SweepOutput::Resume(const FileSizes& sizes) {
 }
 
 void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) {
-  FormatBlock(grid_, first, points, format_threads_, block_);
+  FormatBlock(grid_, first, points, format_threads_, EncodingOf(format_), block_);
   Append(block_);
 }
 
@@ -381,10 +462,38 @@ void SweepOutput::Checkpoint() {
 void SweepOutput::Finish() {
   assert(points_done_ == grid_.num_points());
   if (already_complete_) return;
-  // The checkpoint must say "all done" before the first rename: a crash between the renames
-  // then resumes here instead of missing a partial file.
-  if (points_fd_ >= 0) Checkpoint();
-  CloseTables();
+  if (format_ == SweepFileFormat::kCsv) {
+    // The checkpoint must say "all done" before the first rename: a crash between the renames
+    // then resumes here instead of missing a partial file.
+    if (points_fd_ >= 0) Checkpoint();
+    CloseTables();
+    RenameCsvTables();
+  } else {
+    // The records are read back as written (the page cache holds them); they need not be made
+    // durable first: a crash before sweep.json says completed resumes at the last checkpoint,
+    // and the file built again then has the same bytes.
+    CloseTables();
+    WriteTableFile();
+  }
+  SyncDirectory();
+  WriteRecord(true);
+  std::filesystem::remove(paths_.checkpoint);
+  // The records go after the checkpoint: a crash in between finds sweep.json completed and the
+  // table file, and the constructor removes the stale records.
+  if (format_ != SweepFileFormat::kCsv) {
+    std::filesystem::remove(paths_.points_partial);
+    std::filesystem::remove(paths_.eigenvalues_partial);
+  }
+  SyncDirectory();
+  already_complete_ = true;
+}
+
+bool SweepOutput::FinalFilesExist() const {
+  if (format_ != SweepFileFormat::kCsv) return std::filesystem::exists(paths_.table_file);
+  return std::filesystem::exists(paths_.points) && std::filesystem::exists(paths_.eigenvalues);
+}
+
+void SweepOutput::RenameCsvTables() {
   for (const auto& [partial, final_path] :
        {std::pair{paths_.points_partial, paths_.points},
         std::pair{paths_.eigenvalues_partial, paths_.eigenvalues}}) {
@@ -395,11 +504,36 @@ void SweepOutput::Finish() {
                   " to start the sweep again");
     }
   }
-  SyncDirectory();
-  WriteRecord(true);
-  std::filesystem::remove(paths_.checkpoint);
-  SyncDirectory();
-  already_complete_ = true;
+}
+
+void SweepOutput::WriteTableFile() {
+  const bool have_records = std::filesystem::exists(paths_.points_partial) &&
+                            std::filesystem::exists(paths_.eigenvalues_partial);
+  if (!have_records) {
+    if (std::filesystem::exists(paths_.table_file)) return;  // built before a crash
+    throw Error(paths_.points_partial.string() + ": missing; delete " + directory_.string() +
+                " to start the sweep again");
+  }
+  const std::unique_ptr<TableRecordReader> points = OpenPointRecords(grid_, paths_.points_partial);
+  const std::unique_ptr<TableRecordReader> eigenvalues =
+      OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
+  const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
+                                      SERVOKIT_VERSION};
+  const std::filesystem::path temporary = TemporaryPath(paths_.table_file);
+  if (format_ == SweepFileFormat::kHdf5) {
+    WriteSweepHdf5(temporary, metadata, *points, *eigenvalues);
+  } else {
+    WriteSweepMat(temporary, metadata, *points, *eigenvalues);
+  }
+  int fd = OpenFile(temporary, O_RDONLY);
+  try {
+    SyncFile(fd, temporary);
+  } catch (...) {
+    CloseFile(fd);
+    throw;
+  }
+  CloseFile(fd);
+  std::filesystem::rename(temporary, paths_.table_file);
 }
 
 void SweepOutput::WriteRecord(bool completed) const {
@@ -444,6 +578,7 @@ void SweepOutput::WriteRecord(bool completed) const {
                          {"dense_threshold", zeros.dense_threshold}};
     record["kind"] = "linear";
   }
+  if (format_ != SweepFileFormat::kCsv) record["format"] = std::string(ToString(format_));
   if (completed) record["points_without_solution"] = points_without_solution_;
   WriteDurably(paths_.record, record.dump(2) + "\n");
 }

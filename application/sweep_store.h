@@ -4,6 +4,11 @@
 //
 //   sweep.json          what was swept (model, grid, options, command line) and `completed`
 //
+// With --format hdf5 or mat the tables go into one file instead, sweep.h5 (reports/sweep_hdf5.h)
+// or sweep.mat (reports/sweep_mat.h). While such a sweep runs, the partial files hold binary
+// records (reports/sweep_records.h) under the same checkpoints; Finish builds the file from them
+// once (temp file, fsync, rename) and removes them.
+//
 // Written so that a sweep stopped at any moment (Ctrl-C, SIGKILL, power loss) leaves no corrupt
 // file and the same command resumes it: while it runs, the tables grow as `*.partial` files,
 // and `.sweep-checkpoint` records, atomically (temp file, fsync, rename), how many points are
@@ -20,6 +25,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "analysis/linear_analysis.h"
@@ -31,6 +37,21 @@
 #include "reports/sweep_tables.h"
 
 namespace servokit {
+
+/// The files a sweep writes its tables to (`--format`).
+enum class SweepFileFormat {
+  kCsv,   // points.csv, eigenvalues.csv
+  kHdf5,  // sweep.h5
+  kMat,   // sweep.mat (MAT 5)
+};
+std::string_view ToString(SweepFileFormat format);
+std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text);
+/// The names of the table files of `format`: "points.csv, eigenvalues.csv", "sweep.h5" or
+/// "sweep.mat" (the file's name for HDF5 and MAT).
+std::string SweepTableFileNames(SweepFileFormat format);
+/// Throws UsageError when a column of `grid` cannot be written in `format` (CheckHdf5ColumnNames,
+/// CheckMatColumnNames).
+void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid);
 
 /// The default of SweepOutputOptions::checkpoint_interval: an fsync per block would cost more
 /// than the points of a small model, and a crash loses at most a second of work (an interrupt,
@@ -58,12 +79,18 @@ struct SweepModelInfo {
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options);
 
 /// One line naming everything that decides a sweep's files: servokit version, model file hash,
-/// every parameter value, the grid and the classification options. Two sweeps with the same
+/// every parameter value, the grid, the classification options and the file format (named only
+/// when not CSV, so that a CSV sweep's line is what it always was). Two sweeps with the same
 /// fingerprint write the same bytes; the number of threads is not part of it.
 /// A linear model's line also names its analysis options (DescribeLinearSweepOptions).
 std::string SweepFingerprint(const SweepModelInfo& model,
                              const ParameterGrid& grid,
-                             const ClassificationOptions& options);
+                             const ClassificationOptions& options,
+                             SweepFileFormat format = SweepFileFormat::kCsv);
+
+/// The varied parameters and their values in SI, as the fingerprint names them
+/// ("alpha=0:1.5707963267948966:91 d=0:2:21"; a list as "d=[0,1,2]").
+std::string DescribeGrid(const ParameterGrid& grid);
 
 /// The output directory of one sweep, from opening (new, resumed or already complete) to the
 /// final rename. `model` and `grid` must outlive it. Holds an exclusive lock (flock) on the
@@ -84,7 +111,8 @@ class SweepOutput {
               const ParameterGrid& grid,
               const ClassificationOptions& options,
               std::vector<std::string> command_line,
-              const SweepOutputOptions& output_options = {});
+              const SweepOutputOptions& output_options = {},
+              SweepFileFormat format = SweepFileFormat::kCsv);
   ~SweepOutput();
   SweepOutput(const SweepOutput&) = delete;
   SweepOutput& operator=(const SweepOutput&) = delete;
@@ -104,15 +132,17 @@ class SweepOutput {
   void Append(const FormattedBlock& block);
   /// Makes everything appended so far durable and records it in the checkpoint.
   void Checkpoint();
-  /// After the last point: renames the partial files to points.csv and eigenvalues.csv, writes
-  /// sweep.json with completed true and removes the checkpoint. Safe to repeat after a crash in
-  /// the middle of it (the constructor resumes at the last point, and Finish completes it).
+  /// After the last point: renames the partial files to points.csv and eigenvalues.csv (or builds
+  /// sweep.h5 or sweep.mat from them and removes them), writes sweep.json with completed true
+  /// and removes the checkpoint. Safe to repeat after a crash in the middle of it (the
+  /// constructor resumes at the last point, and Finish completes it).
   void Finish();
 
  private:
   struct Paths {
+    // points and eigenvalues: the CSV tables; table_file: sweep.h5 or sweep.mat.
     std::filesystem::path points, points_partial, eigenvalues, eigenvalues_partial, record,
-        checkpoint;
+        checkpoint, table_file;
   };
   struct FileSizes {
     std::uintmax_t points = 0, eigenvalues = 0;
@@ -126,6 +156,9 @@ class SweepOutput {
   void WriteDurably(const std::filesystem::path& path, const std::string& contents) const;
   void SyncDirectory() const;
   void CloseTables();
+  bool FinalFilesExist() const;
+  void RenameCsvTables();
+  void WriteTableFile();
 
   std::filesystem::path directory_;
   Paths paths_;
@@ -133,6 +166,7 @@ class SweepOutput {
   const ParameterGrid& grid_;
   ClassificationOptions options_;
   std::vector<std::string> command_line_;
+  SweepFileFormat format_;
   std::string fingerprint_;
   std::chrono::duration<double> checkpoint_interval_;
 

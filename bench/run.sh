@@ -9,6 +9,9 @@ echo
 echo "== sweep throughput against the SciPy pipeline (issue #3) =="
 "$root/bench/compare_sweep.sh" "$build"
 echo
+echo "== sweep files: CSV against HDF5 and MAT (issue #17) =="
+"$root/bench/compare_sweep_formats.sh" "$build"
+echo
 echo "== inverse-model solves against SciPy solve_ivp (issue #4) =="
 "$root/bench/compare_solve.sh" "$build"
 echo

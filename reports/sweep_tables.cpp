@@ -1,33 +1,26 @@
 #include "reports/sweep_tables.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
+#include <initializer_list>
 
 #include "analysis/sweep.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
+#include "reports/sweep_records.h"
 
 namespace servokit {
 namespace {
 
-// The columns after the varied parameters, in order (sweep_tables.h).
-constexpr std::array<std::string_view, 8> kPointsFixedColumns = {"realization",
-                                                                 "P_rank",
-                                                                 "relative_degree",
-                                                                 "differentiation_index",
-                                                                 "internal_dynamics_order",
-                                                                 "stability",
-                                                                 "max_real_part",
-                                                                 "error"};
-constexpr std::array<std::string_view, 5> kEigenvaluesFixedColumns = {
-    kEigenvalueIndexColumn, "re", "im", "frequency_hz", "damping_ratio"};
-
-std::vector<std::string> ParameterColumns(const ParameterGrid& grid) {
-  std::vector<std::string> columns;
-  for (const GridAxis& axis : grid.axes()) columns.push_back(axis.ColumnName());
+// A parameter is in SI, whose unit the model file does not name (""), unless shown in degrees.
+std::vector<TableColumn> ParameterTableColumns(const ParameterGrid& grid) {
+  std::vector<TableColumn> columns;
+  for (const GridAxis& axis : grid.axes()) {
+    columns.push_back({axis.ColumnName(), ColumnKind::kNumber,
+                       axis.display_unit == DisplayUnit::kDegree ? "deg" : ""});
+  }
   return columns;
 }
 
@@ -38,15 +31,6 @@ std::string CsvHeader(const std::vector<std::string>& columns) {
     header += column;
   }
   return header + '\n';
-}
-
-std::string JoinRelativeDegrees(const std::vector<int>& relative_degree) {
-  std::string joined;
-  for (std::size_t i = 0; i < relative_degree.size(); ++i) {
-    if (i > 0) joined += ';';
-    joined += std::to_string(relative_degree[i]);
-  }
-  return joined;
 }
 
 void AppendPointRow(const std::string& values, const SweepPoint& point, std::string& csv) {
@@ -97,24 +81,72 @@ void AppendEigenvalueRows(const std::string& values, const SweepPoint& point, st
 
 }  // namespace
 
+std::string JoinRelativeDegrees(const std::vector<int>& relative_degree) {
+  std::string joined;
+  for (std::size_t i = 0; i < relative_degree.size(); ++i) {
+    if (i > 0) joined += ';';
+    joined += std::to_string(relative_degree[i]);
+  }
+  return joined;
+}
+
+std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid) {
+  constexpr ColumnKind kNumber = ColumnKind::kNumber, kText = ColumnKind::kText;
+  std::vector<TableColumn> columns = ParameterTableColumns(grid);
+  for (TableColumn column :
+       std::initializer_list<TableColumn>{{"realization", kText, ""},
+                                          {"P_rank", kNumber, ""},
+                                          {"relative_degree", kText, ""},
+                                          {"differentiation_index", kNumber, ""},
+                                          {"internal_dynamics_order", kNumber, ""},
+                                          {"stability", kText, ""},
+                                          {"max_real_part", kNumber, "1/s"},
+                                          {"error", kText, ""}}) {
+    columns.push_back(std::move(column));
+  }
+  return columns;
+}
+
+std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid) {
+  constexpr ColumnKind kNumber = ColumnKind::kNumber;
+  std::vector<TableColumn> columns = ParameterTableColumns(grid);
+  for (TableColumn column :
+       std::initializer_list<TableColumn>{{std::string(kEigenvalueIndexColumn), kNumber, ""},
+                                          {"re", kNumber, "1/s"},
+                                          {"im", kNumber, "1/s"},
+                                          {"frequency_hz", kNumber, "Hz"},
+                                          {"damping_ratio", kNumber, "1"}}) {
+    columns.push_back(std::move(column));
+  }
+  return columns;
+}
+
+std::vector<std::string> ColumnNames(const std::vector<TableColumn>& columns) {
+  std::vector<std::string> names;
+  for (const TableColumn& column : columns) names.push_back(column.name);
+  return names;
+}
+
 void CheckSweepColumns(const ParameterGrid& grid) {
-  const std::vector<std::string> parameters = ParameterColumns(grid);
-  for (std::size_t i = 0; i < parameters.size(); ++i) {
-    const std::string& name = grid.axes()[i].name;
+  const std::vector<TableColumn> points = PointsTableColumns(grid);
+  const std::vector<TableColumn> eigenvalues = EigenvaluesTableColumns(grid);
+  const std::size_t parameters = grid.axes().size();
+  for (std::size_t i = 0; i < parameters; ++i) {
+    const std::string& column = points[i].name;
     const auto clash = [&](const std::string& where) {
-      throw UsageError("parameter '" + name + "': its column '" + parameters[i] +
+      throw UsageError("parameter '" + grid.axes()[i].name + "': its column '" + column +
                        "' would also be " + where +
                        " (a table cannot have two columns of one name); rename the parameter " +
                        "in the model file to vary it");
     };
-    for (const std::string_view column : kPointsFixedColumns) {
-      if (parameters[i] == column) clash("a fixed column of points.csv");
+    for (std::size_t j = parameters; j < points.size(); ++j) {
+      if (column == points[j].name) clash("a fixed column of points.csv");
     }
-    for (const std::string_view column : kEigenvaluesFixedColumns) {
-      if (parameters[i] == column) clash("a fixed column of eigenvalues.csv");
+    for (std::size_t j = parameters; j < eigenvalues.size(); ++j) {
+      if (column == eigenvalues[j].name) clash("a fixed column of eigenvalues.csv");
     }
     for (std::size_t j = 0; j < i; ++j) {
-      if (parameters[i] == parameters[j]) {
+      if (column == points[j].name) {
         clash("the column of the varied parameter '" + grid.axes()[j].name + "'");
       }
     }
@@ -123,16 +155,12 @@ void CheckSweepColumns(const ParameterGrid& grid) {
 
 std::vector<std::string> PointsColumns(const ParameterGrid& grid) {
   CheckSweepColumns(grid);
-  std::vector<std::string> columns = ParameterColumns(grid);
-  columns.insert(columns.end(), kPointsFixedColumns.begin(), kPointsFixedColumns.end());
-  return columns;
+  return ColumnNames(PointsTableColumns(grid));
 }
 
 std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid) {
   CheckSweepColumns(grid);
-  std::vector<std::string> columns = ParameterColumns(grid);
-  columns.insert(columns.end(), kEigenvaluesFixedColumns.begin(), kEigenvaluesFixedColumns.end());
-  return columns;
+  return ColumnNames(EigenvaluesTableColumns(grid));
 }
 
 std::string PointsCsvHeader(const ParameterGrid& grid) { return CsvHeader(PointsColumns(grid)); }
@@ -164,6 +192,7 @@ void FormatBlock(const ParameterGrid& grid,
                  std::size_t first,
                  std::span<const SweepPoint> points,
                  int threads,
+                 TableEncoding encoding,
                  FormattedBlock& block) {
   // Formatting numbers costs about a tenth of a small model's analysis: done on one thread it
   // would cap the speed-up of many cores, so each thread formats one contiguous slice and the
@@ -184,8 +213,12 @@ void FormatBlock(const ParameterGrid& grid,
     std::string eigenvalues_csv = std::move(block.eigenvalues_csv[slice]);
     points_csv.clear();
     eigenvalues_csv.clear();
-    AppendCsvRows(grid, first + begin, points.subspan(begin, end - begin), points_csv,
-                  eigenvalues_csv);
+    const std::span<const SweepPoint> slice_points = points.subspan(begin, end - begin);
+    if (encoding == TableEncoding::kCsv) {
+      AppendCsvRows(grid, first + begin, slice_points, points_csv, eigenvalues_csv);
+    } else {
+      AppendRecordRows(first + begin, slice_points, points_csv, eigenvalues_csv);
+    }
     block.points_csv[slice] = std::move(points_csv);
     block.eigenvalues_csv[slice] = std::move(eigenvalues_csv);
   });

@@ -7,6 +7,10 @@
 //                       column "<name>_deg" for one given in degrees), the class columns
 //                       and `error` (empty, or why the point has no solution)
 //   eigenvalues.csv     one row per zero-dynamics eigenvalue of each point
+//
+// The same two tables go into sweep.h5 and sweep.mat (reports/sweep_hdf5.h, reports/sweep_mat.h),
+// built at the end of a sweep from binary records (reports/sweep_records.h) that FormatBlock
+// writes instead of CSV text.
 #include <cstddef>
 #include <span>
 #include <string>
@@ -22,10 +26,31 @@ namespace servokit {
 /// a stiffness parameter is often called).
 inline constexpr std::string_view kEigenvalueIndexColumn = "eigenvalue_index";
 
+/// What a column holds: numbers (CSV: FormatExact, empty for none; HDF5 and MAT: double, NaN for
+/// none) or text.
+enum class ColumnKind { kNumber, kText };
+
+/// One column of a table: its name, what it holds and its unit ("deg", "1/s", "Hz", "1" for a
+/// dimensionless ratio, "" for a count, a class, or a parameter in SI).
+struct TableColumn {
+  std::string name;
+  ColumnKind kind = ColumnKind::kNumber;
+  std::string unit;
+};
+
+/// The columns of the points table with their kinds and units (names as PointsColumns).
+std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid);
+/// The columns of the eigenvalues table with their kinds and units (names as EigenvaluesColumns).
+std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid);
+
+/// The names of `columns`, in order (unique: CheckSweepColumns).
+std::vector<std::string> ColumnNames(const std::vector<TableColumn>& columns);
+
 /// Throws UsageError "parameter 'name': its column 'column' ..." when a varied parameter's column
 /// (GridAxis::ColumnName) is also a fixed column of points.csv or eigenvalues.csv, or another
-/// varied parameter's column: a table cannot have two columns of one name. PointsColumns and
-/// EigenvaluesColumns call it; commands call it first, to refuse before writing anything.
+/// varied parameter's column: a table cannot have two columns of one name, in any format (CSV
+/// header, HDF5 datasets, MAT struct fields). The column lists below call it; commands call it
+/// first, to refuse before writing anything.
 void CheckSweepColumns(const ParameterGrid& grid);
 
 /// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
@@ -60,8 +85,13 @@ void AppendCsvRows(const ParameterGrid& grid,
                    std::string& points_csv,
                    std::string& eigenvalues_csv);
 
-/// One block of consecutive points, formatted as AppendCsvRows writes them: what SweepOutput
-/// appends. The rows are held in slices (one per formatting thread), to be written in order.
+/// How FormatBlock writes rows: CSV text (AppendCsvRows), or binary records (AppendRecordRows,
+/// reports/sweep_records.h) from which the HDF5 and MAT files are built.
+enum class TableEncoding { kCsv, kRecords };
+
+/// One block of consecutive points, formatted as AppendCsvRows (or AppendRecordRows) writes
+/// them: what SweepOutput appends. The rows are held in slices (one per formatting thread), to be
+/// written in order.
 struct FormattedBlock {
   std::size_t first = 0;                                 // index of the block's first point
   std::size_t points = 0;                                // number of points in the block
@@ -69,14 +99,18 @@ struct FormattedBlock {
   std::vector<std::string> points_csv, eigenvalues_csv;  // slices of rows, in order
 };
 
-/// Formats points first, first + 1, ... into `block` (AppendCsvRows), on `threads` threads that
-/// each format one contiguous slice; the bytes, slices joined, do not depend on `threads`.
-/// Reuses the strings `block` holds.
+/// Formats points first, first + 1, ... into `block` (AppendCsvRows, or AppendRecordRows for
+/// kRecords), on `threads` threads that each format one contiguous slice; the bytes, slices
+/// joined, do not depend on `threads`. Reuses the strings `block` holds.
 void FormatBlock(const ParameterGrid& grid,
                  std::size_t first,
                  std::span<const SweepPoint> points,
                  int threads,
+                 TableEncoding encoding,
                  FormattedBlock& block);
+
+/// The text of relative_degree: one number per output, joined with ';' ("2", "1;2").
+std::string JoinRelativeDegrees(const std::vector<int>& relative_degree);
 
 /// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
 std::string CsvQuote(const std::string& text);

@@ -204,6 +204,29 @@ TEST_CASE("a grid warning under mpirun is printed once, by rank 0", "[reports][m
   CHECK_THAT(job.out, !Catch::Contains("warning"));
 }
 
+TEST_CASE("mpirun -np 2 writes the same sweep.h5 and sweep.mat as one process, byte for byte",
+          "[reports][mpi]") {
+  // The other ranks send binary records instead of CSV rows (TableEncoding::kRecords); rank 0
+  // builds the file from them as a single process does.
+  const TemporaryDirectory work;
+  for (const auto& [format, file] :
+       {std::pair{"hdf5", "sweep.h5"}, std::pair{"mat", "sweep.mat"}}) {
+    INFO(format);
+    const std::vector<std::string> sweep =
+        CarSweep({"--format", format, "--block-size", "100", "--threads", "1"});
+    SingleProcess(work / format / "single", sweep);
+    const Job job = RunIn(work / format / "mpi", Concatenate(MpiRun(2), sweep));
+    INFO(job.err);
+    REQUIRE(job.status == 0);
+    const fs::path single = work / format / "single" / "out", mpi = work / format / "mpi" / "out";
+    std::vector<std::string> expected = {file, "sweep.json"};
+    std::sort(expected.begin(), expected.end());  // as FileNames lists them
+    CHECK(FileNames(mpi) == expected);
+    CHECK((ReadFile(single / file) == ReadFile(mpi / file)));
+    CHECK((ReadFile(single / "sweep.json") == ReadFile(mpi / "sweep.json")));
+  }
+}
+
 // ---- errors ----------------------------------------------------------------------------------
 
 TEST_CASE("a usage error under mpirun is one error line and status 2 from the whole job",
