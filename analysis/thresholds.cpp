@@ -577,7 +577,7 @@ ThresholdSearch FindThresholds(const Model& model,
             [](const Located& a, const Located& b) { return a.lower < b.lower; });
   std::vector<Located> merged = MergeThroughPoints(probe, events, options.merge_tolerance);
   TakeInEndBands(probe, low, high, merged);
-  if (event == ThresholdEvent::kStability || event == ThresholdEvent::kRealization) {
+  if (event != ThresholdEvent::kOscillation) {
     for (Located& located : merged) {
       RefineThroughSingularDecoupling(probe, tolerance, options.merge_tolerance, located);
     }
