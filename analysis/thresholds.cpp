@@ -305,12 +305,11 @@ Located IsolatedBand(StateProbe& probe,
                      const State& state,
                      const State& thin,
                      double tolerance) {
+  // The band's outer ends: the lower end of the bracket of its first edge, the upper end of
+  // the bracket of its last.
   auto differs = [&](double x) { return probe.At(x).key != state.key; };
-  const auto [lower, lower_upper] =
-      Bisect([&](double x) { return !differs(x); }, left, inside, tolerance);
-  const auto [upper_lower, upper] = Bisect(differs, inside, right, tolerance);
-  static_cast<void>(lower_upper);
-  static_cast<void>(upper_lower);
+  const double lower = Bisect([&](double x) { return !differs(x); }, left, inside, tolerance).first;
+  const double upper = Bisect(differs, inside, right, tolerance).second;
   return {lower, upper, state.label, state.label, thin.label};
 }
 
