@@ -13,8 +13,11 @@ struct ClassificationOptions {
   // the verdict does not change with the model's units. 1e-10 is far above round-off (1e-16
   // times the condition of M) and far below any physically meant coupling.
   double rank_tolerance = 1e-10;
-  // |Re lambda| at most this times max |lambda| counts as on the imaginary axis ("critical").
-  // Relative, so that the verdict does not change with the model's time unit.
+  // An eigenvalue whose own damping ratio |Re lambda| / |lambda| is at most this counts as on
+  // the imaginary axis ("critical"); so does one below the zero floor, 1e-12 max |lambda|
+  // (SideOfImaginaryAxis, analysis/zero_dynamics.h). Per eigenvalue, so that a slow mode beside
+  // fast ones is not swallowed by a band the fast ones set; relative, so that the verdict does
+  // not change with the model's time unit.
   double imaginary_axis_tolerance = 1e-9;
   // Also compute the invariant zeros of the linearization by QZ (a second, independent route)
   // and report how far they are from the zero-dynamics eigenvalues.

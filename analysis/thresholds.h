@@ -1,11 +1,17 @@
 #pragma once
 // Where along one parameter the servo-constraint problem changes: stability, oscillation
-// (over-damping) or realization. A scan finds brackets where the state differs at the two
-// ends; GSL's bisection solver then narrows each bracket to the requested relative width.
-// Bisection on the state itself (not on a continuous indicator) handles both ways an
-// eigenvalue can leave the left half plane: across the imaginary axis, and through infinity
-// as the leading coefficient of the characteristic polynomial changes sign (the rotational arm
-// at s/l = 2/3, paper Eq. 56).
+// (over-damping), realization or structure (relative degree, index). A scan finds brackets
+// where the state differs at the two ends; GSL's bisection solver then narrows each bracket to
+// the requested width (relative to max(1, |value|)). Bisection on the state itself (not on a
+// continuous indicator) handles both ways an eigenvalue can leave the left half plane: across
+// the imaginary axis, and through infinity as the leading coefficient of the characteristic
+// polynomial changes sign (the rotational arm at s/l = 2/3, paper Eq. 56).
+// A state that holds at one parameter value only (an isolated point: P through or touching
+// zero, B orthogonal to the constraint manifold at one angle, a Markov parameter vanishing) is
+// found whatever the scan grid, from continuous indicators watched between scan values of equal
+// state: entries that change sign there (a root by GSL's Brent solver) and quantities >= 0 that
+// touch zero there (a minimum by GSL's Brent minimizer). Events that pass through such a point
+// are one event, `via` the thin state.
 #include <string>
 #include <vector>
 
@@ -25,18 +31,24 @@ struct ThresholdOptions {
   double relative_tolerance = 1e-12;
   // Events closer than this (relative) are reported as one passing through a thin state: P
   // passing through zero makes the realization tangential only within the rank-tolerance band.
+  // (Wider bands of one point, such as P touching zero, are recognised by their indicators.)
   double merge_tolerance = 1e-8;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate(const Model& model) const;
 };
 
-/// One located event: the state changes from `from` to `to` at `value` (SI units).
+/// One located event: the state changes from `from` to `to` at `value` (SI units). The true
+/// place lies within value +- bracket_width / 2; value is exactly 0 where the final bracket
+/// holds 0.
 struct ThresholdCrossing {
   double value = 0.0;
-  double bracket_width = 0.0;  // the final bracket (for merged events: their span)
+  // The width of the interval centred at `value` that holds the final bracket (for events
+  // through a thin state: the band where the tolerances give that state), at least the
+  // requested tolerance relative to max(1, |value|).
+  double bracket_width = 0.0;
   std::string from;
   std::string to;
-  std::string via;  // for merged events, the thin state passed through ("tangential")
+  std::string via;  // the thin state(s) passed through ("tangential"), or empty
 };
 
 struct ThresholdSearch {
@@ -48,7 +60,9 @@ struct ThresholdSearch {
 };
 
 /// Finds every `event` of `parameter` (an index into model.parameter_names()) in [low, high],
-/// the other parameters at their nominal values. Throws UsageError for bad options or range.
+/// the other parameters at their nominal values, each point classified with
+/// options.classification (its operating point: y0, q_guess). Throws UsageError for bad
+/// options or range.
 ThresholdSearch FindThresholds(const Model& model,
                                std::size_t parameter,
                                double low,

@@ -34,10 +34,11 @@ constexpr NameTable<SolverMethod, 8> kSolverMethodNames{{
     {SolverMethod::kLinearized, "linearized"},
 }};
 
-constexpr NameTable<ThresholdEvent, 3> kThresholdEventNames{{
+constexpr NameTable<ThresholdEvent, 4> kThresholdEventNames{{
     {ThresholdEvent::kStability, "stability"},
     {ThresholdEvent::kOscillation, "oscillation"},
     {ThresholdEvent::kRealization, "realization"},
+    {ThresholdEvent::kStructure, "structure"},
 }};
 
 template <typename Enum, std::size_t N>

@@ -39,6 +39,7 @@ enum class ThresholdEvent {
   kStability,    // the stability class or the number of eigenvalues in the right half plane
   kOscillation,  // the number of complex eigenvalue pairs (over-damping)
   kRealization,  // the realization class, the rank of P, or the sign of det P (P through zero)
+  kStructure,    // the relative degrees or the differentiation index (the structure at infinity)
 };
 
 std::string_view ToString(Realization realization);

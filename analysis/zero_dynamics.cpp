@@ -18,32 +18,69 @@ void SortEigenvalues(std::vector<std::complex<double>>& eigenvalues) {
             });
 }
 
-namespace {
-
-double LargestMagnitude(const std::vector<std::complex<double>>& eigenvalues) {
+double SpectrumScale(const std::vector<std::complex<double>>& eigenvalues) {
   double largest = 0.0;
   for (const auto& eigenvalue : eigenvalues) largest = std::max(largest, std::abs(eigenvalue));
   return largest;
 }
 
+namespace {
+
+// A part (real or imaginary) of `eigenvalue` that counts as zero: at most `tolerance` times
+// the eigenvalue's own magnitude, or at most the zero floor of its spectrum.
+bool PartIsZero(double part,
+                std::complex<double> eigenvalue,
+                double spectrum_scale,
+                double tolerance) {
+  return std::abs(part) <=
+         std::max(tolerance * std::abs(eigenvalue), kZeroEigenvalueFloor * spectrum_scale);
+}
+
 }  // namespace
 
-void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance) {
-  const double threshold = tolerance * LargestMagnitude(eigenvalues);
-  for (auto& eigenvalue : eigenvalues) {
-    if (std::abs(eigenvalue.imag()) <= threshold) eigenvalue = {eigenvalue.real(), 0.0};
-    if (std::abs(eigenvalue.real()) <= threshold) eigenvalue = {0.0, eigenvalue.imag()};
+AxisSide SideOfImaginaryAxis(std::complex<double> eigenvalue,
+                             double spectrum_scale,
+                             double imaginary_axis_tolerance) {
+  if (PartIsZero(eigenvalue.real(), eigenvalue, spectrum_scale, imaginary_axis_tolerance)) {
+    return AxisSide::kOn;
   }
+  return eigenvalue.real() > 0.0 ? AxisSide::kRight : AxisSide::kLeft;
+}
+
+void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance) {
+  const double scale = SpectrumScale(eigenvalues);
+  for (auto& eigenvalue : eigenvalues) {
+    const std::complex<double> original = eigenvalue;
+    if (PartIsZero(original.imag(), original, scale, tolerance)) {
+      eigenvalue = {eigenvalue.real(), 0.0};
+    }
+    if (PartIsZero(original.real(), original, scale, tolerance)) {
+      eigenvalue = {0.0, eigenvalue.imag()};
+    }
+  }
+}
+
+int CountRightHalfPlane(const std::vector<std::complex<double>>& eigenvalues,
+                        double imaginary_axis_tolerance) {
+  const double scale = SpectrumScale(eigenvalues);
+  int count = 0;
+  for (const auto& eigenvalue : eigenvalues) {
+    if (SideOfImaginaryAxis(eigenvalue, scale, imaginary_axis_tolerance) == AxisSide::kRight) {
+      ++count;
+    }
+  }
+  return count;
 }
 
 Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues,
                             double imaginary_axis_tolerance) {
   if (eigenvalues.empty()) return Stability::kNone;
-  const double threshold = imaginary_axis_tolerance * LargestMagnitude(eigenvalues);
+  const double scale = SpectrumScale(eigenvalues);
   bool on_axis = false;
   for (const auto& eigenvalue : eigenvalues) {
-    if (eigenvalue.real() > threshold) return Stability::kUnstable;
-    if (eigenvalue.real() >= -threshold) on_axis = true;
+    const AxisSide side = SideOfImaginaryAxis(eigenvalue, scale, imaginary_axis_tolerance);
+    if (side == AxisSide::kRight) return Stability::kUnstable;
+    if (side == AxisSide::kOn) on_axis = true;
   }
   return on_axis ? Stability::kCritical : Stability::kAsymptoticallyStable;
 }
@@ -57,10 +94,13 @@ Mode ModeOf(std::complex<double> eigenvalue) {
 
 std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
                                    double imaginary_axis_tolerance) {
-  const double threshold = imaginary_axis_tolerance * LargestMagnitude(eigenvalues);
+  const double scale = SpectrumScale(eigenvalues);
   std::vector<Mode> modes;
   for (const auto& eigenvalue : eigenvalues) {
-    if (eigenvalue.imag() <= threshold) continue;
+    if (eigenvalue.imag() <= 0.0 ||
+        PartIsZero(eigenvalue.imag(), eigenvalue, scale, imaginary_axis_tolerance)) {
+      continue;
+    }
     modes.push_back(ModeOf(eigenvalue));
   }
   std::sort(modes.begin(), modes.end(),

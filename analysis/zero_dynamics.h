@@ -53,18 +53,49 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
 std::vector<std::complex<double>> InvariantZeros(const Linearization& linearization,
                                                  const ClassificationOptions& options);
 
-/// Stability class of a set of eigenvalues (see ClassificationOptions::imaginary_axis_tolerance).
+/// Below this fraction of the spectrum's largest magnitude an eigenvalue counts as 0 (so on
+/// the imaginary axis) whatever its direction: a damping ratio means nothing for an eigenvalue
+/// that is round-off, and the eigensolvers leave an exact 0 at about 1e-16 max |lambda|
+/// (1e-12 leaves four digits for the eigenvalue's condition). It is a floor, not the band:
+/// an eigenvalue above it is judged by its own damping ratio, so that a slow mode beside fast
+/// ones keeps its verdict. Relative to the spectrum, so that the verdict does not change with
+/// the model's time unit.
+inline constexpr double kZeroEigenvalueFloor = 1e-12;
+
+/// Where an eigenvalue lies with respect to the imaginary axis.
+enum class AxisSide { kLeft, kOn, kRight };
+
+/// The one test of every verdict on the imaginary axis: `eigenvalue` is on it when its own
+/// damping ratio is at most `imaginary_axis_tolerance` (|Re| <= tolerance |lambda|) or when
+/// |lambda| <= kZeroEigenvalueFloor * spectrum_scale (spectrum_scale: the largest magnitude of
+/// the spectrum it belongs to). Otherwise left or right by the sign of Re.
+AxisSide SideOfImaginaryAxis(std::complex<double> eigenvalue,
+                             double spectrum_scale,
+                             double imaginary_axis_tolerance);
+
+/// The largest |lambda| of a set of eigenvalues (0 for none): their SideOfImaginaryAxis scale.
+double SpectrumScale(const std::vector<std::complex<double>>& eigenvalues);
+
+/// How many eigenvalues lie right of the imaginary axis (SideOfImaginaryAxis).
+int CountRightHalfPlane(const std::vector<std::complex<double>>& eigenvalues,
+                        double imaginary_axis_tolerance);
+
+/// Stability class of a set of eigenvalues: unstable if any lies right of the imaginary axis,
+/// critical if none does and some lie on it, asymptotically stable otherwise
+/// (SideOfImaginaryAxis; ClassificationOptions::imaginary_axis_tolerance).
 Stability ClassifyStability(const std::vector<std::complex<double>>& eigenvalues,
                             double imaginary_axis_tolerance);
 
-/// The oscillatory modes of a set of eigenvalues: one per pair with Im > 0 off the real axis.
+/// The oscillatory modes of a set of eigenvalues: one per pair with Im > 0 off the real axis
+/// (|Im| above imaginary_axis_tolerance |lambda| and above the zero floor).
 std::vector<Mode> OscillatoryModes(const std::vector<std::complex<double>>& eigenvalues,
                                    double imaginary_axis_tolerance);
 
 /// Round-off leaves real eigenvalues with a tiny imaginary part and undamped ones with a tiny
-/// real part: a part at most `tolerance` times the largest magnitude becomes exactly 0, so
-/// that verdicts, orderings and tables are reproducible (the stability class counts such an
-/// eigenvalue as on the axis anyway).
+/// real part: a part at most `tolerance` times the eigenvalue's own magnitude, or at most
+/// kZeroEigenvalueFloor times the largest magnitude, becomes exactly 0, so that verdicts,
+/// orderings and tables are reproducible (the stability class counts such an eigenvalue as on
+/// the axis anyway).
 void CleanRoundOff(std::vector<std::complex<double>>& eigenvalues, double tolerance);
 
 /// The one finishing step of every route to the zero dynamics: CleanRoundOff and

@@ -93,7 +93,8 @@ Command AddAnalyzeCommand(CLI::App& app) {
       ->capture_default_str();
   analyze
       ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
-                   "Relative distance to the imaginary axis counted as on it")
+                   "Damping ratio |Re lambda|/|lambda| at or below which an eigenvalue is on the "
+                   "imaginary axis")
       ->capture_default_str();
   AddLinearModelOptions(*analyze, arguments->linear, "zero-dynamics eigenvalues");
   return {analyze, [arguments, analyze](std::ostream& out, std::ostream&) {

@@ -1,5 +1,6 @@
 // servokit report paper --out DIR
-// servokit report MODEL --vary p=a:b:n [--vary ...] [--set p=v]... --out DIR
+// servokit report MODEL --vary p=a:b:n [--vary ...] [--set p=v]... [--y0 v]... [--q0 v]... --out
+// DIR
 #include <filesystem>
 #include <memory>
 #include <ostream>
@@ -26,6 +27,8 @@ struct ReportArguments {
   std::string out;
   std::vector<std::string> vary;
   std::vector<std::string> overrides;
+  std::vector<std::string> y0;  // the operating point, as for `analyze`
+  std::vector<std::string> q0;
   std::string models_directory;
 };
 
@@ -45,8 +48,10 @@ std::string ModelsDirectory(const ReportArguments& arguments) {
 
 int RunReport(const ReportArguments& arguments, std::ostream& out, std::ostream& err) {
   if (arguments.subject == "paper") {
-    if (!arguments.vary.empty() || !arguments.overrides.empty()) {
-      throw UsageError("report paper: --vary and --set are for `report MODEL`");
+    if (!arguments.vary.empty() || !arguments.overrides.empty() || !arguments.y0.empty() ||
+        !arguments.q0.empty()) {
+      throw UsageError(
+          "report paper: --vary and --set are for `report MODEL` (and so are --y0, --q0)");
     }
     const std::string models = ModelsDirectory(arguments);
     if (!std::filesystem::exists(models + "/mass_on_car.yaml")) {
@@ -64,8 +69,11 @@ int RunReport(const ReportArguments& arguments, std::ostream& out, std::ostream&
                                    &warnings));
     }
     for (const std::string& warning : warnings) err << "servokit: warning: " << warning << "\n";
+    ClassificationOptions options;
+    if (!arguments.y0.empty()) options.operating_point.y0 = ParseValues("--y0", arguments.y0);
+    if (!arguments.q0.empty()) options.operating_point.q_guess = ParseValues("--q0", arguments.q0);
     MakeOutputDirectory(arguments.out);
-    WriteModelReport(arguments.out, model, axes);
+    WriteModelReport(arguments.out, model, axes, options);
   }
   out << "report written to " << (std::filesystem::path(arguments.out) / "report.md").string()
       << " and report.html\n";
@@ -89,6 +97,9 @@ Command AddReportCommand(CLI::App& app) {
                      "name=v1,v2,.. (deg allowed)");
   report->add_option("--set", arguments->overrides,
                      "Override a parameter: name=value (value may end in deg)");
+  report->add_option("--y0", arguments->y0,
+                     "Output value at the operating point, one per output (default: h(0))");
+  report->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
   report->add_option("--models", arguments->models_directory,
                      "Directory of the shipped models (for `report paper`)");
   return {report, [arguments](std::ostream& out, std::ostream& err) {

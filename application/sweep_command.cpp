@@ -430,7 +430,8 @@ Command AddSweepCommand(CLI::App& app) {
       ->capture_default_str();
   sweep
       ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
-                   "Relative distance to the imaginary axis counted as on it")
+                   "Damping ratio |Re lambda|/|lambda| at or below which an eigenvalue is on the "
+                   "imaginary axis")
       ->capture_default_str();
   AddLinearModelOptions(*sweep, arguments->linear, "zeros per point");
   return {sweep, [arguments, sweep](std::ostream& out, std::ostream& err) {

@@ -1,4 +1,5 @@
-// servokit threshold MODEL --vary p=a:b --event stability|oscillation|realization [--set ...]
+// servokit threshold MODEL --vary p=a:b --event stability|oscillation|realization|structure
+//   [--set ...] [--y0 v]... [--q0 v]...
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <ostream>
@@ -19,6 +20,7 @@ struct ThresholdArguments {
   std::string model_path;
   std::vector<std::string> overrides;
   std::vector<std::string> y0;
+  std::vector<std::string> q0;
   std::string vary;  // p=a:b
   std::string event;
   bool closed_form = true;
@@ -70,8 +72,7 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
   const std::optional<ThresholdEvent> event = ThresholdEventFromString(arguments.event);
   if (!event) {
     throw UsageError("--event " + arguments.event +
-                     ": expected stability, oscillation or "
-                     "realization");
+                     ": expected stability, oscillation, realization or structure");
   }
   const Range range = ParseRange(arguments.vary);
   const Model model = LoadModel(arguments.model_path, ParseOverrides(arguments.overrides));
@@ -93,6 +94,9 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
   ThresholdOptions options = arguments.options;
   if (!arguments.y0.empty()) {
     options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
+  }
+  if (!arguments.q0.empty()) {
+    options.classification.operating_point.q_guess = ParseValues("--q0", arguments.q0);
   }
   const ThresholdSearch search =
       FindThresholds(model, *parameter, range.low, range.high, *event, options);
@@ -117,7 +121,9 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
                                    {"classifications", search.classifications},
                                    {"unit", degrees ? "rad" : "SI"}};
   if (degrees) result["display_unit"] = "deg";
-  if (arguments.closed_form && !options.classification.operating_point.y0) {
+  // The closed form is taken at q = 0, u = 0: not where --y0 or --q0 moves the operating point.
+  if (arguments.closed_form && !options.classification.operating_point.y0 &&
+      !options.classification.operating_point.q_guess) {
     const auto closed_form =
         DeriveCharacteristicPolynomial(model, *parameter, range.low, range.high);
     result["closed_form"] =
@@ -141,11 +147,15 @@ Command AddThresholdCommand(CLI::App& app) {
   threshold->add_option("MODEL", arguments->model_path, "Model file (YAML)")->required();
   threshold->add_option("--vary", arguments->vary, "Parameter range: name=low:high (deg allowed)")
       ->required();
-  threshold->add_option("--event", arguments->event, "stability, oscillation or realization")
+  threshold
+      ->add_option("--event", arguments->event,
+                   "stability, oscillation, realization or structure (relative degree, index)")
       ->required();
   threshold->add_option("--set", arguments->overrides,
                         "Override a parameter: name=value (value may end in deg)");
-  threshold->add_option("--y0", arguments->y0, "Output value at the operating point");
+  threshold->add_option("--y0", arguments->y0,
+                        "Output value at the operating point, one per output (default: h(0))");
+  threshold->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
   threshold
       ->add_option("--scan", arguments->options.scan_intervals, "Scan intervals before bisection")
       ->capture_default_str();

@@ -18,7 +18,8 @@ std::optional<RootBracket> NarrowBracket(const gsl_root_fsolver_type* type,
                                          const std::function<double(double)>& function,
                                          double lower,
                                          double upper,
-                                         double relative_tolerance) {
+                                         double relative_tolerance,
+                                         double absolute_tolerance) {
   UseGslStatusCodes();
   using Function = std::function<double(double)>;
   gsl_function adapter{
@@ -37,8 +38,8 @@ std::optional<RootBracket> NarrowBracket(const gsl_root_fsolver_type* type,
     if (gsl_root_fsolver_iterate(solver.get()) != GSL_SUCCESS) break;
     bracket = {gsl_root_fsolver_x_lower(solver.get()), gsl_root_fsolver_x_upper(solver.get()),
                gsl_root_fsolver_root(solver.get()), false};
-    if (gsl_root_test_interval(bracket.lower, bracket.upper, 0.0, relative_tolerance) ==
-        GSL_SUCCESS) {
+    if (gsl_root_test_interval(bracket.lower, bracket.upper, absolute_tolerance,
+                               relative_tolerance) == GSL_SUCCESS) {
       bracket.converged = true;
       break;
     }

@@ -16,7 +16,8 @@ namespace {
 void AddStudy(Document& document,
               const std::filesystem::path& directory,
               const Model& model,
-              const GridAxis& axis) {
+              const GridAxis& axis,
+              const ClassificationOptions& options) {
   // Values are SI; a parameter given in degrees is shown in degrees (axis label "alpha [deg]").
   const bool degrees = axis.display_unit == DisplayUnit::kDegree;
   const std::string label = axis.name + (degrees ? " [deg]" : "");
@@ -31,7 +32,7 @@ void AddStudy(Document& document,
                            FormatShort(axis.DisplayValue(high));
   double (*const to_display)(double) = degrees ? RadiansToDegrees : AsIs;
   document.Add(Heading{2, "Study of " + span});
-  const std::vector<SweepPoint> points = SweepParameter(model, axis.parameter, values);
+  const std::vector<SweepPoint> points = SweepParameter(model, axis.parameter, values, options);
   const std::string stem = "study_" + axis.name;
   PlotSpec locus{stem + "_root_locus",
                  "Zero-dynamics eigenvalues over " + axis.name,
@@ -51,9 +52,12 @@ void AddStudy(Document& document,
                      {}};
   std::vector<ThresholdSearch> searches;
   if (high > low) {
-    for (const ThresholdEvent event :
-         {ThresholdEvent::kStability, ThresholdEvent::kOscillation, ThresholdEvent::kRealization}) {
-      searches.push_back(FindThresholds(model, axis.parameter, low, high, event));
+    ThresholdOptions threshold_options;
+    threshold_options.classification = options;
+    for (const ThresholdEvent event : {ThresholdEvent::kStability, ThresholdEvent::kOscillation,
+                                       ThresholdEvent::kRealization, ThresholdEvent::kStructure}) {
+      searches.push_back(
+          FindThresholds(model, axis.parameter, low, high, event, threshold_options));
       for (const ThresholdCrossing& crossing : searches.back().events) {
         real_part.markers.push_back({to_display(crossing.value), std::string(ToString(event))});
       }
@@ -72,7 +76,11 @@ void AddStudy(Document& document,
   if (!searches.empty()) {
     document.Add(Heading{3, "Located thresholds"});
     document.Add(ThresholdTable(searches, degrees ? "deg" : "", to_display));
-    if (const auto closed_form = DeriveCharacteristicPolynomial(model, axis.parameter, low, high)) {
+    const bool default_operating_point =
+        !options.operating_point.y0 && !options.operating_point.q_guess;
+    if (const auto closed_form = default_operating_point ? DeriveCharacteristicPolynomial(
+                                                               model, axis.parameter, low, high)
+                                                         : std::nullopt) {
       AddClosedForm(document, *closed_form, axis.name);
     }
   }
@@ -82,7 +90,8 @@ void AddStudy(Document& document,
 
 void WriteModelReport(const std::string& directory,
                       const Model& model,
-                      const std::vector<GridAxis>& axes) {
+                      const std::vector<GridAxis>& axes,
+                      const ClassificationOptions& options) {
   const std::filesystem::path out(directory);
   std::filesystem::create_directories(out);
   Document document;
@@ -90,14 +99,14 @@ void WriteModelReport(const std::string& directory,
   if (!model.description().empty()) document.Add(Paragraph{model.description()});
   document.Add(Heading{2, "Classification at the nominal parameters"});
   Workspace workspace(model);
-  const Classification classification = Classify(model, workspace);
+  const Classification classification = Classify(model, workspace, options);
   Table summary;
   summary.header = {"property", "value"};
   for (const auto& [label, value] : ClassificationSummary(model, classification)) {
     summary.rows.push_back({label, value});
   }
   document.Add(summary);
-  for (const GridAxis& axis : axes) AddStudy(document, out, model, axis);
+  for (const GridAxis& axis : axes) AddStudy(document, out, model, axis, options);
   WriteDocument(out, document);
 }
 

@@ -19,9 +19,9 @@ std::vector<double> Linspace(double low, double high, int count) {
 
 std::vector<SweepPoint> SweepParameter(const Model& model,
                                        std::size_t parameter,
-                                       const std::vector<double>& values) {
+                                       const std::vector<double>& values,
+                                       const ClassificationOptions& options) {
   Workspace workspace(model);
-  const ClassificationOptions options;
   options.Validate(model);
   std::vector<SweepPoint> points;
   for (const double value : values) {

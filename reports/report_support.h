@@ -13,10 +13,12 @@
 
 namespace servokit {
 
-/// SweepPoints along one parameter, the others at their nominal values.
+/// SweepPoints along one parameter, the others at their nominal values, each classified with
+/// `options` (its operating point: --y0, --q0).
 std::vector<SweepPoint> SweepParameter(const Model& model,
                                        std::size_t parameter,
-                                       const std::vector<double>& values);
+                                       const std::vector<double>& values,
+                                       const ClassificationOptions& options = {});
 
 /// n values from low to high inclusive.
 std::vector<double> Linspace(double low, double high, int count);

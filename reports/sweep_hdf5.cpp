@@ -202,8 +202,7 @@ void WriteSweepHdf5(const std::filesystem::path& path,
 void CheckHdf5ColumnNames(const ParameterGrid& grid) {
   for (const std::string& name : PointsColumns(grid)) {
     if (name.empty() || name == "." || name.find('/') != std::string::npos) {
-      throw UsageError("the column '" + name +
-                       "' cannot name an HDF5 dataset (CSV can hold it)");
+      throw UsageError("the column '" + name + "' cannot name an HDF5 dataset (CSV can hold it)");
     }
   }
 }

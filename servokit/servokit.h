@@ -91,7 +91,8 @@ struct AnalyzeOptions {
   // A singular value (or Markov row) counts as zero at most rank_tolerance times the norms of
   // its factors: relative, so the verdict does not change with units.
   double rank_tolerance = 1e-10;
-  // |Re lambda| at most this times max |lambda| counts as on the imaginary axis ("critical").
+  // An eigenvalue with damping ratio |Re lambda| / |lambda| at most this (or below 1e-12 max
+  // |lambda|, the zero floor) counts as on the imaginary axis ("critical").
   double imaginary_axis_tolerance = 1e-9;
   // Multibody models: also run the structure algorithm on the nonlinear model (relative degree
   // along the motion, dynamic extension), as `servokit analyze` does; it costs a symbolic
@@ -213,7 +214,7 @@ std::size_t SweepToFiles(const Model& model,
 struct ThresholdQuery {
   std::string parameter;
   double low = 0.0, high = 0.0;  // SI units
-  // "stability", "oscillation" or "realization".
+  // "stability", "oscillation", "realization" or "structure" (relative degree, index).
   std::string event = "stability";
   AnalyzeOptions analysis;  // the tolerances of each classification
 };

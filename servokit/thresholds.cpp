@@ -11,7 +11,7 @@ std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery
   const servokit::Model& multibody = MultibodyModel(model, "LocateThresholds");
   const std::optional<ThresholdEvent> event = ThresholdEventFromString(query.event);
   RequireOption(event.has_value(), "ThresholdQuery", "event", query.event,
-                "expected stability, oscillation or realization");
+                "expected stability, oscillation, realization or structure");
   const auto parameter = multibody.FindParameter(query.parameter);
   RequireOption(parameter.has_value(), "ThresholdQuery", "parameter", query.parameter,
                 "the model " + multibody.name() + " has no such parameter");

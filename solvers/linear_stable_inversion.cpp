@@ -5,6 +5,7 @@
 #include <string>
 
 #include "analysis/subspaces.h"
+#include "analysis/zero_dynamics.h"
 #include "models/errors.h"
 #include "models/option_check.h"
 
@@ -21,8 +22,8 @@ constexpr double kSignTolerance = 1e-14;
 // Singular values of a spectral projector are 0 or >= 1: 0.5 separates them with room.
 constexpr double kProjectorRankThreshold = 0.5;
 // The largest |lambda| is floored at this in the imaginary-axis test, so that a spectrum of
-// vanishing size (where axis_tolerance * max |lambda| would underflow to 0) counts as on the
-// axis: rates that small are no dichotomy. Any number far below a physical rate will do.
+// vanishing size (where its zero floor, analysis/zero_dynamics.h, would underflow to 0) counts
+// as on the axis: rates that small are no dichotomy. Any number far below a physical rate will do.
 constexpr double kMinEigenvalueScale = 1e-300;
 // Samples come from cubic Hermite interpolation between steps (error ~ h^4): unless the caller
 // bounds the step, steps of at most 1/kMinStepsPerWindow of the window keep it below the
@@ -82,7 +83,8 @@ HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix, double axis
   for (const auto& value : split.eigenvalues) largest = std::max(largest, std::abs(value));
   std::string on_axis;
   for (const auto& value : split.eigenvalues) {
-    if (std::abs(value.real()) <= axis_tolerance * std::max(largest, kMinEigenvalueScale)) {
+    if (SideOfImaginaryAxis(value, std::max(largest, kMinEigenvalueScale), axis_tolerance) ==
+        AxisSide::kOn) {
       on_axis += (on_axis.empty() ? "" : ", ") + Complex(value);
     }
   }

@@ -29,14 +29,15 @@ struct HyperbolicSplit {
   std::vector<std::complex<double>> eigenvalues;  // of A, sorted by real part
 };
 
-/// SplitHyperbolic's default axis_tolerance: |Re lambda| <= 1e-9 max |lambda| is on the
-/// imaginary axis, the same relative test as ClassificationOptions::imaginary_axis_tolerance
-/// (analysis/options.h), so that stable inversion refuses what the classification calls
-/// critical.
+/// SplitHyperbolic's default axis_tolerance: the default of
+/// ClassificationOptions::imaginary_axis_tolerance (analysis/options.h), with the same test
+/// (SideOfImaginaryAxis, analysis/zero_dynamics.h), so that stable inversion refuses exactly
+/// what the classification calls critical.
 inline constexpr double kHyperbolicAxisTolerance = 1e-9;
 
 /// Splits A into its stable and unstable invariant subspaces. Throws NoSolution naming the
-/// eigenvalues whose |Re| <= axis_tolerance * max |lambda| ("not hyperbolic: eigenvalues on the
+/// eigenvalues on the imaginary axis by SideOfImaginaryAxis (damping ratio at most
+/// axis_tolerance, or |lambda| at the zero floor) ("not hyperbolic: eigenvalues on the
 /// imaginary axis: 0 + 18.14i, 0 - 18.14i"), since stable inversion needs a dichotomy.
 HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix,
                                 double axis_tolerance = kHyperbolicAxisTolerance);

@@ -698,7 +698,8 @@ PYBIND11_MODULE(servokit, module) {
           py::arg("event") = "stability",
           py::arg("rank_tolerance") = analyze_defaults.rank_tolerance,
           py::arg("imaginary_axis_tolerance") = analyze_defaults.imaginary_axis_tolerance,
-          "Every threshold of `event` (stability, oscillation or realization) in [low, high] "
+          "Every threshold of `event` (stability, oscillation, realization or structure) in [low, "
+          "high] "
           "(SI), ascending: a list of {value, from, to, via}.")
       .def(
           "solve",

@@ -150,6 +150,58 @@ TEST_CASE("report MODEL writes the classification, a study per axis and its figu
   std::filesystem::remove_all(directory);
 }
 
+TEST_CASE("threshold and report take the operating point from --q0 and --y0", "[reports]") {
+  // The two-link arm with its second link inverted (Newton from q = (0, pi)) rests at
+  // q2 = pi / (1 - kappa), where P = H M^-1 B ~ M22 - kappa M21(q2) vanishes when
+  // kappa (2 + 3 cos q2) = 2 (l1 = l2): at kappa = 4/7 (q2 = 7 pi / 3, cos q2 = 1/2) among
+  // others; at rest hanging (the default) only at kappa = 0.4 (q2 = 0).
+  const auto inverted =
+      RunServokit({"threshold", testing::TestDataPath("two_link_arm_gravity.yaml"), "--vary",
+                   "kappa=0.5:0.6", "--event", "realization", "--q0", "0,3.141592653589793"});
+  REQUIRE(inverted.status == 0);
+  const auto object = nlohmann::json::parse(inverted.out);
+  REQUIRE(object["events"].size() == 1);
+  const auto& event = object["events"][0];
+  CHECK(std::abs(event["value"].get<double>() - 4.0 / 7.0) <=
+        0.5 * event["bracket_width"].get<double>());
+  CHECK(event["via"] == "tangential");
+  CHECK_FALSE(object.contains("closed_form"));  // derived at q = 0 only
+  const auto hanging = RunServokit({"threshold", testing::TestDataPath("two_link_arm_gravity.yaml"),
+                                    "--vary", "kappa=0.5:0.6", "--event", "realization"});
+  REQUIRE(hanging.status == 0);
+  CHECK(nlohmann::json::parse(hanging.out)["events"].empty());
+
+  // report MODEL: the located realization row of the same study at --y0 0 --q0 0,pi.
+  const auto directory = std::filesystem::temp_directory_path() / "servokit_report_q0_test";
+  std::filesystem::remove_all(directory);
+  const auto report = RunServokit({"report", testing::TestDataPath("two_link_arm_gravity.yaml"),
+                                   "--vary", "kappa=0.5:0.6:11", "--y0", "0", "--q0",
+                                   "0,3.141592653589793", "--out", directory.string()});
+  REQUIRE(report.status == 0);
+  std::ifstream file(directory / "report.md");
+  std::stringstream text;
+  text << file.rdbuf();
+  static const std::regex realization_row(R"(\| realization \| kappa \| ([^ |]+) \|)");
+  std::smatch row;
+  const std::string markdown = text.str();
+  REQUIRE(std::regex_search(markdown, row, realization_row));
+  // Printed to 12 significant digits.
+  CHECK(std::abs(std::stod(row[1].str()) - 4.0 / 7.0) <= 1e-11);
+  std::filesystem::remove_all(directory);
+}
+
+TEST_CASE("threshold reports the change of the index at d = 0 (event structure)", "[reports]") {
+  // Paper Sect. 3: at alpha = 0, index 4 with damping (case 3), 5 without (case 4).
+  const auto run = RunServokit({"threshold", ModelPath("mass_on_car.yaml"), "--vary", "d=-1:1",
+                                "--event", "structure", "--set", "alpha=0", "--no-closed-form"});
+  REQUIRE(run.status == 0);
+  const auto object = nlohmann::json::parse(run.out);
+  CHECK(object["event"] == "structure");
+  REQUIRE(object["events"].size() == 1);
+  CHECK(object["events"][0]["value"].get<double>() == 0.0);
+  CHECK(object["events"][0]["via"] == "relative degree 4, index 5");
+}
+
 TEST_CASE("report paper refuses --vary", "[reports]") {
   const auto run = RunServokit({"report", "paper", "--out", "/tmp/unused", "--vary", "s=0:1:n=3"});
   CHECK(run.status == 2);
