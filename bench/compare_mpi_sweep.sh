@@ -17,7 +17,7 @@ build=${1:-build}
 root=$(cd "$(dirname "$0")/.." && pwd)
 servokit="$(cd "$build" 2>/dev/null && pwd)/application/servokit"
 model=${MODEL:-$root/tests/data/chain_output_x3.yaml}
-read -r -a vary_values <<<"${VARY:-m=0.5:2:600 k=50:150:600}"
+read -r -a vary_values <<<"${VARY:-m=0.5:2:n=600 k=50:150:n=600}"
 repeat=${REPEAT:-3}
 mpirun=${MPIRUN:-mpirun}
 

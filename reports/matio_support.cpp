@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <variant>
 #include <vector>
 
 #include "models/errors.h"
@@ -193,15 +194,51 @@ void MatFileWriter::WriteColumn(const std::string& name,
   const Eigen::VectorXd contiguous = values;
   Variable variable =
       DoubleMatrix(name.c_str(), std::size_t(contiguous.size()), 1, contiguous.data());
-  if (Mat_VarWrite(file_, variable.get(), MAT_COMPRESSION_NONE) != 0) {
-    throw Error("cannot write " + path_ + " (matio failed on the variable " + name + ")");
-  }
+  Write(variable.get(), name);
 }
 
 void MatFileWriter::WriteStruct(const std::string& name, const nlohmann::ordered_json& object) {
   Variable variable = Struct(name.c_str(), object);
-  if (Mat_VarWrite(file_, variable.get(), MAT_COMPRESSION_NONE) != 0) {
-    throw Error("cannot write " + path_ + " (matio failed on the variable " + name + ")");
+  Write(variable.get(), name);
+}
+
+void MatFileWriter::WriteTable(const std::string& name, const std::vector<MatColumn>& columns) {
+  std::vector<const char*> fields;
+  for (const MatColumn& column : columns) {
+    if (const std::optional<std::string> problem = MatlabNameProblem(column.name)) {
+      throw UsageError("field '" + column.name + "': " + *problem);
+    }
+    fields.push_back(column.name.c_str());
+  }
+  fields.push_back(nullptr);  // matio reads the field names up to a null
+  std::array<std::size_t, 2> dims = {1, 1};
+  Variable table = Checked(Mat_VarCreateStruct2(name.c_str(), 2, dims.data(), fields.data()), name);
+  for (const MatColumn& column : columns) {
+    Variable field;
+    if (const auto* numbers = std::get_if<std::vector<double>>(&column.values)) {
+      field = DoubleMatrix(nullptr, numbers->size(), 1, numbers->data());
+    } else {
+      const auto& texts = std::get<std::vector<std::string>>(column.values);
+      dims = {texts.size(), 1};
+      field = Checked(Mat_VarCreate(nullptr, MAT_C_CELL, MAT_T_CELL, 2, dims.data(), nullptr, 0),
+                      column.name);
+      for (std::size_t i = 0; i < texts.size(); ++i) {
+        Variable cell = CharRow(nullptr, texts[i]);
+        Mat_VarFree(Mat_VarSetCell(field.get(), static_cast<int>(i), cell.get()));
+        cell.release();
+      }
+    }
+    // The struct owns the field from here; it returns the previous one (none).
+    Mat_VarFree(Mat_VarSetStructFieldByName(table.get(), column.name.c_str(), 0, field.get()));
+    field.release();
+  }
+  Write(table.get(), name);
+}
+
+void MatFileWriter::Write(matvar_t* variable, const std::string& name) {
+  if (Mat_VarWrite(file_, variable, MAT_COMPRESSION_NONE) != 0) {
+    throw Error("cannot write " + path_ + " (matio failed on the variable " + name +
+                "; MAT 5 holds at most 2 GiB per variable)");
   }
 }
 

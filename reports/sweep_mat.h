@@ -1,12 +1,14 @@
 #pragma once
 // sweep.mat, the MAT-file of `servokit sweep --format mat` (README "servokit sweep"): MAT
-// version 5 (MATLAB's `load`, SciPy's scipy.io.loadmat), written with matio. Two 1x1 struct
+// version 5 (MATLAB's `load`, SciPy's scipy.io.loadmat), written with matio through
+// reports/matio_support.h (the one MAT writer, shared with a solve's MAT file). Two 1x1 struct
 // variables, `points` and `eigenvalues`, whose fields are the columns of reports/sweep_tables.h in
 // table order: a number column as an N x 1 double vector (NaN where the CSV field is empty), a
 // text column as an N x 1 cell array of char row vectors. A third variable, `sweep`, is a struct
-// of char fields: model, model_content_hash, grid, servokit_version, and units_points,
-// units_eigenvalues (the unit of each column, ';'-joined in column order). The header text is
-// fixed (matio's default holds the creation date), so the bytes depend only on the contents.
+// of char fields: model, model_content_hash, grid, servokit_version, and the structs
+// points_units, eigenvalues_units (the unit of each column, in a field named by the column). The
+// header text is fixed (matio's default holds the creation date), so the bytes depend only on
+// the contents.
 // MAT 5 holds at most 2 GiB per variable: the whole file is built in memory.
 #include <filesystem>
 
@@ -21,8 +23,8 @@ void WriteSweepMat(const std::filesystem::path& path,
                    TableRecordReader& points,
                    TableRecordReader& eigenvalues);
 
-/// Throws UsageError when a column name is not a MATLAB identifier (a letter, then letters,
-/// digits and '_', at most 63 characters): it could not be a field of the structs.
+/// Throws UsageError when a column name is not a MATLAB name (MatlabNameProblem): it could not
+/// be a field of the structs.
 void CheckMatColumnNames(const ParameterGrid& grid);
 
 }  // namespace servokit
