@@ -7,7 +7,7 @@
 # Usage: bench/compare_mpi_sweep.sh [BUILD_DIR]      (default: build)
 # Environment: MODEL (default tests/data/chain_output_x3.yaml: the six-mass chain observed at its
 #              third mass, six zero-dynamics eigenvalues a point), VARY (default
-#              "m=0.5:2:600 k=50:150:600": 360 000 points, about 15 s on one thread here),
+#              "m=0.5:2:n=600 k=50:150:n=600": 360 000 points, about 15 s on one thread here),
 #              REPEAT (default 3: the best of REPEAT runs of each), MPIRUN (default mpirun).
 # Each run is timed with `date +%s.%N` around the whole command (start-up, MPI_Init, model load,
 # CSV writing and the final fsync included).
