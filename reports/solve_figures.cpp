@@ -1,6 +1,8 @@
 #include "reports/solve_figures.h"
 
+#include <algorithm>
 #include <cassert>
+#include <limits>
 #include <utility>
 
 #include "reports/plots.h"
@@ -26,7 +28,9 @@ std::vector<std::pair<double, double>> Column(const std::vector<double>& t,
   return points;
 }
 
-// The motion's start and end, then stable inversion's window (of the first run that has one).
+// The motion's start and end, then stable inversion's window (of the first run that has one);
+// only those within the span of the runs' times (a post-actuation cut short by --t-end ends
+// after it, and the solve warns).
 std::vector<MarkerLine> Markers(const SolveFigureFrame& frame,
                                 const std::vector<SolveFigureRun>& runs) {
   std::vector<MarkerLine> markers;
@@ -38,11 +42,31 @@ std::vector<MarkerLine> Markers(const SolveFigureFrame& frame,
   }
   for (const SolveFigureRun& run : runs) {
     if (!run.pre_actuation_start && !run.post_actuation_end) continue;
-    if (run.pre_actuation_start) markers.push_back({*run.pre_actuation_start, "pre-actuation"});
+    if (run.pre_actuation_start) {
+      markers.push_back({*run.pre_actuation_start, "pre-actuation start"});
+    }
     if (run.post_actuation_end) markers.push_back({*run.post_actuation_end, "post-actuation end"});
     break;
   }
-  return markers;
+  double first = std::numeric_limits<double>::infinity();
+  double last = -first;
+  for (const SolveFigureRun& run : runs) {
+    if (run.t.empty()) continue;
+    first = std::min(first, run.t.front());
+    last = std::max(last, run.t.back());
+  }
+  std::vector<MarkerLine> within;
+  for (const MarkerLine& marker : markers) {
+    if (marker.x >= first && marker.x <= last) within.push_back(marker);
+  }
+  return within;
+}
+
+// gnuplot's enhanced text reads "_" as a subscript: the model's name keeps its words apart
+// with spaces instead.
+std::string Readable(std::string name) {
+  std::replace(name.begin(), name.end(), '_', ' ');
+  return name;
 }
 
 // "q_d (radau)" when runs are overlaid, "q_d" for one.
@@ -75,7 +99,7 @@ void DrawSolveFigures(const std::string& directory,
                       const SolveFigureFrame& frame,
                       const std::vector<SolveFigureRun>& runs) {
   const std::vector<MarkerLine> markers = Markers(frame, runs);
-  const std::string about = " - " + frame.model_name + ", " + Methods(runs);
+  const std::string about = " - " + Readable(frame.model_name) + ", " + Methods(runs);
   // One figure per column of one quantity, one curve per run.
   const auto draw = [&](const std::string& stem, const std::string& title,
                         const std::string& quantity, const Eigen::MatrixXd SolveFigureRun::*values,
