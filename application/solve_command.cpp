@@ -3,17 +3,22 @@
 //     [--t-start TS] --t-end TE --method
 //     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
-//     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica]
+//     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica] [--plot DIR]
+//     [--summary json|text]
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
+#include <sstream>
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
 #include "models/errors.h"
+#include "reports/number_format.h"
+#include "reports/solve_figures.h"
 #include "reports/solve_files.h"
 #include "servokit/servokit.h"
 #include "solvers/method_choice.h"
@@ -37,6 +42,8 @@ struct SolveArguments {
   bool verify = false;
   std::string out;
   std::optional<std::string> format;
+  std::string plot;              // --plot DIR, "" for no figures
+  std::string summary = "json";  // what stdout gets: json or text
 };
 
 // The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
@@ -133,14 +140,98 @@ SolveFileFormat ChooseFormat(const SolveArguments& arguments) {
   return *format;
 }
 
+// The JSON's number at `key`, nullopt when absent or null (NaN).
+std::optional<double> NumberAt(const nlohmann::ordered_json& json, const char* key) {
+  const auto found = json.find(key);
+  if (found == json.end() || !found->is_number()) return std::nullopt;
+  return found->get<double>();
+}
+
+std::string ShortOrNone(const nlohmann::ordered_json& json, const char* key) {
+  const std::optional<double> value = NumberAt(json, key);
+  return value ? FormatShort(*value) : "none";
+}
+
+// --summary text: the JSON object told in a few lines, every number taken from it.
+std::string SummaryText(const nlohmann::ordered_json& json) {
+  std::ostringstream text;
+  text << "method: " << json.value("method", "") << " (" << json.value("method_reason", "")
+       << ")\n";
+  text << "status: " << json.value("status", "");
+  if (const std::string message = json.value("message", ""); !message.empty()) {
+    text << ": " << message;
+  }
+  text << "\nsteps: " << json.value("steps", 0) << " (" << json.value("rejected_steps", 0)
+       << " rejected, " << json.value("newton_iterations", 0) << " Newton iterations), "
+       << json.value("samples", 0) << " samples from t = " << ShortOrNone(json, "t_start")
+       << " s to " << ShortOrNone(json, "t_end") << " s\n";
+  text << "max servo residual: " << ShortOrNone(json, "max_servo_residual") << "\n";
+  if (const auto verification = json.find("verification"); verification != json.end()) {
+    text << "verification: " << (verification->value("passed", false) ? "passed" : "FAILED")
+         << ", max output error " << ShortOrNone(*verification, "max_tracking_error")
+         << " at t = " << ShortOrNone(*verification, "time_of_max_error") << " s, bound "
+         << ShortOrNone(*verification, "bound") << "\n";
+  } else {
+    text << "verification: not run (--verify)\n";
+  }
+  if (json.contains("pre_actuation_start")) {
+    text << "pre-actuation from t = " << ShortOrNone(json, "pre_actuation_start")
+         << " s, post-actuation to t = " << ShortOrNone(json, "post_actuation_end") << " s\n";
+  }
+  if (const auto warnings = json.find("warnings"); warnings != json.end()) {
+    for (const auto& warning : *warnings) text << "warning: " << warning.get<std::string>() << "\n";
+  }
+  text << "file: " << json.value("out", "") << "\n";
+  return text.str();
+}
+
+// --plot DIR: the figures of this solve (reports/solve_figures.h).
+void DrawFigures(const std::string& directory,
+                 const api::Model& model,
+                 const api::Feedforward& feedforward) {
+  const nlohmann::ordered_json json = nlohmann::ordered_json::parse(feedforward.json);
+  SolveFigureFrame frame{model.name(), model.coordinate_names(), model.input_names(),
+                         model.output_names(), feedforward.breakpoints};
+  SolveFigureRun run;
+  run.method = feedforward.method;
+  run.t = feedforward.t;
+  run.q = feedforward.q;
+  run.q_dot = feedforward.q_dot;
+  run.u = feedforward.u;
+  run.y_d = feedforward.y_d;
+  if (feedforward.verification && !feedforward.verification->t.empty()) {
+    run.output_times = feedforward.verification->t;
+    run.output = feedforward.verification->y;
+    run.output_source = "forward simulation";
+  } else {
+    run.output_times = feedforward.t;
+    run.output = feedforward.y;
+    run.output_source = "h(q_d)";
+  }
+  run.pre_actuation_start = NumberAt(json, "pre_actuation_start");
+  run.post_actuation_end = NumberAt(json, "post_actuation_end");
+  DrawSolveFigures(directory, frame, {run});
+}
+
 int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
   if (!SolverMethodFromString(arguments.method)) {
     throw UsageError("--method " + arguments.method +
                      ": expected auto, algebraic, euler, radau, bdf, normal-form, "
                      "stable-inversion or linearized");
   }
+  if (arguments.summary != "json" && arguments.summary != "text") {
+    throw UsageError("--summary " + arguments.summary + ": expected json or text");
+  }
   // Before any work: a solve whose answer cannot be written is wasted.
   const SolveFileFormat format = ChooseFormat(arguments);
+  if (!arguments.plot.empty()) {
+    std::error_code error;
+    std::filesystem::create_directories(arguments.plot, error);
+    if (error || !std::filesystem::is_directory(arguments.plot)) {
+      throw UsageError("--plot " + arguments.plot + ": cannot make the directory" +
+                       (error ? " (" + error.message() + ")" : std::string()));
+    }
+  }
   const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
   if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
     throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
@@ -180,7 +271,15 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.file_format = ToString(format);
   const api::Feedforward feedforward = SolveTellingFlags(model, trajectory, options);
   for (const std::string& note : feedforward.notes) err << "servokit: note: " << note << "\n";
-  out << feedforward.json << "\n";
+  if (arguments.summary == "text") {
+    out << SummaryText(nlohmann::ordered_json::parse(feedforward.json));
+  } else {
+    out << feedforward.json << "\n";
+  }
+  // Also for a solve that stopped early or failed its check: the figures show where and how.
+  if (!arguments.plot.empty() && !feedforward.t.empty()) {
+    DrawFigures(arguments.plot, model, feedforward);
+  }
   for (const std::string& warning : feedforward.warnings) {
     err << "servokit: warning: " << warning << "\n";
   }
@@ -265,6 +364,17 @@ Command AddSolveCommand(CLI::App& app) {
                     "csv (default), mat (MAT v5 for MATLAB and scipy; the default for an --out "
                     "ending in .mat) or modelica (CombiTimeTable text of t and the inputs, "
                     "table u_d)");
+  solve->add_option("--plot", arguments->plot,
+                    "Directory (made if missing) for figures of u_d, q_d, dq_d/dt and y against "
+                    "y_d (y: the forward simulation's with --verify, else h(q_d)), with the "
+                    "motion's start and end and stable inversion's pre- and post-actuation "
+                    "marked: u_d-<input>, q_d-<coordinate>, q_d_dot-<coordinate>, "
+                    "y-<output>, each .dat .gp .png .svg (needs gnuplot)");
+  solve
+      ->add_option("--summary", arguments->summary,
+                   "What stdout gets: json (the summary object) or text (a few lines for "
+                   "people); --format is the format of the --out file")
+      ->capture_default_str();
   return {solve, [arguments](std::ostream& out, std::ostream& err) {
             return RunSolve(*arguments, out, err);
           }};

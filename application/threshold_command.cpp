@@ -1,8 +1,9 @@
 // servokit threshold MODEL --vary p=a:b --event stability|oscillation|realization|structure
-//   [--set ...] [--y0 v]... [--q0 v]...
+//   [--set ...] [--y0 v]... [--q0 v]... [--format json|text]
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <ostream>
+#include <sstream>
 
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/thresholds.h"
@@ -24,6 +25,7 @@ struct ThresholdArguments {
   std::string vary;  // p=a:b
   std::string event;
   bool closed_form = true;
+  std::string format = "json";  // what stdout gets: json or text
   ThresholdOptions options;
 };
 
@@ -68,7 +70,44 @@ nlohmann::ordered_json ClosedFormToJson(const CharacteristicPolynomial& closed_f
           {"discriminant_sign_changes", closed_form.discriminant_sign_changes}};
 }
 
+// --format text: the JSON object's parameter, event and located events in a few lines, every
+// number taken from it; each event is its value +- half its bracket, in degrees too for a
+// parameter shown in degrees.
+std::string ThresholdText(const nlohmann::ordered_json& result) {
+  const std::string parameter = result["parameter"].get<std::string>();
+  const bool degrees = result.contains("display_unit");
+  const auto& range = result["range"];
+  const auto& events = result["events"];
+  std::ostringstream text;
+  text << result["event"].get<std::string>() << " thresholds of " << parameter << " on ["
+       << FormatPrecise(range[0].get<double>()) << ", " << FormatPrecise(range[1].get<double>())
+       << "] (" << result["unit"].get<std::string>() << "), model "
+       << result["model"].get<std::string>() << ": " << events.size()
+       << (events.size() == 1 ? " event" : " events") << "\n";
+  for (const auto& event : events) {
+    const double half_width = event["bracket_width"].get<double>() / 2.0;
+    text << "  " << parameter << " = " << FormatPrecise(event["value"].get<double>()) << " +- "
+         << FormatShort(half_width);
+    if (degrees) {
+      text << " (" << FormatPrecise(event["value_deg"].get<double>()) << " deg +- "
+           << FormatShort(RadiansToDegrees(half_width)) << " deg)";
+    }
+    text << ": " << event["from"].get<std::string>() << " -> " << event["to"].get<std::string>();
+    if (event.contains("via")) text << " (via " << event["via"].get<std::string>() << ")";
+    text << "\n";
+  }
+  if (const auto closed_form = result.find("closed_form");
+      closed_form != result.end() && !closed_form->is_null()) {
+    text << "characteristic polynomial: "
+         << (*closed_form)["characteristic_polynomial"].get<std::string>() << "\n";
+  }
+  return text.str();
+}
+
 int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::ostream& err) {
+  if (arguments.format != "json" && arguments.format != "text") {
+    throw UsageError("--format " + arguments.format + ": expected json or text");
+  }
   const std::optional<ThresholdEvent> event = ThresholdEventFromString(arguments.event);
   if (!event) {
     throw UsageError("--event " + arguments.event +
@@ -129,7 +168,11 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
     result["closed_form"] =
         closed_form ? ClosedFormToJson(*closed_form) : nlohmann::ordered_json(nullptr);
   }
-  out << result.dump(2) << "\n";
+  if (arguments.format == "text") {
+    out << ThresholdText(result);
+  } else {
+    out << result.dump(2) << "\n";
+  }
   return static_cast<int>(ExitCode::kSuccess);
 }
 
@@ -166,6 +209,11 @@ Command AddThresholdCommand(CLI::App& app) {
   threshold->add_flag("!--no-closed-form", arguments->closed_form,
                       "Skip the symbolic characteristic polynomial and its Routh-Hurwitz "
                       "conditions");
+  threshold
+      ->add_option("--format", arguments->format,
+                   "What stdout gets: json (the result object) or text (a few lines for people: "
+                   "each event as value +- half its bracket, from -> to)")
+      ->capture_default_str();
   return {threshold, [arguments](std::ostream& out, std::ostream& err) {
             return RunThreshold(*arguments, out, err);
           }};

@@ -290,6 +290,10 @@ struct Verification {
   double max_tracking_error = 0.0;
   double bound = 0.0;
   bool passed = false;
+  // The forward runs' output h(q) at each of their steps (rows of y: times; columns: outputs);
+  // where the check restarts on an unstable plant, a segment's first time repeats the last.
+  std::vector<double> t;
+  Eigen::MatrixXd y;
 };
 
 /// The feedforward u_d(t) and motion q_d(t): one row per time.
@@ -301,6 +305,10 @@ struct Feedforward {
   bool usable = false;  // converged, and passed the check when one was asked for
   std::vector<double> t;
   Eigen::MatrixXd q, q_dot, u, y_d;  // rows: times; columns: coordinates, inputs, outputs
+  Eigen::MatrixXd y;                 // h(q_d(t)), the output of the motion, like y_d
+  // Where the desired output's motion starts and ends (the trajectory's breakpoints: t0 and tf
+  // of rest-to-rest, each waypoint, the first and last sample), increasing.
+  std::vector<double> breakpoints;
   std::optional<Verification> verification;
   std::vector<std::string> warnings;
   std::vector<std::string> notes;

@@ -188,8 +188,9 @@ Feedforward Solve(const Model& model,
   if (options.verify && solution.extension) {
     const servokit::Verification verification = VerifyFeedforward(multibody, *desired, solution);
     report["verification"] = VerificationToJson(verification);
-    result.verification =
-        Verification{verification.max_tracking_error, verification.bound, verification.passed};
+    result.verification = Verification{verification.max_tracking_error, verification.bound,
+                                       verification.passed, verification.output_times,
+                                       Rows(verification.outputs, multibody.num_outputs())};
     result.warnings.insert(result.warnings.end(), verification.warnings.begin(),
                            verification.warnings.end());
     // An answer that fails its check is not within its tolerances: it is not "converged".
@@ -214,9 +215,14 @@ Feedforward Solve(const Model& model,
   result.q_dot = Rows(solution.q_dot, multibody.dof());
   result.u = Rows(solution.u, multibody.num_inputs());
   result.y_d.resize(Eigen::Index(solution.times.size()), Eigen::Index(multibody.num_outputs()));
+  result.y.resize(result.y_d.rows(), result.y_d.cols());
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
     result.y_d.row(Eigen::Index(i)) = desired->Derivative(solution.times[i], 0);
+    Evaluate(multibody, workspace, solution.q[i], Eigen::VectorXd::Zero(solution.q[i].size()),
+             Quantity::kOutput);
+    result.y.row(Eigen::Index(i)) = workspace.output.transpose();
   }
+  result.breakpoints = desired->breakpoints();
   return result;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "analysis/operating_point.h"
 #include "models/errors.h"
@@ -304,8 +305,10 @@ Verification VerifyFeedforward(const Model& model,
         },
         from, state, to, trajectory.breakpoints(), integrator,
         [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
-          const double error =
-              (plant.Output(y.head(f)) - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
+          Eigen::VectorXd output = plant.Output(y.head(f));
+          const double error = (output - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
+          verification.output_times.push_back(t);
+          verification.outputs.push_back(std::move(output));
           if (error > verification.max_tracking_error) {
             verification.max_tracking_error = error;
             verification.time_of_max_error = t;

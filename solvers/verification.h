@@ -72,6 +72,10 @@ struct Verification {
   double forward_rtol = 0.0;  // CVODE's tolerances in the forward runs
   double forward_atol = 0.0;
   SolveSummary summary;  // of the forward runs (steps summed)
+  // The forward runs' output h(q) at each of their steps (a segment's start repeats the time
+  // where the previous segment ended): what `solve --plot` draws against y_d.
+  std::vector<double> output_times;
+  std::vector<Eigen::VectorXd> outputs;
   std::vector<std::string> warnings;
 };
 
