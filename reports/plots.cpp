@@ -74,7 +74,7 @@ constexpr double kLabelStep = 0.06;
 constexpr double kLabelSpacing = 0.15;  // fraction of the x span one label may take
 constexpr double kSameMarker = 1e-6;    // fraction of the x span: one place
 constexpr int kLabelLevels = 6;         // lines used before starting again at the top
-constexpr double kRightAligned = 0.7;   // labels right of this fraction of the span go left
+constexpr double kRightAligned = 0.5;   // labels right of this fraction of the span go left
 
 struct MarkerLabel {
   double x = 0.0;
@@ -164,6 +164,7 @@ void WriteScript(const std::string& path,
   } else {
     script << "set key outside right\n";
   }
+  if (!spec.markers.empty()) script << "set style textbox opaque noborder\n";
   if (!spec.x_range.empty()) script << "set xrange " << spec.x_range << "\n";
   if (!spec.y_range.empty()) script << "set yrange " << spec.y_range << "\n";
   for (std::size_t i = 0; i < spec.markers.size(); ++i) {
@@ -178,7 +179,7 @@ void WriteScript(const std::string& path,
     const bool right = label.x > x_low + kRightAligned * span;
     script << "set label " << QuotedText(label.Text()) << " at first " << FormatExact(label.x)
            << ", graph " << FormatExact(kLabelTop - kLabelStep * double(label.level))
-           << (right ? " right offset -0.5,0" : " left offset 0.5,0") << " front\n";
+           << (right ? " right offset -0.5,0" : " left offset 0.5,0") << " front boxed\n";
   }
   std::string plot = "plot ";
   for (std::size_t i = 0; i < spec.series.size(); ++i) {
@@ -187,7 +188,7 @@ void WriteScript(const std::string& path,
             (ColoursOf(colouring, i).empty()
                  ? " using 1:2 with " + series.style
                  : " using 1:2:3 with " + series.style + " linecolor palette") +
-            " title " + QuotedText(series.title);
+            (series.title.empty() ? " notitle" : " title " + QuotedText(series.title));
   }
   // Sizes and fonts for a slide: the PDF at 5 x 3.5 in with 12 pt text; the bitmaps at the
   // same proportions.
@@ -316,7 +317,7 @@ RobustRange RobustLimits(std::vector<double> values) {
   for (const double value : values) {
     result.outside += value < result.low || value > result.high ? 1 : 0;
   }
-  if (result.outside > 0 && result.high > result.low) {
+  if (result.high > result.low) {
     const double pad = kPadding * (result.high - result.low);
     result.range = "[" + FormatExact(result.low - pad) + ":" + FormatExact(result.high + pad) + "]";
   }

@@ -34,14 +34,14 @@ struct PlotSpec {
 /// value) do not squash the rest. The rule: take the 10 % and 90 % quantiles q10, q90 of the
 /// values (linear interpolation between order statistics, as R's type 7), widen that interval
 /// by its own width w = q90 - q10 on each side, and cut it to the data's extremes:
-/// [max(min, q10 - w), min(max, q90 + w)]. When a value lies outside, the axis spans these
-/// limits padded by 5 % of their width on each side, and the values outside are clipped (not
-/// drawn); when none does, the axis is left to gnuplot's autoscaling (range "").
+/// [max(min, q10 - w), min(max, q90 + w)]. The axis spans these limits padded by 5 % of their
+/// width on each side; values outside them are clipped (not drawn). Equal values (no width)
+/// leave the axis to gnuplot's autoscaling (range "").
 struct RobustRange {
   double low = 0.0, high = 0.0;  // the limits before padding
   std::size_t outside = 0;       // values outside [low, high], clipped
   double min = 0.0, max = 0.0;   // the data's extremes
-  std::string range;             // gnuplot range ("[a:b]"), "" when nothing is clipped
+  std::string range;             // gnuplot range ("[a:b]"), "" for autoscaling
 };
 RobustRange RobustLimits(std::vector<double> values);
 
