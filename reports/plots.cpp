@@ -69,8 +69,8 @@ void WriteData(const std::string& path, const PlotSpec& spec, const PlotColourin
 // Marker labels: markers at (nearly) the same x share one label ("stability, oscillation");
 // labels closer than kLabelSpacing of the x span to another one are put one line lower, so
 // that events at one place stay readable.
-constexpr double kLabelTop = 0.96;
-constexpr double kLabelStep = 0.06;
+constexpr int kLabelTopPercent = 96;    // of the graph's height; whole percent, so the script
+constexpr int kLabelStepPercent = 6;    // prints 0.9, not 0.8999999999999999
 constexpr double kLabelSpacing = 0.15;  // fraction of the x span one label may take
 constexpr double kSameMarker = 1e-6;    // fraction of the x span: one place
 constexpr int kLabelLevels = 6;         // lines used before starting again at the top
@@ -178,7 +178,8 @@ void WriteScript(const std::string& path,
   for (const MarkerLabel& label : PlaceLabels(spec, span)) {
     const bool right = label.x > x_low + kRightAligned * span;
     script << "set label " << QuotedText(label.Text()) << " at first " << FormatExact(label.x)
-           << ", graph " << FormatExact(kLabelTop - kLabelStep * double(label.level))
+           << ", graph "
+           << FormatExact(double(kLabelTopPercent - kLabelStepPercent * label.level) / 100.0)
            << (right ? " right offset -0.5,0" : " left offset 0.5,0") << " front boxed\n";
   }
   std::string plot = "plot ";
