@@ -1,6 +1,10 @@
 #include "reports/document.h"
 
+#include <filesystem>
+#include <fstream>
 #include <sstream>
+
+#include "models/errors.h"
 
 namespace servokit {
 namespace {
@@ -52,6 +56,37 @@ std::string EscapeTableCell(const std::string& text) {
   return escaped;
 }
 
+// RFC 4648 base64, for data: URIs.
+std::string Base64(const std::string& bytes) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string encoded;
+  std::size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned value = unsigned(static_cast<unsigned char>(bytes[i])) << 16 |
+                           unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8 |
+                           unsigned(static_cast<unsigned char>(bytes[i + 2]));
+    for (const int shift : {18, 12, 6, 0}) encoded += kAlphabet[(value >> shift) & 63];
+  }
+  if (i < bytes.size()) {
+    unsigned value = unsigned(static_cast<unsigned char>(bytes[i])) << 16;
+    if (i + 1 < bytes.size()) value |= unsigned(static_cast<unsigned char>(bytes[i + 1])) << 8;
+    encoded += kAlphabet[(value >> 18) & 63];
+    encoded += kAlphabet[(value >> 12) & 63];
+    encoded += i + 1 < bytes.size() ? kAlphabet[(value >> 6) & 63] : '=';
+    encoded += '=';
+  }
+  return encoded;
+}
+
+std::string ReadBytes(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error("cannot read " + path + " (a figure of the report)");
+  std::ostringstream bytes;
+  bytes << file.rdbuf();
+  return bytes.str();
+}
+
 struct MarkdownRenderer {
   std::ostringstream& out;
   void operator()(const Heading& heading) const {
@@ -80,6 +115,7 @@ struct MarkdownRenderer {
 
 struct HtmlRenderer {
   std::ostringstream& out;
+  const std::string& directory;
   void operator()(const Heading& heading) const {
     out << "<h" << heading.level << ">" << InlineHtml(heading.text) << "</h" << heading.level
         << ">\n";
@@ -99,9 +135,20 @@ struct HtmlRenderer {
     out << "</table>\n";
   }
   void operator()(const Figure& figure) const {
-    out << "<figure><img src=\"" << EscapeHtml(figure.svg) << "\" alt=\""
+    out << "<figure><img src=\"data:image/svg+xml;base64,"
+        << Base64(ReadBytes(directory + "/" + figure.svg)) << "\" alt=\""
         << EscapeHtml(figure.caption) << "\"><figcaption>" << InlineHtml(figure.caption)
-        << "</figcaption></figure>\n";
+        << " (files beside this page: ";
+    std::string links;
+    const std::size_t dot = figure.png.rfind('.');
+    const std::string pdf = dot == std::string::npos ? "" : figure.png.substr(0, dot) + ".pdf";
+    const bool has_pdf = !pdf.empty() && std::filesystem::exists(directory + "/" + pdf);
+    for (const std::string* file : {&pdf, &figure.png, &figure.svg}) {
+      if (file->empty() || (file == &pdf && !has_pdf)) continue;
+      links += (links.empty() ? "" : ", ") + std::string("<a href=\"") + EscapeHtml(*file) + "\">" +
+               EscapeHtml(*file) + "</a>";
+    }
+    out << links << ")</figcaption></figure>\n";
   }
   void operator()(const CodeBlock& code) const {
     out << "<pre>" << EscapeHtml(code.text) << "</pre>\n";
@@ -117,7 +164,7 @@ std::string RenderMarkdown(const Document& document) {
   return out.str();
 }
 
-std::string RenderHtml(const Document& document) {
+std::string RenderHtml(const Document& document, const std::string& directory) {
   std::ostringstream out;
   out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>"
       << EscapeHtml(document.title) << "</title>\n<style>\n"
@@ -127,7 +174,7 @@ std::string RenderHtml(const Document& document) {
       << "figure img { max-width: 100%; }\n"
       << "code, pre { background: #f4f4f4; }\n</style>\n</head>\n<body>\n<h1>"
       << InlineHtml(document.title) << "</h1>\n";
-  for (const Block& block : document.blocks) std::visit(HtmlRenderer{out}, block);
+  for (const Block& block : document.blocks) std::visit(HtmlRenderer{out, directory}, block);
   out << "</body>\n</html>\n";
   return out.str();
 }

@@ -39,7 +39,10 @@ struct Document {
 /// GitHub-flavoured Markdown; figures link the PNG.
 std::string RenderMarkdown(const Document& document);
 
-/// A self-contained HTML page; figures embed the SVG by reference.
-std::string RenderHtml(const Document& document);
+/// A self-contained HTML page: each figure's SVG, read from `directory` (where the figures
+/// were drawn), is embedded as a data: URI, so the page shows its figures on its own; the files
+/// beside it (the PNG, the SVG and a PDF of the same name, when
+/// there is one) are linked for download. Throws Error when an SVG cannot be read.
+std::string RenderHtml(const Document& document, const std::string& directory);
 
 }  // namespace servokit

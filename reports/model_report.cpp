@@ -13,6 +13,16 @@
 namespace servokit {
 namespace {
 
+// The caption's note on eigenvalues outside the axes (plots.h, RobustLimits: the rule).
+std::string ClippedNote(std::size_t clipped, std::size_t total, const RobustRange& real) {
+  if (clipped == 0) return "";
+  return "; " + std::to_string(clipped) + " of " + std::to_string(total) +
+         " eigenvalues lie off the axes, Re λ from " + FormatShort(real.min) + " to " +
+         FormatShort(real.max) +
+         " 1/s (the axes span the 10-90 % quantile range widened by its "
+         "width on each side)";
+}
+
 void AddStudy(Document& document,
               const std::filesystem::path& directory,
               const Model& model,
@@ -34,21 +44,36 @@ void AddStudy(Document& document,
   document.Add(Heading{2, "Study of " + span});
   const std::vector<SweepPoint> points = SweepParameter(model, axis.parameter, values, options);
   const std::string stem = "study_" + axis.name;
-  PlotSpec locus{stem + "_root_locus",
-                 "Zero-dynamics eigenvalues over " + axis.name,
-                 "Re(lambda) [1/s]",
-                 "Im(lambda) [1/s]",
-                 "",
-                 "",
-                 {{"zero dynamics", RootLocus(points)}},
-                 {}};
+  // In figures the parameter is shown as its symbol (alpha -> α) with its unit.
+  const std::string symbol = PlotSymbol(axis.name);
+  const std::string plot_label = symbol + (degrees ? " [deg]" : "");
+  std::vector<std::pair<double, double>> eigenvalues;
+  std::vector<double> parameter_of_eigenvalue;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (const auto& eigenvalue : points[i].eigenvalues) {
+      eigenvalues.emplace_back(eigenvalue.real(), eigenvalue.imag());
+      parameter_of_eigenvalue.push_back(shown[i]);
+    }
+  }
+  std::vector<double> real_parts, imaginary_parts;
+  for (const auto& [real, imaginary] : eigenvalues) {
+    real_parts.push_back(real);
+    imaginary_parts.push_back(imaginary);
+  }
+  const RobustRange real_range = RobustLimits(real_parts);
+  const RobustRange imaginary_range = RobustLimits(imaginary_parts);
+  PlotSpec locus{stem + "_root_locus", "Zero-dynamics eigenvalues over " + symbol,
+                 "Re λ [1/s]",         "Im λ [1/s]",
+                 real_range.range,     imaginary_range.range,
+                 {{"", eigenvalues}},  {}};
+  const PlotColouring by_parameter{{parameter_of_eigenvalue}, plot_label};
   PlotSpec real_part{stem + "_real_part",
-                     "Real parts over " + axis.name,
-                     label,
-                     "Re(lambda) [1/s]",
+                     "Real parts over " + symbol,
+                     plot_label,
+                     "Re λ [1/s]",
                      "",
-                     "",
-                     {{"Re(lambda)", EigenvalueCurve(points, shown, false)}},
+                     real_range.range,
+                     {{"Re λ", EigenvalueCurve(points, shown, false)}},
                      {}};
   std::vector<ThresholdSearch> searches;
   if (high > low) {
@@ -63,10 +88,21 @@ void AddStudy(Document& document,
       }
     }
   }
-  DrawPlot(directory.string(), locus);
+  DrawPlot(directory.string(), locus, by_parameter);
   DrawPlot(directory.string(), real_part);
-  document.Add(FigureOf(locus.name, "Zero-dynamics eigenvalues, " + span));
-  document.Add(FigureOf(real_part.name, "Real parts of the eigenvalues over " + axis.name));
+  std::size_t clipped = 0;
+  for (const auto& [real, imaginary] : eigenvalues) {
+    clipped += real < real_range.low || real > real_range.high || imaginary < imaginary_range.low ||
+                       imaginary > imaginary_range.high
+                   ? 1
+                   : 0;
+  }
+  document.Add(FigureOf(locus.name, "Zero-dynamics eigenvalues, " + span + ", coloured by " +
+                                        axis.name +
+                                        ClippedNote(clipped, eigenvalues.size(), real_range)));
+  document.Add(
+      FigureOf(real_part.name, "Real parts of the eigenvalues over " + axis.name +
+                                   ClippedNote(real_range.outside, real_parts.size(), real_range)));
   std::size_t failed = 0;
   for (const SweepPoint& point : points) failed += point.ok ? 0 : 1;
   if (failed > 0) {

@@ -54,7 +54,7 @@ constexpr PaperCase kMassOnCarCases[] = {
 void AddMassOnCarTable(Document& document, const std::string& path) {
   document.Add(Heading{2, "Mass on car: the four cases (Sect. 3)"});
   document.Add(Paragraph{"`models/" + std::filesystem::path(path).filename().string() +
-                         "` with m1 = 1 kg, m2 = 2 kg, k = 5 N/m (DESIGN.md: the "
+                         "` with m1 = 1 kg, m2 = 2 kg, k = 5 N/m (the "
                          "paper's Table 1 is missing from its text; these values reproduce its "
                          "0.25 Hz, 2.88 Hz and 9.1 deg)."});
   Table table;
@@ -107,15 +107,15 @@ void AddFigure6(Document& document,
   for (const double angle : angles) angles_in_degrees.push_back(ToDegrees(angle));
   PlotSpec locus{"fig6_root_locus",
                  "Zero-dynamics eigenvalues, alpha from 0.25 to 90 deg",
-                 "Re(lambda) [1/s]",
-                 "Im(lambda) [1/s]",
+                 "Re λ [1/s]",
+                 "Im λ [1/s]",
                  "[-12:1]",
                  "[-25:25]",
                  {},
                  {}};
   PlotSpec frequency{"fig6_frequency",
                      "Undamped zero dynamics (d = 0): frequency over alpha",
-                     "alpha [deg]",
+                     "α [deg]",
                      "frequency [Hz]",
                      "[0:90]",
                      "[0:6]",
@@ -189,8 +189,8 @@ void AddFigure8(Document& document,
   }
   PlotSpec locus{"fig8_root_locus",
                  "Zero-dynamics eigenvalues, s from 0 to l",
-                 "Re(lambda) [1/s]",
-                 "Im(lambda) [1/s]",
+                 "Re λ [1/s]",
+                 "Im λ [1/s]",
                  "[-60:60]",
                  "[-40:40]",
                  {{"zero dynamics", RootLocus(points)}},
@@ -198,10 +198,10 @@ void AddFigure8(Document& document,
   PlotSpec real_part{"fig8_real_part",
                      "Real parts of the zero-dynamics eigenvalues over s",
                      "s [m]",
-                     "Re(lambda) [1/s]",
+                     "Re λ [1/s]",
                      "[0:1]",
                      "[-60:60]",
-                     {{"Re(lambda)", EigenvalueCurve(points, positions, false)}},
+                     {{"Re λ", EigenvalueCurve(points, positions, false)}},
                      {}};
   for (const ThresholdSearch& search : searches) {
     for (const ThresholdCrossing& event : search.events) {
@@ -428,7 +428,7 @@ void AddFlatCaseFigures(Document& document,
       PlotSpec states{"fig11_case4_states",
                       "Fig. 11: case 4, states q_d and their rates",
                       "t [s]",
-                      "x, s [m];  x_dot, s_dot [m/s]",
+                      "x, s [m];  ẋ, ṡ [m/s]",
                       "[0:10]",
                       "",
                       {},
@@ -436,7 +436,7 @@ void AddFlatCaseFigures(Document& document,
       const char* names[] = {"x", "s", "x_dot", "s_dot"};
       for (int component = 0; component < 4; ++component) {
         states.series.push_back(
-            {names[component], Series(solution, component), "lines linewidth 2"});
+            {PlotSymbol(names[component]), Series(solution, component), "lines linewidth 2"});
       }
       DrawPlot(directory.string(), states);
       document.Add(FigureOf(states.name, "Fig. 11: case 4, states from the algebraic inverse"));
@@ -565,8 +565,8 @@ void AddStableCaseFigures(Document& document,
                       "",
                       {},
                       {}};
-    velocity.series.push_back({"x_dot", Series(normal_form, 2), "lines linewidth 2"});
-    velocity.series.push_back({"s_dot", Series(normal_form, 3), "lines linewidth 2"});
+    velocity.series.push_back({PlotSymbol("x_dot"), Series(normal_form, 2), "lines linewidth 2"});
+    velocity.series.push_back({PlotSymbol("s_dot"), Series(normal_form, 3), "lines linewidth 2"});
     DrawPlot(directory.string(), velocity);
     document.Add(FigureOf(
         velocity.name, std::string("Fig. 13: case 2, d = ") + damping + ", from the normal form"));

@@ -107,8 +107,9 @@ void AddClosedForm(Document& document,
 }
 
 void WriteDocument(const std::filesystem::path& directory, const Document& document) {
-  for (const auto& [name, text] : {std::pair{"report.md", RenderMarkdown(document)},
-                                   std::pair{"report.html", RenderHtml(document)}}) {
+  for (const auto& [name, text] :
+       {std::pair{"report.md", RenderMarkdown(document)},
+        std::pair{"report.html", RenderHtml(document, directory.string())}}) {
     std::ofstream file(directory / name);
     file << text;
     if (!file) throw Error("cannot write " + (directory / name).string());

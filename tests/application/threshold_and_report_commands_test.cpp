@@ -116,7 +116,7 @@ TEST_CASE("report MODEL shows a parameter given in degrees in degrees", "[report
   std::ifstream plot(directory / "study_alpha_real_part.gp");
   std::stringstream script;
   script << plot.rdbuf();
-  CHECK_THAT(script.str(), Catch::Contains("alpha [deg]"));
+  CHECK_THAT(script.str(), Catch::Contains("α [deg]"));
   std::filesystem::remove_all(directory);
 }
 

@@ -106,8 +106,12 @@ TEST_CASE("report paper matches the reviewed answer file", "[reports][paper]") {
        {"fig6_root_locus", "fig6_frequency", "fig8_root_locus", "fig8_real_part"}) {
     CHECK(std::filesystem::file_size(directory / (std::string(figure) + ".png")) > 1000);
     CHECK(std::filesystem::file_size(directory / (std::string(figure) + ".svg")) > 1000);
+    CHECK(ReadFile(directory / (std::string(figure) + ".pdf")).rfind("%PDF", 0) == 0);
   }
-  CHECK(std::filesystem::exists(directory / "report.html"));
+  // The HTML names nothing a user does not have and shows its figures without other files.
+  const std::string html = ReadFile(directory / "report.html");
+  CHECK_THAT(html, !Catch::Contains("DESIGN.md") && !Catch::Contains("<img src=\"fig"));
+  CHECK_THAT(ReadFile(directory / "report.md"), !Catch::Contains("DESIGN.md"));
   std::filesystem::remove_all(directory);
 }
 
