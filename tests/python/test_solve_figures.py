@@ -51,9 +51,12 @@ def read_dat(path):
 def markers(gp_path):
     """The x of each dashed vertical line with its label, from the gnuplot script."""
     text = pathlib.Path(gp_path).read_text()
-    xs = [float(x) for x in re.findall(r"set arrow \d+ from first (\S+),", text)]
-    labels = re.findall(r"set label '([^']*)' at first", text)
-    return dict(zip(labels, xs))
+    lines = {float(x) for x in re.findall(r"set arrow \d+ from first (\S+),", text)}
+    # Labels are placed (and staggered) apart from their lines: each names its x.
+    labels = {label: float(x)
+              for label, x in re.findall(r"set label '([^']*)' at first ([^,]+),", text)}
+    assert set(labels.values()) <= lines
+    return labels
 
 
 def test_figures_hold_the_csv_columns(servokit_binary, mass_on_car, tmp_path):
