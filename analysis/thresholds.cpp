@@ -156,6 +156,7 @@ class StateProbe {
              const ThresholdOptions& options)
       : model_(model), workspace_(model), parameter_(parameter), event_(event), options_(options) {
     options_.classification.cross_check = false;
+    if (options_.parameters.size() > 0) workspace_.parameters = options_.parameters;
   }
 
   State At(double value) {
@@ -526,6 +527,10 @@ void ThresholdOptions::Validate(const Model& model) const {
   RequireOption(relative_tolerance > 0.0 && relative_tolerance < 1.0, kOwner, "relative_tolerance",
                 relative_tolerance, "must be > 0 and < 1");
   RequireOption(merge_tolerance >= 0.0, kOwner, "merge_tolerance", merge_tolerance, "must be >= 0");
+  const auto count = static_cast<Eigen::Index>(model.num_parameters());
+  RequireOption(parameters.size() == 0 || (parameters.size() == count && parameters.allFinite()),
+                kOwner, "parameters", parameters,
+                "must be empty or hold " + std::to_string(count) + " finite values");
 }
 
 ThresholdSearch FindThresholds(const Model& model,

@@ -12,6 +12,7 @@
 // state: entries that change sign there (a root by GSL's Brent solver) and quantities >= 0 that
 // touch zero there (a minimum by GSL's Brent minimizer). Events that pass through such a point
 // are one event, `via` the thin state.
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,10 @@ struct ThresholdOptions {
   // passing through zero makes the realization tangential only within the rank-tolerance band.
   // (Wider bands of one point, such as P touching zero, are recognised by their indicators.)
   double merge_tolerance = 1e-8;
+  // The values (SI, one per model parameter) of the parameters not searched; empty means the
+  // model's nominal values. A two-parameter study (analysis/threshold_curves.h) sets the other
+  // axis here, line by line.
+  Eigen::VectorXd parameters;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate(const Model& model) const;
 };
@@ -60,9 +65,9 @@ struct ThresholdSearch {
 };
 
 /// Finds every `event` of `parameter` (an index into model.parameter_names()) in [low, high],
-/// the other parameters at their nominal values, each point classified with
-/// options.classification (its operating point: y0, q_guess). Throws UsageError for bad
-/// options or range.
+/// the other parameters at options.parameters (by default their nominal values), each point
+/// classified with options.classification (its operating point: y0, q_guess). Throws UsageError for
+/// bad options or range.
 ThresholdSearch FindThresholds(const Model& model,
                                std::size_t parameter,
                                double low,

@@ -6,6 +6,7 @@
 #include "analysis/classification.h"
 #include "models/errors.h"
 #include "models/units.h"
+#include "reports/class_map.h"
 #include "reports/classification_report.h"
 #include "reports/number_format.h"
 #include "reports/report_support.h"
@@ -142,6 +143,7 @@ void WriteModelReport(const std::string& directory,
     summary.rows.push_back({label, value});
   }
   document.Add(summary);
+  if (axes.size() == 2) AddClassMap(document, out, model, axes[0], axes[1], options);
   for (const GridAxis& axis : axes) AddStudy(document, out, model, axis, options);
   WriteDocument(out, document);
 }

@@ -14,7 +14,9 @@ namespace servokit {
 /// parameter, the located stability, oscillation and realization thresholds within the axis'
 /// range, and the closed-form characteristic polynomial where it applies (at the default
 /// operating point only: it is derived at q = 0, u = 0). Every classification uses `options`
-/// (the operating point of --y0 and --q0, the tolerances).
+/// (the operating point of --y0 and --q0, the tolerances). With exactly two axes the report
+/// opens with the map of their plane (reports/class_map.h): each grid point coloured by class,
+/// and the threshold curves traced across it.
 void WriteModelReport(const std::string& directory,
                       const Model& model,
                       const std::vector<GridAxis>& axes,

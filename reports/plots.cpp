@@ -141,6 +141,9 @@ std::vector<MarkerLabel> PlaceLabels(const PlotSpec& spec, double span) {
   return labels;
 }
 
+// Titles longer than this (in bytes) put the key below the graph.
+constexpr std::size_t kLongKeyTitle = 40;
+
 // A palette from dark blue over green to yellow (viridis' ends and middle), readable in grey.
 constexpr const char* kPalette =
     "set palette defined (0 '#440154', 1 '#3b528b', 2 '#21918c', 3 '#5ec962', 4 '#fde725')\n";
@@ -161,7 +164,12 @@ void WriteScript(const std::string& path,
     script << kPalette << "set cblabel " << QuotedText(colouring.label)
            << "\nset colorbox\nset key below\n";
   } else {
-    script << "set key outside right\n";
+    // A key of long titles (the classes and curves of a map) goes below the graph, where it
+    // takes the figure's width instead of squeezing the graph from the side.
+    std::size_t longest = 0;
+    for (const PlotSeries& series : spec.series) longest = std::max(longest, series.title.size());
+    script << (longest > kLongKeyTitle ? "set key below left Left reverse\n"
+                                       : "set key outside right\n");
   }
   if (!spec.markers.empty()) script << "set style textbox opaque noborder\n";
   if (!spec.x_range.empty()) script << "set xrange " << spec.x_range << "\n";

@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "tests/application/run_servokit.h"
 #include "tests/test_paths.h"
@@ -147,6 +148,71 @@ TEST_CASE("report MODEL writes the classification, a study per axis and its figu
   CHECK(std::abs(std::stod(row[1].str()) - 2.0 / 3.0) <= located_to + 5e-13);
   CHECK(std::filesystem::exists(directory / "study_s_root_locus.svg"));
   CHECK(std::filesystem::exists(directory / "report.html"));
+  std::filesystem::remove_all(directory);
+}
+
+// Splits a CSV line at the commas outside double quotes; quotes are dropped.
+std::vector<std::string> CsvFields(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (const char c : line) {
+    if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
+TEST_CASE("report MODEL with two axes writes the class map and its traced curves", "[reports]") {
+  // Mass on car (k = 5, m2 = 2): the zero dynamics m2 sin^2(a) s^2 + d s + k has a double root
+  // where d = 2 sqrt(k m2) |sin a| (the over-damping curve), and the realization is tangential
+  // at a = 0 only.
+  const auto directory = std::filesystem::temp_directory_path() / "servokit_map_report_test";
+  std::filesystem::remove_all(directory);
+  const auto run =
+      RunServokit({"report", ModelPath("mass_on_car.yaml"), "--vary", "alpha=-40deg:60deg:n=21",
+                   "--vary", "d=0.5:4:n=15", "--out", directory.string()});
+  REQUIRE(run.status == 0);
+  for (const char* extension : {".png", ".svg", ".pdf"}) {
+    CHECK(std::filesystem::exists(directory / (std::string("map_alpha_d") + extension)));
+  }
+  std::ifstream report_file(directory / "report.md");
+  std::stringstream report;
+  report << report_file.rdbuf();
+  CHECK_THAT(report.str(), Catch::Contains("## Map over alpha and d") &&
+                               Catch::Contains("| non-ideal-orthogonal, asymptotically-stable, "
+                                               "oscillatory |"));
+  std::ifstream csv(directory / "map_alpha_d_curves.csv");
+  std::string line;
+  std::getline(csv, line);
+  CHECK(line == "curve,event,from,to,via,traced_along,alpha_deg,d,bracket_width");
+  const double scale = 2.0 * std::sqrt(5.0 * 2.0), degree = std::numbers::pi / 180.0;
+  int oscillation = 0, realization = 0;
+  while (std::getline(csv, line)) {
+    const std::vector<std::string> field = CsvFields(line);
+    REQUIRE(field.size() == 9);
+    const double alpha = std::stod(field[6]) * degree, d = std::stod(field[7]);
+    INFO(line);
+    if (field[1] == "oscillation") {
+      ++oscillation;
+      if (field[5] == "alpha") {
+        CHECK(std::abs(std::abs(alpha) - std::asin(d / scale)) <= 1e-8);
+      } else {
+        CHECK(std::abs(d - scale * std::abs(std::sin(alpha))) <= 1e-8 * d);
+      }
+    } else if (field[1] == "realization") {
+      ++realization;
+      CHECK(field[4] == "tangential");
+      CHECK(alpha == 0.0);
+    }
+  }
+  // Along alpha: both arms of the curve on each of the 41 lines; the line a = 0 on each.
+  CHECK(oscillation >= 2 * 41);
+  CHECK(realization == 41);
   std::filesystem::remove_all(directory);
 }
 
