@@ -1,10 +1,11 @@
 // servokit solve MODEL [--set p=v]... --trajectory rest-to-rest|FILE.yaml|FILE.csv [--y0 A --yf B
 // --t0 T0 --tf TF]
 //     [--t-start TS] --t-end TE --method
-//     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized
+//     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized|M1,M2,...
 //     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
 //     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica] [--plot DIR]
 //     [--summary json|text]
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -185,40 +186,100 @@ std::string SummaryText(const nlohmann::ordered_json& json) {
   return text.str();
 }
 
-// --plot DIR: the figures of this solve (reports/solve_figures.h).
+// --plot DIR: the figures of these solves, one curve per method (reports/solve_figures.h).
 void DrawFigures(const std::string& directory,
                  const api::Model& model,
-                 const api::Feedforward& feedforward) {
-  const nlohmann::ordered_json json = nlohmann::ordered_json::parse(feedforward.json);
+                 const std::vector<const api::Feedforward*>& solves) {
   SolveFigureFrame frame{model.name(), model.coordinate_names(), model.input_names(),
-                         model.output_names(), feedforward.breakpoints};
-  SolveFigureRun run;
-  run.method = feedforward.method;
-  run.t = feedforward.t;
-  run.q = feedforward.q;
-  run.q_dot = feedforward.q_dot;
-  run.u = feedforward.u;
-  run.y_d = feedforward.y_d;
-  if (feedforward.verification && !feedforward.verification->t.empty()) {
-    run.output_times = feedforward.verification->t;
-    run.output = feedforward.verification->y;
-    run.output_source = "forward simulation";
-  } else {
-    run.output_times = feedforward.t;
-    run.output = feedforward.y;
-    run.output_source = "h(q_d)";
+                         model.output_names(), solves.front()->breakpoints};
+  std::vector<SolveFigureRun> runs;
+  for (const api::Feedforward* feedforward : solves) {
+    const nlohmann::ordered_json json = nlohmann::ordered_json::parse(feedforward->json);
+    SolveFigureRun& run = runs.emplace_back();
+    run.method = feedforward->method;
+    run.t = feedforward->t;
+    run.q = feedforward->q;
+    run.q_dot = feedforward->q_dot;
+    run.u = feedforward->u;
+    run.y_d = feedforward->y_d;
+    if (feedforward->verification && !feedforward->verification->t.empty()) {
+      run.output_times = feedforward->verification->t;
+      run.output = feedforward->verification->y;
+      run.output_source = "forward simulation";
+    } else {
+      run.output_times = feedforward->t;
+      run.output = feedforward->y;
+      run.output_source = "h(q_d)";
+    }
+    run.pre_actuation_start = NumberAt(json, "pre_actuation_start");
+    run.post_actuation_end = NumberAt(json, "post_actuation_end");
   }
-  run.pre_actuation_start = NumberAt(json, "pre_actuation_start");
-  run.post_actuation_end = NumberAt(json, "post_actuation_end");
-  DrawSolveFigures(directory, frame, {run});
+  DrawSolveFigures(directory, frame, runs);
+}
+
+// --method: one method (auto included), or a comma-separated list of named methods, each
+// solved in turn and overlaid; auto (it picks one) and a method named twice are refused.
+std::vector<std::string> ParseMethods(const std::string& text) {
+  std::vector<std::string> methods;
+  for (std::size_t start = 0;;) {
+    const std::size_t comma = text.find(',', start);
+    methods.push_back(text.substr(start, comma == std::string::npos ? comma : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (methods.size() == 1) {
+    if (!SolverMethodFromString(text)) {
+      throw UsageError("--method " + text +
+                       ": expected auto, algebraic, euler, radau, bdf, normal-form, "
+                       "stable-inversion or linearized");
+    }
+    return methods;
+  }
+  for (std::size_t i = 0; i < methods.size(); ++i) {
+    const std::string& method = methods[i];
+    if (method == "auto") {
+      throw UsageError("--method " + text +
+                       ": auto picks one method; a list names the methods to overlay");
+    }
+    if (!SolverMethodFromString(method)) {
+      throw UsageError("--method " + text + ": '" + method +
+                       "': expected algebraic, euler, radau, bdf, normal-form, "
+                       "stable-inversion or linearized");
+    }
+    if (std::find(methods.begin(), methods.begin() + std::ptrdiff_t(i), method) !=
+        methods.begin() + std::ptrdiff_t(i)) {
+      throw UsageError("--method " + text + ": " + method + " is listed twice");
+    }
+  }
+  return methods;
+}
+
+// The file of the k-th listed method: --out for the first, else --out with ".<method>" before
+// its extension (u.csv -> u.radau.csv, u -> u.radau), in the same directory and format.
+std::string OutFileOf(const std::string& out,
+                      const std::vector<std::string>& methods,
+                      std::size_t k) {
+  if (k == 0) return out;
+  const std::filesystem::path path(out);
+  const std::string name = path.stem().string() + "." + methods[k] + path.extension().string();
+  return (path.parent_path() / name).string();
+}
+
+// How bad a run's status is, for the status of several: a method refused or stopped (3) over
+// a failed check (4) over success (0).
+int Severity(ExitCode code) {
+  switch (code) {
+    case ExitCode::kNoSolution:
+      return 2;
+    case ExitCode::kVerificationFailed:
+      return 1;
+    default:
+      return 0;
+  }
 }
 
 int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
-  if (!SolverMethodFromString(arguments.method)) {
-    throw UsageError("--method " + arguments.method +
-                     ": expected auto, algebraic, euler, radau, bdf, normal-form, "
-                     "stable-inversion or linearized");
-  }
+  const std::vector<std::string> methods = ParseMethods(arguments.method);
   if (arguments.summary != "json" && arguments.summary != "text") {
     throw UsageError("--summary " + arguments.summary + ": expected json or text");
   }
@@ -256,7 +317,6 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   }
 
   api::SolveOptions options;
-  options.method = arguments.method;
   options.force = arguments.force;
   options.t_start = arguments.t_start;
   options.t_end = arguments.t_end;
@@ -267,32 +327,70 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.pre_actuation = arguments.pre_actuation;
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
-  options.out_file = arguments.out;
   options.file_format = ToString(format);
-  const api::Feedforward feedforward = SolveTellingFlags(model, trajectory, options);
-  for (const std::string& note : feedforward.notes) err << "servokit: note: " << note << "\n";
+  const bool several = methods.size() > 1;
+  // Each method in turn on the same model and trajectory. With one method a refusal is the
+  // command's error as before; in a list it is that method's, and the others still run.
+  std::vector<api::Feedforward> solves;
+  std::vector<std::string> files;
+  ExitCode status = ExitCode::kSuccess;
+  for (std::size_t k = 0; k < methods.size(); ++k) {
+    options.method = methods[k];
+    options.out_file = OutFileOf(arguments.out, methods, k);
+    if (!several) {
+      solves.push_back(SolveTellingFlags(model, trajectory, options));
+    } else {
+      try {
+        solves.push_back(SolveTellingFlags(model, trajectory, options));
+      } catch (const NoSolution& error) {
+        err << "servokit: error: --method " << methods[k] << ": " << error.what() << "\n";
+        status = ExitCode::kNoSolution;
+        continue;
+      }
+    }
+    files.push_back(options.out_file);
+    const std::string label = several ? solves.back().method + ": " : "";
+    for (const std::string& note : solves.back().notes) {
+      err << "servokit: note: " << label << note << "\n";
+    }
+  }
   if (arguments.summary == "text") {
-    out << SummaryText(nlohmann::ordered_json::parse(feedforward.json));
+    for (std::size_t k = 0; k < solves.size(); ++k) {
+      out << (k > 0 ? "\n" : "") << SummaryText(nlohmann::ordered_json::parse(solves[k].json));
+    }
+  } else if (!several) {
+    out << solves.front().json << "\n";
   } else {
-    out << feedforward.json << "\n";
+    nlohmann::ordered_json array = nlohmann::ordered_json::array();
+    for (const api::Feedforward& solve : solves) {
+      array.push_back(nlohmann::ordered_json::parse(solve.json));
+    }
+    out << array.dump(2) << "\n";
   }
   // Also for a solve that stopped early or failed its check: the figures show where and how.
-  if (!arguments.plot.empty() && !feedforward.t.empty()) {
-    DrawFigures(arguments.plot, model, feedforward);
+  std::vector<const api::Feedforward*> drawn;
+  for (const api::Feedforward& solve : solves) {
+    if (!solve.t.empty()) drawn.push_back(&solve);
   }
-  for (const std::string& warning : feedforward.warnings) {
-    err << "servokit: warning: " << warning << "\n";
+  if (!arguments.plot.empty() && !drawn.empty()) DrawFigures(arguments.plot, model, drawn);
+  for (std::size_t k = 0; k < solves.size(); ++k) {
+    const api::Feedforward& feedforward = solves[k];
+    const std::string label = several ? feedforward.method + ": " : "";
+    for (const std::string& warning : feedforward.warnings) {
+      err << "servokit: warning: " << label << warning << "\n";
+    }
+    ExitCode code = ExitCode::kSuccess;
+    if (feedforward.status == ToString(SolveStatus::kVerificationFailed)) {
+      err << "servokit: error: " << label << feedforward.message << "\n";
+      code = ExitCode::kVerificationFailed;
+    } else if (!feedforward.usable) {
+      err << "servokit: error: " << feedforward.method << " stopped: " << feedforward.message
+          << " (the rows up to there are in " << files[k] << ")\n";
+      code = ExitCode::kNoSolution;
+    }
+    if (Severity(code) > Severity(status)) status = code;
   }
-  if (feedforward.status == ToString(SolveStatus::kVerificationFailed)) {
-    err << "servokit: error: " << feedforward.message << "\n";
-    return static_cast<int>(ExitCode::kVerificationFailed);
-  }
-  if (!feedforward.usable) {
-    err << "servokit: error: " << feedforward.method << " stopped: " << feedforward.message
-        << " (the rows up to there are in " << arguments.out << ")\n";
-    return static_cast<int>(ExitCode::kNoSolution);
-  }
-  return static_cast<int>(ExitCode::kSuccess);
+  return static_cast<int>(status);
 }
 
 }  // namespace
@@ -310,7 +408,9 @@ Command AddSolveCommand(CLI::App& app) {
       "modelica refuses .csv (use .txt); a contradiction is an error (status 2).\n"
       "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
       "with --verify the largest output error when u_d drives the model from rest, against a\n"
-      "bound from the tolerances; a failed check exits with status 4).\n\n"
+      "bound from the tolerances; a failed check exits with status 4).\n"
+      "--method radau,bdf solves with each method in turn: files u.csv, u.bdf.csv, a JSON\n"
+      "array of the two objects, and --plot figures with one curve per method.\n\n"
       "Example (paper Sect. 5.1, case 4, u_d every millisecond):\n"
       "  servokit solve models/mass_on_car.yaml --set alpha=0 --set d=0 \\\n"
       "    --trajectory rest-to-rest --y0 0.5 --yf 2.5 --t0 0 --tf 6 --t-end 10 \\\n"
@@ -334,7 +434,12 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--t-end", arguments->t_end, "End of the solve [s]")->required();
   solve
       ->add_option("--method", arguments->method,
-                   "auto, algebraic, euler, radau, bdf, normal-form or stable-inversion")
+                   "auto, algebraic, euler, radau, bdf, normal-form, stable-inversion or "
+                   "linearized; or a comma-separated list of named methods (no auto, none "
+                   "twice), each solved in turn and overlaid in --plot's figures: the first "
+                   "writes --out, each further one --out with .<method> before its extension "
+                   "(u.csv, u.radau.csv); stdout gets a JSON array of their objects; the exit "
+                   "status is the worst (3 over 4 over 0)")
       ->capture_default_str();
   solve->add_flag("--force", arguments->force,
                   "Integrate unstable internal dynamics forward anyway");
