@@ -172,3 +172,71 @@ def test_unknown_text_choices_are_usage_errors(servokit_binary, mass_on_car, tmp
     failed = run(servokit_binary, "threshold", mass_on_car, "--vary", "d=0:1", "--event",
                  "stability", "--format", "csv", status=2)
     assert failed.stderr.startswith("servokit: error: --format csv: expected json or text")
+
+
+def test_several_methods_are_overlaid_each_from_its_own_csv(servokit_binary, mass_on_car,
+                                                            tmp_path):
+    """`--method radau,bdf` (both accept case 2, Sect. 5.1): two files, an array of two
+    objects, and every figure holds one curve per method equal to that method's CSV."""
+    out, figures = tmp_path / "u.csv", tmp_path / "figures"
+    summaries = json.loads(run(servokit_binary, "solve", mass_on_car, *CASE_2, "--method",
+                               "radau,bdf", "--out", str(out), "--plot", str(figures)).stdout)
+    assert isinstance(summaries, list) and len(summaries) == 2
+    assert [s["method"] for s in summaries] == ["radau", "bdf"]
+    files = [out, tmp_path / "u.bdf.csv"]
+    assert [s["out"] for s in summaries] == [str(f) for f in files]
+    columns = [read_csv(f) for f in files]
+    # Each object is the one the method alone prints (same file name, same numbers).
+    alone = json.loads(run(servokit_binary, "solve", mass_on_car, *CASE_2, "--method", "bdf",
+                           "--out", str(tmp_path / "u.bdf.csv")).stdout)
+    assert alone == summaries[1]
+    assert read_csv(files[1]) == columns[1]
+    for stem, column, quantity in (("u_d-F", "F", "u_d"), ("q_d-x", "x", "q_d"),
+                                   ("q_d-s", "s", "q_d"), ("q_d_dot-x", "x_dot", "dq_d/dt"),
+                                   ("q_d_dot-s", "s_dot", "dq_d/dt")):
+        sets = read_dat(figures / (stem + ".dat"))
+        assert [title for title, _ in sets] == [f"{quantity} (radau)", f"{quantity} (bdf)"]
+        for (_, points), table in zip(sets, columns):
+            assert points == list(zip(table["t"], table[column])), stem
+    (desired_title, desired), *outputs = read_dat(figures / "y-y1.dat")
+    assert desired_title == "y_d" and desired == list(zip(columns[0]["t"], columns[0]["y1_d"]))
+    assert [title for title, _ in outputs] == ["y, h(q_d) (radau)", "y, h(q_d) (bdf)"]
+    alpha = 5 * math.pi / 180
+    for (_, output), table in zip(outputs, columns):
+        assert [p[0] for p in output] == table["t"]
+        for (_, y), x, s in zip(output, table["x"], table["s"]):
+            assert y == pytest.approx(x + s * math.cos(alpha), rel=1e-14, abs=1e-14)
+    # The two methods agree on the force (a second method's check; radau's u_d of this index-3
+    # problem is of low order, see README, so to 1e-3 of the force's size, not the tolerances).
+    largest = max(abs(f) for f in columns[1]["F"])
+    assert max(abs(a - b) for a, b in zip(columns[0]["F"], columns[1]["F"])) < 1e-3 * largest
+    assert "radau, bdf" in (figures / "u_d-F.gp").read_text()
+
+
+def test_a_list_keeps_going_past_a_refused_method_and_exits_with_the_worst(servokit_binary,
+                                                                          mass_on_car,
+                                                                          tmp_path):
+    """Case 2 is not flat: algebraic is refused (status 3), bdf still runs and writes its file."""
+    out = tmp_path / "u.csv"
+    failed = run(servokit_binary, "solve", mass_on_car, *CASE_2, "--method", "algebraic,bdf",
+                 "--out", str(out), status=3)
+    summaries = json.loads(failed.stdout)
+    assert [s["method"] for s in summaries] == ["bdf"]
+    assert not out.exists() and (tmp_path / "u.bdf.csv").exists()
+    errors = [line for line in failed.stderr.splitlines() if line.startswith("servokit: error:")]
+    assert len(errors) == 1 and errors[0].startswith("servokit: error: --method algebraic: ")
+
+
+@pytest.mark.parametrize("methods, fragment", [
+    ("auto,radau", "--method auto,radau: auto picks one method"),
+    ("radau,bdf,radau", "--method radau,bdf,radau: radau is listed twice"),
+    ("radau,ode45", "--method radau,ode45: 'ode45': expected algebraic"),
+    ("radau,", "--method radau,: '': expected algebraic"),
+])
+def test_bad_method_lists_are_usage_errors(servokit_binary, mass_on_car, tmp_path, methods,
+                                           fragment):
+    failed = run(servokit_binary, "solve", mass_on_car, *CASE_2, "--method", methods, "--out",
+                 str(tmp_path / "u.csv"), status=2)
+    assert failed.stderr.startswith("servokit: error: " + fragment)
+    assert failed.stderr.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
