@@ -14,6 +14,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <system_error>
 #include <utility>
 
@@ -180,6 +181,36 @@ nlohmann::ordered_json OptionalVectorToJson(const std::optional<Eigen::VectorXd>
   return std::vector<double>(values->begin(), values->end());
 }
 
+// The inverse of GridToJson and OptionalVectorToJson; throws nlohmann's errors on a bad record.
+std::vector<GridAxis> GridFromJson(const nlohmann::json& axes) {
+  std::vector<GridAxis> grid;
+  for (const nlohmann::json& entry : axes) {
+    GridAxis axis;
+    axis.name = entry.at("name").get<std::string>();
+    if (entry.contains("values")) {
+      axis.values = entry.at("values").get<std::vector<double>>();
+    } else {
+      axis.values = ValueRange{entry.at("a").get<double>(), entry.at("b").get<double>(),
+                               entry.at("n").get<std::size_t>()};
+    }
+    const std::string unit = entry.at("display_unit").get<std::string>();
+    if (unit == ToString(DisplayUnit::kDegree)) {
+      axis.display_unit = DisplayUnit::kDegree;
+    } else if (unit != ToString(DisplayUnit::kSI)) {
+      throw std::invalid_argument("display_unit " + unit);
+    }
+    grid.push_back(std::move(axis));
+  }
+  if (grid.empty()) throw std::invalid_argument("no grid axes");
+  return grid;
+}
+
+std::optional<Eigen::VectorXd> OptionalVectorFromJson(const nlohmann::json& values) {
+  if (values.is_null()) return std::nullopt;
+  const std::vector<double> read = values.get<std::vector<double>>();
+  return Eigen::Map<const Eigen::VectorXd>(read.data(), Eigen::Index(read.size()));
+}
+
 // ---- fingerprint -----------------------------------------------------------------------------
 
 std::string JoinExact(const std::vector<double>& values) {
@@ -249,6 +280,56 @@ std::string DescribeGrid(const ParameterGrid& grid) {
     if (axis.display_unit == DisplayUnit::kDegree) text += " shown in deg";
   }
   return text;
+}
+
+SweepRecord ReadSweepRecord(const std::filesystem::path& directory) {
+  SweepRecord record;
+  record.file = directory / "sweep.json";
+  if (!std::filesystem::is_regular_file(record.file)) {
+    throw UsageError("--from " + directory.string() + ": no sweep.json there; not a directory " +
+                     "written by `servokit sweep --out`");
+  }
+  const nlohmann::json json = nlohmann::json::parse(ReadFile(record.file), nullptr, false);
+  const auto not_a_record = [&record](const std::string& why) {
+    return UsageError(record.file.string() + " is not a servokit sweep record (" + why + ")");
+  };
+  if (!json.is_object() || !json.contains("fingerprint")) throw not_a_record("no fingerprint");
+  try {
+    record.model_name = json.at("model").get<std::string>();
+    record.model_path = json.at("model_path").get<std::string>();
+    record.content_hash = json.at("content_hash").get<std::string>();
+    record.linear = json.value("kind", std::string()) == "linear";
+    const std::string format = json.value("format", std::string(ToString(SweepFileFormat::kCsv)));
+    const std::optional<SweepFileFormat> known = SweepFileFormatFromString(format);
+    if (!known) throw std::invalid_argument("format " + format);
+    record.format = *known;
+    record.completed = json.at("completed").get<bool>();
+    for (const auto& [name, value] : json.at("fixed_parameters").items()) {
+      record.fixed_parameters.emplace_back(name, value.get<double>());
+    }
+    record.axes = GridFromJson(json.at("grid"));
+    if (!record.linear) {
+      const nlohmann::json& options = json.at("options");
+      record.options.rank_tolerance = options.at("rank_tolerance").get<double>();
+      record.options.imaginary_axis_tolerance =
+          options.at("imaginary_axis_tolerance").get<double>();
+      OperatingPointOptions& point = record.options.operating_point;
+      point.residual_tolerance = options.at("residual_tolerance").get<double>();
+      point.max_iterations = options.at("max_iterations").get<decltype(point.max_iterations)>();
+      point.y0 = OptionalVectorFromJson(options.at("y0"));
+      point.q_guess = OptionalVectorFromJson(options.at("q0"));
+    }
+  } catch (const std::exception& error) {
+    throw not_a_record(error.what());
+  }
+  return record;
+}
+
+std::vector<GridAxis> ResolveSweepAxes(const SweepRecord& record,
+                                       const std::vector<std::string>& parameter_names) {
+  std::vector<GridAxis> axes = record.axes;
+  for (GridAxis& axis : axes) axis.parameter = ParameterIndex(parameter_names, axis.name);
+  return axes;
 }
 
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options) {

@@ -92,6 +92,28 @@ std::string SweepFingerprint(const SweepModelInfo& model,
 /// ("alpha=0:1.5707963267948966:91 d=0:2:21"; a list as "d=[0,1,2]").
 std::string DescribeGrid(const ParameterGrid& grid);
 
+/// What a sweep's sweep.json records, read back (`servokit report --from DIR`): the schema
+/// SweepOutput writes, read in one place.
+struct SweepRecord {
+  std::filesystem::path file;  // DIR/sweep.json
+  std::string model_name, model_path, content_hash;
+  bool linear = false;  // `kind: linear`
+  SweepFileFormat format = SweepFileFormat::kCsv;
+  bool completed = false;
+  // The parameters not varied, as swept (SI), in the order of the model's parameter_names.
+  std::vector<std::pair<std::string, double>> fixed_parameters;
+  // The grid's axes; `parameter` is not known without the model: ResolveSweepAxes.
+  std::vector<GridAxis> axes;
+  // The classification options of a multibody sweep (tolerances, y0, q0).
+  ClassificationOptions options;
+};
+/// Reads DIR/sweep.json. Throws UsageError naming the file when DIR has none or it is not a
+/// servokit sweep record.
+SweepRecord ReadSweepRecord(const std::filesystem::path& directory);
+/// `record.axes` with each `parameter` the index of its name in `parameter_names`.
+std::vector<GridAxis> ResolveSweepAxes(const SweepRecord& record,
+                                       const std::vector<std::string>& parameter_names);
+
 /// The output directory of one sweep, from opening (new, resumed or already complete) to the
 /// final rename. `model` and `grid` must outlive it. Holds an exclusive lock (flock) on the
 /// directory, so that two servokit processes never write the same sweep.

@@ -48,12 +48,18 @@ std::string MapClassName(const Model& model,
                          const ClassificationOptions& options) {
   try {
     const Classification c = Classify(model, workspace, options);
-    return std::string(ToString(c.decoupling.realization)) + ", " +
-           std::string(ToString(c.zero_dynamics.stability)) + ", " +
-           (c.zero_dynamics.modes.empty() ? "non-oscillatory" : "oscillatory");
+    return MapClassName(ToString(c.decoupling.realization), ToString(c.zero_dynamics.stability),
+                        !c.zero_dynamics.modes.empty());
   } catch (const NoSolution&) {
     return "no solution";
   }
+}
+
+std::string MapClassName(std::string_view realization,
+                         std::string_view stability,
+                         bool oscillatory) {
+  return std::string(realization) + ", " + std::string(stability) + ", " +
+         (oscillatory ? "oscillatory" : "non-oscillatory");
 }
 
 void AddClassMap(Document& document,
@@ -61,7 +67,8 @@ void AddClassMap(Document& document,
                  const Model& model,
                  const GridAxis& x,
                  const GridAxis& y,
-                 const ClassificationOptions& options) {
+                 const ClassificationOptions& options,
+                 const std::vector<std::string>* stored_classes) {
   const std::vector<double> x_values = AxisValues(x), y_values = AxisValues(y);
   const auto [x_low, x_high] = std::minmax_element(x_values.begin(), x_values.end());
   const auto [y_low, y_high] = std::minmax_element(y_values.begin(), y_values.end());
@@ -77,15 +84,22 @@ void AddClassMap(Document& document,
   point_options.Validate(model);
 
   // The grid, classified: the class of each point, and the points of each class.
+  if (stored_classes && stored_classes->size() != x_values.size() * y_values.size()) {
+    throw Error("a map of " + std::to_string(x_values.size() * y_values.size()) + " points given " +
+                std::to_string(stored_classes->size()) + " classes");
+  }
   Workspace workspace(model);
   std::map<std::string, std::vector<std::pair<double, double>>> classes;
+  std::size_t grid_point = 0;
   for (const double x_value : x_values) {
     for (const double y_value : y_values) {
       workspace.parameters = model.parameters();
       workspace.parameters(Eigen::Index(x.parameter)) = x_value;
       workspace.parameters(Eigen::Index(y.parameter)) = y_value;
-      classes[MapClassName(model, workspace, point_options)].emplace_back(x.DisplayValue(x_value),
-                                                                          y.DisplayValue(y_value));
+      classes[stored_classes ? (*stored_classes)[grid_point]
+                             : MapClassName(model, workspace, point_options)]
+          .emplace_back(x.DisplayValue(x_value), y.DisplayValue(y_value));
+      ++grid_point;
     }
   }
 

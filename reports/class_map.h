@@ -4,6 +4,8 @@
 // threshold curves traced by continuation of the threshold finder (analysis/threshold_curves.h).
 #include <filesystem>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
@@ -18,6 +20,11 @@ namespace servokit {
 std::string MapClassName(const Model& model,
                          Workspace& workspace,
                          const ClassificationOptions& options);
+/// The same name from a class's parts, as the sweep tables write them (a finished sweep's
+/// points.csv: realization, stability; oscillatory: the point's eigenvalues have a complex pair).
+std::string MapClassName(std::string_view realization,
+                         std::string_view stability,
+                         bool oscillatory);
 
 /// Classifies every point of the grid x × y (the other parameters nominal, each point with
 /// `options`), traces the stability, oscillation and realization curves within the grid's
@@ -26,12 +33,15 @@ std::string MapClassName(const Model& model,
 /// change) and map_<x>_<y>_curves.csv (one row per traced point: curve, event, from, to, via,
 /// traced_along, the two parameters' columns as GridAxis::ColumnName, bracket_width in the
 /// traced parameter's unit). Adds the section to `document`. Throws UsageError when an axis
-/// has fewer than two distinct values.
+/// has fewer than two distinct values. `stored_classes`, when given, are the classes of the grid's
+/// points (MapClassName; x varying slowest, as a sweep over x then y numbers them), read from a
+/// finished sweep (`servokit report --from`): the grid is then not classified again.
 void AddClassMap(Document& document,
                  const std::filesystem::path& directory,
                  const Model& model,
                  const GridAxis& x,
                  const GridAxis& y,
-                 const ClassificationOptions& options = {});
+                 const ClassificationOptions& options = {},
+                 const std::vector<std::string>* stored_classes = nullptr);
 
 }  // namespace servokit

@@ -28,7 +28,8 @@ void AddStudy(Document& document,
               const std::filesystem::path& directory,
               const Model& model,
               const GridAxis& axis,
-              const ClassificationOptions& options) {
+              const ClassificationOptions& options,
+              const std::vector<SweepPoint>* stored_points) {
   // Values are SI; a parameter given in degrees is shown in degrees (axis label "alpha [deg]").
   const bool degrees = axis.display_unit == DisplayUnit::kDegree;
   const std::string label = axis.name + (degrees ? " [deg]" : "");
@@ -43,7 +44,8 @@ void AddStudy(Document& document,
                            FormatShort(axis.DisplayValue(high));
   double (*const to_display)(double) = degrees ? RadiansToDegrees : AsIs;
   document.Add(Heading{2, "Study of " + span});
-  const std::vector<SweepPoint> points = SweepParameter(model, axis.parameter, values, options);
+  const std::vector<SweepPoint> points =
+      stored_points ? *stored_points : SweepParameter(model, axis.parameter, values, options);
   const std::string stem = "study_" + axis.name;
   // In figures the parameter is shown as its symbol (alpha -> α) with its unit.
   const std::string symbol = PlotSymbol(axis.name);
@@ -128,7 +130,8 @@ void AddStudy(Document& document,
 void WriteModelReport(const std::string& directory,
                       const Model& model,
                       const std::vector<GridAxis>& axes,
-                      const ClassificationOptions& options) {
+                      const ClassificationOptions& options,
+                      const StoredSweep* stored) {
   const std::filesystem::path out(directory);
   std::filesystem::create_directories(out);
   Document document;
@@ -143,8 +146,14 @@ void WriteModelReport(const std::string& directory,
     summary.rows.push_back({label, value});
   }
   document.Add(summary);
-  if (axes.size() == 2) AddClassMap(document, out, model, axes[0], axes[1], options);
-  for (const GridAxis& axis : axes) AddStudy(document, out, model, axis, options);
+  if (axes.size() == 2) {
+    AddClassMap(document, out, model, axes[0], axes[1], options,
+                stored ? &stored->classes : nullptr);
+  }
+  for (const GridAxis& axis : axes) {
+    AddStudy(document, out, model, axis, options,
+             stored && axes.size() == 1 ? &stored->points : nullptr);
+  }
   WriteDocument(out, document);
 }
 
