@@ -70,6 +70,9 @@ double DegreesToRadians(double degrees) { return degrees * std::numbers::pi / 18
 double RadiansToDegrees(double radians) { return radians * 180.0 / std::numbers::pi; }
 
 double DisplayDegrees(double radians) {
+  // Zero is zero in any unit. (The search below would step from -5e-324 to -0 and past +0, and
+  // show 0 deg as -0 in a table that keeps the sign, such as HDF5's.)
+  if (radians == 0.0) return radians;
   // A sweep asks for the same few angles again and again (a degree range's ends, for each of its
   // points, and each point shown): the last four answers of this thread are kept, keyed by their
   // bits (so that -0 and 0 stay apart and the answer never depends on what was asked before).

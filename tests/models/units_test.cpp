@@ -68,7 +68,10 @@ TEST_CASE("degrees shown for an angle given in degrees are the degrees given, ex
     INFO(degrees);
     CHECK(DisplayDegrees(DegreesToRadians(degrees)) == degrees);
   }
+  // 0 deg is +0, not -0 (an HDF5 table keeps the sign that CSV text drops).
   CHECK(DisplayDegrees(0.0) == 0.0);
+  CHECK_FALSE(std::signbit(DisplayDegrees(0.0)));
+  CHECK(std::signbit(DisplayDegrees(-0.0)));
   // Radians that no short degree value gives are shown as the product.
   CHECK(DisplayDegrees(1.0) == Approx(RadiansToDegrees(1.0)).epsilon(1e-15));
   CHECK(DegreesToRadians(DisplayDegrees(1.0)) == Approx(1.0).epsilon(1e-15));
