@@ -66,19 +66,24 @@ void WriteData(const std::string& path, const PlotSpec& spec, const PlotColourin
 }
 
 // Marker labels: markers at (nearly) the same x share one label ("stability, oscillation");
-// labels closer than kLabelSpacing of the x span to another one are put one line lower, so
-// that events at one place stay readable.
+// a label closer than kLabelSpacing of the x span to another one, or whose text would run into
+// another's, is put one line lower, so that events at one place stay readable.
 constexpr int kLabelTopPercent = 96;    // of the graph's height; whole percent, so the script
 constexpr int kLabelStepPercent = 6;    // prints 0.9, not 0.8999999999999999
 constexpr double kLabelSpacing = 0.15;  // fraction of the x span one label may take
 constexpr double kSameMarker = 1e-6;    // fraction of the x span: one place
 constexpr int kLabelLevels = 6;         // lines used before starting again at the top
 constexpr double kRightAligned = 0.5;   // labels right of this fraction of the span go left
+// The width of one character of a label as a fraction of the x span, for the widest output:
+// the PDF (12 pt text on a plot about 3.9 in wide: 0.55 x 12 pt / 3.9 in); PNG and SVG text
+// takes less, so a label estimated free of another is free in every format.
+constexpr double kLabelCharacterWidth = 0.024;
 
 struct MarkerLabel {
   double x = 0.0;
   std::vector<std::string> parts;  // the labels of the markers at x, each once
   int level = 0;
+  bool right_aligned = false;  // the text ends at x (else it starts there)
 
   std::string Text() const {
     std::string text;
@@ -111,7 +116,24 @@ std::pair<double, double> XExtent(const PlotSpec& spec) {
   return {low, high};
 }
 
-std::vector<MarkerLabel> PlaceLabels(const PlotSpec& spec, double span) {
+// The x interval a label's text covers, from its length (UTF-8 continuation bytes not
+// counted) and alignment.
+std::pair<double, double> LabelExtent(const MarkerLabel& label, double span) {
+  std::size_t characters = 1;  // the offset from the line
+  for (const char c : label.Text()) characters += (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+  const double width = double(characters) * kLabelCharacterWidth * span;
+  return label.right_aligned ? std::pair{label.x - width, label.x}
+                             : std::pair{label.x, label.x + width};
+}
+
+bool LabelsCollide(const MarkerLabel& a, const MarkerLabel& b, double span) {
+  if (std::abs(a.x - b.x) < kLabelSpacing * span) return true;
+  const auto [a_low, a_high] = LabelExtent(a, span);
+  const auto [b_low, b_high] = LabelExtent(b, span);
+  return a_low < b_high && b_low < a_high;
+}
+
+std::vector<MarkerLabel> PlaceLabels(const PlotSpec& spec, double x_low, double span) {
   std::vector<MarkerLine> markers = spec.markers;
   std::stable_sort(markers.begin(), markers.end(),
                    [](const MarkerLine& a, const MarkerLine& b) { return a.x < b.x; });
@@ -125,12 +147,12 @@ std::vector<MarkerLabel> PlaceLabels(const PlotSpec& spec, double span) {
       parts.push_back(marker.label);
     }
   }
+  for (MarkerLabel& label : labels) label.right_aligned = label.x > x_low + kRightAligned * span;
   for (std::size_t i = 0; i < labels.size(); ++i) {
     for (int level = 0;; ++level) {
       bool taken = false;
       for (std::size_t j = 0; j < i; ++j) {
-        taken = taken || (labels[j].level == level &&
-                          std::abs(labels[i].x - labels[j].x) < kLabelSpacing * span);
+        taken = taken || (labels[j].level == level && LabelsCollide(labels[i], labels[j], span));
       }
       if (!taken || level + 1 == kLabelLevels) {
         labels[i].level = level;
@@ -182,12 +204,12 @@ void WriteScript(const std::string& path,
   }
   const auto [x_low, x_high] = XExtent(spec);
   const double span = x_high - x_low;
-  for (const MarkerLabel& label : PlaceLabels(spec, span)) {
-    const bool right = label.x > x_low + kRightAligned * span;
+  for (const MarkerLabel& label : PlaceLabels(spec, x_low, span)) {
     script << "set label " << QuotedText(label.Text()) << " at first " << FormatExact(label.x)
            << ", graph "
            << FormatExact(double(kLabelTopPercent - kLabelStepPercent * label.level) / 100.0)
-           << (right ? " right offset -0.5,0" : " left offset 0.5,0") << " front boxed\n";
+           << (label.right_aligned ? " right offset -0.5,0" : " left offset 0.5,0")
+           << " front boxed\n";
   }
   std::string plot = "plot ";
   for (std::size_t i = 0; i < spec.series.size(); ++i) {

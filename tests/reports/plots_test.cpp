@@ -78,11 +78,12 @@ TEST_CASE("DrawPlot writes a palette column, a PDF and names as written", "[repo
   CHECK(std::regex_search(script, std::regex("pngcairo noenhanced")));
   CHECK(std::regex_search(script, std::regex("svg noenhanced")));
   CHECK(std::regex_search(script, std::regex("pdfcairo noenhanced size 5in,3.5in font ',12'")));
-  // The three events at 0.5 (within 1e-6 of the span) share one label; "realization" at -1.5 is
-  // more than 15 % of the span away and stays on the top line.
-  CHECK_THAT(script, Catch::Contains("set label 'stability, oscillation, structure' at first 0.5, "
-                                     "graph 0.96"));
+  // The three events at 0.5 (within 1e-6 of the span) share one label. "realization" at -1.5
+  // is more than 15 % of the span away, but the shared label (34 characters, right-aligned at
+  // 0.5: 34 x 0.024 x 4 = 3.3 wide, from -2.8) would run into it: one line lower.
   CHECK_THAT(script, Catch::Contains("set label 'realization' at first -1.5, graph 0.96"));
+  CHECK_THAT(script, Catch::Contains("set label 'stability, oscillation, structure' at first 0.5, "
+                                     "graph 0.9 right"));
   const std::string pdf = ReadFile(scratch / "locus.pdf");
   CHECK(pdf.rfind("%PDF", 0) == 0);
   CHECK_THAT(pdf, Catch::Contains("/CreationDate (D:20000101000000"));
@@ -106,6 +107,29 @@ TEST_CASE("DrawPlot puts close marker labels on different lines", "[reports]") {
   CHECK_THAT(script, Catch::Contains("'b' at first 0.35, graph 0.9"));
   CHECK_THAT(script, Catch::Contains("'c' at first 0.4, graph 0.84"));
   CHECK_THAT(script, Catch::Contains("'d' at first 0.9, graph 0.96"));
+}
+
+TEST_CASE("DrawPlot puts labels whose texts would meet on different lines", "[reports]") {
+  // A stable inversion's markers on t in [-2.5, 2] (span 4.5): 'pre-actuation start' at -1.24
+  // runs right to -1.24 + 20 x 0.024 x 4.5 = 0.92; 'motion start', right-aligned at 0 (right of
+  // the middle, -0.25), starts at 0 - 13 x 0.024 x 4.5 = -1.40: they meet although 1.24 apart
+  // (more than 15 % of the span). 'motion end', right-aligned at 1, starts at
+  // 1 - 11 x 0.024 x 4.5 = -0.19: it meets the first, and 'motion start' (which ends at 0) on
+  // the second line, so it takes the third.
+  const testing::TemporaryDirectory scratch;
+  PlotSpec spec{"window",
+                "t",
+                "t [s]",
+                "u",
+                "[-2.5:2]",
+                "",
+                {{"u", {{-2.5, 0.0}, {2.0, 0.0}}}},
+                {{-1.24, "pre-actuation start"}, {0.0, "motion start"}, {1.0, "motion end"}}};
+  DrawPlot(scratch.path().string(), spec);
+  const std::string script = ReadFile(scratch / "window.gp");
+  CHECK_THAT(script, Catch::Contains("'pre-actuation start' at first -1.24, graph 0.96 left"));
+  CHECK_THAT(script, Catch::Contains("'motion start' at first 0, graph 0.9 right"));
+  CHECK_THAT(script, Catch::Contains("'motion end' at first 1, graph 0.84 right"));
 }
 
 TEST_CASE("the HTML report embeds its figures and links nothing outside", "[reports]") {
