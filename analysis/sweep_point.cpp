@@ -97,11 +97,20 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
     return std::nullopt;
   }
   const auto dof = static_cast<Eigen::Index>(model.dof());
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
+  // A model with the polynomial has fewer than SymbolicModel::kMaxPolynomialSize = 4
+  // coordinates (dof + inputs <= 4): its vectors and the mass matrix's factor fit on the stack,
+  // and a sweep that calls this millions of times does not allocate them. (A larger model, were
+  // the limit raised, takes the general path.)
+  constexpr int kMost = 4;
+  using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMost, 1>;
+  using SmallRow = Eigen::Matrix<double, 1, Eigen::Dynamic, Eigen::RowMajor, 1, kMost>;
+  using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMost, kMost>;
+  if (dof > kMost) return std::nullopt;
+  const SmallVector zero = SmallVector::Zero(dof);
   Evaluate(model, workspace, zero, zero,
            Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix |
                Quantity::kOutputJacobian | Quantity::kZeroDynamicsPolynomial);
-  const Eigen::VectorXd input = workspace.input_matrix.col(0);
+  const Eigen::Ref<const Eigen::VectorXd> input = workspace.input_matrix.col(0);
   const double input_size = input.squaredNorm();
   if (!(input_size > 0.0)) return std::nullopt;
   // Equilibrium at q = 0: f(0, 0) = B u0 exactly (to round-off of f's own size).
@@ -130,10 +139,10 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   if (!nonzero(0)) return std::nullopt;  // not an isolated equilibrium: the general path says so
 
   // P = H M^-1 B and its rank, as AnalyzeDecouplingMatrix decides it.
-  const Eigen::LLT<Eigen::MatrixXd> mass(workspace.mass_matrix);
+  const Eigen::LLT<SmallMatrix> mass(SmallMatrix(workspace.mass_matrix));
   if (mass.info() != Eigen::Success) return std::nullopt;
-  const Eigen::VectorXd input_acceleration = mass.solve(input);
-  const Eigen::RowVectorXd output_row = workspace.output_jacobian.row(0);
+  const SmallVector input_acceleration = mass.solve(input);
+  const SmallRow output_row = workspace.output_jacobian.row(0);
   const double decoupling = output_row.dot(input_acceleration);
   const bool full_rank =
       std::abs(decoupling) > tolerance * output_row.norm() * input_acceleration.norm();
@@ -163,7 +172,7 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   if (!roots) return std::nullopt;
   ZeroDynamicsSpectrum spectrum;
   spectrum.eigenvalues = std::move(*roots);
-  FinishZeroDynamics(spectrum, options.imaginary_axis_tolerance);
+  FinishZeroDynamicsClass(spectrum, options.imaginary_axis_tolerance);  // the point has no modes
   point.eigenvalues = std::move(spectrum.eigenvalues);
   point.stability = spectrum.stability;
   point.max_real_part = MaxRealPart(point.eigenvalues);

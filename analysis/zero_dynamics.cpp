@@ -155,12 +155,17 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
   return result;
 }
 
-void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance) {
+void FinishZeroDynamicsClass(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance) {
   CleanRoundOff(spectrum.eigenvalues, imaginary_axis_tolerance);
   SortEigenvalues(spectrum.eigenvalues);
   spectrum.stability = ClassifyStability(spectrum.eigenvalues, imaginary_axis_tolerance);
   spectrum.minimum_phase = spectrum.stability == Stability::kAsymptoticallyStable ||
                            spectrum.stability == Stability::kNone;
+  spectrum.modes.clear();
+}
+
+void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance) {
+  FinishZeroDynamicsClass(spectrum, imaginary_axis_tolerance);
   spectrum.modes = OscillatoryModes(spectrum.eigenvalues, imaginary_axis_tolerance);
 }
 
