@@ -233,20 +233,20 @@ TEST_CASE("the API names the sweep columns and gives a degree parameter in degre
   CHECK(points[1].parameter_display_values == std::vector<double>{30.0, 5.0});
 }
 
-TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its closed form",
-          "[servokit][paper]") {
-  // alpha = 0, d = 0: y = x + s and m2 y'' = -k s, so s = -(m2/k) y'' and
-  // F = (m1 + m2) y'' + (m1 m2 / k) y'''' (flat: no internal dynamics), y_d from Eq. (65).
+namespace {
+
+// The flat mass on car (alpha = 0, d = 0): y = x + s and m2 y'' = -k s, so s = -(m2/k) y'' and
+// F = (m1 + m2) y'' + (m1 m2 / k) y'''' (flat: no internal dynamics). Solves `trajectory`
+// (Eq. 65 from 0.5 at 0 to 2.5 at 6, in whatever form) every `sample_time` up to t = 8 and
+// checks the force against that closed form to `margin`; returns the solve.
+sk::Feedforward CheckFlatForce(const sk::OutputTrajectory& trajectory,
+                               double margin,
+                               double sample_time = 0.25) {
   const sk::Model model =
       sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
-  sk::OutputTrajectory trajectory;
-  trajectory.y0 = Eigen::VectorXd::Constant(1, 0.5);
-  trajectory.yf = Eigen::VectorXd::Constant(1, 2.5);
-  trajectory.t0 = 0.0;
-  trajectory.tf = 6.0;
   sk::SolveOptions options;
   options.t_end = 8.0;
-  options.sample_time = 0.5;
+  options.sample_time = sample_time;
   options.verify = true;
   const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
   CHECK(feedforward.method == "algebraic");
@@ -254,13 +254,32 @@ TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its c
   CHECK(feedforward.usable);
   REQUIRE(feedforward.verification);
   CHECK(feedforward.verification->passed);
-  REQUIRE(feedforward.t.size() == 17);
+  REQUIRE(feedforward.t.size() == std::size_t(std::lround(8.0 / sample_time)) + 1);
   const RestToRest desired{0.5, 2.5, 6.0};
   for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
     const double t = feedforward.t[i];
     const double force = 3.0 * desired.Derivative(std::min(t, 6.0), 2) +
                          (t < 6.0 ? 0.4 * desired.Derivative(t, 4) : 0.0);
-    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(force).margin(1e-9));  // round-off of p''''
+    INFO("t = " << t);
+    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(force).margin(margin));
+  }
+  return feedforward;
+}
+
+}  // namespace
+
+TEST_CASE("solve through the API: the flat mass on car (alpha = 0) follows its closed form",
+          "[servokit][paper]") {
+  sk::OutputTrajectory trajectory;
+  trajectory.y0 = Eigen::VectorXd::Constant(1, 0.5);
+  trajectory.yf = Eigen::VectorXd::Constant(1, 2.5);
+  trajectory.t0 = 0.0;
+  trajectory.tf = 6.0;
+  // 17 rows every 0.5 s; the force to the round-off of p''''.
+  const sk::Feedforward feedforward = CheckFlatForce(trajectory, 1e-9, 0.5);
+  const RestToRest desired{0.5, 2.5, 6.0};
+  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
+    const double t = feedforward.t[i];
     // The toolkit evaluates Eq. (65) in another form than the monomials here: round-off only.
     CHECK(feedforward.y_d(Eigen::Index(i), 0) ==
           Approx(desired.Derivative(std::min(t, 6.0), 0)).epsilon(1e-12));
@@ -336,35 +355,6 @@ TEST_CASE("a generated two-mass chain through the API: zero dynamics of the free
   CHECK_THROWS_AS(sk::Analyze(model, at_another_point), servokit::UsageError);
   std::filesystem::remove_all(directory);
 }
-
-namespace {
-
-// The closed-form force of the flat mass on car for Eq. (65) from 0.5 at 0 to 2.5 at 6 (see the
-// test above), checked against a solve of `trajectory`.
-void CheckFlatForce(const sk::OutputTrajectory& trajectory, double margin) {
-  const sk::Model model =
-      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
-  sk::SolveOptions options;
-  options.t_end = 8.0;
-  options.sample_time = 0.25;
-  options.verify = true;
-  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
-  CHECK(feedforward.method == "algebraic");
-  CHECK(feedforward.usable);
-  REQUIRE(feedforward.verification);
-  CHECK(feedforward.verification->passed);
-  REQUIRE(feedforward.t.size() == 33);
-  const RestToRest desired{0.5, 2.5, 6.0};
-  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
-    const double t = feedforward.t[i];
-    const double force = 3.0 * desired.Derivative(std::min(t, 6.0), 2) +
-                         (t < 6.0 ? 0.4 * desired.Derivative(t, 4) : 0.0);
-    INFO("t = " << t);
-    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(force).margin(margin));
-  }
-}
-
-}  // namespace
 
 TEST_CASE("solve from samples: Eq. (65) sampled at uneven times gives its closed-form force",
           "[servokit][paper]") {
