@@ -3,11 +3,16 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
+#include <condition_variable>
 #include <cstddef>
 #include <exception>
+#include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "models/errors.h"
@@ -105,31 +110,212 @@ void ParallelFor(std::size_t count,
   failure.RethrowIfAny();
 }
 
+std::size_t SweepChunkSize(const LoadedModel& model) {
+  return model.linear() ? kLinearPointsPerChunk : kPointsPerChunk;
+}
+
+namespace {
+
+// The state RunSweepPipeline's threads share. Blocks are numbered from the sweep's first point;
+// block b lives in slot b % kSweepSlots, which it may take only once block b - kSweepSlots was
+// consumed. Everything but the points themselves is guarded by `mutex`: a chunk is taken and
+// finished under it (two short critical sections per chunk of 16 points, against microseconds of
+// analysis), and the points of a chunk are written by the one thread that took it.
+class SweepPipeline {
+ public:
+  SweepPipeline(const LoadedModel& model,
+                const ParameterGrid& grid,
+                const SweepOptions& options,
+                std::size_t first_point,
+                SweepWorkspaces& workspaces,
+                const SweepChunkPreparer& prepare)
+      : model_(model),
+        grid_(grid),
+        options_(options),
+        workspaces_(workspaces),
+        prepare_(prepare),
+        first_point_(first_point),
+        total_(grid.num_points()),
+        block_size_(options.block_size),
+        chunk_size_(SweepChunkSize(model)),
+        block_count_((total_ - first_point + block_size_ - 1) / block_size_) {
+    for (Slot& slot : slots_) slot.points.resize(std::min(block_size_, total_ - first_point));
+  }
+
+  ~SweepPipeline() { StopAndJoin(); }
+
+  void Start() {
+    for (int thread = 0; thread < workspaces_.threads(); ++thread) {
+      threads_.emplace_back([this, thread] { Work(thread); });
+    }
+  }
+
+  std::size_t BlockCount() const { return block_count_; }
+  std::size_t BlockFirst(std::size_t block) const { return first_point_ + block * block_size_; }
+  std::size_t BlockPoints(std::size_t block) const {
+    return std::min(block_size_, total_ - BlockFirst(block));
+  }
+
+  // Waits until block `block` is complete and returns its points; rethrows (after stopping the
+  // workers) an exception of this block or an earlier one.
+  std::span<const SweepPoint> WaitForBlock(std::size_t block) {
+    Slot& slot = slots_[block % kSweepSlots];
+    std::unique_lock lock(mutex_);
+    block_done_.wait(lock, [&] {
+      return failed_block_ <= block || (slot.block == block && slot.chunks_left == 0);
+    });
+    if (failed_block_ <= block) {
+      const std::exception_ptr failure = failure_;
+      lock.unlock();
+      StopAndJoin();
+      std::rethrow_exception(failure);
+    }
+    return {slot.points.data(), BlockPoints(block)};
+  }
+
+  // Frees the slot of `block`, consumed.
+  void Release(std::size_t block) {
+    {
+      const std::lock_guard lock(mutex_);
+      consumed_blocks_ = block + 1;
+    }
+    slot_free_.notify_all();
+  }
+
+  void StopAndJoin() {
+    {
+      const std::lock_guard lock(mutex_);
+      stopped_ = true;
+    }
+    slot_free_.notify_all();
+    for (std::thread& thread : threads_) {
+      if (thread.joinable()) thread.join();
+    }
+    threads_.clear();
+  }
+
+ private:
+  struct Slot {
+    std::vector<SweepPoint> points;
+    std::size_t block = std::numeric_limits<std::size_t>::max();  // the block it holds
+    std::size_t chunks_left = 0;  // chunks of that block not yet finished
+  };
+
+  std::size_t ChunkCount(std::size_t block) const {
+    return (BlockPoints(block) + chunk_size_ - 1) / chunk_size_;
+  }
+
+  void Work(int thread) {
+    PointWorkspace& workspace = workspaces_[thread];
+    for (;;) {
+      std::size_t block = 0, chunk = 0;
+      {
+        std::unique_lock lock(mutex_);
+        slot_free_.wait(lock, [&] {
+          return stopped_ || next_block_ >= block_count_ ||
+                 next_block_ < consumed_blocks_ + kSweepSlots;
+        });
+        if (stopped_ || next_block_ >= block_count_ || next_block_ >= failed_block_) return;
+        block = next_block_;
+        chunk = next_chunk_;
+        if (chunk == 0) {
+          Slot& slot = slots_[block % kSweepSlots];
+          slot.block = block;
+          slot.chunks_left = ChunkCount(block);
+        }
+        if (++next_chunk_ == ChunkCount(block)) {
+          ++next_block_;
+          next_chunk_ = 0;
+        }
+      }
+      Slot& slot = slots_[block % kSweepSlots];
+      const std::size_t begin = chunk * chunk_size_;
+      const std::size_t count = std::min(chunk_size_, BlockPoints(block) - begin);
+      const std::size_t first = BlockFirst(block) + begin;
+      std::exception_ptr failure;
+      try {
+        // Each workspace's parameters start from the model's (with the --set overrides) and the
+        // grid overwrites only the varied entries.
+        for (std::size_t i = 0; i < count; ++i) {
+          grid_.Apply(first + i, workspace.parameters());
+          slot.points[begin + i] = AnalyzeSweepPoint(model_, workspace, options_);
+        }
+        if (prepare_) {
+          prepare_(static_cast<int>(block % kSweepSlots), chunk, first,
+                   std::span<const SweepPoint>(slot.points.data() + begin, count));
+        }
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      bool block_finished = false;
+      {
+        const std::lock_guard lock(mutex_);
+        if (failure && block < failed_block_) {
+          failed_block_ = block;
+          failure_ = failure;
+        }
+        block_finished = --slot.chunks_left == 0;
+      }
+      if (block_finished || failure) block_done_.notify_one();
+    }
+  }
+
+  const LoadedModel& model_;
+  const ParameterGrid& grid_;
+  const SweepOptions& options_;
+  SweepWorkspaces& workspaces_;
+  const SweepChunkPreparer& prepare_;
+  const std::size_t first_point_, total_, block_size_, chunk_size_, block_count_;
+  std::array<Slot, kSweepSlots> slots_;
+  std::vector<std::thread> threads_;
+
+  std::mutex mutex_;
+  std::condition_variable slot_free_;            // a slot was freed, or the sweep stops
+  std::condition_variable block_done_;           // a block was finished, or a chunk failed
+  std::size_t next_block_ = 0, next_chunk_ = 0;  // the next chunk to take
+  std::size_t consumed_blocks_ = 0;
+  bool stopped_ = false;
+  std::size_t failed_block_ = std::numeric_limits<std::size_t>::max();  // earliest failure
+  std::exception_ptr failure_;
+};
+
+}  // namespace
+
+std::size_t RunSweepPipeline(const LoadedModel& model,
+                             const ParameterGrid& grid,
+                             const SweepOptions& options,
+                             std::size_t first_point,
+                             SweepWorkspaces& workspaces,
+                             const SweepChunkPreparer& prepare,
+                             const SweepSlotConsumer& consume) {
+  ValidateOptions(model, options);
+  const std::size_t total = grid.num_points();
+  if (first_point >= total) return total;
+  SweepPipeline pipeline(model, grid, options, first_point, workspaces, prepare);
+  pipeline.Start();
+  for (std::size_t block = 0; block < pipeline.BlockCount(); ++block) {
+    const std::span<const SweepPoint> points = pipeline.WaitForBlock(block);
+    const std::size_t first = pipeline.BlockFirst(block);
+    // An exception of the consumer leaves through the pipeline's destructor, which stops and
+    // joins the workers.
+    if (!consume(static_cast<int>(block % kSweepSlots), first, points)) {
+      return first + points.size();
+    }
+    pipeline.Release(block);
+  }
+  return total;
+}
+
 std::size_t RunSweep(const LoadedModel& model,
                      const ParameterGrid& grid,
                      const SweepOptions& options,
                      std::size_t first_point,
                      SweepWorkspaces& workspaces,
                      const SweepConsumer& consume) {
-  ValidateOptions(model, options);
-  const std::size_t total = grid.num_points();
-  if (first_point >= total) return total;
-  const std::size_t chunk = model.linear() ? kLinearPointsPerChunk : kPointsPerChunk;
-  std::vector<SweepPoint> block(std::min(options.block_size, total - first_point));
-  for (std::size_t first = first_point; first < total;) {
-    const std::size_t count = std::min(block.size(), total - first);
-    const std::span<SweepPoint> points(block.data(), count);
-    // Each workspace's parameters start from the model's (with the --set overrides) and the
-    // grid overwrites only the varied entries.
-    ParallelFor(count, workspaces.threads(), chunk, [&](std::size_t i, int thread) {
-      PointWorkspace& workspace = workspaces[thread];
-      grid.Apply(first + i, workspace.parameters());
-      points[i] = AnalyzeSweepPoint(model, workspace, options);
-    });
-    first += count;
-    if (!consume(first - count, points)) return first;
-  }
-  return total;
+  return RunSweepPipeline(model, grid, options, first_point, workspaces, {},
+                          [&](int, std::size_t first, std::span<const SweepPoint> block) {
+                            return consume(first, block);
+                          });
 }
 
 std::size_t RunSweep(const LoadedModel& model,

@@ -1,11 +1,12 @@
 #pragma once
 // The sweep engine (DESIGN.md, `servokit sweep`): AnalyzeSweepPoint at every point of a
-// ParameterGrid, for a model of either kind, on all cores (OpenMP), handed to a consumer block by
-// block in index order.
+// ParameterGrid, for a model of either kind, on all cores, handed to a consumer block by block
+// in index order.
 //
-// Points are evaluated in blocks: in parallel within a block, then the whole block goes to the
-// consumer on the calling thread. So the consumer sees the same points in the same order
-// whatever the number of threads, and memory holds one block, never the grid or all results.
+// Points are evaluated in blocks by worker threads, and each finished block goes to the consumer
+// on the calling thread, in index order, while the workers compute the next blocks (at most
+// kSweepSlots blocks in flight). So the consumer sees the same points in the same order
+// whatever the number of threads, and memory holds a few blocks, never the grid or all results.
 // What the consumer does with a block (files, checkpoints) is not this layer's business.
 #include <cstddef>
 #include <functional>
@@ -81,6 +82,42 @@ std::size_t RunSweep(const LoadedModel& model,
                      std::size_t first_point,
                      SweepWorkspaces& workspaces,
                      const SweepConsumer& consume);
+
+/// Points per chunk: a computing thread takes this many consecutive points at a time (and hands
+/// them to a SweepChunkPreparer together). Depends only on the model's kind.
+std::size_t SweepChunkSize(const LoadedModel& model);
+
+/// Blocks a pipelined sweep keeps in flight (computed or being computed, not yet consumed): the
+/// threads compute blocks b + 1 and b + 2 while the consumer handles block b.
+inline constexpr int kSweepSlots = 3;
+
+/// Called on a computing thread for chunk `chunk` (its index within its block) of the block in
+/// slot `slot` (< kSweepSlots), once its points first, first + 1, ... are analysed. Chunks of
+/// one block run at the same time on different threads: it may write only what belongs to
+/// (slot, chunk), e.g. format the rows of its points into the chunk's own buffer.
+using SweepChunkPreparer = std::function<void(
+    int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points)>;
+
+/// Receives block first, first + 1, ... from slot `slot` once all its chunks were prepared, on
+/// the calling thread and in index order. Returns false to stop the sweep after this block.
+using SweepSlotConsumer =
+    std::function<bool(int slot, std::size_t first, std::span<const SweepPoint> block)>;
+
+/// RunSweep as a pipeline, for a consumer with work that threads can share. Worker threads
+/// (one per workspace) take chunks in index order, analyse and `prepare` them, while the
+/// calling thread consumes finished blocks in order: computing, preparing and consuming overlap,
+/// with no barrier between blocks, and a thread with nothing to do sleeps (it never spins, so
+/// threads do not slow down a machine shared with other work). The consumer sees exactly the
+/// points and order RunSweep gives, whatever the number of threads. Exceptions as RunSweep: one
+/// thrown by an evaluation or by `prepare` is rethrown after the blocks before its own were
+/// consumed.
+std::size_t RunSweepPipeline(const LoadedModel& model,
+                             const ParameterGrid& grid,
+                             const SweepOptions& options,
+                             std::size_t first_point,
+                             SweepWorkspaces& workspaces,
+                             const SweepChunkPreparer& prepare,
+                             const SweepSlotConsumer& consume);
 
 /// The same with workspaces of its own (SweepThreads of the options).
 std::size_t RunSweep(const LoadedModel& model,

@@ -312,15 +312,23 @@ std::size_t ComputeSweep(const SweepSetup& setup,
     return RunSweep(setup.model, setup.grid, setup.options, first, workspaces, consume);
   };
   if (Processes().size == 1) {
-    return run(first_point, [&](std::size_t first, std::span<const SweepPoint> block) {
-      output->Append(first, block);
-      progress.Update(first + block.size());
-      return !stop_requested();
-    });
+    // The threads format their own chunks as they compute them, and this thread only writes
+    // finished blocks while they go on with the next ones.
+    PipelinedBlockFormatter formatter(setup.grid, TableEncodingOf(setup.format),
+                                      setup.options.block_size, SweepChunkSize(setup.model));
+    return RunSweepPipeline(
+        setup.model, setup.grid, setup.options, first_point, workspaces,
+        [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {
+          formatter.FormatChunk(slot, chunk, first, points);
+        },
+        [&](int slot, std::size_t first, std::span<const SweepPoint> block) {
+          output->Append(formatter.Block(slot, first, block));
+          progress.Update(first + block.size());
+          return !stop_requested();
+        });
   }
   return RunDistributedSweep(
-             run, setup.grid, setup.options, first_point,
-             setup.format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords,
+             run, setup.grid, setup.options, first_point, TableEncodingOf(setup.format),
              [&](const FormattedBlock& block) {
                output->Append(block);
                progress.Update(block.first + block.points);

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -60,6 +61,42 @@ void WriteAll(int fd, const std::string& text, const std::filesystem::path& path
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) throw IoError(path, "write failed");
     written += static_cast<std::size_t>(n);
+  }
+}
+
+// Writes the texts one after another, as WriteAll each would, with few system calls: a block
+// of a pipelined sweep has a slice per 16-point chunk, hundreds of them, and a write() each
+// would cost a fifth of a cheap model's analysis.
+void WriteAllInOrder(int fd,
+                     const std::vector<std::string>& texts,
+                     const std::filesystem::path& path) {
+  constexpr std::size_t kMaxVectors = 512;  // at most IOV_MAX (1024 on Linux)
+  std::vector<iovec> vectors;
+  vectors.reserve(std::min(texts.size(), kMaxVectors));
+  for (std::size_t next = 0; next < texts.size();) {
+    vectors.clear();
+    for (; next < texts.size() && vectors.size() < kMaxVectors; ++next) {
+      if (!texts[next].empty()) {
+        vectors.push_back({const_cast<char*>(texts[next].data()), texts[next].size()});
+      }
+    }
+    std::size_t done = 0;  // vectors written whole
+    while (done < vectors.size()) {
+      const ssize_t n =
+          ::writev(fd, vectors.data() + done, static_cast<int>(vectors.size() - done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) throw IoError(path, "write failed");
+      // A short write: skip the vectors it finished and start in the one it broke off in.
+      auto left = static_cast<std::size_t>(n);
+      while (done < vectors.size() && left >= vectors[done].iov_len) {
+        left -= vectors[done].iov_len;
+        ++done;
+      }
+      if (left > 0) {
+        vectors[done].iov_base = static_cast<char*>(vectors[done].iov_base) + left;
+        vectors[done].iov_len -= left;
+      }
+    }
   }
 }
 
@@ -144,10 +181,6 @@ constexpr std::pair<SweepFileFormat, std::string_view> kFormatNames[] = {
     {SweepFileFormat::kHdf5, "hdf5"},
     {SweepFileFormat::kMat, "mat"},
 };
-
-TableEncoding EncodingOf(SweepFileFormat format) {
-  return format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords;
-}
 
 UsageError AnotherSweep(const std::filesystem::path& directory) {
   return UsageError("--out " + directory.string() +
@@ -241,6 +274,10 @@ std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text) 
     if (name == text) return value;
   }
   return std::nullopt;
+}
+
+TableEncoding TableEncodingOf(SweepFileFormat format) {
+  return format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords;
 }
 
 std::string SweepTableFileNames(SweepFileFormat format) {
@@ -508,7 +545,7 @@ void SweepOutput::Resume(const FileSizes& sizes) {
 }
 
 void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) {
-  FormatBlock(grid_, first, points, format_threads_, EncodingOf(format_), block_);
+  FormatBlock(grid_, first, points, format_threads_, TableEncodingOf(format_), block_);
   Append(block_);
 }
 
@@ -516,9 +553,9 @@ void SweepOutput::Append(const FormattedBlock& block) {
   assert(block.first == points_done_ && points_fd_ >= 0);
   assert(block.points_csv.size() == block.eigenvalues_csv.size());
   const FileSizes before = sizes_;
+  WriteAllInOrder(points_fd_, block.points_csv, paths_.points_partial);
+  WriteAllInOrder(eigenvalues_fd_, block.eigenvalues_csv, paths_.eigenvalues_partial);
   for (std::size_t slice = 0; slice < block.points_csv.size(); ++slice) {
-    WriteAll(points_fd_, block.points_csv[slice], paths_.points_partial);
-    WriteAll(eigenvalues_fd_, block.eigenvalues_csv[slice], paths_.eigenvalues_partial);
     sizes_.points += block.points_csv[slice].size();
     sizes_.eigenvalues += block.eigenvalues_csv[slice].size();
   }

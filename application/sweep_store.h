@@ -49,6 +49,9 @@ std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text);
 /// The names of the table files of `format`: "points.csv, eigenvalues.csv", "sweep.h5" or
 /// "sweep.mat" (the file's name for HDF5 and MAT).
 std::string SweepTableFileNames(SweepFileFormat format);
+/// How the rows of `format` are formatted while sweeping: CSV text for kCsv, binary records
+/// (built into the file at the end) otherwise.
+TableEncoding TableEncodingOf(SweepFileFormat format);
 /// Throws UsageError when a column of `grid` cannot be written in `format` (CheckHdf5ColumnNames,
 /// CheckMatColumnNames).
 void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid);

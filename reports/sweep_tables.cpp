@@ -188,6 +188,31 @@ void AppendCsvRows(const ParameterGrid& grid,
   }
 }
 
+namespace {
+
+// Rows of points first, first + 1, ... in the encoding's form, replacing the texts' contents.
+void FormatRows(const ParameterGrid& grid,
+                std::size_t first,
+                std::span<const SweepPoint> points,
+                TableEncoding encoding,
+                std::string& points_text,
+                std::string& eigenvalues_text) {
+  points_text.clear();
+  eigenvalues_text.clear();
+  if (encoding == TableEncoding::kCsv) {
+    AppendCsvRows(grid, first, points, points_text, eigenvalues_text);
+  } else {
+    AppendRecordRows(first, points, points_text, eigenvalues_text);
+  }
+}
+
+std::size_t CountWithoutSolution(std::span<const SweepPoint> points) {
+  return static_cast<std::size_t>(std::count_if(points.begin(), points.end(),
+                                                [](const SweepPoint& point) { return !point.ok; }));
+}
+
+}  // namespace
+
 void FormatBlock(const ParameterGrid& grid,
                  std::size_t first,
                  std::span<const SweepPoint> points,
@@ -200,28 +225,60 @@ void FormatBlock(const ParameterGrid& grid,
   const auto slices = static_cast<std::size_t>(std::max(threads, 1));
   block.first = first;
   block.points = points.size();
-  block.points_without_solution = 0;
-  for (const SweepPoint& point : points) block.points_without_solution += point.ok ? 0 : 1;
+  block.points_without_solution = CountWithoutSolution(points);
   block.points_csv.resize(slices);
   block.eigenvalues_csv.resize(slices);
   ParallelFor(slices, static_cast<int>(slices), 1, [&](std::size_t slice, int) {
     const std::size_t begin = points.size() * slice / slices;
     const std::size_t end = points.size() * (slice + 1) / slices;
-    // Appended to as locals: the slices' string objects sit side by side, and a size field
+    // Formatted into locals: the slices' string objects sit side by side, and a size field
     // written by two threads at once would bounce its cache line between them.
     std::string points_csv = std::move(block.points_csv[slice]);
     std::string eigenvalues_csv = std::move(block.eigenvalues_csv[slice]);
-    points_csv.clear();
-    eigenvalues_csv.clear();
-    const std::span<const SweepPoint> slice_points = points.subspan(begin, end - begin);
-    if (encoding == TableEncoding::kCsv) {
-      AppendCsvRows(grid, first + begin, slice_points, points_csv, eigenvalues_csv);
-    } else {
-      AppendRecordRows(first + begin, slice_points, points_csv, eigenvalues_csv);
-    }
+    FormatRows(grid, first + begin, points.subspan(begin, end - begin), encoding, points_csv,
+               eigenvalues_csv);
     block.points_csv[slice] = std::move(points_csv);
     block.eigenvalues_csv[slice] = std::move(eigenvalues_csv);
   });
+}
+
+PipelinedBlockFormatter::PipelinedBlockFormatter(const ParameterGrid& grid,
+                                                 TableEncoding encoding,
+                                                 std::size_t block_size,
+                                                 std::size_t chunk_size)
+    : grid_(grid), encoding_(encoding), chunk_size_(chunk_size) {
+  const std::size_t chunks = (block_size + chunk_size - 1) / chunk_size;
+  for (FormattedBlock& block : blocks_) {
+    block.points_csv.resize(chunks);
+    block.eigenvalues_csv.resize(chunks);
+  }
+}
+
+void PipelinedBlockFormatter::FormatChunk(int slot,
+                                          std::size_t chunk,
+                                          std::size_t first,
+                                          std::span<const SweepPoint> points) {
+  FormattedBlock& block = blocks_[static_cast<std::size_t>(slot)];
+  // The slices were sized by the constructor, so threads formatting other chunks never move
+  // these strings; each string's own buffer is written by this thread alone.
+  FormatRows(grid_, first, points, encoding_, block.points_csv[chunk],
+             block.eigenvalues_csv[chunk]);
+}
+
+const FormattedBlock& PipelinedBlockFormatter::Block(int slot,
+                                                     std::size_t first,
+                                                     std::span<const SweepPoint> points) {
+  FormattedBlock& block = blocks_[static_cast<std::size_t>(slot)];
+  const std::size_t chunks = (points.size() + chunk_size_ - 1) / chunk_size_;
+  // Only the last block of a sweep can be shorter; its unused slices must not be written.
+  for (std::size_t chunk = chunks; chunk < block.points_csv.size(); ++chunk) {
+    block.points_csv[chunk].clear();
+    block.eigenvalues_csv[chunk].clear();
+  }
+  block.first = first;
+  block.points = points.size();
+  block.points_without_solution = CountWithoutSolution(points);
+  return block;
 }
 
 std::string CsvQuote(const std::string& text) {

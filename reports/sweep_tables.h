@@ -11,6 +11,7 @@
 // The same two tables go into sweep.h5 and sweep.mat (reports/sweep_hdf5.h, reports/sweep_mat.h),
 // built at the end of a sweep from binary records (reports/sweep_records.h) that FormatBlock
 // writes instead of CSV text.
+#include <array>
 #include <cstddef>
 #include <span>
 #include <string>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
 
 namespace servokit {
@@ -108,6 +110,32 @@ void FormatBlock(const ParameterGrid& grid,
                  int threads,
                  TableEncoding encoding,
                  FormattedBlock& block);
+
+/// The rows of the blocks a pipelined sweep has in flight (RunSweepPipeline): one FormattedBlock
+/// per slot, one slice per chunk. FormatChunk runs on the computing threads, each writing only
+/// its chunk's slice; Block, on the consuming thread, completes the slot's block. The bytes,
+/// slices joined, are those FormatBlock writes, whatever the chunk size or number of threads.
+class PipelinedBlockFormatter {
+ public:
+  /// Blocks of at most `block_size` points in chunks of `chunk_size` (SweepChunkSize).
+  PipelinedBlockFormatter(const ParameterGrid& grid,
+                          TableEncoding encoding,
+                          std::size_t block_size,
+                          std::size_t chunk_size);
+  /// Formats the rows of points first, first + 1, ... (chunk `chunk` of the block in `slot`).
+  void FormatChunk(int slot,
+                   std::size_t chunk,
+                   std::size_t first,
+                   std::span<const SweepPoint> points);
+  /// The block in `slot`, its points first, first + 1, ..., all of its chunks formatted.
+  const FormattedBlock& Block(int slot, std::size_t first, std::span<const SweepPoint> points);
+
+ private:
+  const ParameterGrid& grid_;
+  TableEncoding encoding_;
+  std::size_t chunk_size_;
+  std::array<FormattedBlock, kSweepSlots> blocks_;
+};
 
 /// The text of relative_degree: one number per output, joined with ';' ("2", "1;2").
 std::string JoinRelativeDegrees(const std::vector<int>& relative_degree);

@@ -10,8 +10,11 @@
 // for a > 0 there is none, and the sweep records that and goes on.
 #include "analysis/sweep.h"
 
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
+#include <mutex>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -170,6 +173,80 @@ TEST_CASE("a consumer that returns false stops the sweep after its block", "[ana
                [&](std::size_t, std::span<const SweepPoint>) { return ++calls < 2; });
   CHECK(calls == 2);
   CHECK(end == 16);
+}
+
+// RunSweepPipeline: prepare runs once per point, on the chunks of the slot the consumer then
+// reads; an exception of a later point arrives only after every block before it was consumed.
+TEST_CASE("the pipelined sweep prepares every point once and keeps blocks in order", "[analysis]") {
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
+  const LoadedModel loaded(model);
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.0, 1.0, 203)});
+  for (const int threads : {1, 2, 3}) {
+    SweepOptions options;
+    options.threads = threads;
+    options.block_size = 37;  // not a multiple of the chunk: chunks end inside blocks
+    SweepWorkspaces workspaces(loaded, threads);
+    // Which block each slot's prepared chunks belong to: the consumer checks its slot was
+    // prepared for exactly its points.
+    std::array<std::vector<std::size_t>, kSweepSlots> prepared;
+    for (auto& firsts : prepared) firsts.assign(options.block_size, SIZE_MAX);
+    std::vector<int> times_prepared(grid.num_points(), 0);
+    std::mutex mutex;
+    std::vector<std::size_t> firsts;
+    const std::size_t end = RunSweepPipeline(
+        loaded, grid, options, 5, workspaces,
+        [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {
+          const std::lock_guard lock(mutex);
+          for (std::size_t i = 0; i < points.size(); ++i) {
+            ++times_prepared[first + i];
+            prepared[static_cast<std::size_t>(slot)][chunk * SweepChunkSize(loaded) + i] =
+                first + i;
+          }
+        },
+        [&](int slot, std::size_t first, std::span<const SweepPoint> block) {
+          firsts.push_back(first);
+          const std::lock_guard lock(mutex);
+          for (std::size_t i = 0; i < block.size(); ++i) {
+            CHECK(prepared[static_cast<std::size_t>(slot)][i] == first + i);
+          }
+          return true;
+        });
+    CHECK(end == grid.num_points());
+    std::vector<std::size_t> expected_firsts;
+    for (std::size_t first = 5; first < grid.num_points(); first += 37) {
+      expected_firsts.push_back(first);
+    }
+    CHECK(firsts == expected_firsts);
+    for (std::size_t i = 0; i < grid.num_points(); ++i) CHECK(times_prepared[i] == (i < 5 ? 0 : 1));
+  }
+}
+
+TEST_CASE("a failure in a later block reaches the caller after the blocks before it",
+          "[analysis]") {
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"));
+  const LoadedModel loaded(model);
+  const ParameterGrid grid = ParameterGrid(
+      std::vector<GridAxis>{testing::RangeAxis(model.parameter_names(), "d", 0.0, 1.0, 400)});
+  SweepOptions options;
+  options.threads = 2;
+  options.block_size = 50;
+  SweepWorkspaces workspaces(loaded, 2);
+  std::vector<std::size_t> firsts;
+  CHECK_THROWS_MATCHES(
+      RunSweepPipeline(
+          loaded, grid, options, 0, workspaces,
+          [](int, std::size_t, std::size_t first, std::span<const SweepPoint> points) {
+            if (first <= 260 && 260 < first + points.size()) {
+              throw std::runtime_error("point 260");
+            }
+          },
+          [&](int, std::size_t first, std::span<const SweepPoint>) {
+            firsts.push_back(first);
+            return true;
+          }),
+      std::runtime_error, Catch::Message("point 260"));
+  CHECK(firsts == std::vector<std::size_t>{0, 50, 100, 150, 200});
 }
 
 TEST_CASE("a point without a solution is recorded with its message and the sweep goes on",
