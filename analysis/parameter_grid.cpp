@@ -91,6 +91,11 @@ void ParameterGrid::PointValues(std::size_t point, std::span<double> values) con
   ForEachDigit(point, [&](std::size_t k, std::size_t i) { values[k] = axes_[k].Value(i); });
 }
 
+void ParameterGrid::PointIndices(std::size_t point, std::span<std::size_t> indices) const {
+  assert(indices.size() == axes_.size());
+  ForEachDigit(point, [&](std::size_t k, std::size_t i) { indices[k] = i; });
+}
+
 void ParameterGrid::Apply(std::size_t point, Eigen::VectorXd& parameters) const {
   ForEachDigit(point, [&](std::size_t k, std::size_t i) {
     parameters[static_cast<Eigen::Index>(axes_[k].parameter)] = axes_[k].Value(i);

@@ -66,6 +66,9 @@ class ParameterGrid {
 
   /// The value of each axis at `point`, in the order of axes(); values.size() == axes().size().
   void PointValues(std::size_t point, std::span<double> values) const;
+  /// The index of `point`'s value on each axis (axes()[k].Value(indices[k]) is its value);
+  /// indices.size() == axes().size().
+  void PointIndices(std::size_t point, std::span<std::size_t> indices) const;
   /// Sets the varied entries of `parameters` (indexed as Model::parameter_names()) to `point`'s
   /// values; the other entries are left as they are.
   void Apply(std::size_t point, Eigen::VectorXd& parameters) const;

@@ -1,4 +1,5 @@
-// application/mpi_sweep.h with MPI (built when CMake finds it: SERVOKIT_HAVE_MPI).
+// application/mpi_sweep.h with MPI: the MPI plugin (application/mpi_plugin.h), built when CMake
+// finds MPI (SERVOKIT_HAVE_MPI).
 //
 // The protocol of RunDistributedSweep. Every message from a rank to rank 0 (tag kResultTag) is
 // one byte buffer: a MessageHeader, then its text. A rank sends its blocks in index order,
@@ -28,6 +29,7 @@
 #include <vector>
 
 #include "application/exit_codes.h"
+#include "application/mpi_plugin.h"
 #include "models/errors.h"
 
 namespace servokit {
@@ -55,10 +57,6 @@ void CheckMpi(int code, const char* call) {
   MPI_Error_string(code, text, &length);
   throw Error(std::string(call) +
               " failed: " + std::string(text, static_cast<std::size_t>(length)));
-}
-
-bool StartedByMpiLauncher() {
-  return std::getenv("OMPI_COMM_WORLD_SIZE") != nullptr || std::getenv("PMIX_RANK") != nullptr;
 }
 
 // ---- errors across ranks ---------------------------------------------------------------------
@@ -443,12 +441,7 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
   return {static_cast<std::size_t>(verdict.done), verdict.kind == VerdictKind::kStopped};
 }
 
-}  // namespace
-
-bool BuiltWithMpi() { return true; }
-
-MpiSession::MpiSession(int& argc, char**& argv) {
-  if (!StartedByMpiLauncher()) return;
+ProcessGroup Initialize(int& argc, char**& argv) {
   int provided = 0;
   // MPI_ERRORS_ARE_FATAL stays the handler: a failed MPI call ends the whole job rather than
   // leave a rank waiting for a message that never comes.
@@ -462,17 +455,16 @@ MpiSession::MpiSession(int& argc, char**& argv) {
       "MPI_Comm_split_type");
   CheckMpi(MPI_Comm_size(node, &world.ranks_on_node), "MPI_Comm_size");
   CheckMpi(MPI_Comm_free(&node), "MPI_Comm_free");
+  return world;
 }
 
-MpiSession::~MpiSession() {
+void Finalize() {
   if (mpi_active) MPI_Finalize();
   mpi_active = false;
   world = {};
 }
 
-ProcessGroup Processes() { return world; }
-
-void AgreeOnSuccess(std::exception_ptr failure) {
+void AgreeOnSuccessWithMpi(std::exception_ptr failure) {
   if (!mpi_active || world.size == 1) {
     if (failure) std::rethrow_exception(failure);
     return;
@@ -500,29 +492,30 @@ void AgreeOnSuccess(std::exception_ptr failure) {
   ThrowWithExitStatus(*failed, OnRank(rank, "failed"));  // not printed: rank 0 prints
 }
 
-std::size_t BroadcastFromRoot(std::size_t value) {
+std::size_t BroadcastSize(std::size_t value) {
   if (!mpi_active) return value;
   std::uint64_t shared = value;
   CheckMpi(MPI_Bcast(&shared, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD), "MPI_Bcast");
   return static_cast<std::size_t>(shared);
 }
 
-std::string BroadcastFromRoot(const std::string& text) {
+std::string BroadcastText(const std::string& text) {
   if (!mpi_active) return text;
   std::string shared = text;
-  shared.resize(BroadcastFromRoot(text.size()));
+  shared.resize(BroadcastSize(text.size()));
   CheckMpi(MPI_Bcast(shared.data(), static_cast<int>(shared.size()), MPI_CHAR, 0, MPI_COMM_WORLD),
            "MPI_Bcast");
   return shared;
 }
 
-DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
-                                        const ParameterGrid& grid,
-                                        const SweepOptions& options,
-                                        std::size_t first_point,
-                                        TableEncoding encoding,
-                                        const std::function<void(const FormattedBlock&)>& write,
-                                        const std::function<bool()>& stop_requested) {
+DistributedSweepEnd RunDistributedSweepWithMpi(
+    const SweepRunner& run,
+    const ParameterGrid& grid,
+    const SweepOptions& options,
+    std::size_t first_point,
+    TableEncoding encoding,
+    const std::function<void(const FormattedBlock&)>& write,
+    const std::function<bool()>& stop_requested) {
   if (!mpi_active) throw Error("RunDistributedSweep: MPI is not initialised");
   const BlockPlan plan = {first_point, std::max<std::size_t>(options.block_size, 1),
                           std::max(grid.num_points(), first_point)};
@@ -530,6 +523,14 @@ DistributedSweepEnd RunDistributedSweep(const SweepRunner& run,
     return Root(world, plan).Run(run, grid, options, encoding, write, stop_requested);
   }
   return RunWorker(world, plan, run, grid, options, encoding, stop_requested);
+}
+
+}  // namespace
+
+extern "C" const MpiPlugin* servokit_mpi_plugin() {
+  static const MpiPlugin plugin = {&Initialize,    &Finalize,      &AgreeOnSuccessWithMpi,
+                                   &BroadcastSize, &BroadcastText, &RunDistributedSweepWithMpi};
+  return &plugin;
 }
 
 }  // namespace servokit

@@ -14,8 +14,9 @@
 //   - a stop request (SIGINT, SIGTERM) on any rank stops all of them at a block boundary, with
 //     the checkpoint written by rank 0; every rank exits with status 130.
 //
-// The MPI code lives in mpi_sweep.cpp, built when CMake finds MPI (SERVOKIT_HAVE_MPI); without
-// it mpi_sweep_none.cpp gives the same functions for one process.
+// The MPI code lives in mpi_sweep.cpp, built as the MPI plugin (application/mpi_plugin.h) when
+// CMake finds MPI (SERVOKIT_HAVE_MPI); mpi_processes.cpp loads it only under an MPI launcher and
+// otherwise gives the same functions for one process.
 #include <cstddef>
 #include <exception>
 #include <functional>
@@ -28,14 +29,19 @@
 
 namespace servokit {
 
-/// Whether this servokit was built with MPI.
+/// Whether this servokit can run distributed sweeps: built with MPI, and (started by a launcher)
+/// its MPI plugin loaded.
 bool BuiltWithMpi();
+/// Why it cannot (BuiltWithMpi() false): one line for an error message.
+std::string MpiUnavailableReason();
 
 /// While alive, this process is one rank of an MPI job: constructed at the top of main(), it
-/// initialises MPI (MPI_Init_thread, funneled: only the main thread calls MPI) when servokit
-/// was built with MPI and started by an MPI launcher (mpirun sets OMPI_COMM_WORLD_SIZE or
-/// PMIX_RANK), and finalises it on destruction. Started any other way it does nothing, so a
-/// plain `servokit analyze` neither slows down nor prints anything of MPI's.
+/// loads the MPI plugin and initialises MPI (MPI_Init_thread, funneled: only the main thread
+/// calls MPI) when servokit was built with MPI and started by an MPI launcher (mpirun sets
+/// OMPI_COMM_WORLD_SIZE or PMIX_RANK), and finalises it on destruction. Started any other way it
+/// does nothing, so a plain `servokit analyze` neither loads MPI nor prints anything of MPI's.
+/// A plugin that cannot be loaded is not an error here: `servokit sweep` says so
+/// (MpiUnavailableReason).
 class MpiSession {
  public:
   MpiSession(int& argc, char**& argv);

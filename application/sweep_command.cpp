@@ -232,9 +232,9 @@ SweepFileFormat ParseSweepFileFormat(const std::string& text) {
 
 SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
   if (Processes().size > 1 && !BuiltWithMpi()) {
-    throw UsageError("started by an MPI launcher with " + std::to_string(Processes().size) +
-                     " processes, but this servokit was built without MPI; run it without " +
-                     "mpirun, or rebuild it with MPI (libopenmpi-dev)");
+    throw UsageError(
+        "started by an MPI launcher with " + std::to_string(Processes().size) +
+        " processes, but this servokit cannot run a distributed sweep: " + MpiUnavailableReason());
   }
   const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
   LoadedModel model = LoadModelFile(arguments.model_path, overrides);

@@ -4,6 +4,7 @@
 #   target_link_libraries(app PRIVATE servokit::servokit)   # #include <servokit/servokit.h>
 # Installed layout under the prefix:
 #   bin/servokit
+#   lib/servokit/libservokit_{data_files,mpi}.so                 (plugins, reports/plugins.h)
 #   include/servokit/{servokit,errors}.h                      (the public API, nothing else)
 #   lib/libservokit_*.a                                       (position-independent)
 #   share/servokit/models/*.yaml                              (the shipped models)
@@ -27,6 +28,11 @@ install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(TARGETS servokit RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# bin/servokit finds them in ../lib/servokit.
+install(TARGETS servokit_data_files LIBRARY DESTINATION ${SERVOKIT_PLUGIN_INSTALL_DIR})
+if(TARGET servokit_mpi)
+  install(TARGETS servokit_mpi LIBRARY DESTINATION ${SERVOKIT_PLUGIN_INSTALL_DIR})
+endif()
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/models/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/servokit/models
         FILES_MATCHING PATTERN "*.yaml")

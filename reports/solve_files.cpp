@@ -13,7 +13,7 @@
 
 #include "models/errors.h"
 #include "reports/classification_report.h"
-#include "reports/matio_support.h"
+#include "reports/mat_file.h"
 #include "reports/number_format.h"
 
 namespace servokit {
@@ -195,15 +195,15 @@ void WriteFeedforwardMat(const std::string& path,
   // The CSV's numbers: -0 is written as 0 there (WithoutNegativeZero), so here too.
   values = values.unaryExpr([](double value) { return WithoutNegativeZero(value); });
 
-  MatFileWriter file(path);
+  const std::unique_ptr<MatFileWriter> file = CreateMatFile(path);
   for (std::size_t j = 0; j < columns.size(); ++j) {
-    file.WriteColumn(columns[j], values.col(Eigen::Index(j)));
+    file->WriteColumn(columns[j], values.col(Eigen::Index(j)));
   }
   nlohmann::ordered_json facts = summary;
   for (const char* key : kKeysNotInMat) facts.erase(key);
   facts["columns"] = columns;
-  file.WriteStruct(kMatSummaryName, facts);
-  file.Commit();
+  file->WriteStruct(kMatSummaryName, facts);
+  file->Commit();
 }
 
 void WriteFeedforwardModelica(const std::string& path,

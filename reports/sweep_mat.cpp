@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "models/errors.h"
-#include "reports/matio_support.h"
+#include "reports/mat_file.h"
 
 namespace servokit {
 namespace {
@@ -50,16 +50,16 @@ void WriteSweepMat(const std::filesystem::path& path,
                    const SweepFileMetadata& metadata,
                    TableRecordReader& points,
                    TableRecordReader& eigenvalues) {
-  MatFileWriter file(path.string());
-  file.WriteStruct("sweep", {{"model", metadata.model},
-                             {"model_content_hash", metadata.content_hash},
-                             {"grid", metadata.grid},
-                             {"servokit_version", metadata.servokit_version},
-                             {"points_units", Units(points.columns())},
-                             {"eigenvalues_units", Units(eigenvalues.columns())}});
-  file.WriteTable("points", ReadColumns(points));
-  file.WriteTable("eigenvalues", ReadColumns(eigenvalues));
-  file.Commit();
+  const std::unique_ptr<MatFileWriter> file = CreateMatFile(path.string());
+  file->WriteStruct("sweep", {{"model", metadata.model},
+                              {"model_content_hash", metadata.content_hash},
+                              {"grid", metadata.grid},
+                              {"servokit_version", metadata.servokit_version},
+                              {"points_units", Units(points.columns())},
+                              {"eigenvalues_units", Units(eigenvalues.columns())}});
+  file->WriteTable("points", ReadColumns(points));
+  file->WriteTable("eigenvalues", ReadColumns(eigenvalues));
+  file->Commit();
 }
 
 void CheckMatColumnNames(const ParameterGrid& grid) {
@@ -68,7 +68,7 @@ void CheckMatColumnNames(const ParameterGrid& grid) {
     names.push_back(name);
   }
   for (const std::string& name : names) {
-    // The one rule for MATLAB names (reports/matio_support.h), as for a solve's MAT file.
+    // The one rule for MATLAB names (reports/mat_file.h), as for a solve's MAT file.
     if (const std::optional<std::string> problem = MatlabNameProblem(name)) {
       throw UsageError("the column '" + name + "' cannot be a field of a MAT file's struct: " +
                        *problem + " (HDF5 and CSV can hold it)");

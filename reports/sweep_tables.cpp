@@ -1,7 +1,10 @@
 #include "reports/sweep_tables.h"
 
 #include <algorithm>
+#include <bit>
+#include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <initializer_list>
 
 #include "analysis/sweep.h"
@@ -33,7 +36,56 @@ std::string CsvHeader(const std::vector<std::string>& columns) {
   return header + '\n';
 }
 
-void AppendPointRow(const std::string& values, const SweepPoint& point, std::string& csv) {
+template <typename Integer>
+void AppendInteger(std::string& csv, Integer value) {
+  char buffer[24];  // the longest 64-bit integer has 20 digits and a sign
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  csv.append(buffer, result.ptr);
+}
+
+// The shortest exact text of a number (AppendExact), remembered for the next row: writing
+// numbers is most of a cheap sweep's cost, and many repeat bit for bit (the first eigenvalue's
+// real part is max_real_part; a conjugate pair's rows share their real part, frequency and
+// damping ratio).
+class ExactText {
+ public:
+  // Appends the text of `value`, formatting it only when it differs from the last one's bits.
+  void Append(std::string& csv, double value) {
+    constexpr std::uint64_t kSignBit = std::uint64_t{1} << 63;
+    const auto bits = std::bit_cast<std::uint64_t>(value);
+    if (valid_ && bits == (bits_ ^ kSignBit) && value != 0.0 && !std::isnan(value)) {
+      // The shortest text of -x is "-" and that of x: a conjugate's imaginary part.
+      if (text_.front() == '-') {
+        text_.erase(0, 1);
+      } else {
+        text_.insert(0, 1, '-');
+      }
+      bits_ = bits;
+    } else if (!valid_ || bits != bits_) {
+      text_.clear();
+      AppendExact(text_, value);
+      bits_ = bits;
+      valid_ = true;
+    }
+    csv += text_;
+  }
+
+ private:
+  std::string text_;
+  std::uint64_t bits_ = 0;
+  bool valid_ = false;
+};
+
+// The texts of the numbers of a point's rows (max_real_part, and per eigenvalue its real and
+// imaginary parts, frequency and damping ratio), kept from row to row by ExactText.
+struct RowNumberTexts {
+  ExactText real_part, imaginary_part, frequency, damping_ratio;
+};
+
+void AppendPointRow(const std::string& values,
+                    const SweepPoint& point,
+                    RowNumberTexts& texts,
+                    std::string& csv) {
   csv += values;
   if (!point.ok) {
     csv += ",,,,,,,";  // the seven class columns are empty
@@ -43,16 +95,19 @@ void AppendPointRow(const std::string& values, const SweepPoint& point, std::str
   }
   csv += ToString(point.realization);
   csv += ',';
-  csv += std::to_string(point.rank);
+  AppendInteger(csv, point.rank);
   csv += ',';
   // A negative internal order: the structure at infinity was not determined (a large linear
   // model whose Markov rows vanish numerically): its three columns are empty, not numbers.
   if (point.internal_dynamics_order >= 0) {
-    csv += JoinRelativeDegrees(point.relative_degree);
+    for (std::size_t i = 0; i < point.relative_degree.size(); ++i) {
+      if (i > 0) csv += ';';  // as JoinRelativeDegrees
+      AppendInteger(csv, point.relative_degree[i]);
+    }
     csv += ',';
-    csv += std::to_string(point.differentiation_index);
+    AppendInteger(csv, point.differentiation_index);
     csv += ',';
-    csv += std::to_string(point.internal_dynamics_order);
+    AppendInteger(csv, point.internal_dynamics_order);
     csv += ',';
   } else {
     csv += ",,,";
@@ -60,21 +115,28 @@ void AppendPointRow(const std::string& values, const SweepPoint& point, std::str
   csv += ToString(point.stability);
   csv += ',';
   // NaN means no eigenvalues (SweepPoint): an empty field, not "nan".
-  if (!std::isnan(point.max_real_part)) AppendExact(csv, point.max_real_part);
+  if (!std::isnan(point.max_real_part)) texts.real_part.Append(csv, point.max_real_part);
   csv += ",\n";  // empty error
 }
 
-void AppendEigenvalueRows(const std::string& values, const SweepPoint& point, std::string& csv) {
+void AppendEigenvalueRows(const std::string& values,
+                          const SweepPoint& point,
+                          RowNumberTexts& texts,
+                          std::string& csv) {
   for (std::size_t k = 0; k < point.eigenvalues.size(); ++k) {
     const std::complex<double> eigenvalue = point.eigenvalues[k];
+    // ModeOf depends on |Re| and |Im| alone: a conjugate's mode is its partner's, bit for bit.
     const Mode mode = ModeOf(eigenvalue);
     csv += values;
-    csv += std::to_string(k);
-    for (const double number :
-         {eigenvalue.real(), eigenvalue.imag(), mode.frequency_hz, mode.damping_ratio}) {
-      csv += ',';
-      AppendExact(csv, number);
-    }
+    AppendInteger(csv, k);
+    csv += ',';
+    texts.real_part.Append(csv, eigenvalue.real());
+    csv += ',';
+    texts.imaginary_part.Append(csv, eigenvalue.imag());
+    csv += ',';
+    texts.frequency.Append(csv, mode.frequency_hz);
+    csv += ',';
+    texts.damping_ratio.Append(csv, mode.damping_ratio);
     csv += '\n';
   }
 }
@@ -174,17 +236,29 @@ void AppendCsvRows(const ParameterGrid& grid,
                    std::span<const SweepPoint> points,
                    std::string& points_csv,
                    std::string& eigenvalues_csv) {
-  std::vector<double> values(grid.axes().size());
+  const std::vector<GridAxis>& axes = grid.axes();
+  // The parameter columns' text, each axis's formatted again only when its value index changes
+  // (in a grid, all but the fastest axis stay put from row to row).
+  std::vector<std::size_t> indices(axes.size()), shown(axes.size(), SIZE_MAX);
+  std::vector<std::string> axis_texts(axes.size());
   std::string value_columns;
+  RowNumberTexts texts;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    grid.PointValues(first + i, values);
-    value_columns.clear();
-    for (std::size_t axis = 0; axis < values.size(); ++axis) {
-      AppendExact(value_columns, grid.axes()[axis].DisplayValue(values[axis]));
-      value_columns += ',';
+    grid.PointIndices(first + i, indices);
+    if (indices != shown) {
+      value_columns.clear();
+      for (std::size_t axis = 0; axis < axes.size(); ++axis) {
+        if (indices[axis] != shown[axis]) {
+          axis_texts[axis].clear();
+          AppendExact(axis_texts[axis], axes[axis].DisplayValue(axes[axis].Value(indices[axis])));
+          shown[axis] = indices[axis];
+        }
+        value_columns += axis_texts[axis];
+        value_columns += ',';
+      }
     }
-    AppendPointRow(value_columns, points[i], points_csv);
-    AppendEigenvalueRows(value_columns, points[i], eigenvalues_csv);
+    AppendPointRow(value_columns, points[i], texts, points_csv);
+    AppendEigenvalueRows(value_columns, points[i], texts, eigenvalues_csv);
   }
 }
 

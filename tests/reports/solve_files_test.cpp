@@ -5,7 +5,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "reports/matio_support.h"
+#include "reports/mat_file.h"
 
 namespace servokit {
 namespace {

@@ -1,5 +1,3 @@
-#include "reports/matio_support.h"
-
 #include <matio.h>
 
 #include <algorithm>
@@ -11,18 +9,10 @@
 #include <vector>
 
 #include "models/errors.h"
+#include "reports/data_files_plugin.h"
 
 namespace servokit {
 namespace {
-
-// MATLAB's namelengthmax.
-constexpr std::size_t kMatlabNameLength = 63;
-
-// MATLAB's iskeyword list: names `load` cannot give a variable.
-constexpr std::array<const char*, 20> kMatlabKeywords = {
-    "break",      "case",   "catch",    "classdef", "continue", "else",      "elseif",
-    "end",        "for",    "function", "global",   "if",       "otherwise", "parfor",
-    "persistent", "return", "spmd",     "switch",   "try",      "while"};
 
 // The text at the start of a MAT v5 file (116 bytes, the last a null from matio, the rest
 // padded with spaces here as MATLAB pads its own). MATLAB's begins the same way; this one has
@@ -156,53 +146,55 @@ Variable FromJson(const char* name, const nlohmann::ordered_json& value) {
   return Array(name, value);
 }
 
-}  // namespace
+// MatFileWriter with matio.
+class MatioFileWriter final : public MatFileWriter {
+ public:
+  explicit MatioFileWriter(const std::string& path);
+  ~MatioFileWriter() override;
+  MatioFileWriter(const MatioFileWriter&) = delete;
+  MatioFileWriter& operator=(const MatioFileWriter&) = delete;
+  void WriteColumn(const std::string& name,
+                   const Eigen::Ref<const Eigen::VectorXd>& values) override;
+  void WriteStruct(const std::string& name, const nlohmann::ordered_json& object) override;
+  void WriteTable(const std::string& name, const std::vector<MatColumn>& columns) override;
+  void Commit() override;
 
-std::optional<std::string> MatlabNameProblem(const std::string& name) {
-  const auto is_letter = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); };
-  const auto is_name_char = [&](char c) {
-    return is_letter(c) || (c >= '0' && c <= '9') || c == '_';
-  };
-  if (name.empty() || !is_letter(name.front()) ||
-      !std::all_of(name.begin(), name.end(), is_name_char)) {
-    return std::string("not a MATLAB name (a letter, then letters, digits and _)");
-  }
-  if (name.size() > kMatlabNameLength) {
-    return "longer than MATLAB's " + std::to_string(kMatlabNameLength) + " characters";
-  }
-  if (std::find_if(kMatlabKeywords.begin(), kMatlabKeywords.end(),
-                   [&](const char* keyword) { return name == keyword; }) != kMatlabKeywords.end()) {
-    return std::string("a MATLAB keyword");
-  }
-  return std::nullopt;
-}
+ private:
+  // Writes `variable`, named `name` in messages.
+  void Write(matvar_t* variable, const std::string& name);
 
-MatFileWriter::MatFileWriter(const std::string& path) : path_(path), partial_(path + ".partial") {
+  std::string path_;
+  std::string partial_;
+  mat_t* file_ = nullptr;
+};
+
+MatioFileWriter::MatioFileWriter(const std::string& path)
+    : path_(path), partial_(path + ".partial") {
   file_ = Mat_CreateVer(partial_.c_str(), kHeaderText.c_str(), MAT_FT_MAT5);
   if (file_ == nullptr) throw Error("cannot write " + path_ + " (matio cannot create it)");
 }
 
-MatFileWriter::~MatFileWriter() {
+MatioFileWriter::~MatioFileWriter() {
   if (file_ == nullptr) return;
   Mat_Close(file_);
   std::error_code ignored;  // an uncommitted file is abandoned; its removal may fail quietly
   std::filesystem::remove(partial_, ignored);
 }
 
-void MatFileWriter::WriteColumn(const std::string& name,
-                                const Eigen::Ref<const Eigen::VectorXd>& values) {
+void MatioFileWriter::WriteColumn(const std::string& name,
+                                  const Eigen::Ref<const Eigen::VectorXd>& values) {
   const Eigen::VectorXd contiguous = values;
   Variable variable =
       DoubleMatrix(name.c_str(), std::size_t(contiguous.size()), 1, contiguous.data());
   Write(variable.get(), name);
 }
 
-void MatFileWriter::WriteStruct(const std::string& name, const nlohmann::ordered_json& object) {
+void MatioFileWriter::WriteStruct(const std::string& name, const nlohmann::ordered_json& object) {
   Variable variable = Struct(name.c_str(), object);
   Write(variable.get(), name);
 }
 
-void MatFileWriter::WriteTable(const std::string& name, const std::vector<MatColumn>& columns) {
+void MatioFileWriter::WriteTable(const std::string& name, const std::vector<MatColumn>& columns) {
   std::vector<const char*> fields;
   for (const MatColumn& column : columns) {
     if (const std::optional<std::string> problem = MatlabNameProblem(column.name)) {
@@ -235,14 +227,14 @@ void MatFileWriter::WriteTable(const std::string& name, const std::vector<MatCol
   Write(table.get(), name);
 }
 
-void MatFileWriter::Write(matvar_t* variable, const std::string& name) {
+void MatioFileWriter::Write(matvar_t* variable, const std::string& name) {
   if (Mat_VarWrite(file_, variable, MAT_COMPRESSION_NONE) != 0) {
     throw Error("cannot write " + path_ + " (matio failed on the variable " + name +
                 "; MAT 5 holds at most 2 GiB per variable)");
   }
 }
 
-void MatFileWriter::Commit() {
+void MatioFileWriter::Commit() {
   const int closed = Mat_Close(file_);
   file_ = nullptr;
   std::error_code error;
@@ -252,6 +244,12 @@ void MatFileWriter::Commit() {
   }
   std::filesystem::rename(partial_, path_, error);
   if (error) throw Error("cannot write " + path_ + ": " + error.message());
+}
+
+}  // namespace
+
+std::unique_ptr<MatFileWriter> CreateMatioFile(const std::string& path) {
+  return std::make_unique<MatioFileWriter>(path);
 }
 
 }  // namespace servokit

@@ -1,0 +1,36 @@
+#pragma once
+// The MPI plugin (reports/plugins.h), libservokit_mpi.so: application/mpi_sweep.cpp, the code
+// that calls MPI. application/mpi_processes.cpp loads it only when servokit was started by an
+// MPI launcher, so that no other run loads MPI's libraries (Open MPI brings a dozen, and hwloc
+// probes the machine's topology when they load).
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <string>
+
+#include "application/mpi_sweep.h"
+
+namespace servokit {
+
+/// What the plugin offers; each function is the one of application/mpi_sweep.h of that name.
+struct MpiPlugin {
+  // MPI_Init_thread and this process's group in MPI_COMM_WORLD.
+  ProcessGroup (*initialize)(int& argc, char**& argv);
+  void (*finalize)();
+  void (*agree_on_success)(std::exception_ptr failure);
+  std::size_t (*broadcast_size)(std::size_t value);
+  std::string (*broadcast_text)(const std::string& text);
+  DistributedSweepEnd (*run_distributed_sweep)(
+      const SweepRunner& run,
+      const ParameterGrid& grid,
+      const SweepOptions& options,
+      std::size_t first_point,
+      TableEncoding encoding,
+      const std::function<void(const FormattedBlock&)>& write,
+      const std::function<bool()>& stop_requested);
+};
+
+/// The plugin's entry point: an extern "C" function returning its MpiPlugin.
+inline constexpr const char* kMpiPluginEntry = "servokit_mpi_plugin";
+
+}  // namespace servokit
