@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/lagrangian_model.h"
@@ -539,7 +540,7 @@ class ModelBuilder {
               Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
                                     velocity_symbols_[i].get_name() + " d" +
                                     velocity_symbols_[j].get_name() + " = " +
-                                    Text(equations.mass_matrix(i, j)) +
+                                    CanonicalText(equations.mass_matrix(i, j)) +
                                     " depends on the velocity '" + velocity.get_name() + "'");
             }
           }
@@ -550,7 +551,8 @@ class ModelBuilder {
       if (!remainder.is_zero() && !GiNaC::normal(remainder).is_zero() &&
           !AgreeNumerically(energies.kinetic, energies.kinetic - remainder)) {
         Fail(kinetic_key,
-             "T is not quadratic in the velocities: T - 1/2 q_dot^T M q_dot = " + Text(remainder) +
+             "T is not quadratic in the velocities: T - 1/2 q_dot^T M q_dot = " +
+                 CanonicalText(remainder) +
                  " (terms linear in or free of the velocities; T(q, s q_dot) must be s^2 "
                  "T(q, q_dot))");
       }
