@@ -127,6 +127,7 @@ class Reader {
         Fail(where,
              "'" + std::string(kGroundName) + "' is the fixed frame; name the body otherwise");
       }
+      if (FindBody(name) != nullptr) Fail(where, "duplicate body name");
       const YAML::Node node = entry.second;
       if (!node.IsMap()) Fail(where, "expected a map with the keys " + Join(kBodyKeys));
       CheckKeys(node, where, kBodyKeys);
@@ -226,11 +227,13 @@ class Reader {
   }
 
   template <std::size_t N>
-  const YAML::Node CheckedList(const std::string& key,
-                               const std::array<std::string_view, N>& keys) const {
-    const YAML::Node list = Entry(key);
-    if (list && !list.IsSequence()) Fail(key, "expected a list of maps");
-    for (std::size_t i = 0; list && i < list.size(); ++i) {
+  YAML::Node CheckedList(const std::string& key,
+                         const std::array<std::string_view, N>& keys) const {
+    YAML::Node list = Entry(key);
+    // Absent and empty (`springs:` followed by comments only) are the same: no elements.
+    if (!list || list.IsNull()) return YAML::Node(YAML::NodeType::Sequence);
+    if (!list.IsSequence()) Fail(key, "expected a list of maps");
+    for (std::size_t i = 0; i < list.size(); ++i) {
       if (!list[i].IsMap()) Fail(Indexed(key, i), "expected a map with the keys " + Join(keys));
       CheckKeys(list[i], Indexed(key, i), keys);
     }
@@ -242,7 +245,7 @@ class Reader {
   GiNaC::ex ReadSprings() const {
     const YAML::Node springs = CheckedList("springs", kSpringKeys);
     GiNaC::ex potential = 0;
-    for (std::size_t i = 0; springs && i < springs.size(); ++i) {
+    for (std::size_t i = 0; i < springs.size(); ++i) {
       const std::string where = Indexed("springs", i);
       const YAML::Node node = springs[i];
       if (!node["stiffness"]) Fail(where + ".stiffness", "missing required key");
@@ -266,7 +269,7 @@ class Reader {
   GiNaC::ex ReadDampers() const {
     const YAML::Node dampers = CheckedList("dampers", kDamperKeys);
     GiNaC::ex dissipation = 0;
-    for (std::size_t i = 0; dampers && i < dampers.size(); ++i) {
+    for (std::size_t i = 0; i < dampers.size(); ++i) {
       const std::string where = Indexed("dampers", i);
       const YAML::Node node = dampers[i];
       if (!node["damping"]) Fail(where + ".damping", "missing required key");

@@ -330,6 +330,11 @@ TEST_CASE("bad bodies, springs and actuators are named", "[models]") {
         "the nominal parameters (smallest eigenvalue 0, largest 0); no kinetic energy in the "
         "coordinates x");
   CHECK(LoadError(kBodiesHead + body) == "bad.yaml: actuators: missing required key");
+  CHECK(LoadError(kBodiesHead + body + "bodies:\n  wagon: {mass: m, position: [x, 0]}\n" +
+                  actuator) == "bad.yaml: bodies: duplicate key");
+  // `springs:` with comments only (as in the README's example) is no springs.
+  CHECK_NOTHROW(
+      LoadModelFromString(kBodiesHead + body + "springs:\n  # none\n" + actuator, "empty.yaml"));
 }
 
 }  // namespace
