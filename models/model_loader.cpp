@@ -1,6 +1,8 @@
 // LoadModel: model file (DESIGN.md, "The model file") -> checked SymbolicModel -> compiled
-// programs. Every problem with the file is one ModelError "file: key[entry]: problem", raised
-// where it is found, so that a user sees the first mistake with its place.
+// programs. M and f come from the file (`mass_matrix`, `forces`) or are derived from energies
+// (`kind: lagrangian`) or bodies (`kind: planar-bodies`); from there every form is the same. Every
+// problem with the file is one ModelError "file: key[entry]: problem", raised where it is found, so
+// that a user sees the first mistake with its place.
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
