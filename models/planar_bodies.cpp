@@ -27,6 +27,39 @@ struct Body {
   Vector2 position;
 };
 
+// sin and cos of a sum as sums of products of sin and cos of its terms (angle addition), so
+// that products of positions of bodies in a chain can cancel.
+struct ExpandAngleSums : GiNaC::map_function {
+  GiNaC::ex operator()(const GiNaC::ex& expression) override {
+    const GiNaC::ex mapped = expression.map(*this);
+    const bool is_sin = GiNaC::is_the_function<GiNaC::sin_SERIAL>(mapped);
+    if ((!is_sin && !GiNaC::is_the_function<GiNaC::cos_SERIAL>(mapped)) ||
+        !GiNaC::is_a<GiNaC::add>(mapped.op(0))) {
+      return mapped;
+    }
+    const GiNaC::ex first = mapped.op(0).op(0), rest = mapped.op(0) - first;
+    const GiNaC::ex sin_first = GiNaC::sin(first), cos_first = GiNaC::cos(first);
+    const GiNaC::ex sin_rest = (*this)(GiNaC::sin(rest)), cos_rest = (*this)(GiNaC::cos(rest));
+    return is_sin ? sin_first * cos_rest + cos_first * sin_rest
+                  : cos_first * cos_rest - sin_first * sin_rest;
+  }
+};
+
+// The kinetic energy of bodies written with positions as the user gives them holds
+// sin(u)^2 + cos(u)^2 and the angle-addition products of a chain uncancelled, which makes M and
+// f several times larger than the hand-written ones (and the symbolic steps of the analysis
+// slower). Angle sums expanded, sin^2 replaced by 1 - cos^2 and expanded again, they cancel:
+// the same function, in a form as small as a hand derivation.
+GiNaC::ex ReduceTrigonometric(const GiNaC::ex& expression) {
+  ExpandAngleSums expand_sums;
+  const GiNaC::ex expanded = expand_sums(expression).expand();
+  const GiNaC::ex u = GiNaC::wild(0);
+  return expanded
+      .subs(GiNaC::pow(GiNaC::sin(u), 2) == 1 - GiNaC::pow(GiNaC::cos(u), 2),
+            GiNaC::subs_options::algebraic)
+      .expand();
+}
+
 class Reader {
  public:
   Reader(const YAML::Node& root,
@@ -55,6 +88,7 @@ class Reader {
       result.energies.potential -=
           body.mass * (gravity[0] * body.position[0] + gravity[1] * body.position[1]);
     }
+    result.energies.kinetic = ReduceTrigonometric(result.energies.kinetic);
     result.energies.potential += ReadSprings();
     result.energies.dissipation = ReadDampers();
     result.energies.generalized_forces = GiNaC::matrix(unsigned(coordinates_.size()), 1);
