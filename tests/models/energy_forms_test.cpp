@@ -260,6 +260,14 @@ input_matrix: [[1], [0]]
 outputs: [x]
 )";
 
+const std::string kBodiesHead = R"(kind: planar-bodies
+name: cart
+parameters: {m: 2.0, k: 4.0}
+coordinates: [x]
+inputs: [F]
+outputs: [x]
+)";
+
 TEST_CASE("T must be a quadratic form in the velocities", "[models]") {
   CHECK(LoadError(kLagrangianHead + "kinetic_energy: m*(x_dot^2 + y_dot^2)/2 + m*x_dot\n" +
                   "potential_energy: k*(x^2 + y^2)/2\n") ==
@@ -271,6 +279,19 @@ TEST_CASE("T must be a quadratic form in the velocities", "[models]") {
              Catch::StartsWith("bad.yaml: kinetic_energy: T is not quadratic in the velocities: "
                                "d2T/dx_dot dx_dot = ") &&
                  Catch::EndsWith("depends on the velocity 'x_dot'"));
+}
+
+TEST_CASE("each form names its own keys when one is unknown or missing", "[models]") {
+  CHECK(LoadError(kLagrangianHead + "kinetic_energy: m*(x_dot^2 + y_dot^2)/2\n" +
+                  "potential_energy: 0\nmass_matrix: [[m, 0], [0, m]]\n") ==
+        "bad.yaml: mass_matrix: unknown key (expected name, parameters, coordinates, inputs, "
+        "kinetic_energy, potential_energy, input_matrix, outputs, description, dissipation, "
+        "generalized_forces or kind)");
+  CHECK(LoadError(kLagrangianHead + "kinetic_energy: m*(x_dot^2 + y_dot^2)/2\n") ==
+        "bad.yaml: potential_energy: missing required key");
+  CHECK(LoadError(kBodiesHead + "bodies:\n  cart: {mass: m, position: [x, 0]}\nforces: [0]\n") ==
+        "bad.yaml: forces: unknown key (expected name, parameters, coordinates, inputs, bodies, "
+        "actuators, outputs, description, gravity, springs, dampers or kind)");
 }
 
 TEST_CASE("M must be positive definite at q = 0", "[models]") {
@@ -289,14 +310,6 @@ TEST_CASE("V and B may not depend on velocities", "[models]") {
   CHECK(LoadError(kLagrangianHead + "kinetic_energy: m*(x_dot^2 + y_dot^2)/2\n" +
                   "potential_energy: k*z\n") == "bad.yaml: potential_energy: unknown symbol 'z'");
 }
-
-const std::string kBodiesHead = R"(kind: planar-bodies
-name: cart
-parameters: {m: 2.0, k: 4.0}
-coordinates: [x]
-inputs: [F]
-outputs: [x]
-)";
 
 TEST_CASE("bad bodies, springs and actuators are named", "[models]") {
   const std::string actuator = "actuators:\n  F: {on: cart, force: [1, 0]}\n";
