@@ -43,9 +43,10 @@ int main(int argc, char** argv) {
   }
   const std::string directory = argv[1];
   const double budget = argc > 2 ? std::atof(argv[2]) : 1.0;
-  const std::vector<std::string> files = {"mass_on_car.yaml", "rotational_arm.yaml",
+  const std::vector<std::string> files = {"mass_on_car.yaml",        "rotational_arm.yaml",
                                           "rotational_arm_tip.yaml", "gantry_crane.yaml",
-                                          "mass_spring_chain.yaml"};
+                                          "mass_spring_chain.yaml",  "acrobot.yaml",
+                                          "cart_pendulum.yaml"};
   std::printf("%-26s %4s %12s %18s %18s\n", "model", "dof", "load [ms]", "analyses/s",
               "analyses/s (+QZ)");
   for (const std::string& file : files) {

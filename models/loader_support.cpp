@@ -474,10 +474,14 @@ ModelKind ReadModelKind(const ModelDocument& document) {
   if (!kind) return ModelKind::kMultibody;
   if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return ModelKind::kMultibody;
   if (kind.IsScalar() && kind.Scalar() == kLinearKind) return ModelKind::kLinear;
+  if (kind.IsScalar() && (kind.Scalar() == kLagrangianKind || kind.Scalar() == kPlanarBodiesKind)) {
+    return ModelKind::kMultibody;
+  }
   throw ModelError(document.source + ": " + std::string(kKindKey) + ": unknown kind '" +
                    (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
-                   "' (expected " + std::string(kLinearKind) + " or " +
-                   std::string(kMultibodyKind) + ")");
+                   "' (expected " + std::string(kLinearKind) + ", " + std::string(kMultibodyKind) +
+                   ", " + std::string(kLagrangianKind) + " or " + std::string(kPlanarBodiesKind) +
+                   ")");
 }
 
 }  // namespace servokit::detail

@@ -28,6 +28,10 @@ namespace servokit::detail {
 inline constexpr std::string_view kKindKey = "kind";
 inline constexpr std::string_view kMultibodyKind = "multibody";
 inline constexpr std::string_view kLinearKind = "linear";
+/// Multibody models written as energies (models/lagrangian_model.h) or as planar rigid bodies
+/// (models/planar_bodies.h) instead of M(q) and f(q, q'); loaded into the same Model.
+inline constexpr std::string_view kLagrangianKind = "lagrangian";
+inline constexpr std::string_view kPlanarBodiesKind = "planar-bodies";
 
 /// A model file read and parsed once: where it came from (the path as given, or the name given
 /// with YAML text; messages start with it), its bytes (for the content hash) and its YAML tree.
@@ -44,8 +48,9 @@ ModelDocument ParseModelDocument(std::string yaml_text, std::string source);
 ModelDocument ReadModelDocument(const std::string& path);
 
 /// The document's kind: `kind` absent (or a top level that is no map, which the multibody
-/// reader reports) is multibody. Throws ModelError "source: kind: unknown kind 'x' (expected
-/// linear or multibody)" for any other value.
+/// reader reports) is multibody, and so are lagrangian and planar-bodies (the multibody reader
+/// tells them apart). Throws ModelError "source: kind: unknown kind 'x' (expected linear,
+/// multibody, lagrangian or planar-bodies)" for any other value.
 ModelKind ReadModelKind(const ModelDocument& document);
 
 /// The readers of each kind, from a parsed document of that kind (models/model_loader.cpp and

@@ -1,6 +1,8 @@
 // LoadModel: model file (DESIGN.md, "The model file") -> checked SymbolicModel -> compiled
-// programs. Every problem with the file is one ModelError "file: key[entry]: problem", raised
-// where it is found, so that a user sees the first mistake with its place.
+// programs. M and f come from the file (`mass_matrix`, `forces`) or are derived from energies
+// (`kind: lagrangian`) or bodies (`kind: planar-bodies`); from there every form is the same. Every
+// problem with the file is one ModelError "file: key[entry]: problem", raised where it is found, so
+// that a user sees the first mistake with its place.
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -19,22 +21,76 @@
 #include <utility>
 #include <vector>
 
+#include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
+#include "models/lagrangian_model.h"
 #include "models/loader_support.h"
 #include "models/model.h"
+#include "models/planar_bodies.h"
 #include "models/symbolic_model.h"
 #include "models/units.h"
 
 namespace servokit {
 namespace {
 
-constexpr std::array<std::string_view, 8> kRequiredKeys = {
-    "name",        "parameters", "coordinates",  "inputs",
-    "mass_matrix", "forces",     "input_matrix", "outputs"};
+// The keys of each form of multibody model file: the explicit M(q), f(q, q') (no kind, or
+// `kind: multibody`), the energies (`kind: lagrangian`) and the bodies (`kind: planar-bodies`).
+// Every form has these, and its own in between.
+constexpr std::array<std::string_view, 4> kLeadingKeys = {"name", "parameters", "coordinates",
+                                                          "inputs"};
+constexpr std::string_view kOutputsKey = "outputs";
 constexpr std::string_view kDescriptionKey = "description";
-// Optional: the kind of model file, `multibody` here; models/loaded_model.cpp has read it and
-// dispatched on it already.
+constexpr std::string_view kMassMatrixKey = "mass_matrix";
+constexpr std::string_view kForcesKey = "forces";
+constexpr std::string_view kInputMatrixKey = "input_matrix";
+constexpr std::string_view kKineticEnergyKey = "kinetic_energy";
+constexpr std::string_view kPotentialEnergyKey = "potential_energy";
+constexpr std::string_view kDissipationKey = "dissipation";
+constexpr std::string_view kGeneralizedForcesKey = "generalized_forces";
+
+enum class Form { kExplicit, kLagrangian, kPlanarBodies };
+
+struct FormKeys {
+  std::vector<std::string_view> required, optional;
+};
+
+FormKeys KeysOf(Form form) {
+  FormKeys keys;
+  keys.required.assign(kLeadingKeys.begin(), kLeadingKeys.end());
+  keys.optional = {kDescriptionKey};
+  switch (form) {
+    case Form::kExplicit:
+      keys.required.insert(keys.required.end(), {kMassMatrixKey, kForcesKey, kInputMatrixKey});
+      break;
+    case Form::kLagrangian:
+      keys.required.insert(keys.required.end(),
+                           {kKineticEnergyKey, kPotentialEnergyKey, kInputMatrixKey});
+      keys.optional.insert(keys.optional.end(), {kDissipationKey, kGeneralizedForcesKey});
+      break;
+    case Form::kPlanarBodies:
+      keys.required.insert(keys.required.end(), detail::kPlanarBodiesRequiredKeys.begin(),
+                           detail::kPlanarBodiesRequiredKeys.end());
+      keys.optional.insert(keys.optional.end(), detail::kPlanarBodiesOptionalKeys.begin(),
+                           detail::kPlanarBodiesOptionalKeys.end());
+      break;
+  }
+  keys.required.push_back(kOutputsKey);
+  return keys;
+}
+
+// The form the file's `kind` names; models/loaded_model.cpp has checked its value already.
+Form FormOf(const YAML::Node& root) {
+  const YAML::Node kind = root.IsMap() ? root[std::string(detail::kKindKey)] : YAML::Node();
+  if (kind && kind.IsScalar() && kind.Scalar() == detail::kLagrangianKind) return Form::kLagrangian;
+  if (kind && kind.IsScalar() && kind.Scalar() == detail::kPlanarBodiesKind) {
+    return Form::kPlanarBodies;
+  }
+  return Form::kExplicit;
+}
+
+// Optional: the kind of model file; models/loaded_model.cpp has read it and dispatched on it
+// already.
 using detail::kKindKey;
 
 using detail::Contains;
@@ -51,6 +107,8 @@ using detail::kQuantityHint;
 // Symmetry of M is decided symbolically when expand() or normal() shows M_ij - M_ji = 0;
 // otherwise (trigonometric identities, say) by evaluating both at random points near the
 // nominal parameters and in q in [-1, 1] rad or m. A fixed seed keeps the verdict reproducible.
+// The same points decide whether T - 1/2 q'^T M q' vanishes (T a quadratic form in q'), with
+// the velocities in [-1, 1] too.
 constexpr int kSymmetryCheckPoints = 5;
 constexpr unsigned kSymmetryCheckSeed = 20130101u;
 // Relative spread of the parameters around their nominal values at those points.
@@ -58,6 +116,9 @@ constexpr double kSymmetryParameterSpread = 0.1;
 // Two different forms of the same expression differ by round-off only: a few hundred ulps at
 // most for mass-matrix entries, far below this relative tolerance.
 constexpr double kSymmetryTolerance = 1e-10;
+// M(0) counts as positive definite when its smallest eigenvalue exceeds this fraction of its
+// largest: below it, M q'' = ... cannot be solved to double precision.
+constexpr double kPositiveDefiniteTolerance = 1e-12;
 
 // "1 row", "2 rows": counts in messages.
 std::string Count(std::size_t count, const std::string& singular, const std::string& plural) {
@@ -101,7 +162,8 @@ std::vector<GiNaC::ex> ColumnMajor(const std::vector<GiNaC::matrix>& blocks) {
 // Fills a Model from YAML text, one checked step at a time (Model names it as its friend).
 class ModelBuilder {
  public:
-  explicit ModelBuilder(const detail::ModelDocument& document) : root_(document.root) {
+  explicit ModelBuilder(const detail::ModelDocument& document)
+      : root_(document.root), form_(FormOf(document.root)) {
     model_.source_ = document.source;
     detail::ContentHasher hasher;
     hasher.Add(document.text);
@@ -119,21 +181,15 @@ class ModelBuilder {
     CheckNames();
     MakeSymbols();
 
-    const std::size_t dof = model_.dof();
-    const std::size_t num_inputs = model_.num_inputs();
-    GiNaC::matrix mass_matrix = ReadMatrix("mass_matrix", dof, dof, "coordinate");
-    CheckNoVelocities(mass_matrix, "mass_matrix", "M(q)");
-    CheckSymmetric(mass_matrix);
-    GiNaC::matrix forces = ReadVector("forces", dof, "one per coordinate");
-    GiNaC::matrix input_matrix = ReadMatrix("input_matrix", dof, num_inputs, "input");
-    CheckNoVelocities(input_matrix, "input_matrix", "B(q)");
+    EquationsOfMotion equations = ReadEquationsOfMotion();
     GiNaC::matrix output = ReadOutputs();
-    model_.num_outputs_ = num_inputs;
+    model_.num_outputs_ = model_.num_inputs();
 
     try {
       auto symbolic = std::make_shared<const SymbolicModel>(
-          parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
-          std::move(forces), std::move(input_matrix), std::move(output));
+          parameter_symbols_, coordinate_symbols_, velocity_symbols_,
+          std::move(equations.mass_matrix), std::move(equations.forces),
+          std::move(equations.input_matrix), std::move(output));
       Compile(*symbolic);
       model_.symbolic_ = std::move(symbolic);
     } catch (const Error&) {
@@ -156,9 +212,10 @@ class ModelBuilder {
   }
 
   void CheckTopLevelKeys() const {
+    const FormKeys keys = KeysOf(form_);
     if (!root_.IsMap()) {
-      Fail("top level", "expected a map with the keys " + Join(kRequiredKeys) + " and " +
-                            std::string(kDescriptionKey) + " (optional)");
+      Fail("top level", "expected a map with the keys " + Join(keys.required) + " and " +
+                            Join(keys.optional) + " (optional)");
     }
     std::vector<std::string> seen;
     for (const auto& entry : root_) {
@@ -166,16 +223,16 @@ class ModelBuilder {
         Fail("top level", "keys must be plain names");
       }
       const std::string& key = entry.first.Scalar();
-      if (key != kKindKey && !Contains(kRequiredKeys, key) && key != kDescriptionKey) {
-        Fail(key, "unknown key (expected " + Join(kRequiredKeys) + ", " +
-                      std::string(kDescriptionKey) + " or " + std::string(kKindKey) + ")");
+      if (key != kKindKey && !Contains(keys.required, key) && !Contains(keys.optional, key)) {
+        Fail(key, "unknown key (expected " + Join(keys.required) + ", " + Join(keys.optional) +
+                      " or " + std::string(kKindKey) + ")");
       }
       if (Contains(seen, key)) {
         Fail(key, "duplicate key");
       }
       seen.push_back(key);
     }
-    for (const std::string_view key : kRequiredKeys) {
+    for (const std::string_view key : keys.required) {
       if (!Contains(seen, key)) {
         Fail(std::string(key), "missing required key");
       }
@@ -408,6 +465,142 @@ class ModelBuilder {
     return output;
   }
 
+  struct EquationsOfMotion {
+    GiNaC::matrix mass_matrix, forces, input_matrix;
+  };
+
+  // M, f and B as the file's form gives them: written out, or derived from the energies.
+  EquationsOfMotion ReadEquationsOfMotion() const {
+    const std::size_t dof = model_.dof();
+    const std::size_t num_inputs = model_.num_inputs();
+    const std::string input_matrix_key(kInputMatrixKey);
+    EquationsOfMotion equations;
+    switch (form_) {
+      case Form::kExplicit: {
+        const std::string mass_matrix_key(kMassMatrixKey);
+        equations.mass_matrix = ReadMatrix(mass_matrix_key, dof, dof, "coordinate");
+        CheckNoVelocities(equations.mass_matrix, mass_matrix_key, "M(q)");
+        CheckSymmetric(equations.mass_matrix);
+        equations.forces = ReadVector(std::string(kForcesKey), dof, "one per coordinate");
+        equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
+        CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
+        return equations;
+      }
+      case Form::kLagrangian: {
+        detail::Energies energies;
+        const std::string kinetic_key(kKineticEnergyKey), potential_key(kPotentialEnergyKey);
+        energies.kinetic = ParseExpression(Entry(kinetic_key), kinetic_key);
+        energies.potential = ParseExpression(Entry(potential_key), potential_key);
+        CheckNoVelocities(energies.potential, potential_key, "V(q)");
+        const std::string dissipation_key(kDissipationKey);
+        if (const YAML::Node dissipation = Entry(dissipation_key)) {
+          energies.dissipation = ParseExpression(dissipation, dissipation_key);
+        }
+        const std::string generalized_key(kGeneralizedForcesKey);
+        energies.generalized_forces = Entry(generalized_key)
+                                          ? ReadVector(generalized_key, dof, "one per coordinate")
+                                          : GiNaC::matrix(unsigned(dof), 1);
+        equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
+        CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
+        Derive(energies, kinetic_key, equations);
+        return equations;
+      }
+      case Form::kPlanarBodies: {
+        const detail::ExpressionReader read = [this](const YAML::Node& node,
+                                                     const std::string& where) {
+          return ParseExpression(node, where);
+        };
+        detail::PlanarBodies bodies;
+        try {
+          bodies = detail::ReadPlanarBodies(root_, model_.source_, read, model_.coordinates_,
+                                            coordinate_symbols_, velocity_symbols_, model_.inputs_);
+        } catch (const Error&) {
+          throw;
+        } catch (const std::exception& error) {
+          Fail("bodies",
+               std::string("cannot differentiate the positions and angles: ") + error.what());
+        }
+        equations.input_matrix = std::move(bodies.input_matrix);
+        Derive(bodies.energies, "bodies", equations);
+        return equations;
+      }
+    }
+    return equations;
+  }
+
+  // M and f from the energies (models/lagrangian_model.h), checked: T a quadratic form in the
+  // velocities, M positive definite at q = 0. `kinetic_key` names where T comes from.
+  void Derive(const detail::Energies& energies,
+              const std::string& kinetic_key,
+              EquationsOfMotion& equations) const {
+    try {
+      equations.mass_matrix = detail::KineticMassMatrix(energies.kinetic, velocity_symbols_);
+      for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
+        for (unsigned j = 0; j < equations.mass_matrix.cols(); ++j) {
+          for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+            if (equations.mass_matrix(i, j).has(velocity)) {
+              Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
+                                    velocity_symbols_[i].get_name() + " d" +
+                                    velocity_symbols_[j].get_name() + " = " +
+                                    CanonicalText(equations.mass_matrix(i, j)) +
+                                    " depends on the velocity '" + velocity.get_name() + "'");
+            }
+          }
+        }
+      }
+      const GiNaC::ex remainder = detail::QuadraticFormRemainder(
+          energies.kinetic, equations.mass_matrix, velocity_symbols_);
+      if (!remainder.is_zero() && !GiNaC::normal(remainder).is_zero() &&
+          !AgreeNumerically(energies.kinetic, energies.kinetic - remainder)) {
+        Fail(kinetic_key,
+             "T is not quadratic in the velocities: T - 1/2 q_dot^T M q_dot = " +
+                 CanonicalText(remainder) +
+                 " (terms linear in or free of the velocities; T(q, s q_dot) must be s^2 "
+                 "T(q, q_dot))");
+      }
+      CheckPositiveDefinite(equations.mass_matrix, kinetic_key);
+      equations.forces = detail::LagrangeForces(energies, coordinate_symbols_, velocity_symbols_);
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& error) {
+      Fail(kinetic_key, std::string("cannot differentiate the energies: ") + error.what());
+    }
+  }
+
+  // M(0) with the nominal parameters is positive definite; a point where an entry is
+  // undefined tells nothing (the analysis checks M again at its operating point).
+  void CheckPositiveDefinite(const GiNaC::matrix& mass_matrix, const std::string& key) const {
+    GiNaC::exmap values;
+    for (std::size_t k = 0; k < parameter_symbols_.size(); ++k) {
+      values[parameter_symbols_[k]] = model_.parameters_[static_cast<Eigen::Index>(k)];
+    }
+    for (const GiNaC::realsymbol& coordinate : coordinate_symbols_) values[coordinate] = 0;
+    const auto dof = static_cast<Eigen::Index>(mass_matrix.rows());
+    Eigen::MatrixXd mass(dof, dof);
+    for (Eigen::Index i = 0; i < dof; ++i) {
+      for (Eigen::Index j = 0; j < dof; ++j) {
+        const std::optional<double> value =
+            EvaluateAt(mass_matrix(unsigned(i), unsigned(j)), values);
+        if (!value || !std::isfinite(*value)) return;
+        mass(i, j) = *value;
+      }
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(mass, Eigen::EigenvaluesOnly);
+    const double smallest = eigen.eigenvalues()(0), largest = eigen.eigenvalues()(dof - 1);
+    if (smallest > kPositiveDefiniteTolerance * std::abs(largest)) return;
+    std::vector<std::string> massless;
+    for (Eigen::Index i = 0; i < dof; ++i) {
+      if (mass(i, i) <= 0) massless.push_back(model_.coordinates_[std::size_t(i)]);
+    }
+    std::ostringstream problem;
+    problem.precision(6);
+    problem << "the mass matrix d2T/dq_dot2 is not positive definite at q = 0 with the nominal "
+               "parameters (smallest eigenvalue "
+            << smallest << ", largest " << largest << ")";
+    if (!massless.empty()) problem << "; no kinetic energy in the coordinates " << Join(massless);
+    Fail(key, problem.str());
+  }
+
   // M(q), B(q) and h(q) are functions of the coordinates only (paper Eqs. 1, 3). `listed`: the
   // file writes `matrix` as a plain list (outputs), so entries are named key[i], not key[i][j].
   void CheckNoVelocities(const GiNaC::matrix& matrix,
@@ -423,6 +616,17 @@ class ModelBuilder {
                      " may depend on parameters and coordinates only");
           }
         }
+      }
+    }
+  }
+
+  void CheckNoVelocities(const GiNaC::ex& expression,
+                         const std::string& key,
+                         const std::string& quantity) const {
+    for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+      if (expression.has(velocity)) {
+        Fail(key, "depends on the velocity '" + velocity.get_name() + "'; " + quantity +
+                      " may depend on parameters and coordinates only");
       }
     }
   }
@@ -453,6 +657,9 @@ class ModelBuilder {
       }
       for (const GiNaC::realsymbol& coordinate : coordinate_symbols_) {
         values[coordinate] = unit(random);
+      }
+      for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+        values[velocity] = unit(random);
       }
       const std::optional<double> a = EvaluateAt(first, values);
       const std::optional<double> b = EvaluateAt(second, values);
@@ -532,6 +739,7 @@ class ModelBuilder {
 
   Model model_;
   YAML::Node root_;
+  Form form_;
   GiNaC::symtab symbol_table_;
   std::vector<GiNaC::realsymbol> parameter_symbols_, coordinate_symbols_, velocity_symbols_;
 };

@@ -24,6 +24,11 @@ section "Rotational arm, end effector s = l: unstable zero dynamics (non-minimum
 "$servokit" analyze "$models/rotational_arm.yaml" --set s=1
 section "Rotational arm, exact tip angle (atan2 of Eq. 51)"
 "$servokit" analyze "$models/rotational_arm_tip.yaml"
+section "Acrobot written as bodies (kind: planar-bodies): shoulder angle held, non-minimum phase"
+"$servokit" analyze "$models/acrobot.yaml"
+section "Cart carrying a pendulum written as energies (kind: lagrangian): rod tip, then 2l/3 (flat)"
+"$servokit" analyze "$models/cart_pendulum.yaml"
+"$servokit" analyze "$models/cart_pendulum.yaml" --set s=0.6666666666666666
 
 mkdir -p "$root/demo"
 # The lines of the JSON a reader looks at first: the method, its status and the forward check.

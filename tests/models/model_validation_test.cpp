@@ -118,7 +118,8 @@ TEST_CASE("kind: multibody is accepted; kind: linear and unknown kinds are named
                "kind: a linear model (Matrix Market matrices), which only the linear analysis "
                "and its sweep read; this needs a multibody model");
   RequireError(kValidModel + "kind: rigid\n",
-               "kind: unknown kind 'rigid' (expected linear or multibody)");
+               "kind: unknown kind 'rigid' (expected linear, multibody, lagrangian or "
+               "planar-bodies)");
 }
 
 TEST_CASE("a duplicate top-level key is an error", "[models]") {
