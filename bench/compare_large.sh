@@ -5,23 +5,39 @@
 # the (2n + m) Rosenbrock pencil, SuperLU + ARPACK), on the same files written by
 # `servokit generate chain|beam`.
 #
+# Dense-output mode (issue #19): OUTPUT_WEIGHTS=linear (or uniform) generates each chain with
+# `--output-weights linear`, y = sum (i/N) q_i, a dense row of C, and compares against the SciPy
+# bordered peer bench/scipy_bordered_eigs.py (SuperLU of K + sigma D + sigma^2 M only, the border
+# through the Schur complement, eigs on a LinearOperator) instead of the pencil peer, whose LU of
+# the bordered matrix fills in. Only the chain has the option: MODELS defaults to "chain" there.
+#
 # Usage: bench/compare_large.sh [BUILD_DIR]      (default: build)
 # Environment: SIZES (default "1000 10000 100000"; add 1000000 for the chain if memory allows),
 #              MODELS (default "chain beam"), K (default 10), NCV (ARPACK basis size for both
 #              tools, default servokit's max(2K + 10, 30)),
-#              PYTHON (default /usr/bin/python3, Debian's, with SciPy and PyYAML).
+#              PYTHON (default /usr/bin/python3, Debian's, with SciPy and PyYAML),
+#              OUTPUT_WEIGHTS (default mass: the output at mass 1; linear or uniform: see above).
 # Times are each tool's own phase timers (assembling the matrices and the pencil + LU +
 # eigensolver; reading the files and process start-up excluded on both sides); peak memory is
 # each process's max RSS (getrusage), which includes reading the files and, for SciPy, the
 # interpreter and NumPy (~60 MB). ratio = SciPy seconds / servokit seconds (> 1: servokit
-# faster). The largest relative difference between the two eigenvalue lists is printed too.
+# faster); mem = SciPy MB / servokit MB (> 1: servokit smaller); cpu = the two processes' user +
+# system CPU seconds (/usr/bin/time, start-up and reading the files included). The largest
+# relative difference between the two eigenvalue lists is printed too.
 set -euo pipefail
 
 build=${1:-build}
 root=$(cd "$(dirname "$0")/.." && pwd)
 python=${PYTHON:-/usr/bin/python3}
 sizes=${SIZES:-"1000 10000 100000"}
-models=${MODELS:-"chain beam"}
+weights=${OUTPUT_WEIGHTS:-mass}
+if [[ $weights == mass ]]; then
+  models=${MODELS:-"chain beam"}
+  peer="$root/bench/scipy_large_eigs.py"
+else
+  models=${MODELS:-chain}
+  peer="$root/bench/scipy_bordered_eigs.py"
+fi
 k=${K:-10}
 ncv=${NCV:-$(( 2 * k + 10 > 30 ? 2 * k + 10 : 30 ))}
 servokit="$build/application/servokit"
@@ -51,26 +67,33 @@ else:
 EOF
 }
 
-printf "%-6s %8s | %10s %10s | %10s %10s | %7s | %s\n" model N servokit_s rss_MB scipy_s \
-  rss_MB ratio max_rel_diff
+cpu() {  # cpu FILE: user + system seconds from /usr/bin/time -f "%U %S"
+  "$python" -c 'import sys; u, s = open(sys.argv[1]).read().split()[-2:]; print("%.2f" % (float(u) + float(s)))' "$1"
+}
+
+printf "%-6s %8s | %10s %10s %8s | %10s %10s %8s | %7s %7s | %s\n" model N servokit_s rss_MB cpu_s \
+  scipy_s rss_MB cpu_s ratio mem max_rel_diff
 for model in $models; do
   for n in $sizes; do
     dir="$work/$model-$n"
     mkdir -p "$dir"
     if [[ $model == chain ]]; then
-      "$servokit" generate chain --masses "$n" --out "$dir" >/dev/null
+      "$servokit" generate chain --masses "$n" --output-weights "$weights" --out "$dir" >/dev/null
     else
       "$servokit" generate beam --elements "$n" --out "$dir" >/dev/null
     fi
     yaml=$(ls "$dir"/*.yaml)
-    ours=$("$bench" "$yaml" "$k" "$ncv")
-    theirs=$("$python" "$root/bench/scipy_large_eigs.py" "$yaml" "$k" "$ncv")
+    ours=$(/usr/bin/time -f "%U %S" -o "$work/ours.time" "$bench" "$yaml" "$k" "$ncv")
+    theirs=$(/usr/bin/time -f "%U %S" -o "$work/theirs.time" "$python" "$peer" "$yaml" "$k" "$ncv")
     ours_s=$(field "$ours" seconds)
     theirs_s=$(field "$theirs" seconds)
+    ours_mb=$(field "$ours" max_rss_mb)
+    theirs_mb=$(field "$theirs" max_rss_mb)
     ratio=$("$python" -c "print('%.2f' % ($theirs_s / $ours_s))")
-    printf "%-6s %8s | %10.3f %10.1f | %10.3f %10.1f | %7s | %s\n" "$model" "$n" "$ours_s" \
-      "$(field "$ours" max_rss_mb)" "$theirs_s" "$(field "$theirs" max_rss_mb)" "$ratio" \
-      "$(difference "$ours" "$theirs")"
+    mem=$("$python" -c "print('%.2f' % ($theirs_mb / $ours_mb))")
+    printf "%-6s %8s | %10.3f %10.1f %8s | %10.3f %10.1f %8s | %7s %7s | %s\n" "$model" "$n" \
+      "$ours_s" "$ours_mb" "$(cpu "$work/ours.time")" "$theirs_s" "$theirs_mb" \
+      "$(cpu "$work/theirs.time")" "$ratio" "$mem" "$(difference "$ours" "$theirs")"
     rm -rf "$dir"
   done
 done
