@@ -438,6 +438,19 @@ TEST_CASE("a sweep over parameter values analyses the pattern once", "[analysis]
   CHECK(workspace.pattern_analyses() == 1);
 }
 
+TEST_CASE("a sweep of a dense-output chain analyses the pattern of Q once", "[analysis]") {
+  LinearZeroDynamicsWorkspace workspace;
+  for (double damping : {0.05, 0.1, 0.2}) {
+    const LinearSystem system = LinearOutputChain(30, damping);
+    const LinearZeroDynamics zeros = ComputeLinearZeroDynamics(
+        system, workspace, ZeroCount(system), WithSolver(LinearEigenSolver::kArpack, 4));
+    CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+    CHECK(EigenvalueDistance(zeros.eigenvalues,
+                             NearestEigenvalues(PencilZeros(system, 58), 0.0, 4)) < 1e-9);
+  }
+  CHECK(workspace.pattern_analyses() == 1);
+}
+
 TEST_CASE("a shift on a zero is reported as a singular Rosenbrock matrix", "[analysis]") {
   // Two masses, output at mass 1, mass 2 without spring or damper: holding mass 1 leaves mass 2
   // free, a double zero at lambda = 0, which is the default shift.
