@@ -73,10 +73,13 @@ constexpr double kSymmetryTolerance = 64 * std::numeric_limits<double>::epsilon(
 bool IsSymmetric(const SparseMatrix& matrix) {
   if (matrix.rows() != matrix.cols()) return false;
   if (matrix.nonZeros() == 0) return true;
-  const SparseMatrix asymmetry = matrix - SparseMatrix(matrix.transpose());
-  const double size = matrix.coeffs().cwiseAbs().maxCoeff();
-  return asymmetry.nonZeros() == 0 ||
-         asymmetry.coeffs().cwiseAbs().maxCoeff() <= kSymmetryTolerance * size;
+  const double limit = kSymmetryTolerance * matrix.coeffs().cwiseAbs().maxCoeff();
+  const SparseMatrix transpose = matrix.transpose();
+  if (SamePattern(matrix, transpose)) {  // the usual case: compare the values in place
+    return ((matrix.coeffs() - transpose.coeffs()).cwiseAbs() <= limit).all();
+  }
+  const SparseMatrix asymmetry = matrix - transpose;
+  return asymmetry.nonZeros() == 0 || asymmetry.coeffs().cwiseAbs().maxCoeff() <= limit;
 }
 
 // Row i: sum over j of |a_ij| (the infinity norm of A is the largest).
@@ -305,6 +308,10 @@ void LinearZeroDynamicsWorkspace::Factorize(const LinearSystem& system, double s
 bool LinearZeroDynamicsWorkspace::FactorizeSchur(const LinearSystem& system,
                                                  SparseMatrix dynamic,
                                                  double shift) {
+  // A row of zeros (a coordinate with no stiffness at sigma = 0: the beam's free hub) makes Q
+  // singular: go to the bordered LU without factorising Q, nor keeping a copy of it.
+  const Eigen::VectorXd dynamic_row_sizes = AbsoluteRowSums(dynamic);
+  if (!(dynamic_row_sizes.minCoeff() > 0.0)) return false;
   if (!SamePattern(dynamic, dynamic_)) ldlt_analysed_ = dynamic_lu_analysed_ = false;
   dynamic_ = std::move(dynamic);
   dynamic_symmetric_ = IsSymmetric(dynamic_);
@@ -354,7 +361,7 @@ bool LinearZeroDynamicsWorkspace::FactorizeSchur(const LinearSystem& system,
   residual.head(n) -= right.head(n);
   residual.tail(m).noalias() = output_ * q;
   residual.tail(m) -= right.tail(m);
-  Eigen::VectorXd row_sizes = AbsoluteRowSums(dynamic_) + AbsoluteRowSums(system.input_matrix);
+  const Eigen::VectorXd row_sizes = dynamic_row_sizes + AbsoluteRowSums(system.input_matrix);
   const double matrix_size = std::max(row_sizes.maxCoeff(), AbsoluteRowSums(output_).maxCoeff());
   const double solution_size = std::max(q.lpNorm<Eigen::Infinity>(), u.lpNorm<Eigen::Infinity>());
   const double backward_error = residual.lpNorm<Eigen::Infinity>() /

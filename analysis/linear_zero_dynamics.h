@@ -145,7 +145,8 @@ std::string_view ToString(RosenbrockFactorization factorization);  // "symmetric
 /// sparse solve with Q plus O(n m). A sparse LU of R itself fills in when a row of C is dense
 /// (an output that mixes many coordinates: O(n^2) at n = 10^4 for a chain), the Schur route never
 /// does. det R = +-det Q det S: with Q regular, S is singular exactly when R is. When Q(sigma) is
-/// singular (a free rigid-body mode at sigma = 0, the hub of `generate beam`) or the Schur solve's
+/// singular (a row of zeros, as the free hub of `generate beam` at sigma = 0, or a zero pivot)
+/// or the Schur solve's
 /// backward error on a test right-hand side exceeds kSchurBackwardErrorLimit, the workspace falls
 /// back to the sparse LU of R (the route of issue #6) and says so in factorization().
 class LinearZeroDynamicsWorkspace {
@@ -156,7 +157,8 @@ class LinearZeroDynamicsWorkspace {
   void Factorize(const LinearSystem& system, double shift);
   /// y = OP x = (A - shift E)^-1 E x on (q, v), sizes 2n; Factorize first.
   void ApplyShiftInvert(const double* x, double* y) const;
-  /// How many times a pattern was analysed (a sweep expects 1).
+  /// How many times a pattern was analysed (a sweep expects 1: the pattern of Q, or of R when
+  /// every point falls back to the bordered LU).
   int pattern_analyses() const { return pattern_analyses_; }
   /// The route of the last Factorize.
   RosenbrockFactorization factorization() const { return factorization_; }
