@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Side-by-side: the 10 zero-dynamics eigenvalues nearest 0 of large linear models (issue #6),
-# servokit (bench/large_model_bench.cpp: R(0) = [[-K, B], [C, 0]], Eigen SparseLU, ARPACK
-# shift-invert on (q, v)) against SciPy (bench/scipy_large_eigs.py: eigs(A, k, M=E, sigma=0) on
+# servokit (bench/large_model_bench.cpp: solves with R(0) = [[-K, B], [C, 0]] through the Schur
+# complement on an LDLT of K, or the SparseLU of R(0) when K is singular (the beam's free hub),
+# ARPACK shift-invert on (q, v)) against SciPy (bench/scipy_large_eigs.py: eigs(A, k, M=E, sigma=0) on
 # the (2n + m) Rosenbrock pencil, SuperLU + ARPACK), on the same files written by
 # `servokit generate chain|beam`.
 #
