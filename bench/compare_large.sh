@@ -17,7 +17,9 @@
 #              MODELS (default "chain beam"), K (default 10), NCV (ARPACK basis size for both
 #              tools, default servokit's max(2K + 10, 30)),
 #              PYTHON (default /usr/bin/python3, Debian's, with SciPy and PyYAML),
-#              OUTPUT_WEIGHTS (default mass: the output at mass 1; linear or uniform: see above).
+#              OUTPUT_WEIGHTS (default mass: the output at mass 1; linear or uniform: see above),
+#              REPEAT (default 1: runs per tool and size, alternating; each column shows the
+#              best run, which is what a shared, busy machine can measure).
 # Times are each tool's own phase timers (assembling the matrices and the pencil + LU +
 # eigensolver; reading the files and process start-up excluded on both sides); peak memory is
 # each process's max RSS (getrusage), which includes reading the files and, for SciPy, the
@@ -40,6 +42,7 @@ else
   peer="$root/bench/scipy_bordered_eigs.py"
 fi
 k=${K:-10}
+repeat=${REPEAT:-1}
 ncv=${NCV:-$(( 2 * k + 10 > 30 ? 2 * k + 10 : 30 ))}
 servokit="$build/application/servokit"
 bench="$build/bench/bench_large_model"
@@ -68,8 +71,20 @@ else:
 EOF
 }
 
-cpu() {  # cpu FILE: user + system seconds from /usr/bin/time -f "%U %S"
-  "$python" -c 'import sys; u, s = open(sys.argv[1]).read().split()[-2:]; print("%.2f" % (float(u) + float(s)))' "$1"
+cpu() {  # cpu FILE: the least user + system seconds of the runs /usr/bin/time -a appended
+  "$python" - "$1" <<'EOF'
+import sys
+words = open(sys.argv[1]).read().split()
+print("%.2f" % min(float(u) + float(s) for u, s in zip(words[::2], words[1::2])))
+EOF
+}
+
+best() {  # best JSON_A JSON_B: the run with the smaller "seconds" (JSON_A may be empty)
+  "$python" - "$1" "$2" <<'EOF'
+import json, sys
+runs = [text for text in sys.argv[1:] if text]
+print(min(runs, key=lambda text: json.loads(text)["seconds"]))
+EOF
 }
 
 printf "%-6s %8s | %10s %10s %8s | %10s %10s %8s | %7s %7s | %s\n" model N servokit_s rss_MB cpu_s \
@@ -84,8 +99,13 @@ for model in $models; do
       "$servokit" generate beam --elements "$n" --out "$dir" >/dev/null
     fi
     yaml=$(ls "$dir"/*.yaml)
-    ours=$(/usr/bin/time -f "%U %S" -o "$work/ours.time" "$bench" "$yaml" "$k" "$ncv")
-    theirs=$(/usr/bin/time -f "%U %S" -o "$work/theirs.time" "$python" "$peer" "$yaml" "$k" "$ncv")
+    ours="" theirs=""
+    for ((run = 0; run < repeat; ++run)); do  # alternating, so that both see the same load
+      ours=$(best "$ours" "$(/usr/bin/time -f "%U %S" -a -o "$work/ours.time" "$bench" "$yaml" \
+        "$k" "$ncv")")
+      theirs=$(best "$theirs" "$(/usr/bin/time -f "%U %S" -a -o "$work/theirs.time" "$python" \
+        "$peer" "$yaml" "$k" "$ncv")")
+    done
     ours_s=$(field "$ours" seconds)
     theirs_s=$(field "$theirs" seconds)
     ours_mb=$(field "$ours" max_rss_mb)
@@ -95,6 +115,6 @@ for model in $models; do
     printf "%-6s %8s | %10.3f %10.1f %8s | %10.3f %10.1f %8s | %7s %7s | %s\n" "$model" "$n" \
       "$ours_s" "$ours_mb" "$(cpu "$work/ours.time")" "$theirs_s" "$theirs_mb" \
       "$(cpu "$work/theirs.time")" "$ratio" "$mem" "$(difference "$ours" "$theirs")"
-    rm -rf "$dir"
+    rm -rf "$dir" "$work/ours.time" "$work/theirs.time"
   done
 done
