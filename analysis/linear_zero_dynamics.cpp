@@ -5,6 +5,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 #include <utility>
@@ -24,6 +25,13 @@ constexpr std::pair<LinearEigenSolver, std::string_view> kSolverNames[] = {
 constexpr std::pair<EigenvalueTarget, std::string_view> kTargetNames[] = {
     {EigenvalueTarget::kNearest, "nearest"},
     {EigenvalueTarget::kRightmost, "rightmost"},
+};
+
+constexpr std::pair<RosenbrockFactorization, std::string_view> kFactorizationNames[] = {
+    {RosenbrockFactorization::kNone, "none"},
+    {RosenbrockFactorization::kSymmetricSchur, "symmetric-schur"},
+    {RosenbrockFactorization::kSchur, "schur"},
+    {RosenbrockFactorization::kBorderedLU, "bordered-lu"},
 };
 
 // Power iterations for the size of the largest |nu| (the scale of the infinite-eigenvalue test
@@ -58,10 +66,42 @@ bool SamePattern(const SparseMatrix& a, const SparseMatrix& b) {
 
 std::string Count(Eigen::Index count) { return std::to_string(count); }
 
+// Q(sigma) counts as symmetric (LDLT) when |Q - Q^T| <= kSymmetryTolerance max |Q| entrywise:
+// round-off of a symmetric model's file, no more (LDLT reads the lower triangle only).
+constexpr double kSymmetryTolerance = 64 * std::numeric_limits<double>::epsilon();
+
+bool IsSymmetric(const SparseMatrix& matrix) {
+  if (matrix.rows() != matrix.cols()) return false;
+  if (matrix.nonZeros() == 0) return true;
+  const double limit = kSymmetryTolerance * matrix.coeffs().cwiseAbs().maxCoeff();
+  const SparseMatrix transpose = matrix.transpose();
+  if (SamePattern(matrix, transpose)) {  // the usual case: compare the values in place
+    return ((matrix.coeffs() - transpose.coeffs()).cwiseAbs() <= limit).all();
+  }
+  const SparseMatrix asymmetry = matrix - transpose;
+  return asymmetry.nonZeros() == 0 || asymmetry.coeffs().cwiseAbs().maxCoeff() <= limit;
+}
+
+// Row i: sum over j of |a_ij| (the infinity norm of A is the largest).
+Eigen::VectorXd AbsoluteRowSums(const SparseMatrix& matrix) {
+  Eigen::VectorXd sums = Eigen::VectorXd::Zero(matrix.rows());
+  for (Eigen::Index j = 0; j < matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(matrix, j); it; ++it)
+      sums(it.row()) += std::abs(it.value());
+  }
+  return sums;
+}
+
 std::string ShiftText(double shift) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%g", shift);
   return buffer;
+}
+
+std::string SingularRosenbrockMessage(double shift, const std::string& detail) {
+  return "the Rosenbrock matrix [[-(K + s D + s^2 M), B], [C, 0]] is singular at the shift s = " +
+         ShiftText(shift) + " (s is an invariant zero, or the model is not invertible): " + detail +
+         "; choose another shift";
 }
 
 // nu of the dense OP, 2n x 2n, all eigenvalues.
@@ -165,6 +205,13 @@ std::string_view ToString(EigenvalueTarget target) {
   return "nearest";
 }
 
+std::string_view ToString(RosenbrockFactorization factorization) {
+  for (const auto& [key, name] : kFactorizationNames) {
+    if (key == factorization) return name;
+  }
+  return "none";
+}
+
 std::optional<LinearEigenSolver> LinearEigenSolverFromString(std::string_view text) {
   for (const auto& [key, name] : kSolverNames) {
     if (name == text) return key;
@@ -243,6 +290,89 @@ SparseMatrix BuildRosenbrockMatrix(const LinearSystem& system, double shift) {
 
 void LinearZeroDynamicsWorkspace::Factorize(const LinearSystem& system, double shift) {
   system.Validate();
+  shift_ = shift;
+  dof_ = system.dof();
+  inputs_ = system.num_inputs();
+  // The sum keeps the union pattern with explicit zeros, so the pattern is independent of shift.
+  SparseMatrix dynamic = system.stiffness + shift * system.damping + (shift * shift) * system.mass;
+  dynamic.makeCompressed();
+  factorization_ = RosenbrockFactorization::kNone;
+  if (!FactorizeSchur(system, std::move(dynamic), shift)) FactorizeBordered(system, shift);
+  mass_ = system.mass;
+  damping_plus_shift_mass_ = system.damping + shift * system.mass;
+  rhs_.setZero(dof_ + inputs_);
+  solution_.resize(dof_ + inputs_);
+  inputs_solution_.resize(inputs_);
+}
+
+bool LinearZeroDynamicsWorkspace::FactorizeSchur(const LinearSystem& system,
+                                                 SparseMatrix dynamic,
+                                                 double shift) {
+  // A row of zeros (a coordinate with no stiffness at sigma = 0: the beam's free hub) makes Q
+  // singular: go to the bordered LU without factorising Q, nor keeping a copy of it.
+  const Eigen::VectorXd dynamic_row_sizes = AbsoluteRowSums(dynamic);
+  if (!(dynamic_row_sizes.minCoeff() > 0.0)) return false;
+  if (!SamePattern(dynamic, dynamic_)) ldlt_analysed_ = dynamic_lu_analysed_ = false;
+  dynamic_ = std::move(dynamic);
+  dynamic_symmetric_ = IsSymmetric(dynamic_);
+  const Eigen::MatrixXd input = Eigen::MatrixXd(system.input_matrix);
+  if (dynamic_symmetric_) {
+    if (!ldlt_analysed_) {
+      dynamic_ldlt_.analyzePattern(dynamic_);
+      ldlt_analysed_ = true;
+      ++pattern_analyses_;
+    }
+    dynamic_ldlt_.factorize(dynamic_);
+    if (dynamic_ldlt_.info() != Eigen::Success) return false;  // a zero pivot: Q singular
+    input_solution_ = dynamic_ldlt_.solve(input);
+  } else {
+    if (!dynamic_lu_analysed_) {
+      dynamic_lu_.analyzePattern(dynamic_);
+      dynamic_lu_analysed_ = true;
+      ++pattern_analyses_;
+    }
+    dynamic_lu_.factorize(dynamic_);
+    if (dynamic_lu_.info() != Eigen::Success) {
+      dynamic_lu_analysed_ = false;  // a failed factorisation leaves SparseLU unusable
+      return false;
+    }
+    input_solution_ = dynamic_lu_.solve(input);
+  }
+  if (!input_solution_.allFinite()) return false;
+  output_ = system.output_matrix;
+  const Eigen::MatrixXd schur = output_ * input_solution_;  // S = C Q^-1 B, m x m
+  if (!schur.allFinite()) return false;
+  schur_.compute(schur);
+  if (!schur_.isInvertible()) {
+    // det R = +-det Q det S with Q regular: R(shift) is singular.
+    throw NoSolution(SingularRosenbrockMessage(shift, "its Schur complement C Q^-1 B is singular"));
+  }
+  // The backward error of one solve with a fixed pseudo-random right-hand side [r; s].
+  const Eigen::Index n = dof_, m = inputs_;
+  std::mt19937 generator(kStartSeed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::VectorXd right(n + m);
+  for (Eigen::Index i = 0; i < n + m; ++i) right(i) = uniform(generator);
+  Eigen::VectorXd q(n), u(m);
+  SolveSchur(right.head(n), right.data() + n, q, u);
+  Eigen::VectorXd residual(n + m);
+  residual.head(n).noalias() = system.input_matrix * u;
+  residual.head(n).noalias() -= dynamic_ * q;
+  residual.head(n) -= right.head(n);
+  residual.tail(m).noalias() = output_ * q;
+  residual.tail(m) -= right.tail(m);
+  const Eigen::VectorXd row_sizes = dynamic_row_sizes + AbsoluteRowSums(system.input_matrix);
+  const double matrix_size = std::max(row_sizes.maxCoeff(), AbsoluteRowSums(output_).maxCoeff());
+  const double solution_size = std::max(q.lpNorm<Eigen::Infinity>(), u.lpNorm<Eigen::Infinity>());
+  const double backward_error = residual.lpNorm<Eigen::Infinity>() /
+                                (matrix_size * solution_size + right.lpNorm<Eigen::Infinity>());
+  if (!(backward_error <= kSchurBackwardErrorLimit)) return false;
+  factorization_ = dynamic_symmetric_ ? RosenbrockFactorization::kSymmetricSchur
+                                      : RosenbrockFactorization::kSchur;
+  return true;
+}
+
+void LinearZeroDynamicsWorkspace::FactorizeBordered(const LinearSystem& system, double shift) {
   SparseMatrix rosenbrock = BuildRosenbrockMatrix(system, shift);
   if (!analysed_ || !SamePattern(rosenbrock, rosenbrock_)) {
     lu_.analyzePattern(rosenbrock);
@@ -253,30 +383,40 @@ void LinearZeroDynamicsWorkspace::Factorize(const LinearSystem& system, double s
   lu_.factorize(rosenbrock_);
   if (lu_.info() != Eigen::Success) {
     analysed_ = false;  // a failed factorisation leaves the solver unusable until re-analysed
-    throw NoSolution(
-        "the Rosenbrock matrix [[-(K + s D + s^2 M), B], [C, 0]] is singular at the "
-        "shift s = " +
-        ShiftText(shift) + " (s is an invariant zero, or the model is not invertible): " +
-        lu_.lastErrorMessage() + "; choose another shift");
+    throw NoSolution(SingularRosenbrockMessage(shift, lu_.lastErrorMessage()));
   }
-  shift_ = shift;
-  dof_ = system.dof();
-  inputs_ = system.num_inputs();
-  mass_ = system.mass;
-  damping_plus_shift_mass_ = system.damping + shift * system.mass;
-  rhs_.setZero(dof_ + inputs_);
-  solution_.resize(dof_ + inputs_);
+  factorization_ = RosenbrockFactorization::kBorderedLU;
+}
+
+void LinearZeroDynamicsWorkspace::SolveSchur(const Eigen::Ref<const Eigen::VectorXd>& top,
+                                             const double* bottom,
+                                             Eigen::Ref<Eigen::VectorXd> q,
+                                             Eigen::Ref<Eigen::VectorXd> u) const {
+  // -Q q + B u = top, C q = bottom: q = W u - z with z = Q^-1 top, and S u = bottom + C z.
+  if (dynamic_symmetric_) {
+    q = dynamic_ldlt_.solve(top);
+  } else {
+    q = dynamic_lu_.solve(top);
+  }
+  Eigen::VectorXd image = output_ * q;
+  if (bottom != nullptr) image += Eigen::Map<const Eigen::VectorXd>(bottom, inputs_);
+  u = schur_.solve(image);
+  q = input_solution_ * u - q;
 }
 
 void LinearZeroDynamicsWorkspace::ApplyShiftInvert(const double* x, double* y) const {
-  assert(analysed_);
+  assert(factorization_ != RosenbrockFactorization::kNone);
   const Eigen::Map<const Eigen::VectorXd> w1(x, dof_), w2(x + dof_, dof_);
   Eigen::Map<Eigen::VectorXd> q(y, dof_), v(y + dof_, dof_);
   rhs_.head(dof_).noalias() = mass_ * w2;
   rhs_.head(dof_).noalias() += damping_plus_shift_mass_ * w1;
-  rhs_.tail(inputs_).setZero();
-  solution_ = lu_.solve(rhs_);
-  q = solution_.head(dof_);
+  if (factorization_ == RosenbrockFactorization::kBorderedLU) {
+    rhs_.tail(inputs_).setZero();
+    solution_ = lu_.solve(rhs_);
+    q = solution_.head(dof_);
+  } else {
+    SolveSchur(rhs_.head(dof_), nullptr, q, inputs_solution_);
+  }
   v = w1 + shift_ * q;
 }
 

@@ -25,15 +25,18 @@
 // eliminates to the (n + m) x (n + m) Rosenbrock matrix at sigma,
 //     R(sigma) [q; u] = [M w2 + (D + sigma M) w1; 0],   v = w1 + sigma q,
 // so OP = (A - sigma E)^-1 E acts on (q, v) in dimension 2n (its value does not depend on u),
-// through one sparse LU of R(sigma), which is the block elimination of A - sigma E and half its
-// size. Its eigenvalues are nu = 1/(lambda - sigma) for the finite zeros and nu = 0 for the
-// infinite ones.
+// through one solve with R(sigma), which is the block elimination of A - sigma E and half its
+// size; R(sigma) itself is applied through its Schur complement on the border (B, C), with only
+// Q(sigma) factorised sparse (LinearZeroDynamicsWorkspace). Its eigenvalues are nu = 1/(lambda -
+// sigma) for the finite zeros and nu = 0 for the infinite ones.
 //
 // Routes: dense (all zeros: the 2n x 2n matrix of OP and Eigen's real Schur eigensolver;
 // measured on the damped chain 3-5 times faster than QZ of the (2n + m) pencil by
 // GeneralizedEigenSolver (n = 200: 0.19 s against 0.70 s; n = 400: 2.0 s against 4.8 s), the
 // same zeros to 1e-12; ~35 s at n = 1000) and ARPACK (the k zeros nearest sigma, or the k with
 // largest Re 1/(lambda - sigma), see EigenvalueTarget).
+#include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <Eigen/SparseLU>
 #include <complex>
@@ -122,30 +125,81 @@ struct LinearZeroDynamicsOptions {
   void Validate() const;
 };
 
-/// The sparse LU of R(sigma) and its pattern, reused across parameter points: a sweep over one
-/// model analyses the pattern once and only refactorises (the pattern of R does not depend on
-/// the parameter values or on sigma, see BuildRosenbrockMatrix).
+/// How LinearZeroDynamicsWorkspace::Factorize applied R(sigma)^-1 (see the workspace).
+enum class RosenbrockFactorization {
+  kNone,            // Factorize not called yet
+  kSymmetricSchur,  // LDLT of Q(sigma) (symmetric) + the m x m Schur complement
+  kSchur,           // sparse LU of Q(sigma) (not symmetric) + the m x m Schur complement
+  kBorderedLU,      // sparse LU of R(sigma) itself (Q(sigma) singular or the Schur solve
+                    // not accurate: the fallback, exact but O(n m) fill for a dense C row)
+};
+std::string_view ToString(RosenbrockFactorization factorization);  // "symmetric-schur", ...
+
+/// The factorisation of R(sigma) = [[-Q, B], [C, 0]], Q = K + sigma D + sigma^2 M, reused across
+/// parameter points: a sweep over one model analyses the pattern once and only refactorises
+/// (the pattern of Q, and of R, does not depend on the parameter values or on sigma).
+///
+/// The border (B, C) is applied through the Schur complement, so that only Q is factorised
+/// sparse (LDLT when Q is symmetric, else LU): with W = Q^-1 B (dense n x m) and
+/// S = C W (m x m, LU), R [q; u] = [r; s] is z = Q^-1 r, u = S^-1 (s + C z), q = W u - z, one
+/// sparse solve with Q plus O(n m). A sparse LU of R itself fills in when a row of C is dense
+/// (an output that mixes many coordinates: O(n^2) at n = 10^4 for a chain), the Schur route never
+/// does. det R = +-det Q det S: with Q regular, S is singular exactly when R is. When Q(sigma) is
+/// singular (a row of zeros, as the free hub of `generate beam` at sigma = 0, or a zero pivot)
+/// or the Schur solve's
+/// backward error on a test right-hand side exceeds kSchurBackwardErrorLimit, the workspace falls
+/// back to the sparse LU of R (the route of issue #6) and says so in factorization().
 class LinearZeroDynamicsWorkspace {
  public:
-  /// Factorises R(shift) of `system`; analyses the pattern only when it changed since the last
+  /// Factorises R(shift) of `system`; analyses a pattern only when it changed since the last
   /// call. Throws NoSolution if R(shift) is singular (shift is a zero, or the system is not
   /// invertible).
   void Factorize(const LinearSystem& system, double shift);
   /// y = OP x = (A - shift E)^-1 E x on (q, v), sizes 2n; Factorize first.
   void ApplyShiftInvert(const double* x, double* y) const;
-  /// How many times the pattern was analysed (a sweep expects 1).
+  /// How many times a pattern was analysed (a sweep expects 1: the pattern of Q, or of R when
+  /// every point falls back to the bordered LU).
   int pattern_analyses() const { return pattern_analyses_; }
+  /// The route of the last Factorize.
+  RosenbrockFactorization factorization() const { return factorization_; }
+
+  /// Largest normwise backward error |R x - r| / (|R| |x| + |r|) (infinity norms) of the Schur
+  /// solve on a test right-hand side for which the Schur route is kept. LDLT and LU are backward
+  /// stable for a regular Q; a Q close to singular (relative to R) shows here.
+  static constexpr double kSchurBackwardErrorLimit = 1e-11;
 
  private:
+  // The Schur route; false when Q is singular or the solve is not accurate (then the bordered
+  // LU is used). Throws NoSolution when S is singular.
+  bool FactorizeSchur(const LinearSystem& system, SparseMatrix dynamic, double shift);
+  void FactorizeBordered(const LinearSystem& system, double shift);
+  // [q; u] = R^-1 [top; bottom] by the Schur route; `bottom` of size m (nullptr: zero).
+  void SolveSchur(const Eigen::Ref<const Eigen::VectorXd>& top,
+                  const double* bottom,
+                  Eigen::Ref<Eigen::VectorXd> q,
+                  Eigen::Ref<Eigen::VectorXd> u) const;
+
+  // Q(sigma) and its factorisations (the pattern of the last Q is kept to detect a change).
+  SparseMatrix dynamic_;
+  bool dynamic_symmetric_ = false;
+  Eigen::SimplicialLDLT<SparseMatrix> dynamic_ldlt_;
+  Eigen::SparseLU<SparseMatrix, Eigen::COLAMDOrdering<int>> dynamic_lu_;
+  bool ldlt_analysed_ = false, dynamic_lu_analysed_ = false;
+  SparseMatrix output_;                      // C
+  Eigen::MatrixXd input_solution_;           // W = Q^-1 B, n x m
+  Eigen::FullPivLU<Eigen::MatrixXd> schur_;  // of S = C W
+  // The fallback: the sparse LU of R.
   Eigen::SparseLU<SparseMatrix, Eigen::COLAMDOrdering<int>> lu_;
   SparseMatrix rosenbrock_;
+  bool analysed_ = false;
+
+  RosenbrockFactorization factorization_ = RosenbrockFactorization::kNone;
   SparseMatrix damping_plus_shift_mass_;  // D + sigma M
   SparseMatrix mass_;
   double shift_ = 0.0;
   Eigen::Index dof_ = 0, inputs_ = 0;
-  bool analysed_ = false;
   int pattern_analyses_ = 0;
-  mutable Eigen::VectorXd rhs_, solution_;
+  mutable Eigen::VectorXd rhs_, solution_, inputs_solution_;
 };
 
 /// R(sigma) = [[-(K + sigma D + sigma^2 M), B], [C, 0]], (n + m) x (n + m), with the pattern

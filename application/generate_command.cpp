@@ -1,11 +1,13 @@
 // servokit generate chain --masses N [--mass m] [--stiffness k] [--damping d]
-//                         [--input-mass i] [--output-mass j] --out DIR [--name NAME]
+//                         [--input-mass i] [--output-mass j | --output-weights W]
+//                         --out DIR [--name NAME]
 // servokit generate beam  --elements N [--length L] [--hub-inertia J] [--mass-per-length r]
 //                         [--bending-stiffness EI] [--damping-factor b] --out DIR [--name NAME]
 //
 // Writes a large linear model (models/linear_model.h) into DIR, made if missing, and prints the
 // path of its YAML file as one line, so that `servokit analyze "$(servokit generate ...)"` works.
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
 
@@ -22,8 +24,9 @@ namespace {
 struct GenerateArguments {
   ChainOptions chain;
   BeamOptions beam;
-  std::string out;   // the output directory
-  std::string name;  // empty: chain_N or beam_N
+  std::string output_weights = "mass";  // --output-weights, ChainOutputWeights by name
+  std::string out;                      // the output directory
+  std::string name;                     // empty: chain_N or beam_N
 };
 
 int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::ostream& out) {
@@ -37,7 +40,16 @@ int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::
 // BeamOptions::mass_per_length); an option error from the generator names the flag too.
 LinearModelFiles Generate(const CLI::App& chain, const GenerateArguments& arguments) {
   try {
-    return chain.parsed() ? GenerateChain(arguments.chain) : GenerateBeam(arguments.beam);
+    if (!chain.parsed()) return GenerateBeam(arguments.beam);
+    ChainOptions options = arguments.chain;
+    const std::optional<ChainOutputWeights> weights =
+        ChainOutputWeightsFromString(arguments.output_weights);
+    if (!weights) {
+      throw UsageError("--output-weights " + arguments.output_weights +
+                       ": expected mass, linear or uniform");
+    }
+    options.output_weights = *weights;
+    return GenerateChain(options);
   } catch (const OptionError& error) {
     std::string flag = error.field();
     for (char& c : flag) {
@@ -64,6 +76,7 @@ Command AddGenerateCommand(CLI::App& app) {
   generate->footer(
       "Prints the path of the model file it wrote.\n"
       "Examples:\n  servokit generate chain --masses 100000 --out big\n"
+      "  servokit generate chain --masses 100000 --output-weights linear --out big\n"
       "  servokit generate beam --elements 1000 --hub-inertia 0.5 --out big");
 
   CLI::App* chain = generate->add_subcommand(
@@ -78,6 +91,12 @@ Command AddGenerateCommand(CLI::App& app) {
   chain->add_option("--input-mass", chain_options.input_mass, "Mass the force acts on, 1..N")
       ->capture_default_str();
   chain->add_option("--output-mass", chain_options.output_mass, "Mass whose position is y, 1..N")
+      ->capture_default_str();
+  chain
+      ->add_option("--output-weights", arguments->output_weights,
+                   "The output y: mass (the position of --output-mass), linear (sum of (i/N) q_i "
+                   "over every mass) or uniform (the mean position, sum of q_i / N); linear and "
+                   "uniform mix all N coordinates (a dense row of C)")
       ->capture_default_str();
   AddOutputOptions(*chain, *arguments, "chain");
 

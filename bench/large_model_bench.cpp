@@ -1,12 +1,13 @@
 // The k zero-dynamics eigenvalues nearest 0 of one large linear model file (issue #6), timed in
 // phases: load (YAML + Matrix Market), assemble (M, D, K at the nominal parameters),
-// zero dynamics (Rosenbrock matrix R(0), its sparse LU, ARPACK shift-invert). Peak memory is the
+// zero dynamics (solves with the Rosenbrock matrix R(0), ARPACK shift-invert). Peak memory is the
 // process's max RSS (getrusage), so run one model per process.
 //
 // Usage: bench_large_model MODEL.yaml [K [NCV]]   (K default 10; NCV default: ArpackOptions)
 // Prints one JSON line: {"model", "dof", "k", "load_seconds", "assemble_seconds",
 // "zero_dynamics_seconds", "seconds" (assemble + zero dynamics, what SciPy's side times),
-// "max_rss_mb", "operator_applications", "restarts", "eigenvalues": [[re, im], ...]}.
+// "max_rss_mb", "operator_applications", "restarts", "factorization" (how R(0) was factorised:
+// RosenbrockFactorization), "eigenvalues": [[re, im], ...]}.
 #include <sys/resource.h>
 
 #include <chrono>
@@ -73,10 +74,11 @@ int main(int argc, char** argv) {
         "{\"model\": \"%s\", \"dof\": %zu, \"k\": %d, \"load_seconds\": %.6g, "
         "\"assemble_seconds\": %.6g, \"zero_dynamics_seconds\": %.6g, \"seconds\": %.6g, "
         "\"max_rss_mb\": %.1f, \"operator_applications\": %d, \"restarts\": %d, "
-        "\"eigenvalues\": [%s]}\n",
+        "\"factorization\": \"%s\", \"eigenvalues\": [%s]}\n",
         model.name().c_str(), model.dof(), k, load_seconds, assemble_seconds, zero_dynamics_seconds,
         assemble_seconds + zero_dynamics_seconds, MaxRssMegabytes(),
-        zeros.arpack.operator_applications, zeros.arpack.restarts, eigenvalues.c_str());
+        zeros.arpack.operator_applications, zeros.arpack.restarts,
+        std::string(ToString(workspace.factorization())).c_str(), eigenvalues.c_str());
     return 0;
   } catch (const std::exception& error) {
     std::fprintf(stderr, "bench_large_model: error: %s\n", error.what());

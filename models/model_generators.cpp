@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "models/errors.h"
@@ -22,6 +23,12 @@ constexpr long kMaxElements = (kMaxMatrixDimension - 1) / 2;
 // hub's inertia may vanish.
 constexpr const char* kFinitePositive = "must be a finite number > 0";
 constexpr const char* kFiniteNonNegative = "must be a finite number >= 0";
+
+constexpr std::pair<ChainOutputWeights, std::string_view> kOutputWeightNames[] = {
+    {ChainOutputWeights::kMass, "mass"},
+    {ChainOutputWeights::kLinear, "linear"},
+    {ChainOutputWeights::kUniform, "uniform"},
+};
 
 SparseMatrix FromTriplets(long rows, long cols, const std::vector<Triplet>& triplets) {
   SparseMatrix matrix(rows, cols);
@@ -119,7 +126,56 @@ SparseMatrix BeamUnitStiffness(long elements, double length) {
   return FromTriplets(dof, dof, triplets);
 }
 
+// The chain's output row C (1 x N).
+SparseMatrix ChainOutputRow(const ChainOptions& options) {
+  const long n = options.masses;
+  std::vector<Triplet> triplets;
+  switch (options.output_weights) {
+    case ChainOutputWeights::kMass:
+      triplets.emplace_back(0, static_cast<int>(options.output_mass - 1), 1.0);
+      break;
+    case ChainOutputWeights::kLinear:
+    case ChainOutputWeights::kUniform:
+      triplets.reserve(static_cast<std::size_t>(n));
+      for (long i = 0; i < n; ++i) {
+        const double weight = options.output_weights == ChainOutputWeights::kLinear
+                                  ? static_cast<double>(i + 1) / static_cast<double>(n)
+                                  : 1.0 / static_cast<double>(n);
+        triplets.emplace_back(0, static_cast<int>(i), weight);
+      }
+      break;
+  }
+  return FromTriplets(1, n, triplets);
+}
+
+// The output's words in the model's description.
+std::string ChainOutputText(const ChainOptions& options) {
+  switch (options.output_weights) {
+    case ChainOutputWeights::kLinear:
+      return "output sum (i/N) q_i over all masses";
+    case ChainOutputWeights::kUniform:
+      return "output the mean position sum q_i / N";
+    case ChainOutputWeights::kMass:
+      break;
+  }
+  return "output the position of mass " + std::to_string(options.output_mass);
+}
+
 }  // namespace
+
+std::string_view ToString(ChainOutputWeights weights) {
+  for (const auto& [key, name] : kOutputWeightNames) {
+    if (key == weights) return name;
+  }
+  return "mass";
+}
+
+std::optional<ChainOutputWeights> ChainOutputWeightsFromString(std::string_view text) {
+  for (const auto& [key, name] : kOutputWeightNames) {
+    if (name == text) return key;
+  }
+  return std::nullopt;
+}
 
 void ChainOptions::Validate() const {
   constexpr const char* kOptions = "ChainOptions";
@@ -134,6 +190,10 @@ void ChainOptions::Validate() const {
                 "must be from 1 to masses = " + std::to_string(masses));
   RequireOption(output_mass >= 1 && output_mass <= masses, kOptions, "output_mass", output_mass,
                 "must be from 1 to masses = " + std::to_string(masses));
+  RequireOption(output_weights == ChainOutputWeights::kMass || output_mass == 1, kOptions,
+                "output_mass", output_mass,
+                "applies only to the output weights 'mass' (the weights are " +
+                    std::string(ToString(output_weights)) + ")");
 }
 
 LinearModelFiles GenerateChain(const ChainOptions& options) {
@@ -143,8 +203,8 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
   files.name = "chain_" + std::to_string(n);
   files.description = "chain of " + std::to_string(n) + " masses m, springs k and dampers d " +
                       "from the ground to a free end; force on mass " +
-                      std::to_string(options.input_mass) + ", output the position of mass " +
-                      std::to_string(options.output_mass) + " (servokit generate chain)";
+                      std::to_string(options.input_mass) + ", " + ChainOutputText(options) +
+                      " (servokit generate chain)";
   files.parameters = {{"m", options.mass}, {"k", options.stiffness}, {"d", options.damping}};
   SparseMatrix identity(n, n);
   identity.setIdentity();
@@ -154,7 +214,7 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
   files.damping = {{laplacian, "d"}};
   files.stiffness = {{laplacian, "k"}};
   files.input_matrix = UnitEntry(n, 1, options.input_mass - 1, 0);
-  files.output_matrix = UnitEntry(1, n, 0, options.output_mass - 1);
+  files.output_matrix = ChainOutputRow(options);
   return files;
 }
 

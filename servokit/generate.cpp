@@ -1,5 +1,6 @@
 // api::Generate: large linear models written as `servokit generate chain|beam` writes them.
 #include <filesystem>
+#include <optional>
 
 #include "models/errors.h"
 #include "models/model_generators.h"
@@ -28,6 +29,13 @@ std::string Generate(const ChainModel& chain,
   options.damping = chain.damping;
   options.input_mass = chain.input_mass;
   options.output_mass = chain.output_mass;
+  const std::optional<ChainOutputWeights> weights =
+      ChainOutputWeightsFromString(chain.output_weights);
+  if (!weights) {
+    throw UsageError("output_weights '" + chain.output_weights +
+                     "': expected mass, linear or uniform");
+  }
+  options.output_weights = *weights;
   return Write(GenerateChain(options), directory, name);
 }
 

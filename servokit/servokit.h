@@ -333,7 +333,10 @@ struct ChainModel {
   double stiffness = 1.0;  // N/m
   double damping = 0.01;   // N s/m
   long input_mass = 1;     // 1..masses
-  long output_mass = 1;    // 1..masses
+  long output_mass = 1;    // 1..masses (only with output_weights "mass")
+  // The output y: "mass" (the position of output_mass), "linear" (sum of (i/N) q_i over every
+  // mass) or "uniform" (the mean position, sum of q_i / N); Generate throws UsageError otherwise.
+  std::string output_weights = "mass";
 };
 
 /// A hub-driven Euler-Bernoulli beam in finite elements, tip position as output.

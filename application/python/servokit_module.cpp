@@ -828,8 +828,10 @@ PYBIND11_MODULE(servokit, module) {
   generate.def(
       "chain",
       [](long masses, double mass, double stiffness, double damping, long input_mass,
-         long output_mass, const py::object& out, const std::string& name) {
-        const sk::ChainModel chain{masses, mass, stiffness, damping, input_mass, output_mass};
+         long output_mass, const std::string& output_weights, const py::object& out,
+         const std::string& name) {
+        const sk::ChainModel chain{masses,     mass,        stiffness,     damping,
+                                   input_mass, output_mass, output_weights};
         const std::string directory = py::str(py::module_::import("os").attr("fspath")(out));
         py::gil_scoped_release release;
         return sk::Generate(chain, directory, name);
@@ -838,9 +840,13 @@ PYBIND11_MODULE(servokit, module) {
       py::arg("mass") = chain_defaults.mass, py::arg("stiffness") = chain_defaults.stiffness,
       py::arg("damping") = chain_defaults.damping,
       py::arg("input_mass") = chain_defaults.input_mass,
-      py::arg("output_mass") = chain_defaults.output_mass, py::arg("out"), py::arg("name") = "",
+      py::arg("output_mass") = chain_defaults.output_mass,
+      py::arg("output_weights") = chain_defaults.output_weights, py::arg("out"),
+      py::arg("name") = "",
       "Writes a chain of masses, springs and dampers (YAML and Matrix Market files) into "
-      "`out`; returns the model file's path (`servokit generate chain`).");
+      "`out`; returns the model file's path (`servokit generate chain`). output_weights: "
+      "'mass' (y = position of output_mass), 'linear' (sum of (i/N) q_i) or 'uniform' (mean "
+      "position).");
   generate.def(
       "beam",
       [](long elements, double length, double hub_inertia, double mass_per_length,

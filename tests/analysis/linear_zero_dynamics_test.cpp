@@ -100,6 +100,47 @@ std::vector<Complex> ChainZeros(long masses, long output_mass, double d) {
   return zeros;
 }
 
+// A chain whose output mixes every coordinate: y = sum_i (i / N) q_i (a dense row of C).
+LinearSystem LinearOutputChain(long masses, double damping) {
+  ChainOptions options;
+  options.masses = masses;
+  options.mass = kChainMass;
+  options.stiffness = kChainStiffness;
+  options.damping = damping;
+  options.output_weights = ChainOutputWeights::kLinear;
+  return LoadGenerated(GenerateChain(options));
+}
+
+// The independent reference: QZ (Eigen's GeneralizedEigenSolver) of the dense first-order
+// Rosenbrock pencil (A, E) of size 2n + m (see the header), no shift, no Schur complement, no
+// sparse factorisation; the `count` eigenvalues of smallest magnitude (the infinite ones have
+// beta ~ 0 and come last).
+std::vector<Complex> PencilZeros(const LinearSystem& system, Eigen::Index count) {
+  const Eigen::Index n = system.dof(), m = system.num_inputs();
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n + m, 2 * n + m);
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(2 * n + m, 2 * n + m);
+  a.block(0, n, n, n).setIdentity();
+  a.block(n, 0, n, n) = -Eigen::MatrixXd(system.stiffness);
+  a.block(n, n, n, n) = -Eigen::MatrixXd(system.damping);
+  a.block(n, 2 * n, n, m) = Eigen::MatrixXd(system.input_matrix);
+  a.block(2 * n, 0, m, n) = Eigen::MatrixXd(system.output_matrix);
+  e.block(0, 0, n, n).setIdentity();
+  e.block(n, n, n, n) = Eigen::MatrixXd(system.mass);
+  const Eigen::GeneralizedEigenSolver<Eigen::MatrixXd> qz(a, e, false);
+  REQUIRE(qz.info() == Eigen::Success);
+  std::vector<Complex> zeros;
+  for (Eigen::Index i = 0; i < 2 * n + m; ++i) {
+    const double beta = qz.betas()(i);
+    zeros.push_back(beta == 0.0 ? Complex(std::numeric_limits<double>::infinity())
+                                : qz.alphas()(i) / beta);
+  }
+  std::sort(zeros.begin(), zeros.end(),
+            [](const Complex& x, const Complex& y) { return std::abs(x) < std::abs(y); });
+  zeros.resize(std::size_t(count));
+  SortEigenvalues(zeros);
+  return zeros;
+}
+
 Eigen::Index ZeroCount(const LinearSystem& system) {
   LinearRelativeDegrees degrees;
   try {
@@ -397,6 +438,19 @@ TEST_CASE("a sweep over parameter values analyses the pattern once", "[analysis]
   CHECK(workspace.pattern_analyses() == 1);
 }
 
+TEST_CASE("a sweep of a dense-output chain analyses the pattern of Q once", "[analysis]") {
+  LinearZeroDynamicsWorkspace workspace;
+  for (double damping : {0.05, 0.1, 0.2}) {
+    const LinearSystem system = LinearOutputChain(30, damping);
+    const LinearZeroDynamics zeros = ComputeLinearZeroDynamics(
+        system, workspace, ZeroCount(system), WithSolver(LinearEigenSolver::kArpack, 4));
+    CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+    CHECK(EigenvalueDistance(zeros.eigenvalues,
+                             NearestEigenvalues(PencilZeros(system, 58), 0.0, 4)) < 1e-9);
+  }
+  CHECK(workspace.pattern_analyses() == 1);
+}
+
 TEST_CASE("a shift on a zero is reported as a singular Rosenbrock matrix", "[analysis]") {
   // Two masses, output at mass 1, mass 2 without spring or damper: holding mass 1 leaves mass 2
   // free, a double zero at lambda = 0, which is the default shift.
@@ -419,6 +473,120 @@ TEST_CASE("ARPACK out of iterations is NoSolution with ARPACK's reason", "[analy
   CHECK_THROWS_WITH(Zeros(system, options),
                     Catch::Contains("ARPACK dnaupd failed (info = 1): maximum number of "
                                     "iterations taken"));
+}
+
+// Issue #19: an output that mixes all N coordinates makes C a dense row; the workspace applies
+// the border through the Schur complement (LDLT of Q = K + sigma D + sigma^2 M only). The chain
+// with y = sum (i/N) q_i has c_1 = 1/N != 0 next to the force on mass 1, so C M^-1 B != 0:
+// relative degree 2 (a position output) and 2N - 2 zeros; the reference is QZ of the dense
+// pencil.
+TEST_CASE("a dense output row: the Schur route agrees with QZ of the dense pencil", "[analysis]") {
+  for (double damping : {0.0, 0.3}) {
+    CAPTURE(damping);
+    const long masses = 40;
+    const LinearSystem system = LinearOutputChain(masses, damping);
+    REQUIRE(system.output_matrix.nonZeros() == masses);
+    REQUIRE(ZeroCount(system) == 2 * masses - 2);
+    LinearZeroDynamicsWorkspace workspace;
+    const LinearZeroDynamics dense = ComputeLinearZeroDynamics(
+        system, workspace, ZeroCount(system), WithSolver(LinearEigenSolver::kDense));
+    CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+    CHECK(dense.complete);
+    CHECK(EigenvalueDistance(dense.eigenvalues, PencilZeros(system, 2 * masses - 2)) < 1e-9);
+  }
+}
+
+TEST_CASE("a dense output row: ARPACK on the Schur route finds the zeros nearest 0", "[analysis]") {
+  const long masses = 300;
+  const LinearSystem system = LinearOutputChain(masses, 0.01);
+  LinearZeroDynamicsWorkspace workspace;
+  const LinearZeroDynamics arpack = ComputeLinearZeroDynamics(
+      system, workspace, ZeroCount(system), WithSolver(LinearEigenSolver::kArpack, 10));
+  CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+  REQUIRE(arpack.eigenvalues.size() == 10);
+  const auto expected = NearestEigenvalues(PencilZeros(system, 2 * masses - 2), 0.0, 10);
+  CHECK(EigenvalueDistance(arpack.eigenvalues, expected) < 1e-8);
+}
+
+TEST_CASE("the Schur route reproduces the closed-form chain zeros, single and mixed weights",
+          "[analysis]") {
+  for (double shift : {0.0, 0.7, -0.05}) {
+    CAPTURE(shift);
+    LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kDense);
+    options.shift = shift;
+    const LinearSystem system = Chain(25, 2, 0.3);
+    LinearZeroDynamicsWorkspace workspace;
+    const LinearZeroDynamics dense =
+        ComputeLinearZeroDynamics(system, workspace, ZeroCount(system), options);
+    CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+    CHECK(EigenvalueDistance(dense.eigenvalues, ChainZeros(25, 2, 0.3)) < 1e-10);
+  }
+  // The same chain with the output weights 0 except 1 at mass 2, written as a weighted sum over
+  // all N coordinates (explicit zeros in C): the same zeros.
+  LinearSystem system = Chain(25, 2, 0.3);
+  std::vector<Eigen::Triplet<double>> row;
+  for (int i = 0; i < 25; ++i) row.emplace_back(0, i, i == 1 ? 1.0 : 0.0);
+  system.output_matrix.setFromTriplets(row.begin(), row.end());
+  CHECK(EigenvalueDistance(Zeros(system, WithSolver(LinearEigenSolver::kDense)).eigenvalues,
+                           ChainZeros(25, 2, 0.3)) < 1e-10);
+}
+
+// A circulatory (non-symmetric) term in the stiffness: Q is not symmetric, so the Schur route
+// factorises it by sparse LU. The reference is QZ again.
+TEST_CASE("a non-symmetric Q takes the sparse LU of Q and agrees with QZ", "[analysis]") {
+  const long masses = 20;
+  LinearSystem system = LinearOutputChain(masses, 0.2);
+  SparseMatrix skew(masses, masses);
+  for (int i = 0; i + 1 < masses; ++i) {
+    skew.insert(i, i + 1) = 0.05;
+    skew.insert(i + 1, i) = -0.05;
+  }
+  system.stiffness = system.stiffness + skew;
+  LinearZeroDynamicsWorkspace workspace;
+  const LinearZeroDynamics dense = ComputeLinearZeroDynamics(system, workspace, ZeroCount(system),
+                                                             WithSolver(LinearEigenSolver::kDense));
+  CHECK(workspace.factorization() == RosenbrockFactorization::kSchur);
+  CHECK(EigenvalueDistance(dense.eigenvalues, PencilZeros(system, 2 * masses - 2)) < 1e-9);
+}
+
+// The beam's hub turns freely: K has an empty row, so Q(0) = K is singular while R(0) is not.
+// The workspace falls back to the sparse LU of R and still finds the zeros.
+TEST_CASE("a singular Q (free hub at shift 0) falls back to the bordered LU", "[analysis]") {
+  BeamOptions beam;
+  beam.elements = 8;
+  const LinearSystem system = LoadGenerated(GenerateBeam(beam));
+  LinearZeroDynamicsWorkspace workspace;
+  const LinearZeroDynamics dense = ComputeLinearZeroDynamics(system, workspace, kUnknownZeroCount,
+                                                             WithSolver(LinearEigenSolver::kDense));
+  CHECK(workspace.factorization() == RosenbrockFactorization::kBorderedLU);
+  LinearZeroDynamicsOptions shifted = WithSolver(LinearEigenSolver::kDense);
+  shifted.shift = 1.0;  // Q(1) = K + D + M is regular: the Schur route
+  const LinearZeroDynamics schur =
+      ComputeLinearZeroDynamics(system, workspace, kUnknownZeroCount, shifted);
+  CHECK(workspace.factorization() == RosenbrockFactorization::kSymmetricSchur);
+  // The slowest six (the fast FE zeros sit near nu = 0 and may be taken as infinite at one
+  // shift and not at the other).
+  CHECK(EigenvalueDistance(NearestEigenvalues(dense.eigenvalues, 0.0, 6),
+                           NearestEigenvalues(schur.eigenvalues, 0.0, 6)) < 1e-7);
+}
+
+// Chain N = 3, m = 2, k = 3, d = 0.5, output at mass 2: a zero at -k/d = -6. There
+// Q = 3 T - 6 (0.5 T) + 36 (2 I) = 72 I exactly, regular, and S = C Q^-1 B = e2' e1 / 72 = 0.
+TEST_CASE("a shift on a zero with Q regular: the Schur complement is singular", "[analysis]") {
+  const LinearSystem system = Chain(3, 2, 0.5);
+  LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kDense);
+  options.shift = -6.0;
+  LinearZeroDynamicsWorkspace workspace;
+  CHECK_THROWS_WITH(ComputeLinearZeroDynamics(system, workspace, ZeroCount(system), options),
+                    Catch::Contains("singular at the shift s = -6") &&
+                        Catch::Contains("Schur complement C Q^-1 B is singular"));
+}
+
+TEST_CASE("factorization names", "[analysis]") {
+  CHECK(ToString(RosenbrockFactorization::kSymmetricSchur) == "symmetric-schur");
+  CHECK(ToString(RosenbrockFactorization::kSchur) == "schur");
+  CHECK(ToString(RosenbrockFactorization::kBorderedLU) == "bordered-lu");
+  CHECK(ToString(RosenbrockFactorization::kNone) == "none");
 }
 
 }  // namespace servokit

@@ -55,6 +55,27 @@ TEST_CASE("generate chain writes the generator's chain and prints the model path
   CHECK(SameMatrix(model.output_matrix(), expected.output_matrix));
 }
 
+// --output-weights linear: y = sum_i (i/N) q_i, so C is the dense row (1/N, 2/N, ..., 1);
+// uniform: every weight 1/N.
+TEST_CASE("generate chain --output-weights writes a dense output row", "[reports]") {
+  TemporaryDirectory directory(/*create=*/false);
+  for (const std::string weights : {"linear", "uniform"}) {
+    const Run run = RunServokit({"generate", "chain", "--masses", "8", "--output-weights", weights,
+                                 "--out", directory.path(), "--name", weights});
+    INFO(run.err);
+    REQUIRE(run.status == 0);
+    const LinearModel model = LoadLinearModel(directory / (weights + ".yaml"));
+    const SparseMatrix& output = model.output_matrix();
+    REQUIRE(output.rows() == 1);
+    REQUIRE(output.cols() == 8);
+    CHECK(output.nonZeros() == 8);
+    for (int i = 0; i < 8; ++i) {
+      CHECK(output.coeff(0, i) == (weights == "linear" ? (i + 1) / 8.0 : 1.0 / 8.0));
+    }
+    CHECK_THAT(model.description(), Catch::Contains(weights == "linear" ? "(i/N) q_i" : "mean"));
+  }
+}
+
 TEST_CASE("generate beam writes the generator's beam under the name asked", "[reports]") {
   TemporaryDirectory directory(/*create=*/false);
   const Run run =
@@ -88,6 +109,11 @@ TEST_CASE("generate rejects each bad option with one usage error naming it", "[r
       {{"generate", "chain", "--masses", "three", "--out", out}, "--masses"},
       {{"generate", "chain", "--out", out}, "--masses"},
       {{"generate", "chain", "--masses", "3"}, "--out"},
+      {{"generate", "chain", "--masses", "3", "--output-weights", "quadratic", "--out", out},
+       "--output-weights quadratic: expected mass, linear or uniform"},
+      {{"generate", "chain", "--masses", "3", "--output-weights", "linear", "--output-mass", "2",
+        "--out", out},
+       "(--output-mass)"},
       {{"generate", "beam", "--elements", "4", "--length", "0", "--out", out}, "(--length)"},
       {{"generate", "beam", "--elements", "4", "--bending-stiffness", "inf", "--out", out},
        "--bending-stiffness"},

@@ -206,6 +206,24 @@ TEST_CASE("the clamped beam's first two frequencies converge to Euler-Bernoulli'
   }
 }
 
+TEST_CASE("chain output weights: names both ways, and the rows they write", "[models]") {
+  for (const auto weights :
+       {ChainOutputWeights::kMass, ChainOutputWeights::kLinear, ChainOutputWeights::kUniform}) {
+    CHECK(ChainOutputWeightsFromString(ToString(weights)) == weights);
+  }
+  CHECK_FALSE(ChainOutputWeightsFromString("Linear"));
+  ChainOptions chain;
+  chain.masses = 4;
+  chain.output_weights = ChainOutputWeights::kLinear;
+  CHECK(Eigen::MatrixXd(GenerateChain(chain).output_matrix) ==
+        Eigen::RowVector4d(0.25, 0.5, 0.75, 1.0));
+  chain.output_weights = ChainOutputWeights::kUniform;
+  CHECK(Eigen::MatrixXd(GenerateChain(chain).output_matrix) == Eigen::RowVector4d::Constant(0.25));
+  chain.output_weights = ChainOutputWeights::kMass;
+  chain.output_mass = 3;
+  CHECK(Eigen::MatrixXd(GenerateChain(chain).output_matrix) == Eigen::RowVector4d(0, 0, 1, 0));
+}
+
 TEST_CASE("bad generator options name the field, the value and the rule", "[models]") {
   ChainOptions chain;
   chain.masses = 0;
@@ -215,6 +233,12 @@ TEST_CASE("bad generator options name the field, the value and the rule", "[mode
   chain.output_mass = 6;
   CHECK_THROWS_WITH(chain.Validate(),
                     "ChainOptions::output_mass = 6: must be from 1 to masses = 5");
+  chain = ChainOptions();
+  chain.output_weights = ChainOutputWeights::kLinear;
+  chain.output_mass = 2;
+  CHECK_THROWS_WITH(chain.Validate(),
+                    "ChainOptions::output_mass = 2: applies only to the output weights 'mass' (the "
+                    "weights are linear)");
   chain = ChainOptions();
   chain.damping = -1;
   CHECK_THROWS_WITH(GenerateChain(chain),

@@ -90,6 +90,19 @@ def test_sweep_follows_the_closed_form(mass_on_car):
                                                                     rel=1e-10)
 
 
+def test_generated_chain_with_mean_output_has_the_closed_form_zeros(tmp_path):
+    # output_weights="uniform" on two masses: y = (q1 + q2) / 2 = 0 holds q1 = -q2, and mass 2
+    # hangs on one spring-damper stretched by q2 - q1 = 2 q2: m s^2 + 2 d s + 2 k = 0, so
+    # s = -0.01 +- i sqrt(2 - 0.01^2) for m = k = 1, d = 0.01.
+    path = servokit.generate.chain(masses=2, output_weights="uniform", out=tmp_path)
+    eigenvalues = servokit.load(path).analyze().eigenvalues
+    assert eigenvalues.real == pytest.approx([-0.01, -0.01], rel=1e-10)
+    assert sorted(eigenvalues.imag) == pytest.approx(
+        [-math.sqrt(2 - 0.01**2), math.sqrt(2 - 0.01**2)], rel=1e-10)
+    with pytest.raises(servokit.UsageError, match="output_weights 'quadratic'"):
+        servokit.generate.chain(masses=2, output_weights="quadratic", out=tmp_path)
+
+
 def test_generated_chain_has_the_free_mass_as_zero_dynamics(tmp_path):
     # Force and output on mass 1 of two: holding it, mass 2 hangs on one spring-damper, so the
     # zero dynamics are m s^2 + d s + k = 0: s = -0.005 +- i sqrt(1 - 0.005^2).
