@@ -9,6 +9,12 @@ echo
 echo "== sweep throughput against the SciPy pipeline (issue #3) =="
 "$root/bench/compare_sweep.sh" "$build"
 echo
+echo "== sweep threads: two against one, idle and beside a busy process (issue #19) =="
+"$root/bench/compare_threads.sh" "$build"
+echo
+echo "== start-up: CPU time of analyze on every shipped model (issue #19) =="
+"$root/bench/compare_startup.sh" "$build"
+echo
 echo "== sweep files: CSV against HDF5 and MAT (issue #17) =="
 "$root/bench/compare_sweep_formats.sh" "$build"
 echo
