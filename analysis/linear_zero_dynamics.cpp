@@ -403,6 +403,29 @@ void ClusterBounds(const std::vector<std::complex<double>>& zeros, std::vector<d
   }
 }
 
+// Power iterations for the up-front conditioning estimate (ConditioningEstimate): a few give
+// |nu|max from below within a small factor, which errs towards answering rather than refusing.
+constexpr int kConditioningIterations = 8;
+
+// The highest frequency squared of the mesh, max K_ii / M_ii over coordinates with M_ii > 0:
+// within a small factor of the largest eigenvalue of (K, M) for finite-element and lumped meshes
+// (Gershgorin on the diagonally scaled pencil).
+double MeshFrequencySquared(const LinearSystem& system) {
+  const Eigen::VectorXd stiffness = system.stiffness.diagonal();
+  const Eigen::VectorXd mass = system.mass.diagonal();
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < mass.size(); ++i) {
+    if (mass(i) > 0.0) largest = std::max(largest, std::abs(stiffness(i)) / mass(i));
+  }
+  return largest;
+}
+
+std::string Short(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2g", value);
+  return buffer;
+}
+
 }  // namespace
 
 std::string_view ToString(LinearEigenSolver solver) {
@@ -546,6 +569,39 @@ std::vector<std::complex<double>> NearestEigenvalues(std::vector<std::complex<do
   return eigenvalues;
 }
 
+double ZeroConditioningEstimate(const LinearSystem& system,
+                                const LinearZeroDynamicsWorkspace& workspace,
+                                const Eigen::VectorXd& start,
+                                double shift) {
+  Eigen::VectorXd vector = start, image(start.size());
+  double largest_nu = 0.0;
+  for (int i = 0; i < kConditioningIterations; ++i) {
+    workspace.ApplyShiftInvert(vector.data(), image.data());
+    largest_nu = image.norm();
+    if (!(largest_nu > 0.0) || !std::isfinite(largest_nu)) return 0.0;
+    vector = image / largest_nu;
+  }
+  const double slowest = std::abs(shift) + 1.0 / largest_nu;  // >= |lambda| of the nearest zero
+  return std::numeric_limits<double>::epsilon() * MeshFrequencySquared(system) /
+         (slowest * slowest);
+}
+
+void RefuseIllConditioned(const LinearSystem& system,
+                          const LinearZeroDynamicsWorkspace& workspace,
+                          const Eigen::VectorXd& start,
+                          const LinearZeroDynamicsOptions& options) {
+  const double estimate = ZeroConditioningEstimate(system, workspace, start, options.shift);
+  if (estimate < kNoDigitConditioning) return;
+  throw NoSolution("the zeros nearest the shift " + ShiftText(options.shift) +
+                   " would carry no correct digit: eps * max K_ii/M_ii / |lambda|^2 = " +
+                   Short(estimate) + " >= " + Short(kNoDigitConditioning) +
+                   " (the mesh's highest frequency squared against the slowest zero's; it grows "
+                   "like N^4 with the number of beam elements, N^2 for a chain): use a mesh "
+                   "coarser by a factor of at least " +
+                   Short(std::pow(estimate / kNoDigitConditioning, 0.25)) +
+                   " for beam elements, or a shift nearer the zeros of interest");
+}
+
 LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
                                              LinearZeroDynamicsWorkspace& workspace,
                                              Eigen::Index zero_count,
@@ -589,6 +645,7 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
       arpack.eigenvalues = static_cast<int>(wanted);
       arpack.ritz_vectors = true;
       const Eigen::VectorXd start = StartVector(workspace, operator_size);
+      RefuseIllConditioned(system, workspace, start, options);
       const auto apply = [&workspace](const double* x, double* y) {
         workspace.ApplyShiftInvert(x, y);
       };

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <arpack.hpp>
 #include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <string>
 
 #include "models/errors.h"
@@ -84,6 +87,8 @@ void ArpackOptions::Validate() const {
   RequireOption(tolerance >= 0.0 && tolerance < 1.0, kOwner, "tolerance", tolerance,
                 "must be >= 0 (0: machine precision) and < 1");
   RequireOption(max_iterations >= 1, kOwner, "max_iterations", max_iterations, "must be >= 1");
+  RequireOption(time_limit >= 0.0 && std::isfinite(time_limit), kOwner, "time_limit", time_limit,
+                "must be a finite number >= 0 (0: no limit)");
 }
 
 ArpackResult ArpackEigenvalues(Eigen::Index n,
@@ -118,12 +123,25 @@ ArpackResult ArpackEigenvalues(Eigen::Index n,
   iparam[2] = options.max_iterations;
   iparam[6] = 1;  // mode 1: OP x = lambda x with OP given by `apply`
   a_int ido = 0;
+  const std::clock_t started = std::clock();
+  long applications = 0;
   for (;;) {
+    if (options.time_limit > 0.0 &&
+        double(std::clock() - started) / CLOCKS_PER_SEC > options.time_limit) {
+      char limit[32];
+      std::snprintf(limit, sizeof limit, "%g", options.time_limit);
+      throw NoSolution("ARPACK dnaupd stopped at its time limit of " + std::string(limit) +
+                       " s CPU after " + std::to_string(applications) +
+                       " operator applications, not converged " +
+                       "(the shift-invert operator may be too inaccurate for Arnoldi; raise " +
+                       "ArpackOptions::time_limit, or make the problem better conditioned)");
+    }
     arpack::internal::dnaupd_c(&ido, "I", size, which, nev, options.tolerance, resid.data(), ncv,
                                basis.data(), size, iparam, ipntr, workd.data(), workl.data(),
                                lworkl, &info);
     if (ido == -1 || ido == 1) {
       apply(workd.data() + ipntr[0] - 1, workd.data() + ipntr[1] - 1);
+      ++applications;
       continue;
     }
     if (ido == 99) break;

@@ -41,6 +41,11 @@ struct ArpackOptions {
   // Implicit restarts allowed (iparam(3)); 1000 is far beyond what shift-invert needs (a few
   // dozen) and stops a hopeless run in bounded time.
   int max_iterations = 1000;
+  // CPU budget in seconds (0: none). A run that has not converged by then stops with NoSolution
+  // saying so and how many eigenvalues had converged, never a claim of convergence: a model
+  // whose shift-invert is too inaccurate for Arnoldi (the beam of 1e6 elements ran 900 s)
+  // fails in bounded time. 60 s: a minute, the budget for a million unknowns.
+  double time_limit = 60.0;
   // Also compute the Ritz vectors (dneupd with rvec = 1, written over the Arnoldi basis, so no
   // memory beyond the basis): what a per-eigenvalue residual and error bound needs.
   bool ritz_vectors = false;
