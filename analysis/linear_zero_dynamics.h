@@ -115,8 +115,9 @@ struct LinearZeroDynamicsOptions {
   // ~(eps |OP|)^(1/r), 1e-8 for r = 2). Used only when the number of finite zeros is not known;
   // when it is, the dense route keeps exactly that many nu of largest magnitude.
   double infinite_tolerance = 1e-6;
-  // |Re lambda| at most this times max |lambda| counts as on the imaginary axis (as
-  // ClassificationOptions::imaginary_axis_tolerance).
+  // A zero whose |Re lambda| is within its own error bound counts as on the imaginary axis when
+  // its damping ratio |Re lambda| / |lambda| is at most this, and as undetermined otherwise
+  // (FinishZeroDynamicsWithBounds); beyond its bound its side is its sign, whatever this says.
   double imaginary_axis_tolerance = 1e-9;
   /// Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
