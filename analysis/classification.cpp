@@ -10,6 +10,7 @@ SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index
     case Stability::kUnstable:
       return SolverMethod::kStableInversion;
     case Stability::kCritical:
+    case Stability::kUndetermined:  // may be critical: no method that needs a hyperbolic split
       return SolverMethod::kNormalForm;
     case Stability::kAsymptoticallyStable:
     case Stability::kNone:

@@ -54,7 +54,8 @@ void DeriveNonlinearStructure(const Model& model, Classification& classification
 
 /// The solver that fits a class (paper Sect. 5): flat -> algebraic inversion; unstable zero
 /// dynamics -> stable inversion; undamped (critical) -> the normal form with Dormand-Prince,
-/// which adds no numerical damping; asymptotically stable -> BDF when the projected DAE has
+/// which adds no numerical damping (also for "undetermined", which may be critical);
+/// asymptotically stable -> BDF when the projected DAE has
 /// index 1, the input-output normal form of any vector relative degree otherwise. (The
 /// solvers fall back to the next method that fits when this one does not: see
 /// solvers/method_choice.h.)

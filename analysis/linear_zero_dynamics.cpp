@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <cstdio>
@@ -104,9 +105,10 @@ std::string SingularRosenbrockMessage(double shift, const std::string& detail) {
          "; choose another shift";
 }
 
-// nu of the dense OP, 2n x 2n, all eigenvalues.
+// nu of the dense OP, 2n x 2n, all eigenvalues, with their eigenvectors (for the error bounds).
 Eigen::VectorXcd DenseOperatorEigenvalues(const LinearSystem& system,
-                                          const LinearZeroDynamicsWorkspace& workspace) {
+                                          const LinearZeroDynamicsWorkspace& workspace,
+                                          Eigen::MatrixXcd& eigenvectors) {
   const Eigen::Index n = system.dof();
   const Eigen::Index size = 2 * n;
   Eigen::MatrixXd op(size, size);
@@ -116,34 +118,37 @@ Eigen::VectorXcd DenseOperatorEigenvalues(const LinearSystem& system,
     workspace.ApplyShiftInvert(unit.data(), op.col(j).data());
     unit(j) = 0.0;
   }
-  const Eigen::EigenSolver<Eigen::MatrixXd> eigen(op, false);
+  const Eigen::EigenSolver<Eigen::MatrixXd> eigen(op, true);
   if (eigen.info() != Eigen::Success) {
     throw NoSolution("the eigenvalues of the shift-inverted Rosenbrock operator did not converge");
   }
+  eigenvectors = eigen.eigenvectors();
   return eigen.eigenvalues();
 }
 
-// Keeps the nu that belong to finite zeros and maps them to lambda = shift + 1/nu: the
-// zero_count largest in magnitude when known, else those above infinite_tolerance * max |nu|.
-std::vector<std::complex<double>> FiniteZeros(std::vector<std::complex<double>> nus,
-                                              Eigen::Index zero_count,
-                                              double scale,
-                                              const LinearZeroDynamicsOptions& options) {
-  std::sort(nus.begin(), nus.end(),
-            [](const std::complex<double>& a, const std::complex<double>& b) {
-              return std::abs(a) > std::abs(b);
-            });
-  if (zero_count >= 0 && std::size_t(zero_count) < nus.size()) {
-    nus.resize(std::size_t(zero_count));
+// The indices of the nu that belong to finite zeros (lambda = shift + 1/nu), largest |nu|
+// first: the zero_count largest in magnitude when known, else those above
+// infinite_tolerance * max |nu|.
+std::vector<std::size_t> FiniteZeroIndices(const std::vector<std::complex<double>>& nus,
+                                           Eigen::Index zero_count,
+                                           double scale,
+                                           const LinearZeroDynamicsOptions& options) {
+  std::vector<std::size_t> order(nus.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&nus](std::size_t a, std::size_t b) {
+    return std::abs(nus[a]) > std::abs(nus[b]);
+  });
+  if (zero_count >= 0 && std::size_t(zero_count) < order.size()) {
+    order.resize(std::size_t(zero_count));
   }
-  for (const auto& nu : nus) scale = std::max(scale, std::abs(nu));
-  std::vector<std::complex<double>> zeros;
-  for (const auto& nu : nus) {
-    if (zero_count < 0 && std::abs(nu) <= options.infinite_tolerance * scale) continue;
-    if (nu == 0.0) continue;
-    zeros.push_back(options.shift + 1.0 / nu);
+  for (const std::size_t i : order) scale = std::max(scale, std::abs(nus[i]));
+  std::vector<std::size_t> kept;
+  for (const std::size_t i : order) {
+    if (zero_count < 0 && std::abs(nus[i]) <= options.infinite_tolerance * scale) continue;
+    if (nus[i] == 0.0) continue;
+    kept.push_back(i);
   }
-  return zeros;
+  return kept;
 }
 
 Eigen::VectorXd StartVector(const LinearZeroDynamicsWorkspace& workspace, Eigen::Index size) {
@@ -187,6 +192,277 @@ std::string Scope(const LinearZeroDynamics& result, Eigen::Index computed) {
          ShiftText(result.shift) + ")" + of +
          " (ARPACK shift-invert): every zero with Re lambda > " + ShiftText(result.shift) +
          " ranks first";
+}
+
+// The safety factor of the per-zero error bound (ZeroErrorBounds): LU growth and the
+// conditioning the one-sided estimate does not see. 10 keeps the bound above every error
+// measured against the chain's closed form (N = 1e3 .. 1e6: the error of Re lambda at most 0.1
+// of the bound).
+constexpr double kErrorBoundSafety = 10.0;
+
+double InfinityNorm(const SparseMatrix& matrix) {
+  Eigen::VectorXd row_sums = Eigen::VectorXd::Zero(matrix.rows());
+  for (Eigen::Index j = 0; j < matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(matrix, j); it; ++it)
+      row_sums(it.row()) += std::abs(it.value());
+  }
+  return row_sums.size() > 0 ? row_sums.maxCoeff() : 0.0;
+}
+
+// x^* A x for a real sparse A (the real part: A symmetric gives a real form), accumulated in
+// long double so that a small form of a large matrix (the damping of a slow mode) keeps its
+// digits.
+double HermitianForm(const SparseMatrix& matrix, const Eigen::VectorXcd& x) {
+  long double sum = 0.0L;
+  for (Eigen::Index j = 0; j < matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(matrix, j); it; ++it) {
+      const std::complex<double> a = x(it.row()), b = x(it.col());
+      sum += static_cast<long double>(it.value()) * (static_cast<long double>(a.real()) * b.real() +
+                                                     static_cast<long double>(a.imag()) * b.imag());
+    }
+  }
+  return static_cast<double>(sum);
+}
+
+bool Symmetric(const SparseMatrix& matrix) {
+  const SparseMatrix transpose = matrix.transpose();
+  return (SparseMatrix(matrix - transpose)).norm() == 0.0;
+}
+
+// B = C^T diag(alpha): input j acts along output j's row (collocated). With M, D, K symmetric
+// the zeros are then the eigenvalues of M q'' + D q' + K q = 0 on ker C: x^* B u = 0 there.
+bool Collocated(const LinearSystem& system) {
+  const Eigen::Index m = system.num_inputs();
+  if (system.output_matrix.rows() != m) return false;
+  const Eigen::MatrixXd input = Eigen::MatrixXd(system.input_matrix);
+  const Eigen::MatrixXd output = Eigen::MatrixXd(system.output_matrix.transpose());
+  for (Eigen::Index j = 0; j < m; ++j) {
+    Eigen::Index pivot = 0;
+    output.col(j).cwiseAbs().maxCoeff(&pivot);
+    if (output(pivot, j) == 0.0) return false;
+    const double alpha = input(pivot, j) / output(pivot, j);
+    if ((input.col(j) - alpha * output.col(j)).norm() != 0.0) return false;
+  }
+  return true;
+}
+
+// A symmetric matrix is positive definite when it is diagonally dominant with a positive
+// diagonal and either every row is strictly dominant or it is irreducible with one strict row
+// (Gershgorin; Taussky 1949). Exact comparisons of sums accumulated in long double; a test that
+// can only say yes when it is true, not a decision by tolerance.
+bool DominantPositiveDefinite(const SparseMatrix& matrix) {
+  const Eigen::Index n = matrix.rows();
+  const auto size = static_cast<std::size_t>(n);
+  std::vector<long double> off(size, 0.0L), diagonal(size, 0.0L);
+  std::vector<Eigen::Index> parent(size);
+  for (Eigen::Index i = 0; i < n; ++i) parent[std::size_t(i)] = i;
+  const auto find = [&parent](Eigen::Index i) {
+    while (parent[std::size_t(i)] != i) {
+      parent[std::size_t(i)] = parent[std::size_t(parent[std::size_t(i)])];
+      i = parent[std::size_t(i)];
+    }
+    return i;
+  };
+  Eigen::Index components = n;
+  for (Eigen::Index j = 0; j < matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(matrix, j); it; ++it) {
+      if (it.row() == it.col()) {
+        diagonal[std::size_t(j)] += it.value();
+      } else if (it.value() != 0.0) {
+        off[std::size_t(it.row())] += std::abs(static_cast<long double>(it.value()));
+        const Eigen::Index a = find(it.row()), b = find(it.col());
+        if (a != b) {
+          parent[std::size_t(a)] = b;
+          --components;
+        }
+      }
+    }
+  }
+  bool all_strict = true, some_strict = false;
+  for (std::size_t i = 0; i < std::size_t(n); ++i) {
+    if (!(diagonal[i] > 0.0L) || off[i] > diagonal[i]) return false;
+    const bool strict = off[i] < diagonal[i];
+    all_strict = all_strict && strict;
+    some_strict = some_strict || strict;
+  }
+  return all_strict || (components == 1 && some_strict);
+}
+
+// The structure that decides the side of every zero without their digits: M, D, K symmetric
+// positive definite (DominantPositiveDefinite) and the output collocated with the input. Then
+// a zero lambda with eigenvector x in ker C satisfies m lambda^2 + d lambda + k = 0 with
+// m = x^* M x, d = x^* D x, k = x^* K x all > 0, so Re lambda < 0 (the energy
+// q'^T M q' / 2 + q^T K q / 2 of the constrained motion decays as -q'^T D q').
+std::string LeftHalfPlaneCertificate(const LinearSystem& system, bool symmetric_collocated) {
+  if (!symmetric_collocated) return "";
+  if (!DominantPositiveDefinite(system.mass) || !DominantPositiveDefinite(system.damping) ||
+      !DominantPositiveDefinite(system.stiffness)) {
+    return "";
+  }
+  return "certified by structure: M, D, K symmetric positive definite (diagonally dominant) and "
+         "the output collocated with the input (B = C^T diag), so every zero solves "
+         "m s^2 + d s + k = 0 with m, d, k > 0 and lies in the open left half plane";
+}
+
+// The q part of a zero's eigenvector (the first n entries of OP's eigenvector (q, v)),
+// projected onto ker C, where the exact one lies.
+Eigen::VectorXcd ZeroVector(const LinearSystem& system, const Eigen::VectorXcd& eigenvector) {
+  Eigen::VectorXcd q = eigenvector.head(system.dof());
+  const Eigen::MatrixXd output = Eigen::MatrixXd(system.output_matrix);
+  const Eigen::MatrixXd gram = output * output.transpose();
+  const Eigen::VectorXcd coefficients =
+      gram.ldlt().solve(Eigen::MatrixXcd(output.cast<std::complex<double>>() * q));
+  q -= output.transpose().cast<std::complex<double>>() * coefficients;
+  return q;
+}
+
+// The root of m s^2 + d s + k = 0 nearest `estimate`: the quadratic Rayleigh quotient of a
+// symmetric collocated system, exact for an exact eigenvector and second-order accurate
+// otherwise; with d > 0 its real part -d / (2m) (complex roots) keeps its sign however small.
+std::complex<double> RayleighZero(double m, double d, double k, std::complex<double> estimate) {
+  const std::complex<double> root = std::sqrt(std::complex<double>(d * d - 4.0 * m * k, 0.0));
+  const std::complex<double> plus = (-d + root) / (2.0 * m), minus = (-d - root) / (2.0 * m);
+  return std::abs(plus - estimate) <= std::abs(minus - estimate) ? plus : minus;
+}
+
+// The q part p of the left null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] (y^T R = 0):
+// one step of inverse iteration with R(lambda)^T from a fixed vector, in complex arithmetic by
+// a sparse LU of R(lambda) of its own (lambda is within its error of a zero, so one step gives the
+// null vector to that accuracy). Empty when the factorisation fails (lambda exactly a zero).
+Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<double> lambda) {
+  using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
+  const Eigen::Index n = system.dof();
+  const Eigen::Index m = system.num_inputs();
+  const ComplexSparse dynamic = system.stiffness.cast<std::complex<double>>() +
+                                lambda * system.damping.cast<std::complex<double>>() +
+                                (lambda * lambda) * system.mass.cast<std::complex<double>>();
+  std::vector<Eigen::Triplet<std::complex<double>>> entries;
+  // R(lambda) itself (factorised as R(sigma) is, which keeps the fill of the real route), then
+  // solved transposed.
+  for (Eigen::Index j = 0; j < dynamic.outerSize(); ++j) {
+    for (ComplexSparse::InnerIterator it(dynamic, j); it; ++it) {
+      entries.emplace_back(int(it.row()), int(it.col()), -it.value());
+    }
+  }
+  for (Eigen::Index j = 0; j < system.input_matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(system.input_matrix, j); it; ++it) {
+      entries.emplace_back(int(it.row()), int(n + it.col()), it.value());
+    }
+  }
+  for (Eigen::Index j = 0; j < system.output_matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(system.output_matrix, j); it; ++it) {
+      entries.emplace_back(int(n + it.row()), int(it.col()), it.value());
+    }
+  }
+  ComplexSparse rosenbrock(n + m, n + m);
+  rosenbrock.setFromTriplets(entries.begin(), entries.end());
+  rosenbrock.makeCompressed();
+  Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(rosenbrock);
+  if (lu.info() != Eigen::Success) return {};
+  std::mt19937 generator(kStartSeed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::VectorXcd rhs(n + m);
+  for (Eigen::Index i = 0; i < n + m; ++i) rhs(i) = uniform(generator);
+  const Eigen::VectorXcd y = lu.transpose().solve(rhs);
+  if (!y.allFinite()) return {};
+  return y.head(n);
+}
+
+// LeftZeroVectorAt lambda, or, when R(lambda) is exactly singular in floating point (a zero
+// computed to the last bit), a relative kLeftVectorOffset away, where one inverse-iteration step
+// still gives the null vector to about that accuracy.
+Eigen::VectorXcd LeftZeroVector(const LinearSystem& system, std::complex<double> lambda) {
+  constexpr double kLeftVectorOffset = 1e-8;
+  Eigen::VectorXcd left = LeftZeroVectorAt(system, lambda);
+  if (left.size() == 0) {
+    left = LeftZeroVectorAt(system, lambda + kLeftVectorOffset * std::max(1.0, std::abs(lambda)));
+  }
+  return left;
+}
+
+// The error bound of one computed zero lambda with eigenvector q (part of OP's z = (q, v)):
+// kErrorBoundSafety times the sum of
+//  - ARPACK's own error, the residual |OP z - nu z| / |z| mapped to lambda = sigma + 1/nu by
+//    |delta lambda| = |delta nu| / |nu|^2 (0 for the dense route, whose Schur residual is
+//    round-off and counted below);
+//  - the eigensolver's round-off on OP, eps max|nu| / |nu|^2;
+//  - the round-off of the factorisation as a backward error eps (|K| + |lambda| |D| +
+//    |lambda|^2 |M|) on the quadratic, times the zero's condition |q|^2 / |q^* (2 lambda M + D) q|
+//    (Tisseur 2000, with q for the left vector as well: exact for a symmetric collocated system,
+//    an estimate otherwise).
+double ZeroErrorBound(const LinearSystem& system,
+                      const std::array<double, 3>& norms,  // |M|, |D|, |K| (infinity norms)
+                      std::complex<double> lambda,
+                      std::complex<double> nu,
+                      double largest_nu,
+                      double arpack_residual,
+                      const Eigen::VectorXcd& q,
+                      const Eigen::VectorXcd& left) {
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  const double nu2 = std::norm(nu);
+  const double magnitude = std::abs(lambda);
+  const double backward =
+      eps * (norms[2] + magnitude * norms[1] + magnitude * magnitude * norms[0]);
+  // The zero's condition, two-sided (Tisseur 2000): |p| |q| / |p^T Q'(lambda) q|, and its
+  // one-sided counterpart |q|^2 / |q^* Q'(lambda) q|; their ratio is the non-normality that the
+  // operator's residual (measured with q alone) does not see.
+  const Eigen::VectorXcd mass_q = system.mass.cast<std::complex<double>>() * q;
+  const Eigen::VectorXcd damping_q = system.damping.cast<std::complex<double>>() * q;
+  const Eigen::VectorXcd derivative_q = 2.0 * lambda * mass_q + damping_q;
+  const double one_sided_derivative = std::abs(q.dot(derivative_q));
+  const double one_sided =
+      one_sided_derivative > 0.0 ? q.squaredNorm() / one_sided_derivative : kInfinity;
+  double condition = kInfinity;
+  if (left.size() > 0) {
+    const double derivative = std::abs(left.dot(derivative_q.conjugate()));  // left^T Q' q
+    condition = derivative > 0.0 ? left.norm() * q.norm() / derivative : kInfinity;
+  }
+  const double non_normality = one_sided > 0.0 ? std::max(1.0, condition / one_sided) : kInfinity;
+  return kErrorBoundSafety *
+         (non_normality * (arpack_residual + eps * largest_nu) / nu2 + backward * condition);
+}
+
+// A multiple zero (a Jordan block of size k, e.g. the (j - 1)-fold zero -k/d of a damped chain
+// observed at mass j) has an infinite first-order condition: perturbations of size eps move it
+// by about eps^(1/k) |lambda| (Hoelder). Members of a cluster of k computed zeros (relative
+// distance at most kClusterDistance) get at most kErrorBoundSafety eps^(1/k) |lambda|.
+void ClusterBounds(const std::vector<std::complex<double>>& zeros, std::vector<double>& bounds) {
+  constexpr double kClusterDistance = 1e-6;
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  for (std::size_t i = 0; i < zeros.size(); ++i) {
+    const double magnitude = std::abs(zeros[i]);
+    int size = 0;
+    for (const auto& other : zeros) {
+      if (std::abs(other - zeros[i]) <= kClusterDistance * std::max(magnitude, 1e-300)) ++size;
+    }
+    if (size < 2) continue;
+    bounds[i] =
+        std::min(bounds[i], kErrorBoundSafety * std::pow(eps, 1.0 / double(size)) * magnitude);
+  }
+}
+
+// Power iterations for the up-front conditioning estimate (ConditioningEstimate): a few give
+// |nu|max from below within a small factor, which errs towards answering rather than refusing.
+constexpr int kConditioningIterations = 8;
+
+// The highest frequency squared of the mesh, max K_ii / M_ii over coordinates with M_ii > 0:
+// within a small factor of the largest eigenvalue of (K, M) for finite-element and lumped meshes
+// (Gershgorin on the diagonally scaled pencil).
+double MeshFrequencySquared(const LinearSystem& system) {
+  const Eigen::VectorXd stiffness = system.stiffness.diagonal();
+  const Eigen::VectorXd mass = system.mass.diagonal();
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < mass.size(); ++i) {
+    if (mass(i) > 0.0) largest = std::max(largest, std::abs(stiffness(i)) / mass(i));
+  }
+  return largest;
+}
+
+std::string Short(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2g", value);
+  return buffer;
 }
 
 }  // namespace
@@ -432,6 +708,43 @@ std::vector<std::complex<double>> NearestEigenvalues(std::vector<std::complex<do
   return eigenvalues;
 }
 
+double ZeroConditioningEstimate(const LinearSystem& system,
+                                const LinearZeroDynamicsWorkspace& workspace,
+                                const Eigen::VectorXd& start,
+                                double shift) {
+  // The geometric mean of the growth factors |OP v_j| (v_j normalised), i.e. |OP^k s|^(1/k):
+  // robust where the ratio of two successive iterates is not (a dominant conjugate pair makes
+  // it oscillate, and OP's q and v parts differ in scale by 1/|lambda|).
+  Eigen::VectorXd vector = start, image(start.size());
+  double log_growth = 0.0;
+  for (int i = 0; i < kConditioningIterations; ++i) {
+    workspace.ApplyShiftInvert(vector.data(), image.data());
+    const double growth = image.norm();
+    if (!(growth > 0.0) || !std::isfinite(growth)) return 0.0;
+    log_growth += std::log(growth);
+    vector = image / growth;
+  }
+  const double largest_nu = std::exp(log_growth / kConditioningIterations);
+  const double slowest = std::abs(shift) + 1.0 / largest_nu;  // >= |lambda| of the nearest zero
+  return std::numeric_limits<double>::epsilon() * MeshFrequencySquared(system) /
+         (slowest * slowest);
+}
+
+void RefuseIllConditioned(const LinearSystem& system,
+                          const LinearZeroDynamicsWorkspace& workspace,
+                          const Eigen::VectorXd& start,
+                          const LinearZeroDynamicsOptions& options) {
+  const double estimate = ZeroConditioningEstimate(system, workspace, start, options.shift);
+  if (estimate < kNoDigitConditioning) return;
+  throw NoSolution("the zeros nearest the shift " + ShiftText(options.shift) +
+                   " would carry no correct digit: eps * max K_ii/M_ii / |lambda|^2 = " +
+                   Short(estimate) + " >= " + Short(kNoDigitConditioning) +
+                   " (the mesh's highest frequency squared against the slowest zero's |lambda|^2, "
+                   "times the machine precision): use fewer elements (it falls like N^-4 for "
+                   "beam elements, N^-2 for a chain: 10 times fewer beam elements divide it by "
+                   "1e4), or a shift nearer the zeros of interest");
+}
+
 LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
                                              LinearZeroDynamicsWorkspace& workspace,
                                              Eigen::Index zero_count,
@@ -454,15 +767,28 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
 
   if (zero_count != 0) {
     workspace.Factorize(system, options.shift);
+    // The computed nu, their eigenvectors z = (q, v) of OP, ARPACK's residuals |OP z - nu z|.
+    std::vector<std::complex<double>> nus;
+    std::vector<std::size_t> kept;
+    std::vector<Eigen::VectorXcd> vectors;
+    std::vector<double> residuals;
+    double largest_nu = 0.0;
     if (dense) {
-      const Eigen::VectorXcd nus = DenseOperatorEigenvalues(system, workspace);
-      result.eigenvalues =
-          FiniteZeros({nus.data(), nus.data() + nus.size()}, zero_count, 0.0, options);
+      Eigen::MatrixXcd eigenvectors;
+      const Eigen::VectorXcd values = DenseOperatorEigenvalues(system, workspace, eigenvectors);
+      nus.assign(values.data(), values.data() + values.size());
+      kept = FiniteZeroIndices(nus, zero_count, 0.0, options);
+      for (const std::size_t i : kept) {
+        vectors.emplace_back(eigenvectors.col(Eigen::Index(i)));
+        residuals.push_back(0.0);  // the Schur residual is round-off: in the bound's eps term
+      }
       result.complete = true;
     } else {
       ArpackOptions arpack = options.arpack;
       arpack.eigenvalues = static_cast<int>(wanted);
+      arpack.ritz_vectors = true;
       const Eigen::VectorXd start = StartVector(workspace, operator_size);
+      RefuseIllConditioned(system, workspace, start, options);
       const auto apply = [&workspace](const double* x, double* y) {
         workspace.ApplyShiftInvert(x, y);
       };
@@ -484,17 +810,62 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
       const double scale = options.target == EigenvalueTarget::kNearest
                                ? 0.0
                                : EstimateLargestMagnitude(workspace, start);
-      result.eigenvalues =
-          FiniteZeros(result.arpack.ritz_values, kUnknownZeroCount, scale, options);
-      if (result.eigenvalues.size() > std::size_t(wanted)) {
-        result.eigenvalues.resize(std::size_t(wanted));  // dneupd may return nev + 1
+      largest_nu = scale;
+      nus = result.arpack.ritz_values;
+      kept = FiniteZeroIndices(nus, kUnknownZeroCount, scale, options);
+      if (kept.size() > std::size_t(wanted)) kept.resize(std::size_t(wanted));  // dneupd: nev + 1
+      Eigen::VectorXd real_image(operator_size), imaginary_image(operator_size);
+      for (const std::size_t i : kept) {
+        Eigen::VectorXcd z = RitzVector(result.arpack, i);
+        const Eigen::VectorXd real_part = z.real(), imaginary_part = z.imag();
+        workspace.ApplyShiftInvert(real_part.data(), real_image.data());
+        workspace.ApplyShiftInvert(imaginary_part.data(), imaginary_image.data());
+        Eigen::VectorXcd image(operator_size);
+        image.real() = real_image;
+        image.imag() = imaginary_image;
+        const double size = z.norm();
+        residuals.push_back(size > 0.0 ? (image - nus[i] * z).norm() / size
+                                       : std::numeric_limits<double>::infinity());
+        vectors.push_back(std::move(z));
       }
-      result.complete = zero_count >= 0 && Eigen::Index(result.eigenvalues.size()) == zero_count;
+      result.arpack.ritz_vectors.clear();
+      result.arpack.ritz_vectors.shrink_to_fit();
+      result.complete = zero_count >= 0 && Eigen::Index(kept.size()) == zero_count;
+    }
+    for (const auto& nu : nus) largest_nu = std::max(largest_nu, std::abs(nu));
+    const bool symmetric_collocated = Symmetric(system.mass) && Symmetric(system.damping) &&
+                                      Symmetric(system.stiffness) && Collocated(system);
+    const std::array<double, 3> norms = {InfinityNorm(system.mass), InfinityNorm(system.damping),
+                                         InfinityNorm(system.stiffness)};
+    std::vector<double> bounds;
+    for (std::size_t j = 0; j < kept.size(); ++j) {
+      const std::complex<double> nu = nus[kept[j]];
+      std::complex<double> lambda = options.shift + 1.0 / nu;
+      const Eigen::VectorXcd q = symmetric_collocated ? ZeroVector(system, vectors[j])
+                                                      : Eigen::VectorXcd(vectors[j].head(n));
+      // A symmetric collocated system: Q(lambda)^T = Q(lambda) and q^T B = (C q)^T diag = 0, so
+      // the left vector is q itself.
+      const Eigen::VectorXcd left = symmetric_collocated ? q : LeftZeroVector(system, lambda);
+      bounds.push_back(
+          ZeroErrorBound(system, norms, lambda, nu, largest_nu, residuals[j], q, left));
+      if (symmetric_collocated) {
+        lambda = RayleighZero(HermitianForm(system.mass, q), HermitianForm(system.damping, q),
+                              HermitianForm(system.stiffness, q), lambda);
+      }
+      result.eigenvalues.push_back(lambda);
+    }
+    ClusterBounds(result.eigenvalues, bounds);
+    FinishZeroDynamicsWithBounds(result, std::move(bounds), options.imaginary_axis_tolerance);
+    const std::string certificate = LeftHalfPlaneCertificate(system, symmetric_collocated);
+    if (!certificate.empty() && !result.eigenvalues.empty()) {
+      result.stability = Stability::kAsymptoticallyStable;
+      result.minimum_phase = true;
+      result.stability_note = certificate;
     }
   } else {
     result.complete = true;
+    FinishZeroDynamics(result, options.imaginary_axis_tolerance);
   }
-  FinishZeroDynamics(result, options.imaginary_axis_tolerance);
   result.scope = zero_count == 0 ? "no zero dynamics (flat)"
                                  : Scope(result, Eigen::Index(result.eigenvalues.size()));
   return result;

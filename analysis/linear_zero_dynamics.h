@@ -118,8 +118,9 @@ struct LinearZeroDynamicsOptions {
   // ~(eps |OP|)^(1/r), 1e-8 for r = 2). Used only when the number of finite zeros is not known;
   // when it is, the dense route keeps exactly that many nu of largest magnitude.
   double infinite_tolerance = 1e-6;
-  // |Re lambda| at most this times max |lambda| counts as on the imaginary axis (as
-  // ClassificationOptions::imaginary_axis_tolerance).
+  // A zero whose |Re lambda| is within its own error bound counts as on the imaginary axis when
+  // its damping ratio |Re lambda| / |lambda| is at most this, and as undetermined otherwise
+  // (FinishZeroDynamicsWithBounds); beyond its bound its side is its sign, whatever this says.
   double imaginary_axis_tolerance = 1e-9;
   /// Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
@@ -229,6 +230,30 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
                                              LinearZeroDynamicsWorkspace& workspace,
                                              Eigen::Index zero_count,
                                              const LinearZeroDynamicsOptions& options = {});
+
+/// At or above this ZeroConditioningEstimate the ARPACK route refuses (NoSolution): the
+/// first-order error of the slowest zeros would be about their size, so no digit is right
+/// (and Arnoldi on so inaccurate an operator does not converge: the beam of 1e6 elements ran
+/// 900 s). 1: below it the per-zero error bounds say what is left.
+inline constexpr double kNoDigitConditioning = 1.0;
+
+/// The relative accuracy to expect of the zeros nearest the shift, before computing them:
+/// eps * max_i K_ii / M_ii / |lambda|^2, the machine precision times the spread between the
+/// mesh's highest frequency squared and the slowest zero's |lambda|^2 (from a few power
+/// iterations on OP from `start`, size 2n): the backward error of the factorisation, eps |K|,
+/// over |Q'(lambda)| ~ |lambda| |M| at that zero. Grows like N^4 for Euler-Bernoulli beam
+/// elements, N^2 for a chain. `workspace` must be factorised at `shift`.
+double ZeroConditioningEstimate(const LinearSystem& system,
+                                const LinearZeroDynamicsWorkspace& workspace,
+                                const Eigen::VectorXd& start,
+                                double shift);
+
+/// Throws NoSolution, saying why and what would work, when ZeroConditioningEstimate is at least
+/// kNoDigitConditioning.
+void RefuseIllConditioned(const LinearSystem& system,
+                          const LinearZeroDynamicsWorkspace& workspace,
+                          const Eigen::VectorXd& start,
+                          const LinearZeroDynamicsOptions& options);
 
 /// The `count` members of `eigenvalues` nearest `shift`, sorted by SortEigenvalues.
 std::vector<std::complex<double>> NearestEigenvalues(std::vector<std::complex<double>> eigenvalues,

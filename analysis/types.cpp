@@ -16,11 +16,12 @@ constexpr NameTable<Realization, 4> kRealizationNames{{
     {Realization::kMixed, "mixed-orthogonal-tangential"},
 }};
 
-constexpr NameTable<Stability, 4> kStabilityNames{{
+constexpr NameTable<Stability, 5> kStabilityNames{{
     {Stability::kAsymptoticallyStable, "asymptotically-stable"},
     {Stability::kUnstable, "unstable"},
     {Stability::kCritical, "critical"},
     {Stability::kNone, "none"},
+    {Stability::kUndetermined, "undetermined"},
 }};
 
 constexpr NameTable<SolverMethod, 8> kSolverMethodNames{{

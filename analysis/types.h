@@ -20,6 +20,11 @@ enum class Stability {
   kUnstable,              // some eigenvalue in the open right half plane
   kCritical,              // none to the right, some on the imaginary axis: inconclusive
   kNone,                  // no zero dynamics (flat)
+  // Some eigenvalue's real part is within its own error bound of 0 (and its damping ratio above
+  // the axis tolerance), and none lies surely to the right: the precision of the computation
+  // does not decide the side ("undetermined at this precision"; the note gives the numbers).
+  // Last, so that the stored sweep records' codes of the others stay.
+  kUndetermined,
 };
 
 /// Inverse-model solvers (paper Sect. 5).

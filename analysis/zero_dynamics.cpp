@@ -2,7 +2,9 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 
@@ -167,6 +169,92 @@ void FinishZeroDynamicsClass(ZeroDynamicsSpectrum& spectrum, double imaginary_ax
 void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance) {
   FinishZeroDynamicsClass(spectrum, imaginary_axis_tolerance);
   spectrum.modes = OscillatoryModes(spectrum.eigenvalues, imaginary_axis_tolerance);
+}
+
+std::optional<AxisSide> SideWithinBound(std::complex<double> eigenvalue,
+                                        double error_bound,
+                                        double spectrum_scale,
+                                        double imaginary_axis_tolerance) {
+  if (std::abs(eigenvalue.real()) > error_bound) {
+    return eigenvalue.real() > 0.0 ? AxisSide::kRight : AxisSide::kLeft;
+  }
+  if (PartIsZero(eigenvalue.real(), eigenvalue, spectrum_scale, imaginary_axis_tolerance)) {
+    return AxisSide::kOn;
+  }
+  return std::nullopt;
+}
+
+void FinishZeroDynamicsWithBounds(ZeroDynamicsSpectrum& spectrum,
+                                  std::vector<double> error_bounds,
+                                  double imaginary_axis_tolerance) {
+  assert(error_bounds.size() == spectrum.eigenvalues.size());
+  std::vector<std::complex<double>>& eigenvalues = spectrum.eigenvalues;
+  const double scale = SpectrumScale(eigenvalues);
+  // Clean only the parts that are zero by the tolerance AND within the eigenvalue's accuracy.
+  for (std::size_t i = 0; i < eigenvalues.size(); ++i) {
+    const std::complex<double> original = eigenvalues[i];
+    const auto clean = [&](double part) {
+      return std::abs(part) <= error_bounds[i] &&
+             PartIsZero(part, original, scale, imaginary_axis_tolerance);
+    };
+    if (clean(original.imag())) eigenvalues[i] = {eigenvalues[i].real(), 0.0};
+    if (clean(original.real())) eigenvalues[i] = {0.0, eigenvalues[i].imag()};
+  }
+  // Sort the pairs (eigenvalue, bound) as SortEigenvalues sorts the eigenvalues.
+  std::vector<std::size_t> order(eigenvalues.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (eigenvalues[a].real() != eigenvalues[b].real()) {
+      return eigenvalues[a].real() > eigenvalues[b].real();
+    }
+    return eigenvalues[a].imag() > eigenvalues[b].imag();
+  });
+  std::vector<std::complex<double>> sorted;
+  spectrum.error_bounds.clear();
+  for (const std::size_t i : order) {
+    sorted.push_back(eigenvalues[i]);
+    spectrum.error_bounds.push_back(error_bounds[i]);
+  }
+  eigenvalues = std::move(sorted);
+
+  spectrum.stability_note.clear();
+  if (eigenvalues.empty()) {
+    spectrum.stability = Stability::kNone;
+  } else {
+    bool right = false, on_axis = false;
+    std::optional<std::size_t> undecided;
+    for (std::size_t i = 0; i < eigenvalues.size(); ++i) {
+      const std::optional<AxisSide> side = SideWithinBound(eigenvalues[i], spectrum.error_bounds[i],
+                                                           scale, imaginary_axis_tolerance);
+      if (!side) {
+        if (!undecided) undecided = i;
+      } else if (*side == AxisSide::kRight) {
+        right = true;
+      } else if (*side == AxisSide::kOn) {
+        on_axis = true;
+      }
+    }
+    if (right) {
+      spectrum.stability = Stability::kUnstable;
+    } else if (undecided) {
+      spectrum.stability = Stability::kUndetermined;
+      const std::size_t i = *undecided;
+      char buffer[256];
+      std::snprintf(buffer, sizeof buffer,
+                    "undetermined at this precision: zero %zu, lambda = %.6g%+.6gi, has "
+                    "|Re lambda| = %.3g within its error bound %.3g (|damping ratio| %.3g above "
+                    "the axis tolerance %.3g)",
+                    i + 1, eigenvalues[i].real(), eigenvalues[i].imag(),
+                    std::abs(eigenvalues[i].real()), spectrum.error_bounds[i],
+                    std::abs(ModeOf(eigenvalues[i]).damping_ratio), imaginary_axis_tolerance);
+      spectrum.stability_note = buffer;
+    } else {
+      spectrum.stability = on_axis ? Stability::kCritical : Stability::kAsymptoticallyStable;
+    }
+  }
+  spectrum.minimum_phase = spectrum.stability == Stability::kAsymptoticallyStable ||
+                           spectrum.stability == Stability::kNone;
+  spectrum.modes = OscillatoryModes(eigenvalues, imaginary_axis_tolerance);
 }
 
 std::vector<std::complex<double>> InvariantZeros(const Linearization& linearization,

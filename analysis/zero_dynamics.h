@@ -8,6 +8,8 @@
 //  2. the invariant zeros of the linearization: the finite generalized eigenvalues of the
 //     Rosenbrock pencil [[-K - s D_d - s^2 M, B], [H, 0]] in first-order form, by QZ.
 #include <complex>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "analysis/linearization.h"
@@ -32,6 +34,12 @@ struct ZeroDynamicsSpectrum {
   Stability stability = Stability::kNone;
   bool minimum_phase = true;  // asymptotically stable zero dynamics, or none (Isidori 1995)
   std::vector<Mode> modes;    // one per complex pair, ascending frequency
+  // Per eigenvalue (same order), a bound on its error |delta lambda| (1/s) where the route
+  // computes one (large linear models, FinishZeroDynamicsWithBounds); empty otherwise.
+  std::vector<double> error_bounds;
+  // Why the stability is what it is when the numbers matter: for kUndetermined the eigenvalue,
+  // its real part and its bound; for a structural certificate, the certificate. Else empty.
+  std::string stability_note;
 };
 
 struct ZeroDynamics : ZeroDynamicsSpectrum {
@@ -107,6 +115,25 @@ void FinishZeroDynamics(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_to
 /// FinishZeroDynamics without the modes (spectrum.modes is left empty): what a sweep point
 /// needs, whose tables have no modes, at a fraction of the cost.
 void FinishZeroDynamicsClass(ZeroDynamicsSpectrum& spectrum, double imaginary_axis_tolerance);
+
+/// Where an eigenvalue with an error bound lies: kOn also for "on the axis within its bound
+/// and with a damping ratio at most the axis tolerance"; nullopt when the bound does not
+/// decide (|Re lambda| <= error_bound but the damping ratio is above the tolerance).
+std::optional<AxisSide> SideWithinBound(std::complex<double> eigenvalue,
+                                        double error_bound,
+                                        double spectrum_scale,
+                                        double imaginary_axis_tolerance);
+
+/// FinishZeroDynamics for eigenvalues that come with error bounds (`error_bounds[i]` bounds
+/// |delta lambda_i| in 1/s, same order as spectrum.eigenvalues): each eigenvalue's side is
+/// decided from its own accuracy (SideWithinBound), not from a band. Stability: unstable if one
+/// lies surely right; else undetermined if the bound of one does not decide (stability_note
+/// names it: "zero 1: Re lambda = 7.3e-15 within its error bound 2.9e-10 ..."); else critical if
+/// one is on the axis; else asymptotically stable. Round-off is cleaned only within the bound.
+/// The bounds are sorted with the eigenvalues into spectrum.error_bounds.
+void FinishZeroDynamicsWithBounds(ZeroDynamicsSpectrum& spectrum,
+                                  std::vector<double> error_bounds,
+                                  double imaginary_axis_tolerance);
 
 /// Sorts eigenvalues by real part, then imaginary part, both descending (a stable order for
 /// tables: the least stable first, the upper member of each pair before the lower).

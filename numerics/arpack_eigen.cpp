@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <arpack.hpp>
 #include <cassert>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <string>
 
 #include "models/errors.h"
@@ -84,6 +87,8 @@ void ArpackOptions::Validate() const {
   RequireOption(tolerance >= 0.0 && tolerance < 1.0, kOwner, "tolerance", tolerance,
                 "must be >= 0 (0: machine precision) and < 1");
   RequireOption(max_iterations >= 1, kOwner, "max_iterations", max_iterations, "must be >= 1");
+  RequireOption(time_limit >= 0.0 && std::isfinite(time_limit), kOwner, "time_limit", time_limit,
+                "must be a finite number >= 0 (0: no limit)");
 }
 
 ArpackResult ArpackEigenvalues(Eigen::Index n,
@@ -118,12 +123,25 @@ ArpackResult ArpackEigenvalues(Eigen::Index n,
   iparam[2] = options.max_iterations;
   iparam[6] = 1;  // mode 1: OP x = lambda x with OP given by `apply`
   a_int ido = 0;
+  const std::clock_t started = std::clock();
+  long applications = 0;
   for (;;) {
+    if (options.time_limit > 0.0 &&
+        double(std::clock() - started) / CLOCKS_PER_SEC > options.time_limit) {
+      char limit[32];
+      std::snprintf(limit, sizeof limit, "%g", options.time_limit);
+      throw NoSolution("ARPACK dnaupd stopped at its time limit of " + std::string(limit) +
+                       " s CPU after " + std::to_string(applications) +
+                       " operator applications, not converged " +
+                       "(the shift-invert operator may be too inaccurate for Arnoldi; raise " +
+                       "ArpackOptions::time_limit, or make the problem better conditioned)");
+    }
     arpack::internal::dnaupd_c(&ido, "I", size, which, nev, options.tolerance, resid.data(), ncv,
                                basis.data(), size, iparam, ipntr, workd.data(), workl.data(),
                                lworkl, &info);
     if (ido == -1 || ido == 1) {
       apply(workd.data() + ipntr[0] - 1, workd.data() + ipntr[1] - 1);
+      ++applications;
       continue;
     }
     if (ido == 99) break;
@@ -147,17 +165,49 @@ ArpackResult ArpackEigenvalues(Eigen::Index n,
   std::vector<double> imaginary_parts(static_cast<std::size_t>(nev) + 1);
   std::vector<double> workev(3 * static_cast<std::size_t>(ncv));
   a_int neupd_info = 0;
-  // No eigenvectors (rvec = 0): Z is not referenced, V serves as its placeholder.
-  arpack::internal::dneupd_c(0, "A", select.data(), real_parts.data(), imaginary_parts.data(),
-                             basis.data(), size, 0.0, 0.0, workev.data(), "I", size, which, nev,
-                             options.tolerance, resid.data(), ncv, basis.data(), size, iparam,
-                             ipntr, workd.data(), workl.data(), lworkl, &neupd_info);
+  // Without eigenvectors (rvec = 0) Z is not referenced and V serves as its placeholder; with
+  // them, dneupd may write Z over the first nev + 1 columns of V (dneupd.f, the note on Z).
+  const a_int want_vectors = options.ritz_vectors ? 1 : 0;
+  arpack::internal::dneupd_c(
+      want_vectors, "A", select.data(), real_parts.data(), imaginary_parts.data(), basis.data(),
+      size, 0.0, 0.0, workev.data(), "I", size, which, nev, options.tolerance, resid.data(), ncv,
+      basis.data(), size, iparam, ipntr, workd.data(), workl.data(), lworkl, &neupd_info);
   if (neupd_info != 0) ThrowArpack("dneupd", neupd_info, "");
   const a_int converged = std::min(iparam[4], nev + 1);
   for (a_int i = 0; i < converged; ++i) {
     result.ritz_values.emplace_back(real_parts[std::size_t(i)], imaginary_parts[std::size_t(i)]);
   }
+  result.dimension = n;
+  if (options.ritz_vectors) {
+    // Column converged (the imaginary part of a last, unpaired complex value) may be needed.
+    basis.resize(std::size_t(n) * std::size_t(std::min<a_int>(converged + 1, ncv)));
+    result.ritz_vectors = std::move(basis);
+  }
   return result;
+}
+
+Eigen::VectorXcd RitzVector(const ArpackResult& result, std::size_t index) {
+  assert(index < result.ritz_values.size());
+  const Eigen::Index n = result.dimension;
+  const std::size_t columns =
+      result.ritz_vectors.size() / std::size_t(std::max<Eigen::Index>(n, 1));
+  assert(columns > index);
+  const auto column = [&](std::size_t j) {
+    return Eigen::Map<const Eigen::VectorXd>(result.ritz_vectors.data() + j * std::size_t(n), n);
+  };
+  const std::complex<double> value = result.ritz_values[index];
+  if (value.imag() == 0.0) return column(index).cast<std::complex<double>>();
+  // The first member of a pair (Im > 0) owns columns index, index + 1; the second (Im < 0,
+  // after its partner) is the conjugate of the first's.
+  const bool first = value.imag() > 0.0;
+  const std::size_t real_column = first ? index : index - 1;
+  assert(first || index >= 1);
+  if (real_column + 1 >= columns) return column(real_column).cast<std::complex<double>>();
+  Eigen::VectorXcd vector(n);
+  vector.real() = column(real_column);
+  vector.imag() =
+      first ? Eigen::VectorXd(column(real_column + 1)) : Eigen::VectorXd(-column(real_column + 1));
+  return vector;
 }
 
 std::vector<std::complex<double>> ShiftInvertEigenvalues(Eigen::Index n,

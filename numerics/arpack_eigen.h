@@ -41,6 +41,14 @@ struct ArpackOptions {
   // Implicit restarts allowed (iparam(3)); 1000 is far beyond what shift-invert needs (a few
   // dozen) and stops a hopeless run in bounded time.
   int max_iterations = 1000;
+  // CPU budget in seconds (0: none). A run that has not converged by then stops with NoSolution
+  // saying so and how many eigenvalues had converged, never a claim of convergence: a model
+  // whose shift-invert is too inaccurate for Arnoldi (the beam of 1e6 elements ran 900 s)
+  // fails in bounded time. 60 s: a minute, the budget for a million unknowns.
+  double time_limit = 60.0;
+  // Also compute the Ritz vectors (dneupd with rvec = 1, written over the Arnoldi basis, so no
+  // memory beyond the basis): what a per-eigenvalue residual and error bound needs.
+  bool ritz_vectors = false;
   /// Throws UsageError naming the field, its value and the rule it breaks.
   void Validate() const;
 };
@@ -57,7 +65,17 @@ struct ArpackResult {
   int restarts = 0;                               // implicit restarts taken (iparam(3) on exit)
   int operator_applications = 0;                  // callback calls (iparam(9))
   int basis_size = 0;                             // ncv used
+  // With ArpackOptions::ritz_vectors: n x ritz_values.size() (column-major), ARPACK's packing:
+  // column j is the eigenvector of a real ritz_values[j]; for a pair with Im ritz_values[j] > 0,
+  // columns j and j + 1 are the real and imaginary parts of the eigenvector of ritz_values[j]
+  // (and their conjugate that of ritz_values[j + 1]). See RitzVector.
+  std::vector<double> ritz_vectors;
+  Eigen::Index dimension = 0;  // n
 };
+
+/// The eigenvector of result.ritz_values[index] (complex, size n) from result.ritz_vectors
+/// (which must have been asked for), unpacking ARPACK's conjugate-pair layout.
+Eigen::VectorXcd RitzVector(const ArpackResult& result, std::size_t index);
 
 /// y = OP x for vectors of the size given to ArpackEigenvalues; x and y do not overlap.
 using LinearOperator = std::function<void(const double* x, double* y)>;

@@ -347,8 +347,12 @@ std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const Lin
            : std::string("order not determined")},
       {"zero dynamics", EigenvaluesToText(zeros.eigenvalues)},
       {"eigenvalues computed", zeros.scope},
+      {"error bounds of the zeros",
+       VectorToText(Eigen::Map<const Eigen::VectorXd>(zeros.error_bounds.data(),
+                                                      Eigen::Index(zeros.error_bounds.size())))},
       {"stability", std::string(ToString(zeros.stability)) +
-                        (zeros.minimum_phase ? ", minimum phase" : ", non-minimum phase")},
+                        (zeros.minimum_phase ? ", minimum phase" : ", non-minimum phase") +
+                        (zeros.stability_note.empty() ? "" : " (" + zeros.stability_note + ")")},
       {"oscillatory modes", ModesToText(zeros.modes)},
       {"recommended solver", std::string(ToString(a.recommended_solver))},
   };
@@ -368,7 +372,9 @@ nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
   }
   nlohmann::ordered_json zero_dynamics = {
       {"eigenvalues", EigenvaluesToJson(zeros.eigenvalues)},
+      {"error_bounds", zeros.error_bounds},
       {"stability", ToString(zeros.stability)},
+      {"stability_note", zeros.stability_note},
       {"minimum_phase", zeros.minimum_phase},
       {"modes", modes},
       {"complete", zeros.complete},

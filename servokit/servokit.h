@@ -116,7 +116,8 @@ struct OscillatoryMode {
 /// The zero dynamics at the operating point (paper Eq. 48).
 struct ZeroDynamics {
   std::vector<std::complex<double>> eigenvalues;
-  // "asymptotically-stable", "unstable", "critical" or "none" (no zero dynamics).
+  // "asymptotically-stable", "unstable", "critical", "none" (no zero dynamics) or, for a large
+  // linear model only, "undetermined" (the precision does not decide an eigenvalue's side).
   std::string stability;
   bool minimum_phase = false;
   std::vector<OscillatoryMode> modes;

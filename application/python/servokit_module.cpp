@@ -510,7 +510,8 @@ PYBIND11_MODULE(servokit, module) {
           [](const sk::ZeroDynamics& zero) { return ComplexArray(zero.eigenvalues); },
           "Eigenvalues (1/s) as a complex numpy array.")
       .def_readonly("stability", &sk::ZeroDynamics::stability,
-                    "asymptotically-stable, unstable, critical or none")
+                    "asymptotically-stable, unstable, critical, none or undetermined (large linear "
+                    "models: the precision does not decide an eigenvalue's side)")
       .def_readonly("minimum_phase", &sk::ZeroDynamics::minimum_phase)
       .def_readonly("modes", &sk::ZeroDynamics::modes);
 

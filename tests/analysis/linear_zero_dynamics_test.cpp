@@ -589,4 +589,119 @@ TEST_CASE("factorization names", "[analysis]") {
   CHECK(ToString(RosenbrockFactorization::kNone) == "none");
 }
 
+TEST_CASE("ARPACK past its time limit is NoSolution saying so, never converged", "[analysis]") {
+  const LinearSystem system = Chain(200, 1, 0.01);
+  LinearZeroDynamicsOptions options = WithSolver(LinearEigenSolver::kArpack, 30);
+  options.target = EigenvalueTarget::kRightmost;  // slow: many restarts
+  options.arpack.time_limit = 1e-9;               // passed after the first operator application
+  CHECK_THROWS_WITH(Zeros(system, options), Catch::Contains("stopped at its time limit") &&
+                                                Catch::Contains("not converged"));
+}
+
+// ---- verdicts from each zero's own accuracy (issue #19) ---------------------------------------
+
+// The closed-form zero nearest `zero` (tests/chain_closed_form.h).
+Complex NearestChainZero(long masses, long output, double damping, Complex zero) {
+  const std::vector<Complex> all =
+      testing::ChainZeros(masses, output, kChainMass, kChainStiffness, damping);
+  return *std::min_element(all.begin(), all.end(), [zero](const Complex& a, const Complex& b) {
+    return std::abs(a - zero) < std::abs(b - zero);
+  });
+}
+
+TEST_CASE("bounds decide each eigenvalue's side; within its bound it is undetermined",
+          "[analysis]") {
+  ZeroDynamicsSpectrum spectrum;
+  spectrum.eigenvalues = {{-1e-6, 1.0}, {-1e-6, -1.0}};
+  FinishZeroDynamicsWithBounds(spectrum, {1e-9, 1e-9}, 1e-9);
+  // Damping ratio 1e-6 above its bound 1e-9: left, whatever a band relative to max |lambda| says.
+  CHECK(spectrum.stability == Stability::kAsymptoticallyStable);
+  CHECK(spectrum.stability_note.empty());
+  FinishZeroDynamicsWithBounds(spectrum, {1e-5, 1e-5}, 1e-9);
+  CHECK(spectrum.stability == Stability::kUndetermined);
+  CHECK_FALSE(spectrum.minimum_phase);
+  CHECK_THAT(spectrum.stability_note,
+             Catch::Contains("undetermined at this precision") && Catch::Contains("1e-05"));
+  // One zero surely right decides, whatever the others.
+  spectrum.eigenvalues = {{-1e-6, 1.0}, {-1e-6, -1.0}, {2.0, 0.0}};
+  FinishZeroDynamicsWithBounds(spectrum, {1e-5, 1e-5, 1e-3}, 1e-9);
+  CHECK(spectrum.stability == Stability::kUnstable);
+  REQUIRE(spectrum.error_bounds.size() == 3);
+  CHECK(spectrum.error_bounds[0] == 1e-3);  // sorted with its eigenvalue (2 first)
+  // On the axis within its bound and below the axis tolerance: critical, as before.
+  spectrum.eigenvalues = {{1e-12, 1.0}, {1e-12, -1.0}};
+  FinishZeroDynamicsWithBounds(spectrum, {1e-9, 1e-9}, 1e-9);
+  CHECK(spectrum.stability == Stability::kCritical);
+  CHECK(spectrum.eigenvalues[0] == Complex(0.0, 1.0));
+  CHECK(StabilityFromString(ToString(Stability::kUndetermined)) == Stability::kUndetermined);
+  CHECK(ToString(Stability::kUndetermined) == "undetermined");
+}
+
+// A damped chain observed at the mass the force acts on: M, D, K symmetric and diagonally
+// dominant positive definite, the output collocated, so every zero solves m s^2 + d s + k = 0
+// with m, d, k > 0 (a structural proof of asymptotic stability). Its slowest zero has
+// Re = -d mu_1 / (2 m) ~ -6e-13 beside |lambda| ~ 2e-5 at N = 1e5 (damping ratio 3e-8): the
+// case whose Re came out as exactly 0, or positive, at N = 1e6. The run at N = 1e6 is in the
+// README (the test stays at 1e5 for time).
+TEST_CASE("a damped chain of 1e5 masses is asymptotically stable, each zero as the closed form",
+          "[analysis]") {
+  const long masses = 100000;
+  const double damping = 0.01;
+  const LinearZeroDynamics zeros =
+      Zeros(Chain(masses, 1, damping), WithSolver(LinearEigenSolver::kArpack, 10));
+  CHECK(zeros.stability == Stability::kAsymptoticallyStable);
+  CHECK(zeros.minimum_phase);
+  CHECK_THAT(zeros.stability_note, Catch::Contains("certified by structure"));
+  REQUIRE(zeros.eigenvalues.size() == 10);
+  REQUIRE(zeros.error_bounds.size() == 10);
+  for (std::size_t i = 0; i < zeros.eigenvalues.size(); ++i) {
+    const Complex zero = zeros.eigenvalues[i];
+    const Complex exact = NearestChainZero(masses, 1, damping, zero);
+    CAPTURE(i, zero, exact, zeros.error_bounds[i]);
+    CHECK(zero.real() < 0.0);
+    // The quadratic Rayleigh quotient in long double: measured 1e-13 relative on Re; 1e-6
+    // leaves room for other compilers' long double and summation order.
+    CHECK(zero.real() == Approx(exact.real()).epsilon(1e-6));
+    CHECK(std::abs(zero - exact) <= zeros.error_bounds[i]);  // the bound holds
+  }
+}
+
+// The same chain observed at mass 2 is not collocated: no structural proof, and each zero is
+// judged by its own error bound (measured errors 1e-12 against bounds 3e-10 at N = 1e5). At
+// N = 1e4 |Re lambda_1| ~ 1e-10 exceeds its bound ~ 4e-11: stable. At N = 1e5 it is ~1e-12,
+// below its bound: the answer is "undetermined at this precision", never a wrong word.
+TEST_CASE("a non-collocated damped chain is stable at 1e4 masses, undetermined at 1e5",
+          "[analysis]") {
+  const double damping = 0.01;
+  for (long masses : {10000L, 100000L}) {
+    CAPTURE(masses);
+    const LinearZeroDynamics zeros =
+        Zeros(Chain(masses, 2, damping), WithSolver(LinearEigenSolver::kArpack, 10));
+    REQUIRE(zeros.error_bounds.size() == zeros.eigenvalues.size());
+    for (std::size_t i = 0; i < zeros.eigenvalues.size(); ++i) {
+      const Complex exact = NearestChainZero(masses, 2, damping, zeros.eigenvalues[i]);
+      CAPTURE(i, zeros.eigenvalues[i], exact, zeros.error_bounds[i]);
+      CHECK(std::abs(zeros.eigenvalues[i] - exact) <= zeros.error_bounds[i]);
+    }
+    if (masses == 10000) {
+      CHECK(zeros.stability == Stability::kAsymptoticallyStable);
+    } else {
+      CHECK(zeros.stability == Stability::kUndetermined);
+      CHECK_THAT(zeros.stability_note, Catch::Contains("undetermined at this precision"));
+    }
+  }
+}
+
+// The FE beam's stiffness grows like N^4 against its mass: at N = 1e4 elements the mesh's
+// highest frequency squared (~3e17) over the slowest zero's |lambda|^2 (~1e3) times eps is far
+// above 1. Before this refusal ARPACK returned complex pairs where the converged zeros are real
+// (file comment), and at N = 1e6 ran 900 s without converging.
+TEST_CASE("the FE beam of 1e4 elements is refused: its zeros would carry no correct digit",
+          "[analysis]") {
+  const LinearSystem system = LoadGenerated(GenerateBeam(UndampedBeam(10000)));
+  CHECK_THROWS_AS(Zeros(system, WithSolver(LinearEigenSolver::kArpack)), NoSolution);
+  CHECK_THROWS_WITH(Zeros(system, WithSolver(LinearEigenSolver::kArpack)),
+                    Catch::Contains("would carry no correct digit") && Catch::Contains("N^-4"));
+}
+
 }  // namespace servokit
