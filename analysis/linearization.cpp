@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/subspaces.h"
 #include "models/errors.h"
 
 namespace servokit {
@@ -76,16 +77,19 @@ Linearization Linearize(const Model& model, Workspace& workspace, const Operatin
         " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit) + " (" +
         DescribeParameters(model, workspace) + ")");
   }
-  linearization.mass_inverse = mass_factor.solve(Eigen::MatrixXd::Identity(dof, dof));
+  linearization.mass_inverse.setIdentity(dof, dof);
+  mass_factor.solveInPlace(linearization.mass_inverse);
   // The analyses form these products (ToStateSpace, P); parameters near the end of the double
   // range (k = 1e308, say) overflow here although every entry above is finite.
-  const std::pair<const char*, Eigen::MatrixXd> rates[] = {
-      {"M^-1", linearization.mass_inverse},
-      {"M^-1 K", linearization.mass_inverse * linearization.stiffness},
-      {"M^-1 D", linearization.mass_inverse * linearization.damping},
-      {"M^-1 B", linearization.mass_inverse * linearization.input_matrix}};
-  for (const auto& [name, matrix] : rates) {
-    if (!matrix.allFinite()) {
+  const std::pair<const char*, const Eigen::MatrixXd*> factors[] = {
+      {"M^-1", nullptr},
+      {"M^-1 K", &linearization.stiffness},
+      {"M^-1 D", &linearization.damping},
+      {"M^-1 B", &linearization.input_matrix}};
+  Eigen::MatrixXd rate;
+  for (const auto& [name, factor] : factors) {
+    if (factor != nullptr) rate.noalias() = linearization.mass_inverse * *factor;
+    if (!(factor != nullptr ? rate : linearization.mass_inverse).allFinite()) {
       throw NoSolution(std::string("the linearization overflows the range of double: ") + name +
                        " is not finite at the operating point (" +
                        DescribeParameters(model, workspace) + ")");
@@ -101,10 +105,10 @@ StateSpace ToStateSpace(const Linearization& linearization) {
   const Eigen::MatrixXd damping_rate = mass_inverse * linearization.damping;      // 1/s
   // The model's own time scale: sqrt of the stiffness rate, or the damping rate if there is no
   // stiffness, or 1 for a free mass.
-  // stableNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
+  // SafeNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
   // (k = 1e200 in the mass on car) and made the time scale infinite and B vanish.
-  double time_scale = std::sqrt(stiffness_rate.stableNorm());
-  if (!(time_scale > 0.0)) time_scale = damping_rate.stableNorm();
+  double time_scale = std::sqrt(SafeNorm(stiffness_rate));
+  if (!(time_scale > 0.0)) time_scale = SafeNorm(damping_rate);
   if (!(time_scale > 0.0)) time_scale = 1.0;
 
   StateSpace state_space;

@@ -18,27 +18,30 @@ void FindRelativeDegrees(const StateSpace& system,
                          OutputStructure& structure) {
   const Eigen::Index outputs = system.output_matrix.rows();
   const Eigen::Index states = system.state_matrix.rows();
-  const double input_size = system.input_matrix.stableNorm();
+  const double input_size = SafeNorm(system.input_matrix);
   structure.relative_degree.assign(std::size_t(outputs), 0);
   structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
+  Eigen::RowVectorXd output_row(states), next_row(states);  // C_i A^k, reused
+  Eigen::RowVectorXd markov_row(system.input_matrix.cols());
   for (Eigen::Index i = 0; i < outputs; ++i) {
-    Eigen::RowVectorXd output_row = system.output_matrix.row(i);  // C_i A^k
+    output_row = system.output_matrix.row(i);
     for (Eigen::Index k = 0; k < states; ++k) {
-      const Eigen::RowVectorXd markov_row = output_row * system.input_matrix;
-      // stableNorm: the squares of norm() overflow long before the entries do.
-      const double allowed = rank_tolerance * output_row.stableNorm() * input_size;
+      markov_row.noalias() = output_row * system.input_matrix;
+      // SafeNorm: the squares of norm() overflow long before the entries do.
+      const double allowed = rank_tolerance * SafeNorm(output_row) * input_size;
       if (!markov_row.allFinite() || !std::isfinite(allowed)) {
         throw NoSolution("output y" + std::to_string(i + 1) + ": the Markov parameter C A^" +
                          std::to_string(k) +
                          " B overflows the range of double at the operating point (a "
                          "parameter near the end of the double range?)");
       }
-      if (markov_row.stableNorm() > allowed) {
+      if (SafeNorm(markov_row) > allowed) {
         structure.relative_degree[std::size_t(i)] = static_cast<int>(k + 1);
         structure.decoupling_matrix.row(i) = markov_row;
         break;
       }
-      output_row = output_row * system.state_matrix;
+      next_row.noalias() = output_row * system.state_matrix;
+      output_row.swap(next_row);
     }
     if (structure.relative_degree[std::size_t(i)] == 0) {
       throw NoSolution("output y" + std::to_string(i + 1) +
@@ -74,7 +77,7 @@ bool RegularStructure(const StateSpace& system, double rank_tolerance, OutputStr
     for (Eigen::Index i = 0; i < C.rows(); ++i) {
       Eigen::RowVectorXd row = C.row(i);
       for (int k = 0; k < structure.relative_degree[std::size_t(i)]; ++k) {
-        const double size = row.stableNorm();
+        const double size = SafeNorm(row);
         if (!(size > 0.0) || !std::isfinite(size)) return false;
         rows.row(next++) = row / size;
         row = row * A;

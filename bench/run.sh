@@ -9,6 +9,9 @@ echo
 echo "== sweep throughput against the SciPy pipeline (issue #3) =="
 "$root/bench/compare_sweep.sh" "$build"
 echo
+echo "== sweep of every shipped model against a generic per-point SciPy pipeline (issue #19) =="
+"$root/bench/compare_generic_sweep.sh" "$build"
+echo
 echo "== sweep files: CSV against HDF5 and MAT (issue #17) =="
 "$root/bench/compare_sweep_formats.sh" "$build"
 echo
