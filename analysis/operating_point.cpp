@@ -303,7 +303,8 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   point.q = unknowns.head(dof);
   point.u = unknowns.tail(inputs);
-  Evaluate(model, workspace, point.q, zero, static_cast<unsigned>(Quantity::kOutput));
+  // h(q) at these very unknowns: the last residual evaluated it, and the Jacobian after it
+  // evaluates no output (Evaluate writes only the quantities asked for).
   point.y = workspace.output;
   return point;
 }
