@@ -28,13 +28,18 @@ std::string ShortNumber(double value) {
 
 }  // namespace
 
-Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point) {
+Linearization Linearize(const Model& model,
+                        Workspace& workspace,
+                        const OperatingPoint& point,
+                        bool workspace_holds_jacobians) {
   assert(workspace.Fits(model));
   const auto dof = static_cast<Eigen::Index>(model.dof());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
   Evaluate(model, workspace, point.q, zero,
-           Quantity::kMassMatrix | Quantity::kForcesJacobians | Quantity::kInputMatrix |
-               Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
+           workspace_holds_jacobians
+               ? static_cast<unsigned>(Quantity::kMassMatrix)
+               : Quantity::kMassMatrix | Quantity::kForcesJacobians | Quantity::kInputMatrix |
+                     Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
   Linearization linearization;
   linearization.mass_matrix = workspace.mass_matrix;
   linearization.damping = workspace.forces_velocity_jacobian;

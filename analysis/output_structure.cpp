@@ -49,10 +49,9 @@ void FindRelativeDegrees(const StateSpace& system,
                        "relative degree): no input can make it follow a trajectory");
     }
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(structure.decoupling_matrix);
   const double scale = structure.decoupling_matrix.norm();
   structure.decoupling_matrix_regular =
-      NumericalRank(svd.singularValues(), rank_tolerance * scale) == outputs;
+      NumericalRank(SingularValues(structure.decoupling_matrix), rank_tolerance * scale) == outputs;
 }
 
 // Regular decoupling matrix (the vector relative degree r exists): V* is the kernel of the rows

@@ -17,6 +17,12 @@ double SafeNorm(const Eigen::MatrixBase<Derived>& values) {
   return values.stableNorm();
 }
 
+/// The singular values of `matrix`, descending, as Eigen::JacobiSVD computes them; for a finite
+/// 1 x 1 matrix |a| directly, which is JacobiSVD's result to the bit (it scales by |a|, so the
+/// work entry is exactly +-1), without its set-up (P and the decoupling matrix of a single-input
+/// single-output model, at every sweep point).
+Eigen::VectorXd SingularValues(const Eigen::MatrixXd& matrix);
+
 /// Number of singular values above `threshold` (singular values sorted descending).
 Eigen::Index NumericalRank(const Eigen::VectorXd& singular_values, double threshold);
 
