@@ -23,8 +23,9 @@ PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-d
             catch2 libginac-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev gnuplot-nox \
             libopenmpi-dev openmpi-bin pybind11-dev python3-dev python3-pytest python3-numpy \
             python3-pandas libhdf5-dev libmatio-dev python3-h5py python3-scipy
-# Only the benchmarks need the SciPy peer.
-BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml
+# Only the benchmarks need the SciPy peers (bench/scipy_generic_sweep.py compiles model files
+# with SymPy).
+BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml python3-sympy
 # Only fuzzing needs clang and its libFuzzer runtime.
 FUZZ_PACKAGES := clang libclang-rt-dev
 # The formatter, pinned to Debian's clang-format 14 (.clang-format, STYLE.md "Format"): another

@@ -29,7 +29,9 @@ Classification Classify(const Model& model,
   options.Validate(model);
   Classification result;
   result.operating_point = FindOperatingPoint(model, workspace, options.operating_point);
-  result.linearization = Linearize(model, workspace, result.operating_point);
+  // FindOperatingPoint leaves the Jacobians at the point in the workspace.
+  result.linearization =
+      Linearize(model, workspace, result.operating_point, /*workspace_holds_jacobians=*/true);
   result.decoupling = AnalyzeDecouplingMatrix(result.linearization, options);
   result.structure = AnalyzeOutputStructure(result.linearization, options);
   result.zero_dynamics = ComputeZeroDynamics(result.structure, options);

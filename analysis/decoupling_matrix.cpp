@@ -43,8 +43,7 @@ DecouplingAnalysis AnalyzeDecouplingMatrix(const Linearization& linearization,
 
   const Eigen::MatrixXd input_accelerations = linearization.mass_inverse * input_matrix;
   result.decoupling_matrix = DecouplingMatrix(output_jacobian, input_accelerations);
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(result.decoupling_matrix);
-  result.singular_values = svd.singularValues();
+  result.singular_values = SingularValues(result.decoupling_matrix);
   // Scale: |H| |M^-1 B| bounds sigma_max(P); see ClassificationOptions::rank_tolerance.
   result.rank_threshold =
       options.rank_tolerance * output_jacobian.norm() * input_accelerations.norm();

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/subspaces.h"
 #include "models/errors.h"
 
 namespace servokit {
@@ -27,13 +28,18 @@ std::string ShortNumber(double value) {
 
 }  // namespace
 
-Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point) {
+Linearization Linearize(const Model& model,
+                        Workspace& workspace,
+                        const OperatingPoint& point,
+                        bool workspace_holds_jacobians) {
   assert(workspace.Fits(model));
   const auto dof = static_cast<Eigen::Index>(model.dof());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
   Evaluate(model, workspace, point.q, zero,
-           Quantity::kMassMatrix | Quantity::kForcesJacobians | Quantity::kInputMatrix |
-               Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
+           workspace_holds_jacobians
+               ? static_cast<unsigned>(Quantity::kMassMatrix)
+               : Quantity::kMassMatrix | Quantity::kForcesJacobians | Quantity::kInputMatrix |
+                     Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
   Linearization linearization;
   linearization.mass_matrix = workspace.mass_matrix;
   linearization.damping = workspace.forces_velocity_jacobian;
@@ -63,11 +69,23 @@ Linearization Linearize(const Model& model, Workspace& workspace, const Operatin
   }
   // rcond() divides by the 1-norm of M: when that overflows, the estimate is 0 for a reason
   // that is not singularity.
-  if (!std::isfinite(linearization.mass_matrix.cwiseAbs().colwise().sum().maxCoeff())) {
+  const double mass_norm = linearization.mass_matrix.cwiseAbs().colwise().sum().maxCoeff();
+  if (!std::isfinite(mass_norm)) {
     throw NoSolution("the mass matrix overflows the range of double at the operating point (" +
                      DescribeParameters(model, workspace) + ")");
   }
-  const double reciprocal_condition = mass_factor.rcond();
+  linearization.mass_inverse.setIdentity(dof, dof);
+  mass_factor.solveInPlace(linearization.mass_inverse);
+  // LLT's rcond() estimates |M^-1|_1 from below (Hager-Higham: the largest |M^-1 x|_1 it
+  // tries, |x|_1 = 1), so its reciprocal condition is at least the exact one, here from the
+  // explicit inverse. When the exact one clears the limit with room to spare for rounding, so
+  // does the estimate, and the estimate (several triangular solves, a tenth of a sweep point
+  // of the six-mass chain) is not needed for the same decision.
+  const double inverse_norm = linearization.mass_inverse.cwiseAbs().colwise().sum().maxCoeff();
+  const bool clearly_regular =
+      std::isfinite(inverse_norm) &&
+      1.0 / (mass_norm * inverse_norm) > 2.0 * kMassMatrixReciprocalConditionLimit;
+  const double reciprocal_condition = clearly_regular ? 1.0 : mass_factor.rcond();
   if (!(reciprocal_condition > kMassMatrixReciprocalConditionLimit)) {
     throw NoSolution(
         "the mass matrix is singular to working precision at the operating point: "
@@ -76,16 +94,17 @@ Linearization Linearize(const Model& model, Workspace& workspace, const Operatin
         " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit) + " (" +
         DescribeParameters(model, workspace) + ")");
   }
-  linearization.mass_inverse = mass_factor.solve(Eigen::MatrixXd::Identity(dof, dof));
   // The analyses form these products (ToStateSpace, P); parameters near the end of the double
   // range (k = 1e308, say) overflow here although every entry above is finite.
-  const std::pair<const char*, Eigen::MatrixXd> rates[] = {
-      {"M^-1", linearization.mass_inverse},
-      {"M^-1 K", linearization.mass_inverse * linearization.stiffness},
-      {"M^-1 D", linearization.mass_inverse * linearization.damping},
-      {"M^-1 B", linearization.mass_inverse * linearization.input_matrix}};
-  for (const auto& [name, matrix] : rates) {
-    if (!matrix.allFinite()) {
+  const std::pair<const char*, const Eigen::MatrixXd*> factors[] = {
+      {"M^-1", nullptr},
+      {"M^-1 K", &linearization.stiffness},
+      {"M^-1 D", &linearization.damping},
+      {"M^-1 B", &linearization.input_matrix}};
+  Eigen::MatrixXd rate;
+  for (const auto& [name, factor] : factors) {
+    if (factor != nullptr) rate.noalias() = linearization.mass_inverse * *factor;
+    if (!(factor != nullptr ? rate : linearization.mass_inverse).allFinite()) {
       throw NoSolution(std::string("the linearization overflows the range of double: ") + name +
                        " is not finite at the operating point (" +
                        DescribeParameters(model, workspace) + ")");
@@ -101,10 +120,10 @@ StateSpace ToStateSpace(const Linearization& linearization) {
   const Eigen::MatrixXd damping_rate = mass_inverse * linearization.damping;      // 1/s
   // The model's own time scale: sqrt of the stiffness rate, or the damping rate if there is no
   // stiffness, or 1 for a free mass.
-  // stableNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
+  // SafeNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
   // (k = 1e200 in the mass on car) and made the time scale infinite and B vanish.
-  double time_scale = std::sqrt(stiffness_rate.stableNorm());
-  if (!(time_scale > 0.0)) time_scale = damping_rate.stableNorm();
+  double time_scale = std::sqrt(SafeNorm(stiffness_rate));
+  if (!(time_scale > 0.0)) time_scale = SafeNorm(damping_rate);
   if (!(time_scale > 0.0)) time_scale = 1.0;
 
   StateSpace state_space;

@@ -27,7 +27,13 @@ struct Linearization {
 /// values, if a matrix is not finite there, M(q0) is not symmetric positive definite or is
 /// singular to working precision (reciprocal condition number at most 1e3 epsilon), or
 /// M^-1, M^-1 K, M^-1 D or M^-1 B overflows.
-Linearization Linearize(const Model& model, Workspace& workspace, const OperatingPoint& point);
+/// With `workspace_holds_jacobians`, the caller vouches that the workspace holds df/dq,
+/// df/dq_dot, B, dB/dq and H evaluated at (point.q, 0) as FindOperatingPoint leaves them, and
+/// only M is evaluated (Classify: a sweep point does not evaluate the Jacobians twice).
+Linearization Linearize(const Model& model,
+                        Workspace& workspace,
+                        const OperatingPoint& point,
+                        bool workspace_holds_jacobians = false);
 
 /// The first-order form x = [dq; dq' / time_scale] of a linearization:
 /// x' = state_matrix x + input_matrix du, dy = output_matrix x. Scaling the velocities by the

@@ -38,6 +38,12 @@ struct EquilibriumProblem {
     const auto u = unknowns.tail(inputs());
     Evaluate(model, workspace, q, zero_velocity,
              Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput);
+    ResidualFromWorkspace(u, residual);
+  }
+
+  // The residual from f, B and h already evaluated at q (and velocity 0).
+  void ResidualFromWorkspace(const Eigen::Ref<const Eigen::VectorXd>& u,
+                             Eigen::Ref<Eigen::VectorXd> residual) const {
     residual.head(dof()) = workspace.forces - workspace.input_matrix * u;
     residual.tail(inputs()) = workspace.output - y0;
   }
@@ -238,20 +244,24 @@ OperatingPoint FindOperatingPoint(const Model& model,
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
 
   EquilibriumProblem problem{model, workspace, Eigen::VectorXd(), zero, std::nullopt};
-  if (options.y0) {
-    problem.y0 = *options.y0;
-  } else {
-    Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
-    problem.y0 = workspace.output;
-    if (!problem.y0.allFinite()) {
-      throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
-    }
-  }
-
-  // Start from q_guess and the inputs that best balance the forces there.
+  // Start from q_guess and the inputs that best balance the forces there. f, B and h at the
+  // start are evaluated at once; without q_guess the start is q = 0, where h gives y0 = h(0).
   Eigen::VectorXd unknowns(dof + inputs);
   unknowns.head(dof) = options.q_guess.value_or(zero);
-  Evaluate(model, workspace, unknowns.head(dof), zero, Quantity::kForces | Quantity::kInputMatrix);
+  if (!options.y0 && options.q_guess) {
+    Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
+    problem.y0 = workspace.output;
+  }
+  Evaluate(model, workspace, unknowns.head(dof), zero,
+           Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput);
+  if (options.y0) {
+    problem.y0 = *options.y0;
+  } else if (!options.q_guess) {
+    problem.y0 = workspace.output;
+  }
+  if (!options.y0 && !problem.y0.allFinite()) {
+    throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
+  }
   // Least squares u = (B^T B)^-1 B^T f; B has full column rank in any sensible model, and the
   // complete orthogonal decomposition handles one that has not.
   const Eigen::LLT<Eigen::MatrixXd> normal(workspace.input_matrix.transpose() *
@@ -278,7 +288,9 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   const Eigen::VectorXd scaling = ResidualScaling(jacobian);
   Eigen::VectorXd residual(dof + inputs);
-  problem.Residual(unknowns, residual);
+  // f and h at the start are in the workspace, and B (evaluated again by the Jacobian at the
+  // same q) is unchanged: the residual needs no evaluation.
+  problem.ResidualFromWorkspace(unknowns.tail(inputs), residual);
 
   OperatingPoint point;
   // Most operating points are the starting point itself (q = 0 and y0 = h(0)); then Newton
@@ -303,7 +315,8 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   point.q = unknowns.head(dof);
   point.u = unknowns.tail(inputs);
-  Evaluate(model, workspace, point.q, zero, static_cast<unsigned>(Quantity::kOutput));
+  // h(q) at these very unknowns: the last residual evaluated it, and the Jacobian after it
+  // evaluates no output (Evaluate writes only the quantities asked for).
   point.y = workspace.output;
   return point;
 }

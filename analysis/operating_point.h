@@ -40,6 +40,8 @@ std::string DescribeParameters(const Model& model, const Workspace& workspace);
 /// Finds the equilibrium by Newton's method (SUNDIALS KINSOL) from options.q_guess.
 /// Throws UsageError for bad options and NoSolution when Newton does not converge, the
 /// equilibrium is not isolated (singular Jacobian) or the model evaluates to NaN or Inf.
+/// On return the workspace holds f, B, h, df/dq, df/dq_dot, dB/dq and H evaluated at
+/// (q, 0) of the point found (what Linearize's workspace_holds_jacobians relies on).
 OperatingPoint FindOperatingPoint(const Model& model,
                                   Workspace& workspace,
                                   const OperatingPointOptions& options = {});

@@ -18,27 +18,30 @@ void FindRelativeDegrees(const StateSpace& system,
                          OutputStructure& structure) {
   const Eigen::Index outputs = system.output_matrix.rows();
   const Eigen::Index states = system.state_matrix.rows();
-  const double input_size = system.input_matrix.stableNorm();
+  const double input_size = SafeNorm(system.input_matrix);
   structure.relative_degree.assign(std::size_t(outputs), 0);
   structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
+  Eigen::RowVectorXd output_row(states), next_row(states);  // C_i A^k, reused
+  Eigen::RowVectorXd markov_row(system.input_matrix.cols());
   for (Eigen::Index i = 0; i < outputs; ++i) {
-    Eigen::RowVectorXd output_row = system.output_matrix.row(i);  // C_i A^k
+    output_row = system.output_matrix.row(i);
     for (Eigen::Index k = 0; k < states; ++k) {
-      const Eigen::RowVectorXd markov_row = output_row * system.input_matrix;
-      // stableNorm: the squares of norm() overflow long before the entries do.
-      const double allowed = rank_tolerance * output_row.stableNorm() * input_size;
+      markov_row.noalias() = output_row * system.input_matrix;
+      // SafeNorm: the squares of norm() overflow long before the entries do.
+      const double allowed = rank_tolerance * SafeNorm(output_row) * input_size;
       if (!markov_row.allFinite() || !std::isfinite(allowed)) {
         throw NoSolution("output y" + std::to_string(i + 1) + ": the Markov parameter C A^" +
                          std::to_string(k) +
                          " B overflows the range of double at the operating point (a "
                          "parameter near the end of the double range?)");
       }
-      if (markov_row.stableNorm() > allowed) {
+      if (SafeNorm(markov_row) > allowed) {
         structure.relative_degree[std::size_t(i)] = static_cast<int>(k + 1);
         structure.decoupling_matrix.row(i) = markov_row;
         break;
       }
-      output_row = output_row * system.state_matrix;
+      next_row.noalias() = output_row * system.state_matrix;
+      output_row.swap(next_row);
     }
     if (structure.relative_degree[std::size_t(i)] == 0) {
       throw NoSolution("output y" + std::to_string(i + 1) +
@@ -46,16 +49,57 @@ void FindRelativeDegrees(const StateSpace& system,
                        "relative degree): no input can make it follow a trajectory");
     }
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(structure.decoupling_matrix);
   const double scale = structure.decoupling_matrix.norm();
   structure.decoupling_matrix_regular =
-      NumericalRank(svd.singularValues(), rank_tolerance * scale) == outputs;
+      NumericalRank(SingularValues(structure.decoupling_matrix), rank_tolerance * scale) == outputs;
+}
+
+// Regular decoupling matrix (the vector relative degree r exists): V* is the kernel of the rows
+// C_i A^k, k < r_i, which are independent, so dim V* = states - sum r_i; the infinite zeros have
+// the orders r_i (Isidori 1995, Sect. 5.1; Falb & Wolovich). No iteration. Returns false when
+// the numbers do not bear that out (sum r_i > states, or the kernel's numerical dimension is
+// not states - sum r_i, both only inside the tolerance band of a singular point): the V*
+// iteration decides then.
+bool RegularStructure(const StateSpace& system, double rank_tolerance, OutputStructure& structure) {
+  const Eigen::MatrixXd& A = system.state_matrix;
+  const Eigen::MatrixXd& C = system.output_matrix;
+  const Eigen::Index states = A.rows();
+  Eigen::Index sum = 0;
+  for (const int degree : structure.relative_degree) sum += degree;
+  if (sum > states) return false;
+  if (sum == states) {
+    structure.zero_dynamics_subspace.resize(states, 0);  // flat: V* = {0}
+  } else {
+    // Each row scaled to unit size, so that one relative tolerance decides their rank.
+    Eigen::MatrixXd rows(sum, states);
+    Eigen::Index next = 0;
+    for (Eigen::Index i = 0; i < C.rows(); ++i) {
+      Eigen::RowVectorXd row = C.row(i);
+      for (int k = 0; k < structure.relative_degree[std::size_t(i)]; ++k) {
+        const double size = SafeNorm(row);
+        if (!(size > 0.0) || !std::isfinite(size)) return false;
+        rows.row(next++) = row / size;
+        row = row * A;
+      }
+    }
+    Eigen::MatrixXd kernel = NullSpaceBasis(rows, rank_tolerance * rows.norm());
+    if (kernel.cols() != states - sum) return false;
+    structure.zero_dynamics_subspace = std::move(kernel);
+  }
+  structure.internal_dynamics_order = static_cast<int>(states - sum);
+  structure.infinite_zero_orders = structure.relative_degree;
+  std::sort(structure.infinite_zero_orders.begin(), structure.infinite_zero_orders.end());
+  const int highest_order = structure.infinite_zero_orders.back();
+  structure.differentiation_index = highest_order + 1;
+  structure.projected_index = highest_order - 1;
+  return true;
 }
 
 }  // namespace
 
 OutputStructure AnalyzeOutputStructure(const Linearization& linearization,
-                                       const ClassificationOptions& options) {
+                                       const ClassificationOptions& options,
+                                       StructureRoute route) {
   OutputStructure structure;
   structure.state_space = ToStateSpace(linearization);
   const StateSpace& system = structure.state_space;
@@ -84,6 +128,10 @@ OutputStructure AnalyzeOutputStructure(const Linearization& linearization,
     structure.infinite_zero_orders.assign(std::size_t(C.rows()), 2);
     structure.differentiation_index = 3;
     structure.projected_index = 1;
+    return structure;
+  }
+  if (route == StructureRoute::kDirect && structure.decoupling_matrix_regular &&
+      RegularStructure(system, tolerance, structure)) {
     return structure;
   }
 

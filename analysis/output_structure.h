@@ -15,6 +15,9 @@
 // sigma_max - 1 (paper Sect. 2.3: "index reduction by two").
 // With every relative degree 2 and P regular (orthogonal realizations) V* is known without
 // iterating: {dq in ker H, dq' in ker H}, every infinite zero of order 2 (paper Eq. 25).
+// More generally, with a regular decoupling matrix V* is the kernel of the rows C_i A^k,
+// k < r_i, and the infinite zeros have the orders r_i: no iteration either (the six-mass chain
+// and the gantry crane, both flat, need none of the iteration's SVDs).
 #include <Eigen/Dense>
 #include <vector>
 
@@ -42,10 +45,17 @@ struct OutputStructure {
   StateSpace state_space;
 };
 
+/// How V* is found when the decoupling matrix is regular: kDirect (the default) as the kernel of
+/// the rows C_i A^k, k < r_i (the V* iteration only where the numbers do not bear out the
+/// theory, inside the tolerance band of a singular point); kIteration always iterates (tests
+/// compare the two).
+enum class StructureRoute { kDirect, kIteration };
+
 /// Analyses the linearization. Throws NoSolution when the inputs do not determine the output
 /// (an output with infinite relative degree) or the output does not determine the inputs (the
 /// system is not left-invertible), since then the servo-constraint problem has no unique solution.
 OutputStructure AnalyzeOutputStructure(const Linearization& linearization,
-                                       const ClassificationOptions& options);
+                                       const ClassificationOptions& options,
+                                       StructureRoute route = StructureRoute::kDirect);
 
 }  // namespace servokit

@@ -1,6 +1,7 @@
 #include "analysis/subspaces.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace servokit {
 namespace {
@@ -19,6 +20,13 @@ Eigen::MatrixXd PadToSquare(const Eigen::MatrixXd& matrix) {
 }
 
 }  // namespace
+
+Eigen::VectorXd SingularValues(const Eigen::MatrixXd& matrix) {
+  if (matrix.rows() == 1 && matrix.cols() == 1 && std::isfinite(matrix(0, 0))) {
+    return Eigen::VectorXd::Constant(1, std::abs(matrix(0, 0)));
+  }
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(matrix).singularValues();
+}
 
 Eigen::Index NumericalRank(const Eigen::VectorXd& singular_values, double threshold) {
   Eigen::Index rank = 0;

@@ -6,6 +6,23 @@
 
 namespace servokit {
 
+/// The 2-norm of `values` as Eigen's stableNorm() (which scales to avoid overflow and
+/// underflow of the squares), at the cost of norm() where the squares can neither overflow nor
+/// underflow (the result then agrees with stableNorm() to an ulp); stableNorm() elsewhere.
+/// The small analyses of a sweep point ask for dozens of norms.
+template <typename Derived>
+double SafeNorm(const Eigen::MatrixBase<Derived>& values) {
+  const double norm = values.norm();
+  if (norm > 1e-140 && norm < 1e140) return norm;
+  return values.stableNorm();
+}
+
+/// The singular values of `matrix`, descending, as Eigen::JacobiSVD computes them; for a finite
+/// 1 x 1 matrix |a| directly, which is JacobiSVD's result to the bit (it scales by |a|, so the
+/// work entry is exactly +-1), without its set-up (P and the decoupling matrix of a single-input
+/// single-output model, at every sweep point).
+Eigen::VectorXd SingularValues(const Eigen::MatrixXd& matrix);
+
 /// Number of singular values above `threshold` (singular values sorted descending).
 Eigen::Index NumericalRank(const Eigen::VectorXd& singular_values, double threshold);
 

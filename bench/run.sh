@@ -15,6 +15,9 @@ echo
 echo "== start-up: CPU time of analyze on every shipped model (issue #19) =="
 "$root/bench/compare_startup.sh" "$build"
 echo
+echo "== sweep of every shipped model against a generic per-point SciPy pipeline (issue #19) =="
+"$root/bench/compare_generic_sweep.sh" "$build"
+echo
 echo "== sweep files: CSV against HDF5 and MAT (issue #17) =="
 "$root/bench/compare_sweep_formats.sh" "$build"
 echo

@@ -25,9 +25,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <regex>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -285,6 +287,32 @@ TEST_CASE("a mass matrix singular to working precision is an error that names it
   CHECK_THAT(run.err, Contains("servokit: error: the mass matrix is singular to working "
                                "precision at the operating point"));
   CHECK(run.out.empty());
+}
+
+TEST_CASE("the singular-mass decision is LLT's rcond estimate against 1e3 epsilon", "[analysis]") {
+  // Linearize skips the estimate when the exact reciprocal condition (from M^-1) clears the
+  // limit twice over. The rule itself is unchanged: at alpha = 0, M = [[m1 + m2, m2], [m2, m2]]
+  // (det m1 m2), and m1 steps through the limit; each verdict must be the one LLT's rcond()
+  // of that M gives, computed here directly.
+  const double m2 = 2.0, limit = 1e3 * std::numeric_limits<double>::epsilon();
+  int refused = 0, accepted = 0;
+  for (double m1 = 1e-14; m1 < 1e-10; m1 *= 1.25) {
+    Eigen::Matrix2d mass;
+    mass << m1 + m2, m2, m2, m2;
+    const bool singular = !(Eigen::LLT<Eigen::MatrixXd>(Eigen::MatrixXd(mass)).rcond() > limit);
+    std::ostringstream value;
+    value.precision(17);
+    value << m1;
+    INFO("m1 = " << value.str());
+    const std::string message = NoSolutionMessage([&] {
+      ClassifyFile(ModelPath("mass_on_car.yaml"), {{"m1", value.str()}, {"alpha", "0"}});
+    });
+    CHECK((message.find("the mass matrix is singular to working precision") != std::string::npos) ==
+          singular);
+    (singular ? refused : accepted) += 1;
+  }
+  CHECK(refused > 0);
+  CHECK(accepted > 0);
 }
 
 TEST_CASE("a massless car is regular away from alpha = 0: P = 1/m2", "[analysis]") {
