@@ -88,8 +88,11 @@ std::size_t RunSweep(const LoadedModel& model,
 std::size_t SweepChunkSize(const LoadedModel& model);
 
 /// Blocks a pipelined sweep keeps in flight (computed or being computed, not yet consumed): the
-/// threads compute blocks b + 1 and b + 2 while the consumer handles block b.
-inline constexpr int kSweepSlots = 3;
+/// threads compute the next ones while the consumer handles block b. Eight, not two or three:
+/// on a machine shared with other work the consumer's thread is sometimes not scheduled for a
+/// while, and the workers must not stop for it (with three, two threads beside a busy process
+/// were no faster than one on the mass on car; with eight, 1.3 times).
+inline constexpr int kSweepSlots = 8;
 
 /// Called on a computing thread for chunk `chunk` (its index within its block) of the block in
 /// slot `slot` (< kSweepSlots), once its points first, first + 1, ... are analysed. Chunks of

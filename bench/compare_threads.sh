@@ -28,11 +28,11 @@ trap cleanup EXIT
 
 # model file and grid (one --vary each) per shipped model: about a second on one thread.
 cases=(
-  "mass_on_car.yaml alpha=1deg:90deg:n=$((1000 * scale)) d=0:2:n=600"
-  "rotational_arm.yaml s=0:2:n=$((1000 * scale)) d=0.05:1:n=300"
-  "three_link_arm.yaml d=0.05:1:n=$((400 * scale)) c=10:100:n=100"
-  "gantry_crane.yaml m=1:20:n=$((400 * scale)) L0=1:5:n=200"
-  "mass_spring_chain.yaml k=10:200:n=$((200 * scale)) m=0.5:2:n=100"
+  "mass_on_car.yaml alpha=1deg:90deg:n=$((1000 * scale)) d=0:2:n=1000"
+  "rotational_arm.yaml s=0:2:n=$((1000 * scale)) d=0.05:1:n=1000"
+  "three_link_arm.yaml d=0.05:1:n=$((1000 * scale)) c=10:100:n=300"
+  "gantry_crane.yaml m=1:20:n=$((1000 * scale)) L0=1:5:n=250"
+  "mass_spring_chain.yaml k=10:200:n=$((1000 * scale)) m=0.5:2:n=200"
 )
 
 best_time() {  # best_time THREADS MODEL VARY...: best wall seconds of $repeat runs
