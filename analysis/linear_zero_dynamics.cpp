@@ -325,11 +325,19 @@ std::complex<double> RayleighZero(double m, double d, double k, std::complex<dou
   return std::abs(plus - estimate) <= std::abs(minus - estimate) ? plus : minus;
 }
 
-// The q part p of the left null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] (y^T R = 0):
-// one step of inverse iteration with R(lambda)^T from a fixed vector, in complex arithmetic by
-// a sparse LU of R(lambda) of its own (lambda is within its error of a zero, so one step gives the
-// null vector to that accuracy). Empty when the factorisation fails (lambda exactly a zero).
-Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<double> lambda) {
+// The fixed start of LeftZeroVectorAt's inverse-iteration step: the same every run.
+Eigen::VectorXcd LeftVectorStart(Eigen::Index size) {
+  std::mt19937 generator(kStartSeed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::VectorXcd start(size);
+  for (Eigen::Index i = 0; i < size; ++i) start(i) = uniform(generator);
+  return start;
+}
+
+// LeftZeroVectorAt by a sparse LU of the bordered R(lambda) itself: for a Q(lambda) that cannot
+// be factorised alone (a free rigid-body coordinate). It fills in where C or B is dense, which
+// the Schur route below avoids.
+Eigen::VectorXcd LeftZeroVectorBordered(const LinearSystem& system, std::complex<double> lambda) {
   using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
   const Eigen::Index n = system.dof();
   const Eigen::Index m = system.num_inputs();
@@ -359,13 +367,41 @@ Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<doubl
   rosenbrock.makeCompressed();
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(rosenbrock);
   if (lu.info() != Eigen::Success) return {};
-  std::mt19937 generator(kStartSeed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::VectorXcd rhs(n + m);
-  for (Eigen::Index i = 0; i < n + m; ++i) rhs(i) = uniform(generator);
-  const Eigen::VectorXcd y = lu.transpose().solve(rhs);
+  const Eigen::VectorXcd y = lu.transpose().solve(LeftVectorStart(n + m));
   if (!y.allFinite()) return {};
   return y.head(n);
+}
+
+// The q part p of the left null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] (y^T R = 0):
+// one step of inverse iteration with R(lambda)^T from a fixed vector, in complex arithmetic
+// (lambda is within its error of a zero, so one step gives the null vector to that accuracy).
+// As the real route does, the border goes through the Schur complement: with y = (p, w) and the
+// start (r1, r2), R^T y = (r1, r2) is -Q^T p + C^T w = r1, B^T p = r2, so
+//     p = Q^-T (C^T w - r1),   (B^T Q^-T C^T) w = r2 + B^T Q^-T r1,
+// one sparse LU of Q(lambda) (no fill from a dense C or B) and O(n m) more. Empty when the
+// factorisation fails (lambda exactly a zero).
+Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<double> lambda) {
+  using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
+  const Eigen::Index n = system.dof();
+  const Eigen::Index m = system.num_inputs();
+  ComplexSparse dynamic = system.stiffness.cast<std::complex<double>>() +
+                          lambda * system.damping.cast<std::complex<double>>() +
+                          (lambda * lambda) * system.mass.cast<std::complex<double>>();
+  dynamic.makeCompressed();
+  Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(dynamic);
+  if (lu.info() != Eigen::Success) return LeftZeroVectorBordered(system, lambda);
+  const Eigen::VectorXcd start = LeftVectorStart(n + m);
+  const Eigen::MatrixXcd output_t =
+      Eigen::MatrixXcd(system.output_matrix.cast<std::complex<double>>().transpose());  // n x m
+  const Eigen::MatrixXcd input = Eigen::MatrixXcd(system.input_matrix.cast<std::complex<double>>());
+  const Eigen::MatrixXcd transposed_solve_c = lu.transpose().solve(output_t);  // Q^-T C^T
+  const Eigen::VectorXcd transposed_solve_r = lu.transpose().solve(start.head(n));
+  if (!transposed_solve_c.allFinite() || !transposed_solve_r.allFinite()) return {};
+  const Eigen::MatrixXcd schur = input.transpose() * transposed_solve_c;  // m x m
+  const Eigen::VectorXcd w = schur.fullPivLu().solve(
+      Eigen::VectorXcd(start.tail(m) + input.transpose() * transposed_solve_r));
+  if (!w.allFinite()) return {};
+  return transposed_solve_c * w - transposed_solve_r;
 }
 
 // LeftZeroVectorAt lambda, or, when R(lambda) is exactly singular in floating point (a zero

@@ -7,6 +7,19 @@
 namespace servokit {
 namespace {
 
+// Minimum phase follows from the stability verdict: when that is undetermined at the precision of
+// the computation (large linear models), so is minimum phase, and neither word is printed.
+std::string MinimumPhaseText(Stability stability, bool minimum_phase) {
+  if (stability == Stability::kUndetermined) return ", minimum phase undetermined";
+  return minimum_phase ? ", minimum phase" : ", non-minimum phase";
+}
+
+// The same in JSON: null when undetermined.
+nlohmann::ordered_json MinimumPhaseJson(Stability stability, bool minimum_phase) {
+  if (stability == Stability::kUndetermined) return nullptr;
+  return minimum_phase;
+}
+
 nlohmann::ordered_json VectorToJson(const Eigen::VectorXd& values) {
   nlohmann::ordered_json array = nlohmann::ordered_json::array();
   for (Eigen::Index i = 0; i < values.size(); ++i) array.push_back(WithoutNegativeZero(values(i)));
@@ -110,9 +123,8 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
       {"internal dynamics",
        "order " + std::to_string(structure.internal_dynamics_order) + (c.flat ? " (flat)" : "")},
       {"zero dynamics", EigenvaluesToText(c.zero_dynamics.eigenvalues)},
-      {"stability",
-       std::string(ToString(c.zero_dynamics.stability)) +
-           (c.zero_dynamics.minimum_phase ? ", minimum phase" : ", non-minimum phase")},
+      {"stability", std::string(ToString(c.zero_dynamics.stability)) +
+                        MinimumPhaseText(c.zero_dynamics.stability, c.zero_dynamics.minimum_phase)},
       {"oscillatory modes", ModesToText(c.zero_dynamics.modes)},
       {"recommended solver", std::string(ToString(c.recommended_solver))},
   };
@@ -197,7 +209,7 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
   nlohmann::ordered_json zero_dynamics = {
       {"eigenvalues", EigenvaluesToJson(c.zero_dynamics.eigenvalues)},
       {"stability", ToString(c.zero_dynamics.stability)},
-      {"minimum_phase", c.zero_dynamics.minimum_phase},
+      {"minimum_phase", MinimumPhaseJson(c.zero_dynamics.stability, c.zero_dynamics.minimum_phase)},
       {"modes", modes},
   };
   if (c.cross_check) {
@@ -351,7 +363,7 @@ std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const Lin
        VectorToText(Eigen::Map<const Eigen::VectorXd>(zeros.error_bounds.data(),
                                                       Eigen::Index(zeros.error_bounds.size())))},
       {"stability", std::string(ToString(zeros.stability)) +
-                        (zeros.minimum_phase ? ", minimum phase" : ", non-minimum phase") +
+                        MinimumPhaseText(zeros.stability, zeros.minimum_phase) +
                         (zeros.stability_note.empty() ? "" : " (" + zeros.stability_note + ")")},
       {"oscillatory modes", ModesToText(zeros.modes)},
       {"recommended solver", std::string(ToString(a.recommended_solver))},
@@ -375,7 +387,7 @@ nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
       {"error_bounds", zeros.error_bounds},
       {"stability", ToString(zeros.stability)},
       {"stability_note", zeros.stability_note},
-      {"minimum_phase", zeros.minimum_phase},
+      {"minimum_phase", MinimumPhaseJson(zeros.stability, zeros.minimum_phase)},
       {"modes", modes},
       {"complete", zeros.complete},
       {"zero_count", zeros.zero_count},
