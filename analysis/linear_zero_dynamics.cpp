@@ -325,6 +325,40 @@ std::complex<double> RayleighZero(double m, double d, double k, std::complex<dou
   return std::abs(plus - estimate) <= std::abs(minus - estimate) ? plus : minus;
 }
 
+// R(s) = [[-(K + s D + s^2 M), B], [C, 0]], (n + m) x (n + m), for a real shift or a complex
+// point s. The sum keeps the union pattern with explicit zeros, so the pattern does not depend
+// on s (BuildRosenbrockMatrix's promise).
+template <typename Scalar>
+Eigen::SparseMatrix<Scalar> RosenbrockMatrixAt(const LinearSystem& system, Scalar s) {
+  const Eigen::Index n = system.dof();
+  const Eigen::Index m = system.num_inputs();
+  const Eigen::SparseMatrix<Scalar> dynamic = system.stiffness.cast<Scalar>() +
+                                              s * system.damping.cast<Scalar>() +
+                                              (s * s) * system.mass.cast<Scalar>();
+  std::vector<Eigen::Triplet<Scalar>> entries;
+  entries.reserve(std::size_t(dynamic.nonZeros() + system.input_matrix.nonZeros() +
+                              system.output_matrix.nonZeros()));
+  for (Eigen::Index j = 0; j < dynamic.outerSize(); ++j) {
+    for (typename Eigen::SparseMatrix<Scalar>::InnerIterator it(dynamic, j); it; ++it) {
+      entries.emplace_back(int(it.row()), int(it.col()), -it.value());
+    }
+  }
+  for (Eigen::Index j = 0; j < system.input_matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(system.input_matrix, j); it; ++it) {
+      entries.emplace_back(int(it.row()), int(n + it.col()), Scalar(it.value()));
+    }
+  }
+  for (Eigen::Index j = 0; j < system.output_matrix.outerSize(); ++j) {
+    for (SparseMatrix::InnerIterator it(system.output_matrix, j); it; ++it) {
+      entries.emplace_back(int(n + it.row()), int(it.col()), Scalar(it.value()));
+    }
+  }
+  Eigen::SparseMatrix<Scalar> rosenbrock(n + m, n + m);
+  rosenbrock.setFromTriplets(entries.begin(), entries.end());
+  rosenbrock.makeCompressed();
+  return rosenbrock;
+}
+
 // The fixed start of LeftZeroVectorAt's inverse-iteration step: the same every run.
 Eigen::VectorXcd LeftVectorStart(Eigen::Index size) {
   std::mt19937 generator(kStartSeed);
@@ -339,37 +373,12 @@ Eigen::VectorXcd LeftVectorStart(Eigen::Index size) {
 // the Schur route below avoids.
 Eigen::VectorXcd LeftZeroVectorBordered(const LinearSystem& system, std::complex<double> lambda) {
   using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
-  const Eigen::Index n = system.dof();
-  const Eigen::Index m = system.num_inputs();
-  const ComplexSparse dynamic = system.stiffness.cast<std::complex<double>>() +
-                                lambda * system.damping.cast<std::complex<double>>() +
-                                (lambda * lambda) * system.mass.cast<std::complex<double>>();
-  std::vector<Eigen::Triplet<std::complex<double>>> entries;
-  // R(lambda) itself (factorised as R(sigma) is, which keeps the fill of the real route), then
-  // solved transposed.
-  for (Eigen::Index j = 0; j < dynamic.outerSize(); ++j) {
-    for (ComplexSparse::InnerIterator it(dynamic, j); it; ++it) {
-      entries.emplace_back(int(it.row()), int(it.col()), -it.value());
-    }
-  }
-  for (Eigen::Index j = 0; j < system.input_matrix.outerSize(); ++j) {
-    for (SparseMatrix::InnerIterator it(system.input_matrix, j); it; ++it) {
-      entries.emplace_back(int(it.row()), int(n + it.col()), it.value());
-    }
-  }
-  for (Eigen::Index j = 0; j < system.output_matrix.outerSize(); ++j) {
-    for (SparseMatrix::InnerIterator it(system.output_matrix, j); it; ++it) {
-      entries.emplace_back(int(n + it.row()), int(it.col()), it.value());
-    }
-  }
-  ComplexSparse rosenbrock(n + m, n + m);
-  rosenbrock.setFromTriplets(entries.begin(), entries.end());
-  rosenbrock.makeCompressed();
+  const ComplexSparse rosenbrock = RosenbrockMatrixAt(system, lambda);
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(rosenbrock);
   if (lu.info() != Eigen::Success) return {};
-  const Eigen::VectorXcd y = lu.transpose().solve(LeftVectorStart(n + m));
+  const Eigen::VectorXcd y = lu.transpose().solve(LeftVectorStart(rosenbrock.rows()));
   if (!y.allFinite()) return {};
-  return y.head(n);
+  return y.head(system.dof());
 }
 
 // The q part p of the left null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] (y^T R = 0):
@@ -571,33 +580,7 @@ void LinearZeroDynamicsOptions::Validate() const {
 }
 
 SparseMatrix BuildRosenbrockMatrix(const LinearSystem& system, double shift) {
-  const Eigen::Index n = system.dof();
-  const Eigen::Index m = system.num_inputs();
-  // The sum keeps the union pattern with explicit zeros, so the pattern is independent of shift.
-  const SparseMatrix dynamic =
-      system.stiffness + shift * system.damping + (shift * shift) * system.mass;
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(std::size_t(dynamic.nonZeros() + system.input_matrix.nonZeros() +
-                              system.output_matrix.nonZeros()));
-  for (Eigen::Index j = 0; j < dynamic.outerSize(); ++j) {
-    for (SparseMatrix::InnerIterator it(dynamic, j); it; ++it) {
-      entries.emplace_back(int(it.row()), int(it.col()), -it.value());
-    }
-  }
-  for (Eigen::Index j = 0; j < system.input_matrix.outerSize(); ++j) {
-    for (SparseMatrix::InnerIterator it(system.input_matrix, j); it; ++it) {
-      entries.emplace_back(int(it.row()), int(n + it.col()), it.value());
-    }
-  }
-  for (Eigen::Index j = 0; j < system.output_matrix.outerSize(); ++j) {
-    for (SparseMatrix::InnerIterator it(system.output_matrix, j); it; ++it) {
-      entries.emplace_back(int(n + it.row()), int(it.col()), it.value());
-    }
-  }
-  SparseMatrix rosenbrock(n + m, n + m);
-  rosenbrock.setFromTriplets(entries.begin(), entries.end());
-  rosenbrock.makeCompressed();
-  return rosenbrock;
+  return RosenbrockMatrixAt(system, shift);
 }
 
 void LinearZeroDynamicsWorkspace::Factorize(const LinearSystem& system, double shift) {
