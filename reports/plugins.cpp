@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -27,10 +28,16 @@ std::filesystem::path DirectoryOfThisObject() {
 
 std::vector<std::filesystem::path> PluginDirectories() {
   std::vector<std::filesystem::path> directories;
+  // A program of another project, linked with the installed static libraries, is not beside
+  // the plugins: it names their directory (PREFIX/lib/servokit) in SERVOKIT_PLUGIN_DIR.
+  if (const char* named = std::getenv("SERVOKIT_PLUGIN_DIR"); named != nullptr && *named) {
+    directories.emplace_back(named);
+  }
   if (const std::filesystem::path here = DirectoryOfThisObject(); !here.empty()) {
     directories.push_back(here);
     directories.push_back(here.parent_path() / SERVOKIT_PLUGIN_INSTALL_DIR);
   }
+  directories.emplace_back(SERVOKIT_PLUGIN_PREFIX_DIR);
   directories.emplace_back(SERVOKIT_PLUGIN_BUILD_DIR);
   return directories;
 }

@@ -5,11 +5,13 @@
 // every command loads and relocates before main(): `servokit analyze` would spend 15 ms of CPU
 // on start-up instead of 4.
 //
-// A plugin named P is the file libP.so. It is looked for, in order, in the directory of the
-// object that holds this code (the executable, or the Python module), in that directory's
-// ../<libdir>/servokit (the installed layout: bin/servokit, lib/servokit/libP.so;
-// SERVOKIT_PLUGIN_INSTALL_DIR), and in the build tree's plugin directory
-// (SERVOKIT_PLUGIN_BUILD_DIR).
+// A plugin named P is the file libP.so. It is looked for, in order, in the directory named by
+// the environment variable SERVOKIT_PLUGIN_DIR (for programs of other projects linked with the
+// installed libraries), in the directory of the object that holds this code (the executable,
+// or the Python module), in that directory's ../<libdir>/servokit (the installed layout:
+// bin/servokit, lib/servokit/libP.so; SERVOKIT_PLUGIN_INSTALL_DIR), in the install prefix
+// chosen at configuration (SERVOKIT_PLUGIN_PREFIX_DIR), and in the build tree's plugin
+// directory (SERVOKIT_PLUGIN_BUILD_DIR).
 #include <string>
 
 namespace servokit {

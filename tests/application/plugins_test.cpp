@@ -3,7 +3,9 @@
 // HDF5, matio nor MPI. The dynamic loader lists what it loads when LD_DEBUG=libs; the check is
 // shown to be able to fail by a sweep that writes sweep.h5 and a solve that writes a MAT file,
 // whose lists must hold HDF5 and matio.
+#include <algorithm>
 #include <catch2/catch.hpp>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -62,6 +64,27 @@ TEST_CASE("the data-files plugin loads HDF5 and matio when a file needs them", "
                          "--t0", "0", "--tf", "2", "--t-end", "3", "--out", "u.mat"});
   CHECK(Loads(mat, "libmatio"));
   CHECK(std::filesystem::exists(directory.path() / "u.mat"));
+}
+
+// SERVOKIT_PLUGIN_DIR is looked in first (programs of other projects name the installed
+// plugins' directory with it); a file there that is not a plugin is a one-line error naming it,
+// not a crash.
+TEST_CASE("SERVOKIT_PLUGIN_DIR is searched first, and a broken plugin is a clear error",
+          "[application]") {
+  const TemporaryDirectory directory;
+  const std::filesystem::path plugins = directory.path() / "plugins";
+  std::filesystem::create_directories(plugins);
+  std::ofstream(plugins / "libservokit_data_files.so") << "not a shared library\n";
+  const ProcessResult run =
+      testing::RunProcess(directory.path(),
+                          {SERVOKIT_BINARY, "sweep", ModelPath("mass_on_car.yaml"), "--vary",
+                           "d=0:1:n=3", "--format", "hdf5", "--out", "h5"},
+                          {{{"SERVOKIT_PLUGIN_DIR", plugins.string()}}});
+  CHECK(run.status != 0);
+  CHECK(run.err.rfind(
+            "servokit: error: cannot load " + (plugins / "libservokit_data_files.so").string(),
+            0) == 0);
+  CHECK(std::count(run.err.begin(), run.err.end(), '\n') == 1);
 }
 
 }  // namespace
