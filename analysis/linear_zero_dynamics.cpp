@@ -105,10 +105,10 @@ std::string SingularRosenbrockMessage(double shift, const std::string& detail) {
          "; choose another shift";
 }
 
-// nu of the dense OP, 2n x 2n, all eigenvalues, with their eigenvectors (for the error bounds).
+// nu of the dense OP, 2n x 2n, all eigenvalues. Without eigenvectors, which would double the
+// cost: the error bounds take each kept zero's vector from ZeroNullVector, O(n) each.
 Eigen::VectorXcd DenseOperatorEigenvalues(const LinearSystem& system,
-                                          const LinearZeroDynamicsWorkspace& workspace,
-                                          Eigen::MatrixXcd& eigenvectors) {
+                                          const LinearZeroDynamicsWorkspace& workspace) {
   const Eigen::Index n = system.dof();
   const Eigen::Index size = 2 * n;
   Eigen::MatrixXd op(size, size);
@@ -118,11 +118,10 @@ Eigen::VectorXcd DenseOperatorEigenvalues(const LinearSystem& system,
     workspace.ApplyShiftInvert(unit.data(), op.col(j).data());
     unit(j) = 0.0;
   }
-  const Eigen::EigenSolver<Eigen::MatrixXd> eigen(op, true);
+  const Eigen::EigenSolver<Eigen::MatrixXd> eigen(op, false);
   if (eigen.info() != Eigen::Success) {
     throw NoSolution("the eigenvalues of the shift-inverted Rosenbrock operator did not converge");
   }
-  eigenvectors = eigen.eigenvectors();
   return eigen.eigenvalues();
 }
 
@@ -359,8 +358,8 @@ Eigen::SparseMatrix<Scalar> RosenbrockMatrixAt(const LinearSystem& system, Scala
   return rosenbrock;
 }
 
-// The fixed start of LeftZeroVectorAt's inverse-iteration step: the same every run.
-Eigen::VectorXcd LeftVectorStart(Eigen::Index size) {
+// The fixed start of ZeroNullVectorAt's inverse-iteration step: the same every run.
+Eigen::VectorXcd NullVectorStart(Eigen::Index size) {
   std::mt19937 generator(kStartSeed);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   Eigen::VectorXcd start(size);
@@ -368,28 +367,39 @@ Eigen::VectorXcd LeftVectorStart(Eigen::Index size) {
   return start;
 }
 
-// LeftZeroVectorAt by a sparse LU of the bordered R(lambda) itself: for a Q(lambda) that cannot
+// Which null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] ZeroNullVectorAt computes: the right
+// one (R y = 0, its q part a zero's eigenvector) or the left one (y^T R = 0).
+enum class NullSide { kRight, kLeft };
+
+// ZeroNullVectorAt by a sparse LU of the bordered R(lambda) itself: for a Q(lambda) that cannot
 // be factorised alone (a free rigid-body coordinate). It fills in where C or B is dense, which
 // the Schur route below avoids.
-Eigen::VectorXcd LeftZeroVectorBordered(const LinearSystem& system, std::complex<double> lambda) {
+Eigen::VectorXcd ZeroNullVectorBordered(const LinearSystem& system,
+                                        std::complex<double> lambda,
+                                        NullSide side) {
   using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
   const ComplexSparse rosenbrock = RosenbrockMatrixAt(system, lambda);
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(rosenbrock);
   if (lu.info() != Eigen::Success) return {};
-  const Eigen::VectorXcd y = lu.transpose().solve(LeftVectorStart(rosenbrock.rows()));
+  const Eigen::VectorXcd start = NullVectorStart(rosenbrock.rows());
+  const Eigen::VectorXcd y = side == NullSide::kLeft ? Eigen::VectorXcd(lu.transpose().solve(start))
+                                                     : Eigen::VectorXcd(lu.solve(start));
   if (!y.allFinite()) return {};
   return y.head(system.dof());
 }
 
-// The q part p of the left null vector of R(lambda) = [[-Q(lambda), B], [C, 0]] (y^T R = 0):
-// one step of inverse iteration with R(lambda)^T from a fixed vector, in complex arithmetic
-// (lambda is within its error of a zero, so one step gives the null vector to that accuracy).
-// As the real route does, the border goes through the Schur complement: with y = (p, w) and the
-// start (r1, r2), R^T y = (r1, r2) is -Q^T p + C^T w = r1, B^T p = r2, so
+// The q part of the right or left null vector of R(lambda): one step of inverse iteration with
+// R(lambda) or R(lambda)^T from a fixed vector, in complex arithmetic (lambda is within its
+// error of a zero, so one step gives the null vector to that accuracy). As the real route does,
+// the border goes through the Schur complement. For the left vector y = (p, w) and the start
+// (r1, r2), R^T y = (r1, r2) is -Q^T p + C^T w = r1, B^T p = r2, so
 //     p = Q^-T (C^T w - r1),   (B^T Q^-T C^T) w = r2 + B^T Q^-T r1,
-// one sparse LU of Q(lambda) (no fill from a dense C or B) and O(n m) more. Empty when the
-// factorisation fails (lambda exactly a zero).
-Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<double> lambda) {
+// and the right vector is the same with Q, B and C for Q^T, C^T and B^T: one sparse LU of
+// Q(lambda) (no fill from a dense C or B) and O(n m) more. Empty when the factorisation fails
+// (lambda exactly a zero).
+Eigen::VectorXcd ZeroNullVectorAt(const LinearSystem& system,
+                                  std::complex<double> lambda,
+                                  NullSide side) {
   using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
   const Eigen::Index n = system.dof();
   const Eigen::Index m = system.num_inputs();
@@ -398,31 +408,44 @@ Eigen::VectorXcd LeftZeroVectorAt(const LinearSystem& system, std::complex<doubl
                           (lambda * lambda) * system.mass.cast<std::complex<double>>();
   dynamic.makeCompressed();
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(dynamic);
-  if (lu.info() != Eigen::Success) return LeftZeroVectorBordered(system, lambda);
-  const Eigen::VectorXcd start = LeftVectorStart(n + m);
-  const Eigen::MatrixXcd output_t =
-      Eigen::MatrixXcd(system.output_matrix.cast<std::complex<double>>().transpose());  // n x m
+  if (lu.info() != Eigen::Success) return ZeroNullVectorBordered(system, lambda, side);
+  const auto solve = [&](const Eigen::MatrixXcd& right_hand_side) -> Eigen::MatrixXcd {
+    if (side == NullSide::kLeft) return lu.transpose().solve(right_hand_side);
+    return lu.solve(right_hand_side);
+  };
+  const Eigen::VectorXcd start = NullVectorStart(n + m);
   const Eigen::MatrixXcd input = Eigen::MatrixXcd(system.input_matrix.cast<std::complex<double>>());
-  const Eigen::MatrixXcd transposed_solve_c = lu.transpose().solve(output_t);  // Q^-T C^T
-  const Eigen::VectorXcd transposed_solve_r = lu.transpose().solve(start.head(n));
-  if (!transposed_solve_c.allFinite() || !transposed_solve_r.allFinite()) return {};
-  const Eigen::MatrixXcd schur = input.transpose() * transposed_solve_c;  // m x m
-  const Eigen::VectorXcd w = schur.fullPivLu().solve(
-      Eigen::VectorXcd(start.tail(m) + input.transpose() * transposed_solve_r));
+  const Eigen::MatrixXcd output =
+      Eigen::MatrixXcd(system.output_matrix.cast<std::complex<double>>());
+  // Left: the border enters through C^T and leaves through B^T; right: enters through B and
+  // leaves through C.
+  const Eigen::MatrixXcd border_in =
+      side == NullSide::kLeft ? Eigen::MatrixXcd(output.transpose()) : input;  // n x m
+  const Eigen::MatrixXcd border_out =
+      side == NullSide::kLeft ? Eigen::MatrixXcd(input.transpose()) : output;  // m x n
+  const Eigen::MatrixXcd solved_border = solve(border_in);
+  const Eigen::VectorXcd solved_start = solve(Eigen::MatrixXcd(start.head(n)));
+  if (!solved_border.allFinite() || !solved_start.allFinite()) return {};
+  const Eigen::MatrixXcd schur = border_out * solved_border;  // m x m
+  const Eigen::VectorXcd w =
+      schur.fullPivLu().solve(Eigen::VectorXcd(start.tail(m) + border_out * solved_start));
   if (!w.allFinite()) return {};
-  return transposed_solve_c * w - transposed_solve_r;
+  return solved_border * w - solved_start;
 }
 
-// LeftZeroVectorAt lambda, or, when R(lambda) is exactly singular in floating point (a zero
-// computed to the last bit), a relative kLeftVectorOffset away, where one inverse-iteration step
+// ZeroNullVectorAt lambda, or, when R(lambda) is exactly singular in floating point (a zero
+// computed to the last bit), a relative kNullVectorOffset away, where one inverse-iteration step
 // still gives the null vector to about that accuracy.
-Eigen::VectorXcd LeftZeroVector(const LinearSystem& system, std::complex<double> lambda) {
-  constexpr double kLeftVectorOffset = 1e-8;
-  Eigen::VectorXcd left = LeftZeroVectorAt(system, lambda);
-  if (left.size() == 0) {
-    left = LeftZeroVectorAt(system, lambda + kLeftVectorOffset * std::max(1.0, std::abs(lambda)));
+Eigen::VectorXcd ZeroNullVector(const LinearSystem& system,
+                                std::complex<double> lambda,
+                                NullSide side) {
+  constexpr double kNullVectorOffset = 1e-8;
+  Eigen::VectorXcd vector = ZeroNullVectorAt(system, lambda, side);
+  if (vector.size() == 0) {
+    vector = ZeroNullVectorAt(system, lambda + kNullVectorOffset * std::max(1.0, std::abs(lambda)),
+                              side);
   }
-  return left;
+  return vector;
 }
 
 // The error bound of one computed zero lambda with eigenvector q (part of OP's z = (q, v)):
@@ -793,12 +816,13 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
     std::vector<double> residuals;
     double largest_nu = 0.0;
     if (dense) {
-      Eigen::MatrixXcd eigenvectors;
-      const Eigen::VectorXcd values = DenseOperatorEigenvalues(system, workspace, eigenvectors);
+      const Eigen::VectorXcd values = DenseOperatorEigenvalues(system, workspace);
       nus.assign(values.data(), values.data() + values.size());
       kept = FiniteZeroIndices(nus, zero_count, 0.0, options);
       for (const std::size_t i : kept) {
-        vectors.emplace_back(eigenvectors.col(Eigen::Index(i)));
+        // The zero's eigenvector q (the head of OP's (q, lambda q)); empty (no bound) where
+        // R(lambda) cannot be factorised at all.
+        vectors.push_back(ZeroNullVector(system, options.shift + 1.0 / nus[i], NullSide::kRight));
         residuals.push_back(0.0);  // the Schur residual is round-off: in the bound's eps term
       }
       result.complete = true;
@@ -860,11 +884,17 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
     for (std::size_t j = 0; j < kept.size(); ++j) {
       const std::complex<double> nu = nus[kept[j]];
       std::complex<double> lambda = options.shift + 1.0 / nu;
+      if (vectors[j].size() == 0) {  // no vector (dense route, R(lambda) not factorisable)
+        bounds.push_back(std::numeric_limits<double>::infinity());
+        result.eigenvalues.push_back(lambda);
+        continue;
+      }
       const Eigen::VectorXcd q = symmetric_collocated ? ZeroVector(system, vectors[j])
                                                       : Eigen::VectorXcd(vectors[j].head(n));
       // A symmetric collocated system: Q(lambda)^T = Q(lambda) and q^T B = (C q)^T diag = 0, so
       // the left vector is q itself.
-      const Eigen::VectorXcd left = symmetric_collocated ? q : LeftZeroVector(system, lambda);
+      const Eigen::VectorXcd left =
+          symmetric_collocated ? q : ZeroNullVector(system, lambda, NullSide::kLeft);
       bounds.push_back(
           ZeroErrorBound(system, norms, lambda, nu, largest_nu, residuals[j], q, left));
       if (symmetric_collocated) {
