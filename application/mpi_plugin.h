@@ -4,30 +4,22 @@
 // MPI launcher, so that no other run loads MPI's libraries (Open MPI brings a dozen, and hwloc
 // probes the machine's topology when they load).
 #include <cstddef>
-#include <exception>
-#include <functional>
 #include <string>
 
 #include "application/mpi_sweep.h"
 
 namespace servokit {
 
-/// What the plugin offers; each function is the one of application/mpi_sweep.h of that name.
+/// What the plugin offers; each function is the one of application/mpi_sweep.h of that name
+/// (the same signature, so that a change there shows here).
 struct MpiPlugin {
   // MPI_Init_thread and this process's group in MPI_COMM_WORLD.
   ProcessGroup (*initialize)(int& argc, char**& argv);
   void (*finalize)();
-  void (*agree_on_success)(std::exception_ptr failure);
-  std::size_t (*broadcast_size)(std::size_t value);
-  std::string (*broadcast_text)(const std::string& text);
-  DistributedSweepEnd (*run_distributed_sweep)(
-      const SweepRunner& run,
-      const ParameterGrid& grid,
-      const SweepOptions& options,
-      std::size_t first_point,
-      TableEncoding encoding,
-      const std::function<void(const FormattedBlock&)>& write,
-      const std::function<bool()>& stop_requested);
+  decltype(&AgreeOnSuccess) agree_on_success;
+  std::size_t (*broadcast_size)(std::size_t value);        // BroadcastFromRoot, a number
+  std::string (*broadcast_text)(const std::string& text);  // BroadcastFromRoot, a text
+  decltype(&RunDistributedSweep) run_distributed_sweep;
 };
 
 /// The plugin's entry point: an extern "C" function returning its MpiPlugin.

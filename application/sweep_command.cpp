@@ -258,7 +258,7 @@ SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep
                      ": must be > 0 seconds");
   }
   const SweepOutputOptions output_options = {
-      SweepThreads(options), std::chrono::duration<double>(arguments.checkpoint_interval)};
+      std::chrono::duration<double>(arguments.checkpoint_interval)};
   SweepModelInfo info = DescribeSweepModel(model, options);
   return {std::move(model),
           std::move(info),

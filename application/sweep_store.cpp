@@ -434,8 +434,7 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
       command_line_(std::move(command_line)),
       format_(format),
       fingerprint_(SweepFingerprint(model_, grid, options, format)),
-      checkpoint_interval_(output_options.checkpoint_interval),
-      format_threads_(std::max(output_options.threads, 1)) {
+      checkpoint_interval_(output_options.checkpoint_interval) {
   Lock();
   try {
     RemoveStaleTemporaries();
@@ -542,11 +541,6 @@ void SweepOutput::Resume(const FileSizes& sizes) {
   points_fd_ = OpenFile(paths_.points_partial, O_WRONLY | O_APPEND);
   eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, O_WRONLY | O_APPEND);
   last_checkpoint_ = std::chrono::steady_clock::now();
-}
-
-void SweepOutput::Append(std::size_t first, std::span<const SweepPoint> points) {
-  FormatBlock(grid_, first, points, format_threads_, TableEncodingOf(format_), block_);
-  Append(block_);
 }
 
 void SweepOutput::Append(const FormattedBlock& block) {

@@ -61,10 +61,8 @@ void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid);
 /// SIGINT or SIGTERM, checkpoints at once).
 inline constexpr std::chrono::duration<double> kSweepCheckpointInterval{1.0};
 
-/// How SweepOutput writes; neither changes the bytes of the files.
+/// How SweepOutput writes; it does not change the bytes of the files.
 struct SweepOutputOptions {
-  // Threads that format the rows of a block in parallel (SweepThreads).
-  int threads = 1;
   // How often the partial files are made durable (fsync) and the checkpoint is updated.
   std::chrono::duration<double> checkpoint_interval = kSweepCheckpointInterval;
 };
@@ -149,11 +147,9 @@ class SweepOutput {
   /// Points written so far whose row holds an error (no solution), counting resumed runs.
   std::size_t points_without_solution() const { return points_without_solution_; }
 
-  /// Appends points first..first + points.size() - 1; first must be points_done(). Checkpoints
-  /// when the last checkpoint is older than the checkpoint interval.
-  void Append(std::size_t first, std::span<const SweepPoint> points);
-  /// The same for a block already formatted (FormatBlock, perhaps by another process of an MPI
-  /// sweep); block.first must be points_done().
+  /// Appends a formatted block (PipelinedBlockFormatter, or FormatBlock on another process of an
+  /// MPI sweep); block.first must be points_done(). Checkpoints when the last checkpoint is
+  /// older than the checkpoint interval.
   void Append(const FormattedBlock& block);
   /// Makes everything appended so far durable and records it in the checkpoint.
   void Checkpoint();
@@ -201,10 +197,6 @@ class SweepOutput {
   std::size_t points_done_ = 0, points_without_solution_ = 0;
   FileSizes sizes_;
   std::chrono::steady_clock::time_point last_checkpoint_;
-  // Threads that format a block (SweepOutputOptions::threads).
-  int format_threads_ = 1;
-  // One block's rows, in one slice per formatting thread; reused from block to block.
-  FormattedBlock block_;
 };
 
 }  // namespace servokit

@@ -7,17 +7,15 @@
 #include <string>
 
 #include "reports/mat_file.h"
+#include "reports/sweep_hdf5.h"
 #include "reports/sweep_records.h"
 
 namespace servokit {
 
-/// What the plugin offers (the functions documented at WriteSweepHdf5 and CreateMatFile).
+/// What the plugin offers: WriteSweepHdf5 and CreateMatFile (the same signatures).
 struct DataFilesPlugin {
-  void (*write_sweep_hdf5)(const std::filesystem::path& path,
-                           const SweepFileMetadata& metadata,
-                           TableRecordReader& points,
-                           TableRecordReader& eigenvalues);
-  std::unique_ptr<MatFileWriter> (*create_mat_file)(const std::string& path);
+  decltype(&WriteSweepHdf5) write_sweep_hdf5;
+  decltype(&CreateMatFile) create_mat_file;
 };
 
 /// The plugin's entry point: an extern "C" function returning its DataFilesPlugin.

@@ -50,14 +50,6 @@ T Take(const char*& bytes) {
   return value;
 }
 
-// `value` in decimal, as std::to_string writes it (the relative degrees of JoinRelativeDegrees).
-void AppendInteger(std::string& text, int value) {
-  char digits[16];
-  const auto [end, error] = std::to_chars(digits, digits + sizeof(digits), value);
-  assert(error == std::errc());
-  text.append(digits, end);
-}
-
 // Writes `head` into the kPointHeadBytes at `bytes`, its padding zero.
 void EncodePointHead(const PointHead& head, char* bytes) {
   const auto put = [&bytes](const auto& value) {
@@ -329,10 +321,7 @@ void AppendRecordRows(std::size_t first,
     head.stability = static_cast<std::uint8_t>(point.stability);
     points_records.append(kPointHeadBytes, '\0');
     if (point.ok) {
-      for (std::size_t k = 0; k < point.relative_degree.size(); ++k) {
-        if (k > 0) points_records += ';';
-        AppendInteger(points_records, point.relative_degree[k]);
-      }
+      AppendRelativeDegrees(points_records, point.relative_degree);
       head.relative_degree_bytes =
           static_cast<std::uint32_t>(points_records.size() - head_at - kPointHeadBytes);
     } else {

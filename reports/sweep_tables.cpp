@@ -100,10 +100,7 @@ void AppendPointRow(const std::string& values,
   // A negative internal order: the structure at infinity was not determined (a large linear
   // model whose Markov rows vanish numerically): its three columns are empty, not numbers.
   if (point.internal_dynamics_order >= 0) {
-    for (std::size_t i = 0; i < point.relative_degree.size(); ++i) {
-      if (i > 0) csv += ';';  // as JoinRelativeDegrees
-      AppendInteger(csv, point.relative_degree[i]);
-    }
+    AppendRelativeDegrees(csv, point.relative_degree);
     csv += ',';
     AppendInteger(csv, point.differentiation_index);
     csv += ',';
@@ -143,12 +140,16 @@ void AppendEigenvalueRows(const std::string& values,
 
 }  // namespace
 
+void AppendRelativeDegrees(std::string& text, const std::vector<int>& relative_degree) {
+  for (std::size_t i = 0; i < relative_degree.size(); ++i) {
+    if (i > 0) text += ';';
+    AppendInteger(text, relative_degree[i]);
+  }
+}
+
 std::string JoinRelativeDegrees(const std::vector<int>& relative_degree) {
   std::string joined;
-  for (std::size_t i = 0; i < relative_degree.size(); ++i) {
-    if (i > 0) joined += ';';
-    joined += std::to_string(relative_degree[i]);
-  }
+  AppendRelativeDegrees(joined, relative_degree);
   return joined;
 }
 

@@ -139,6 +139,8 @@ class PipelinedBlockFormatter {
 
 /// The text of relative_degree: one number per output, joined with ';' ("2", "1;2").
 std::string JoinRelativeDegrees(const std::vector<int>& relative_degree);
+/// The same text appended to `text` (no allocation of its own: sweeps write it for every row).
+void AppendRelativeDegrees(std::string& text, const std::vector<int>& relative_degree);
 
 /// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
 std::string CsvQuote(const std::string& text);

@@ -49,4 +49,20 @@ inline std::vector<std::string> Lines(const std::string& text) {
   return lines;
 }
 
+/// A CSV line split at the commas outside double quotes; the quotes are dropped.
+inline std::vector<std::string> CsvFields(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (const char c : line) {
+    if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
 }  // namespace servokit::testing

@@ -14,36 +14,17 @@
 #include <vector>
 
 #include "tests/application/run_servokit.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
 namespace {
 
+using testing::CsvFields;
 using testing::ModelPath;
+using testing::ReadFile;
 using testing::RunServokit;
 using Cell = std::pair<std::string, std::string>;  // the x and y text of a grid point
-
-std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::vector<std::string> CsvFields(const std::string& line) {
-  std::vector<std::string> fields(1);
-  bool quoted = false;
-  for (const char c : line) {
-    if (c == '"') {
-      quoted = !quoted;
-    } else if (c == ',' && !quoted) {
-      fields.emplace_back();
-    } else {
-      fields.back() += c;
-    }
-  }
-  return fields;
-}
 
 std::vector<std::vector<std::string>> CsvRows(const std::filesystem::path& path) {
   std::ifstream in(path);
@@ -132,9 +113,9 @@ TEST_CASE("report --from colours the map of a finished sweep from its points.csv
   report.insert(report.end(), grid.begin(), grid.end());
   report.insert(report.end(), {"--out", (root / "model").string()});
   REQUIRE(RunServokit(report).status == 0);
-  CHECK(ReadText(root / "from" / "map_alpha_d.dat") ==
-        ReadText(root / "model" / "map_alpha_d.dat"));
-  CHECK(ReadText(root / "from" / "report.md") == ReadText(root / "model" / "report.md"));
+  CHECK(ReadFile(root / "from" / "map_alpha_d.dat") ==
+        ReadFile(root / "model" / "map_alpha_d.dat"));
+  CHECK(ReadFile(root / "from" / "report.md") == ReadFile(root / "model" / "report.md"));
   std::filesystem::remove_all(root);
 }
 
@@ -186,7 +167,7 @@ TEST_CASE("report --from refuses what is not a finished sweep of an unchanged mo
   const std::string record = (root / "sweep" / "sweep.json").string();
 
   // Not completed.
-  std::string json = ReadText(record);
+  std::string json = ReadFile(record);
   const std::string done = "\"completed\": true";
   REQUIRE(json.find(done) != std::string::npos);
   std::ofstream(record) << std::string(json).replace(json.find(done), done.size(),

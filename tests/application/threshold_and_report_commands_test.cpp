@@ -12,11 +12,13 @@
 #include <vector>
 
 #include "tests/application/run_servokit.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
 namespace {
 
+using testing::CsvFields;
 using testing::ModelPath;
 using testing::RunServokit;
 
@@ -149,22 +151,6 @@ TEST_CASE("report MODEL writes the classification, a study per axis and its figu
   CHECK(std::filesystem::exists(directory / "study_s_root_locus.svg"));
   CHECK(std::filesystem::exists(directory / "report.html"));
   std::filesystem::remove_all(directory);
-}
-
-// Splits a CSV line at the commas outside double quotes; quotes are dropped.
-std::vector<std::string> CsvFields(const std::string& line) {
-  std::vector<std::string> fields(1);
-  bool quoted = false;
-  for (const char c : line) {
-    if (c == '"') {
-      quoted = !quoted;
-    } else if (c == ',' && !quoted) {
-      fields.emplace_back();
-    } else {
-      fields.back() += c;
-    }
-  }
-  return fields;
 }
 
 TEST_CASE("report MODEL with two axes writes the class map and its traced curves", "[reports]") {

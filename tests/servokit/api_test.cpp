@@ -12,10 +12,12 @@
 #include "analysis/options.h"
 #include "models/model_generators.h"
 #include "servokit/servokit.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace sk = servokit::api;
 using servokit::testing::ModelPath;
+using servokit::testing::ReadFile;
 
 namespace {
 
@@ -25,13 +27,6 @@ constexpr double kPi = 3.14159265358979323846;
 // dynamics are +-i sqrt(k / (m2 sin^2 alpha)); m2 = 2, k = 5 (models/mass_on_car.yaml).
 double UndampedFrequency(double alpha) {
   return std::sqrt(5.0 / (2.0 * std::pow(std::sin(alpha), 2)));
-}
-
-std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
 }
 
 // Eq. (65) and its second and fourth derivatives in time: y0 + (yf - y0) p(tau), tau = t / T.
@@ -105,7 +100,7 @@ TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates a
 }
 
 TEST_CASE("a model from a string is the model from its file", "[servokit]") {
-  const std::string yaml = ReadText(ModelPath("mass_on_car.yaml"));
+  const std::string yaml = ReadFile(ModelPath("mass_on_car.yaml"));
   const sk::Model from_string = sk::Model::FromString(yaml, "inline", {{"alpha", "30 deg"}});
   const sk::Model from_file =
       sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "30 deg"}});
@@ -162,7 +157,7 @@ TEST_CASE("sweep through the API, in memory and to files, follows the closed for
       std::filesystem::temp_directory_path() / "servokit_api_sweep_test";
   std::filesystem::remove_all(directory);
   CHECK(sk::SweepToFiles(model, axes, directory.string()) == 4);
-  std::istringstream rows(ReadText(directory / "points.csv"));
+  std::istringstream rows(ReadFile(directory / "points.csv"));
   std::string line;
   std::getline(rows, line);
   // alpha is given in degrees by the model file: its column is alpha_deg, in degrees.
@@ -300,13 +295,13 @@ TEST_CASE("solve through the API writes its file in the format asked for or name
       std::filesystem::temp_directory_path() / "servokit_api_test_solve_files";
   std::filesystem::create_directories(directory);
   const auto first_line = [](const std::filesystem::path& path) {
-    const std::string text = ReadText(path);
+    const std::string text = ReadFile(path);
     return text.substr(0, text.find('\n'));
   };
 
   options.out_file = (directory / "u.mat").string();  // the format from the name
   sk::Solve(model, trajectory, options);
-  CHECK(ReadText(options.out_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
+  CHECK(ReadFile(options.out_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
   options.out_file = (directory / "u.txt").string();
   options.file_format = "modelica";
   sk::Solve(model, trajectory, options);
