@@ -30,10 +30,9 @@ import time
 import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg as sla
-import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scipy_large_eigs import TOLERANCE, assemble, read_terms  # noqa: E402
+from scipy_large_eigs import TOLERANCE, assemble, read_model  # noqa: E402
 
 # The same fixed start vector on every run (ARPACK's own is random), so runs repeat.
 SEED = 20130613
@@ -47,14 +46,8 @@ def main():
     k = int(sys.argv[2]) if len(sys.argv) > 2 else 10
     ncv = int(sys.argv[3]) if len(sys.argv) > 3 else None
     sigma = float(sys.argv[4]) if len(sys.argv) > 4 else 0.0
-    directory = os.path.dirname(os.path.abspath(path))
     start = time.perf_counter()
-    with open(path) as file:
-        model = yaml.safe_load(file)
-    parameters = {name: float(value) for name, value in (model.get("parameters") or {}).items()}
-    terms = {key: read_terms(directory, model.get(key)) for key in
-             ("mass_matrix", "damping_matrix", "stiffness_matrix", "input_matrix",
-              "output_matrix")}
+    name, parameters, terms = read_model(path)
     load_seconds = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -91,7 +84,7 @@ def main():
     values = [sigma + 1.0 / nu for nu in nus if abs(nu) > INFINITE_TOLERANCE * scale]
     values = sorted(values, key=lambda z: (-z.real, -z.imag))
     print(json.dumps({
-        "model": model.get("name"), "dof": n, "k": k, "ncv": ncv,
+        "model": name, "dof": n, "k": k, "ncv": ncv,
         "load_seconds": load_seconds, "assemble_seconds": assemble_seconds,
         "eigs_seconds": eigs_seconds, "seconds": assemble_seconds + eigs_seconds,
         "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,

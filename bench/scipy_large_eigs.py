@@ -69,18 +69,24 @@ def assemble(terms, parameters, shape=None):
 TOLERANCE = 1e-12
 
 
-def main():
-    path = sys.argv[1]
-    k = int(sys.argv[2]) if len(sys.argv) > 2 else 10
-    ncv = int(sys.argv[3]) if len(sys.argv) > 3 else None
+def read_model(path):
+    """The name, the parameters and the matrix terms (read_terms) of the linear model file."""
     directory = os.path.dirname(os.path.abspath(path))
-    start = time.perf_counter()
     with open(path) as file:
         model = yaml.safe_load(file)
     parameters = {name: float(value) for name, value in (model.get("parameters") or {}).items()}
     terms = {key: read_terms(directory, model.get(key)) for key in
              ("mass_matrix", "damping_matrix", "stiffness_matrix", "input_matrix",
               "output_matrix")}
+    return model.get("name"), parameters, terms
+
+
+def main():
+    path = sys.argv[1]
+    k = int(sys.argv[2]) if len(sys.argv) > 2 else 10
+    ncv = int(sys.argv[3]) if len(sys.argv) > 3 else None
+    start = time.perf_counter()
+    name, parameters, terms = read_model(path)
     load_seconds = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -105,7 +111,7 @@ def main():
     eigs_seconds = time.perf_counter() - start
     values = sorted(values, key=lambda z: (-z.real, -z.imag))
     print(json.dumps({
-        "model": model.get("name"), "dof": n, "k": k, "ncv": ncv,
+        "model": name, "dof": n, "k": k, "ncv": ncv,
         "load_seconds": load_seconds, "assemble_seconds": assemble_seconds,
         "eigs_seconds": eigs_seconds, "seconds": assemble_seconds + eigs_seconds,
         "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
