@@ -74,6 +74,12 @@ ParameterGrid::ParameterGrid(std::vector<GridAxis> axes) : axes_(std::move(axes)
     }
     num_points_ *= size;
   }
+  for (const GridAxis& axis : axes_) {
+    std::vector<double>& table = values_.emplace_back();
+    if (axis.size() > kMostTabulatedValues) continue;
+    table.resize(axis.size());
+    for (std::size_t i = 0; i < table.size(); ++i) table[i] = axis.Value(i);
+  }
 }
 
 template <typename Visit>
@@ -88,7 +94,7 @@ void ParameterGrid::ForEachDigit(std::size_t point, Visit visit) const {
 
 void ParameterGrid::PointValues(std::size_t point, std::span<double> values) const {
   assert(values.size() == axes_.size());
-  ForEachDigit(point, [&](std::size_t k, std::size_t i) { values[k] = axes_[k].Value(i); });
+  ForEachDigit(point, [&](std::size_t k, std::size_t i) { values[k] = Value(k, i); });
 }
 
 void ParameterGrid::PointIndices(std::size_t point, std::span<std::size_t> indices) const {
@@ -98,7 +104,7 @@ void ParameterGrid::PointIndices(std::size_t point, std::span<std::size_t> indic
 
 void ParameterGrid::Apply(std::size_t point, Eigen::VectorXd& parameters) const {
   ForEachDigit(point, [&](std::size_t k, std::size_t i) {
-    parameters[static_cast<Eigen::Index>(axes_[k].parameter)] = axes_[k].Value(i);
+    parameters[static_cast<Eigen::Index>(axes_[k].parameter)] = Value(k, i);
   });
 }
 

@@ -78,8 +78,18 @@ class ParameterGrid {
   template <typename Visit>
   void ForEachDigit(std::size_t point, Visit visit) const;
 
+  // axes_[k].Value(i) at index i, for each axis of at most kMostTabulatedValues values (the
+  // others, e.g. a single axis of 10^9 values, are computed point by point): a sweep looks its
+  // millions of points' values up instead of computing them again (in degrees for some axes).
+  static constexpr std::size_t kMostTabulatedValues = std::size_t{1} << 20;
+  double Value(std::size_t axis, std::size_t index) const {
+    const std::vector<double>& table = values_[axis];
+    return index < table.size() ? table[index] : axes_[axis].Value(index);
+  }
+
   std::vector<GridAxis> axes_;
   std::size_t num_points_ = 1;
+  std::vector<std::vector<double>> values_;  // empty for an axis not tabulated
 };
 
 }  // namespace servokit

@@ -240,7 +240,7 @@ class SweepPipeline {
         // grid overwrites only the varied entries.
         for (std::size_t i = 0; i < count; ++i) {
           grid_.Apply(first + i, workspace.parameters());
-          slot.points[begin + i] = AnalyzeSweepPoint(model_, workspace, options_);
+          AnalyzeSweepPointInto(model_, workspace, options_, slot.points[begin + i]);
         }
         if (prepare_) {
           prepare_(static_cast<int>(block % kSweepSlots), chunk, first,

@@ -51,8 +51,9 @@ double MaxRealPart(const std::vector<std::complex<double>>& eigenvalues) {
 
 // Roots of a_0 + a_1 x + ... + a_n x^n (a_n != 0): closed forms up to degree 2 (the quadratic
 // in its cancellation-free form), GSL's companion-matrix QR beyond.
-std::optional<std::vector<std::complex<double>>> PolynomialRoots(const double* a, int degree) {
-  std::vector<std::complex<double>> roots;
+// Writes them into `roots` (its memory reused); false when QR did not converge.
+bool PolynomialRoots(const double* a, int degree, std::vector<std::complex<double>>& roots) {
+  roots.clear();
   if (degree == 1) {
     roots.push_back(-a[0] / a[1]);
   } else if (degree == 2) {
@@ -74,11 +75,11 @@ std::optional<std::vector<std::complex<double>>> PolynomialRoots(const double* a
     std::vector<double> packed(2 * std::size_t(degree));
     if (!workspace || gsl_poly_complex_solve(a, std::size_t(degree + 1), workspace.get(),
                                              packed.data()) != GSL_SUCCESS) {
-      return std::nullopt;  // QR did not converge: let the general path decide
+      return false;  // QR did not converge: let the general path decide
     }
     for (int k = 0; k < degree; ++k) roots.push_back({packed[2 * k], packed[2 * k + 1]});
   }
-  return roots;
+  return true;
 }
 
 // The fast path of a sweep point for single-output models whose zero-dynamics polynomial was
@@ -88,13 +89,16 @@ std::optional<std::vector<std::complex<double>>> PolynomialRoots(const double* a
 // and 2 dof minus the degree the relative degree. P, its rank and the realization are decided
 // exactly as in AnalyzeDecouplingMatrix. Returns nullopt whenever the general path must decide:
 // the equilibrium is not at rest at q = 0, B u0 varies with q, the equilibrium is not isolated
-// (a_0 = 0), or the two rank decisions disagree (inside the tolerance band of a singular point).
-std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
-                                                Workspace& workspace,
-                                                const ClassificationOptions& options) {
+// (a_0 = 0), or the two rank decisions disagree (inside the tolerance band of a singular point):
+// it returns false then, and `point` holds nothing of use. Writes into `point`'s own vectors,
+// so that a sweep reusing its points allocates nothing here.
+bool AnalyzeFromPolynomial(const Model& model,
+                           Workspace& workspace,
+                           const ClassificationOptions& options,
+                           SweepPoint& point) {
   if (!model.has_zero_dynamics_polynomial() || model.num_outputs() != 1 ||
       options.operating_point.y0 || options.operating_point.q_guess) {
-    return std::nullopt;
+    return false;
   }
   const auto dof = static_cast<Eigen::Index>(model.dof());
   // A model with the polynomial has fewer than SymbolicModel::kMaxPolynomialSize = 4
@@ -105,42 +109,40 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
   using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMost, 1>;
   using SmallRow = Eigen::Matrix<double, 1, Eigen::Dynamic, Eigen::RowMajor, 1, kMost>;
   using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMost, kMost>;
-  if (dof > kMost) return std::nullopt;
+  if (dof > kMost) return false;
   const SmallVector zero = SmallVector::Zero(dof);
-  Evaluate(model, workspace, zero, zero,
-           Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix |
-               Quantity::kOutputJacobian | Quantity::kZeroDynamicsPolynomial);
+  Evaluate(model, workspace, zero, zero, kPolynomialPathQuantities);
   const Eigen::Ref<const Eigen::VectorXd> input = workspace.input_matrix.col(0);
   const double input_size = input.squaredNorm();
-  if (!(input_size > 0.0)) return std::nullopt;
+  if (!(input_size > 0.0)) return false;
   // Equilibrium at q = 0: f(0, 0) = B u0 exactly (to round-off of f's own size).
   const double held_input = input.dot(workspace.forces) / input_size;
   if (!std::isfinite(held_input) ||
       (workspace.forces - input * held_input).lpNorm<Eigen::Infinity>() >
           options.operating_point.residual_tolerance *
               std::max(1.0, workspace.forces.lpNorm<Eigen::Infinity>())) {
-    return std::nullopt;
+    return false;
   }
   if (held_input != 0.0) {
     Evaluate(model, workspace, zero, zero,
              static_cast<unsigned>(Quantity::kInputMatrixDerivatives));
     for (const Eigen::MatrixXd& derivative : workspace.input_matrix_derivatives) {
-      if (!derivative.isZero(0.0)) return std::nullopt;  // K would miss -d(B u0)/dq
+      if (!derivative.isZero(0.0)) return false;  // K would miss -d(B u0)/dq
     }
   }
   const Eigen::VectorXd& coefficients = workspace.zero_dynamics_polynomial;
   const Eigen::VectorXd& scales = workspace.zero_dynamics_polynomial_scale;
   if (!coefficients.allFinite() || !workspace.mass_matrix.allFinite() ||
       !workspace.output_jacobian.allFinite()) {
-    return std::nullopt;
+    return false;
   }
   const double tolerance = options.rank_tolerance;
   auto nonzero = [&](Eigen::Index k) { return std::abs(coefficients(k)) > tolerance * scales(k); };
-  if (!nonzero(0)) return std::nullopt;  // not an isolated equilibrium: the general path says so
+  if (!nonzero(0)) return false;  // not an isolated equilibrium: the general path says so
 
   // P = H M^-1 B and its rank, as AnalyzeDecouplingMatrix decides it.
   const Eigen::LLT<SmallMatrix> mass(SmallMatrix(workspace.mass_matrix));
-  if (mass.info() != Eigen::Success) return std::nullopt;
+  if (mass.info() != Eigen::Success) return false;
   const SmallVector input_acceleration = mass.solve(input);
   const SmallRow output_row = workspace.output_jacobian.row(0);
   const double decoupling = output_row.dot(input_acceleration);
@@ -149,11 +151,11 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
 
   // The degree: 2 dof - 2 for rank P = 1 (relative degree 2); below that otherwise.
   int degree = full_rank ? int(2 * dof - 2) : int(2 * dof - 3);
-  if (full_rank != nonzero(2 * dof - 2)) return std::nullopt;
+  if (full_rank != nonzero(2 * dof - 2)) return false;
   while (degree > 0 && !nonzero(degree)) --degree;
 
-  SweepPoint point;
   point.ok = true;
+  point.error.clear();
   point.rank = full_rank ? 1 : 0;
   if (full_rank) {
     // |D^T B| / |B| with D the orthonormal complement of H: the part of B off H's direction.
@@ -165,18 +167,18 @@ std::optional<SweepPoint> AnalyzeFromPolynomial(const Model& model,
     point.realization = Realization::kTangential;
   }
   const int relative_degree = int(2 * dof) - degree;
-  point.relative_degree = {relative_degree};
+  point.relative_degree.assign(1, relative_degree);
   point.differentiation_index = relative_degree + 1;
   point.internal_dynamics_order = degree;
-  auto roots = PolynomialRoots(coefficients.data(), degree);
-  if (!roots) return std::nullopt;
   ZeroDynamicsSpectrum spectrum;
-  spectrum.eigenvalues = std::move(*roots);
-  FinishZeroDynamicsClass(spectrum, options.imaginary_axis_tolerance);  // the point has no modes
-  point.eigenvalues = std::move(spectrum.eigenvalues);
+  spectrum.eigenvalues.swap(point.eigenvalues);  // the point's memory, not a new vector's
+  const bool solved = PolynomialRoots(coefficients.data(), degree, spectrum.eigenvalues);
+  if (solved) FinishZeroDynamicsClass(spectrum, options.imaginary_axis_tolerance);  // no modes
+  point.eigenvalues.swap(spectrum.eigenvalues);
+  if (!solved) return false;
   point.stability = spectrum.stability;
   point.max_real_part = MaxRealPart(point.eigenvalues);
-  return point;
+  return true;
 }
 
 SweepPoint AnalyzeGenerally(const Model& model,
@@ -253,16 +255,27 @@ ModelAnalysis AnalyzePoint(const LoadedModel& model,
 SweepPoint AnalyzeSweepPoint(const LoadedModel& model,
                              PointWorkspace& workspace,
                              const AnalysisOptions& options) {
+  SweepPoint point;
+  AnalyzeSweepPointInto(model, workspace, options, point);
+  return point;
+}
+
+void AnalyzeSweepPointInto(const LoadedModel& model,
+                           PointWorkspace& workspace,
+                           const AnalysisOptions& options,
+                           SweepPoint& point) {
   if (const Model* multibody = model.multibody()) {
-    return AnalyzeSweepPoint(*multibody, *workspace.multibody(), options.classification);
+    AnalyzeSweepPointInto(*multibody, *workspace.multibody(), options.classification,
+                          SweepPath::kFast, point);
+    return;
   }
   try {
-    return SummarizeLinearPoint(std::get<LinearAnalysis>(AnalyzePoint(model, workspace, options)));
+    point = SummarizeLinearPoint(std::get<LinearAnalysis>(AnalyzePoint(model, workspace, options)));
   } catch (const NoSolution& failure) {
-    return FailedLinearPoint(failure);
+    point = FailedLinearPoint(failure);
   } catch (const ModelError& failure) {
     // A factor that is not finite at this point (a division by a varied parameter at 0).
-    return FailedLinearPoint(failure);
+    point = FailedLinearPoint(failure);
   }
 }
 
@@ -270,10 +283,18 @@ SweepPoint AnalyzeSweepPoint(const Model& model,
                              Workspace& workspace,
                              const ClassificationOptions& options,
                              SweepPath path) {
-  if (path == SweepPath::kFast) {
-    if (auto point = AnalyzeFromPolynomial(model, workspace, options)) return *std::move(point);
-  }
-  return AnalyzeGenerally(model, workspace, options);
+  SweepPoint point;
+  AnalyzeSweepPointInto(model, workspace, options, path, point);
+  return point;
+}
+
+void AnalyzeSweepPointInto(const Model& model,
+                           Workspace& workspace,
+                           const ClassificationOptions& options,
+                           SweepPath path,
+                           SweepPoint& point) {
+  if (path == SweepPath::kFast && AnalyzeFromPolynomial(model, workspace, options, point)) return;
+  point = AnalyzeGenerally(model, workspace, options);
 }
 
 }  // namespace servokit

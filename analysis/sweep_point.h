@@ -52,6 +52,14 @@ SweepPoint AnalyzeSweepPoint(const Model& model,
                              Workspace& workspace,
                              const ClassificationOptions& options,
                              SweepPath path = SweepPath::kFast);
+/// The same into `point`, reusing the memory its vectors and strings hold: a sweep analyses
+/// millions of points into the same few thousand SweepPoints, and the fast path then allocates
+/// nothing.
+void AnalyzeSweepPointInto(const Model& model,
+                           Workspace& workspace,
+                           const ClassificationOptions& options,
+                           SweepPath path,
+                           SweepPoint& point);
 
 /// How a point is analysed: the options of each kind's analysis; the model's kind picks one.
 struct AnalysisOptions {
@@ -106,5 +114,10 @@ ModelAnalysis AnalyzePoint(const LoadedModel& model,
 SweepPoint AnalyzeSweepPoint(const LoadedModel& model,
                              PointWorkspace& workspace,
                              const AnalysisOptions& options);
+/// The same into `point`, reusing its memory (AnalyzeSweepPointInto above).
+void AnalyzeSweepPointInto(const LoadedModel& model,
+                           PointWorkspace& workspace,
+                           const AnalysisOptions& options,
+                           SweepPoint& point);
 
 }  // namespace servokit

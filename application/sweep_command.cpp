@@ -314,8 +314,14 @@ std::size_t ComputeSweep(const SweepSetup& setup,
   if (Processes().size == 1) {
     // The threads format their own chunks as they compute them, and this thread only writes
     // finished blocks while they go on with the next ones.
-    PipelinedBlockFormatter formatter(setup.grid, TableEncodingOf(setup.format),
-                                      setup.options.block_size, SweepChunkSize(setup.model));
+    // With two computing threads or more they also decode the records of sweep.h5 into its
+    // rows; with one, this thread does (it would otherwise wait for that thread).
+    TableEncoding encoding = TableEncodingOf(setup.format);
+    if (encoding == TableEncoding::kRecordsAndRows && workspaces.threads() < 2) {
+      encoding = TableEncoding::kRecords;
+    }
+    PipelinedBlockFormatter formatter(setup.grid, encoding, setup.options.block_size,
+                                      SweepChunkSize(setup.model));
     return RunSweepPipeline(
         setup.model, setup.grid, setup.options, first_point, workspaces,
         [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {

@@ -277,7 +277,15 @@ std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text) 
 }
 
 TableEncoding TableEncodingOf(SweepFileFormat format) {
-  return format == SweepFileFormat::kCsv ? TableEncoding::kCsv : TableEncoding::kRecords;
+  switch (format) {
+    case SweepFileFormat::kCsv:
+      return TableEncoding::kCsv;
+    case SweepFileFormat::kHdf5:
+      return TableEncoding::kRecordsAndRows;
+    case SweepFileFormat::kMat:
+      break;
+  }
+  return TableEncoding::kRecords;
 }
 
 std::string SweepTableFileNames(SweepFileFormat format) {
@@ -372,9 +380,9 @@ std::vector<GridAxis> ResolveSweepAxes(const SweepRecord& record,
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options) {
   SweepModelInfo info = std::visit(
       [&](const auto& kind) {
-        return SweepModelInfo{kind.name(),         kind.source(),
-                              kind.content_hash(), kind.parameter_names(),
-                              kind.parameters(),   std::nullopt};
+        return SweepModelInfo{
+            kind.name(),       kind.source(), kind.content_hash(), kind.parameter_names(),
+            kind.parameters(), std::nullopt,  kind.dof(),          kind.num_outputs()};
       },
       model.variant());
   if (model.linear()) info.linear = options.linear;
@@ -520,6 +528,7 @@ void SweepOutput::StartAfresh() {
   WriteAll(points_fd_, points_header, paths_.points_partial);
   WriteAll(eigenvalues_fd_, eigenvalues_header, paths_.eigenvalues_partial);
   sizes_ = {points_header.size(), eigenvalues_header.size()};
+  if (format_ == SweepFileFormat::kHdf5) StartHdf5File();
   Checkpoint();
 }
 
@@ -540,7 +549,43 @@ void SweepOutput::Resume(const FileSizes& sizes) {
   }
   points_fd_ = OpenFile(paths_.points_partial, O_WRONLY | O_APPEND);
   eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, O_WRONLY | O_APPEND);
+  if (format_ == SweepFileFormat::kHdf5) StartHdf5File();
   last_checkpoint_ = std::chrono::steady_clock::now();
+}
+
+void SweepOutput::StartHdf5File() {
+  const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
+                                      SERVOKIT_VERSION};
+  hdf5_ = CreateSweepHdf5(TemporaryPath(paths_.table_file), metadata, grid_,
+                          RelativeDegreeTextWidth(model_.dof, model_.outputs));
+  records_ = std::make_unique<RecordDecoder>(grid_);
+  // The rows of the points done before (a resumed sweep), from their records: the file's bytes
+  // depend only on the rows, so it becomes the one an uninterrupted run writes.
+  if (points_done_ == 0) return;
+  constexpr std::size_t kRowsPerRead = std::size_t{1} << 16;
+  const std::unique_ptr<TableRecordReader> points =
+      OpenPointRecords(grid_, paths_.points_partial, points_done_);
+  while (points->Read(kRowsPerRead, rows_) > 0) hdf5_->AppendPoints(rows_);
+  const std::unique_ptr<TableRecordReader> eigenvalues =
+      OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
+  while (eigenvalues->Read(kRowsPerRead, rows_) > 0) hdf5_->AppendEigenvalues(rows_);
+}
+
+void SweepOutput::AppendToHdf5File(const FormattedBlock& block) {
+  if (!block.points_rows.empty()) {  // decoded by the threads that formatted the block
+    for (const TableChunk& rows : block.points_rows) hdf5_->AppendPoints(rows);
+    for (const TableChunk& rows : block.eigenvalue_rows) hdf5_->AppendEigenvalues(rows);
+    return;
+  }
+  std::size_t first = block.first;
+  for (const std::string& records : block.points_csv) {
+    first += records_->DecodePoints(records, first, rows_);
+    hdf5_->AppendPoints(rows_);
+  }
+  for (const std::string& records : block.eigenvalues_csv) {
+    records_->DecodeEigenvalues(records, rows_);
+    hdf5_->AppendEigenvalues(rows_);
+  }
 }
 
 void SweepOutput::Append(const FormattedBlock& block) {
@@ -553,8 +598,11 @@ void SweepOutput::Append(const FormattedBlock& block) {
     sizes_.points += block.points_csv[slice].size();
     sizes_.eigenvalues += block.eigenvalues_csv[slice].size();
   }
-  StartWriteback(points_fd_, before.points, sizes_.points - before.points);
-  StartWriteback(eigenvalues_fd_, before.eigenvalues, sizes_.eigenvalues - before.eigenvalues);
+  if (format_ == SweepFileFormat::kCsv) {
+    StartWriteback(points_fd_, before.points, sizes_.points - before.points);
+    StartWriteback(eigenvalues_fd_, before.eigenvalues, sizes_.eigenvalues - before.eigenvalues);
+  }
+  if (hdf5_) AppendToHdf5File(block);
   points_done_ += block.points;
   points_without_solution_ += block.points_without_solution;
   if (std::chrono::steady_clock::now() - last_checkpoint_ >= checkpoint_interval_) {
@@ -627,14 +675,17 @@ void SweepOutput::WriteTableFile() {
                 " to start the sweep again");
   }
   const std::unique_ptr<TableRecordReader> points = OpenPointRecords(grid_, paths_.points_partial);
-  const std::unique_ptr<TableRecordReader> eigenvalues =
-      OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
-  const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
-                                      SERVOKIT_VERSION};
   const std::filesystem::path temporary = TemporaryPath(paths_.table_file);
   if (format_ == SweepFileFormat::kHdf5) {
-    WriteSweepHdf5(temporary, metadata, *points, *eigenvalues);
+    // Written as the sweep ran; a run resumed with every point done starts it here.
+    if (!hdf5_) StartHdf5File();
+    hdf5_->Finish(*points);
+    hdf5_.reset();  // closes the file
   } else {
+    const std::unique_ptr<TableRecordReader> eigenvalues =
+        OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
+    const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
+                                        SERVOKIT_VERSION};
     WriteSweepMat(temporary, metadata, *points, *eigenvalues);
   }
   int fd = OpenFile(temporary, O_RDONLY);

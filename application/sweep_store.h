@@ -22,6 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -34,6 +35,8 @@
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
 #include "models/loaded_model.h"
+#include "reports/sweep_hdf5.h"
+#include "reports/sweep_records.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {
@@ -75,6 +78,7 @@ struct SweepModelInfo {
   Eigen::VectorXd parameters;  // nominal values after --set, in the order of parameter_names
   // Set for a linear model: the analysis of each point (eigenvalue count, shift, solver, ...).
   std::optional<LinearAnalysisOptions> linear;
+  std::size_t dof = 0, outputs = 0;  // bound the relative degrees' text (sweep.h5)
 };
 /// `options.linear` is recorded for a linear model only.
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options);
@@ -180,6 +184,8 @@ class SweepOutput {
   bool FinalFilesExist() const;
   void RenameCsvTables();
   void WriteTableFile();
+  void StartHdf5File();
+  void AppendToHdf5File(const FormattedBlock& block);
 
   std::filesystem::path directory_;
   Paths paths_;
@@ -197,6 +203,10 @@ class SweepOutput {
   std::size_t points_done_ = 0, points_without_solution_ = 0;
   FileSizes sizes_;
   std::chrono::steady_clock::time_point last_checkpoint_;
+  // With --format hdf5: sweep.h5 (its temporary) written as the records are, from their rows.
+  std::unique_ptr<SweepHdf5Writer> hdf5_;
+  std::unique_ptr<RecordDecoder> records_;
+  TableChunk rows_;
 };
 
 }  // namespace servokit

@@ -57,6 +57,31 @@ const ExpressionProgram& Model::program(Quantity quantity) const {
   return *programs_[index];
 }
 
+const ExpressionProgram* Model::combined_program(unsigned quantities) const {
+  for (const auto& [combination, program] : combined_programs_) {
+    if (combination == quantities) return program.get();
+  }
+  return nullptr;
+}
+
+std::size_t Model::max_registers() const {
+  std::size_t registers = 0;
+  for (const auto& program : programs_) registers = std::max(registers, program->num_registers());
+  for (const auto& [combination, program] : combined_programs_) {
+    registers = std::max(registers, program->num_registers());
+  }
+  return registers;
+}
+
+std::size_t Model::max_outputs() const {
+  std::size_t outputs = 0;
+  for (const auto& program : programs_) outputs = std::max(outputs, program->num_outputs());
+  for (const auto& [combination, program] : combined_programs_) {
+    outputs = std::max(outputs, program->num_outputs());
+  }
+  return outputs;
+}
+
 Workspace::Workspace(const Model& model)
     : parameters(model.parameters()),
       dof_(model.dof()),
@@ -83,14 +108,8 @@ Workspace::Workspace(const Model& model)
   zero_dynamics_polynomial_scale.setZero(2 * dof + 1);
 
   program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
-  std::size_t max_registers = 0, max_outputs = 0;
-  for (std::size_t i = 0; i < kNumQuantities; ++i) {
-    const ExpressionProgram& program = model.program(static_cast<Quantity>(1u << i));
-    max_registers = std::max(max_registers, program.num_registers());
-    max_outputs = std::max(max_outputs, program.num_outputs());
-  }
-  registers_.assign(max_registers, 0.0);
-  outputs_.assign(max_outputs, 0.0);
+  registers_.assign(model.max_registers(), 0.0);
+  outputs_.assign(model.max_outputs(), 0.0);
 }
 
 bool Workspace::Fits(const Model& model) const {
@@ -100,14 +119,73 @@ bool Workspace::Fits(const Model& model) const {
     return false;
   }
   // Same shape is not enough: a different model may need more scratch registers.
-  for (std::size_t i = 0; i < kNumQuantities; ++i) {
-    const ExpressionProgram& program = model.program(static_cast<Quantity>(1u << i));
-    if (program.num_registers() > registers_.size() || program.num_outputs() > outputs_.size()) {
-      return false;
-    }
-  }
-  return true;
+  return model.max_registers() <= registers_.size() && model.max_outputs() <= outputs_.size();
 }
+
+namespace {
+
+// Copies quantity's results from `source` (its blocks column-major, one after another, as the
+// loader compiles them) into the workspace; returns the end of what it read.
+const double* CopyResults(Quantity quantity, const double* source, Workspace& workspace) {
+  const auto copy_all = [&](std::vector<Eigen::MatrixXd>& blocks) {
+    for (Eigen::MatrixXd& block : blocks) source = CopyBlock(source, block);
+    return source;
+  };
+  switch (quantity) {
+    case Quantity::kMassMatrix:
+      return CopyBlock(source, workspace.mass_matrix);
+    case Quantity::kForces:
+      return CopyBlock(source, workspace.forces);
+    case Quantity::kInputMatrix:
+      return CopyBlock(source, workspace.input_matrix);
+    case Quantity::kOutput:
+      return CopyBlock(source, workspace.output);
+    case Quantity::kOutputJacobian:
+      return CopyBlock(source, workspace.output_jacobian);
+    case Quantity::kOutputBias:
+      return CopyBlock(source, workspace.output_bias);
+    case Quantity::kForcesJacobians:
+      return CopyBlock(CopyBlock(source, workspace.forces_position_jacobian),
+                       workspace.forces_velocity_jacobian);
+    case Quantity::kMassMatrixDerivatives:
+      return copy_all(workspace.mass_matrix_derivatives);
+    case Quantity::kInputMatrixDerivatives:
+      return copy_all(workspace.input_matrix_derivatives);
+    case Quantity::kOutputJacobianDerivatives:
+      return copy_all(workspace.output_jacobian_derivatives);
+    case Quantity::kOutputBiasJacobians:
+      return CopyBlock(CopyBlock(source, workspace.output_bias_position_jacobian),
+                       workspace.output_bias_velocity_jacobian);
+    case Quantity::kZeroDynamicsPolynomial:
+      return CopyBlock(CopyBlock(source, workspace.zero_dynamics_polynomial),
+                       workspace.zero_dynamics_polynomial_scale);
+  }
+  return source;
+}
+
+// Where a single-block result lives in the workspace, laid out column-major by the loader as
+// Eigen stores it, so that its program writes it in place; nullptr for a result of several
+// blocks (it goes through outputs_ and CopyResults).
+double* InPlaceResult(Quantity quantity, Workspace& workspace) {
+  switch (quantity) {
+    case Quantity::kMassMatrix:
+      return workspace.mass_matrix.data();
+    case Quantity::kForces:
+      return workspace.forces.data();
+    case Quantity::kInputMatrix:
+      return workspace.input_matrix.data();
+    case Quantity::kOutput:
+      return workspace.output.data();
+    case Quantity::kOutputJacobian:
+      return workspace.output_jacobian.data();
+    case Quantity::kOutputBias:
+      return workspace.output_bias.data();
+    default:
+      return nullptr;
+  }
+}
+
+}  // namespace
 
 void Evaluate(const Model& model,
               Workspace& workspace,
@@ -123,61 +201,29 @@ void Evaluate(const Model& model,
   inputs = std::copy_n(q.data(), q.size(), inputs);
   std::copy_n(q_dot.data(), q_dot.size(), inputs);
 
-  const auto run = [&](Quantity quantity, double* destination) {
-    model.program(quantity).Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(),
-                                     destination);
+  const auto run = [&](const ExpressionProgram& program, double* destination) {
+    program.Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(), destination);
   };
-  // Single-block results are laid out column-major by the loader, as Eigen stores them, so the
-  // program writes straight into the result; several blocks go through outputs_.
-  if (Wants(quantities, Quantity::kMassMatrix)) {
-    run(Quantity::kMassMatrix, workspace.mass_matrix.data());
-  }
-  if (Wants(quantities, Quantity::kForces)) {
-    run(Quantity::kForces, workspace.forces.data());
-  }
-  if (Wants(quantities, Quantity::kInputMatrix)) {
-    run(Quantity::kInputMatrix, workspace.input_matrix.data());
-  }
-  if (Wants(quantities, Quantity::kOutput)) {
-    run(Quantity::kOutput, workspace.output.data());
-  }
-  if (Wants(quantities, Quantity::kOutputJacobian)) {
-    run(Quantity::kOutputJacobian, workspace.output_jacobian.data());
-  }
-  if (Wants(quantities, Quantity::kOutputBias)) {
-    run(Quantity::kOutputBias, workspace.output_bias.data());
-  }
-  const double* blocks = workspace.outputs_.data();
-  if (Wants(quantities, Quantity::kForcesJacobians)) {
-    run(Quantity::kForcesJacobians, workspace.outputs_.data());
-    CopyBlock(CopyBlock(blocks, workspace.forces_position_jacobian),
-              workspace.forces_velocity_jacobian);
-  }
-  const auto run_blocks = [&](Quantity quantity, std::vector<Eigen::MatrixXd>& results) {
-    run(quantity, workspace.outputs_.data());
-    const double* source = blocks;
-    for (Eigen::MatrixXd& block : results) {
-      source = CopyBlock(source, block);
+  // A request the loader compiled as one program (its shared subexpressions computed once).
+  if (const ExpressionProgram* combined = model.combined_program(quantities)) {
+    run(*combined, workspace.outputs_.data());
+    const double* source = workspace.outputs_.data();
+    for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
+      const auto quantity = static_cast<Quantity>(1u << bit);
+      if (Wants(quantities, quantity)) source = CopyResults(quantity, source, workspace);
     }
-  };
-  if (Wants(quantities, Quantity::kMassMatrixDerivatives)) {
-    run_blocks(Quantity::kMassMatrixDerivatives, workspace.mass_matrix_derivatives);
+    return;
   }
-  if (Wants(quantities, Quantity::kInputMatrixDerivatives)) {
-    run_blocks(Quantity::kInputMatrixDerivatives, workspace.input_matrix_derivatives);
-  }
-  if (Wants(quantities, Quantity::kOutputJacobianDerivatives)) {
-    run_blocks(Quantity::kOutputJacobianDerivatives, workspace.output_jacobian_derivatives);
-  }
-  if (Wants(quantities, Quantity::kOutputBiasJacobians)) {
-    run(Quantity::kOutputBiasJacobians, workspace.outputs_.data());
-    CopyBlock(CopyBlock(blocks, workspace.output_bias_position_jacobian),
-              workspace.output_bias_velocity_jacobian);
-  }
-  if (Wants(quantities, Quantity::kZeroDynamicsPolynomial)) {
-    run(Quantity::kZeroDynamicsPolynomial, workspace.outputs_.data());
-    CopyBlock(CopyBlock(blocks, workspace.zero_dynamics_polynomial),
-              workspace.zero_dynamics_polynomial_scale);
+  // One program per quantity.
+  for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
+    const auto quantity = static_cast<Quantity>(1u << bit);
+    if (!Wants(quantities, quantity)) continue;
+    if (double* destination = InPlaceResult(quantity, workspace)) {
+      run(model.program(quantity), destination);
+    } else {
+      run(model.program(quantity), workspace.outputs_.data());
+      CopyResults(quantity, workspace.outputs_.data(), workspace);
+    }
   }
 }
 

@@ -46,6 +46,11 @@ constexpr unsigned operator|(Quantity a, Quantity b) {
 constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
 inline constexpr std::size_t kNumQuantities = 12;
+/// What a sweep's polynomial path (analysis/sweep_point.h) evaluates at every point, compiled
+/// also as one program (Model::combined_program).
+inline constexpr unsigned kPolynomialPathQuantities =
+    Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutputJacobian |
+    Quantity::kZeroDynamicsPolynomial;
 
 /// A parameter's value given by name, in place of the model file's nominal value; value is a
 /// number and may end in "deg".
@@ -108,6 +113,14 @@ class Model {
   /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
   /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
   bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
+  /// The program compiled for exactly this combination of quantities (their results one after
+  /// another, in Quantity order), or nullptr. Evaluate runs it instead of one program each, so
+  /// that the subexpressions they share (the cosine of a parameter, ...) are computed once.
+  /// Compiled for kPolynomialPathQuantities when the polynomial was derived.
+  const ExpressionProgram* combined_program(unsigned quantities) const;
+  /// The most registers and outputs of any of its programs (Workspace's scratch).
+  std::size_t max_registers() const;
+  std::size_t max_outputs() const;
 
  private:
   friend class ModelBuilder;  // models/model_loader.cpp fills a Model
@@ -119,6 +132,8 @@ class Model {
   Eigen::VectorXd parameters_;
   std::shared_ptr<const SymbolicModel> symbolic_;
   std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
+  // Programs for combinations of quantities (combined_program), with their combination.
+  std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>> combined_programs_;
 };
 
 /// Reads a model file (YAML, DESIGN.md "The model file"), checks it, derives H, h_bar and the

@@ -735,6 +735,18 @@ class ModelBuilder {
         Fail("derived " + std::string(derived.name), error.what());
       }
     }
+    if (model_.has_zero_dynamics_polynomial_) {
+      // Already compiled one by one above: this cannot meet an unknown form.
+      std::vector<GiNaC::matrix> blocks;
+      for (const Derived& derived : quantities) {
+        if ((kPolynomialPathQuantities & static_cast<unsigned>(derived.quantity)) != 0) {
+          blocks.insert(blocks.end(), derived.blocks.begin(), derived.blocks.end());
+        }
+      }
+      model_.combined_programs_.emplace_back(kPolynomialPathQuantities,
+                                             std::make_shared<const ExpressionProgram>(
+                                                 CompileExpressions(ColumnMajor(blocks), inputs)));
+    }
   }
 
   Model model_;

@@ -8,13 +8,19 @@
 
 #include "reports/mat_file.h"
 #include "reports/sweep_hdf5.h"
-#include "reports/sweep_records.h"
 
 namespace servokit {
 
-/// What the plugin offers: WriteSweepHdf5 and CreateMatFile (the same signatures).
+// Defined in the plugin only (its code uses nothing of servokit but these headers' types).
+std::unique_ptr<SweepHdf5Writer> CreateSweepHdf5File(const std::filesystem::path& path,
+                                                     const SweepFileMetadata& metadata,
+                                                     const SweepHdf5Layout& layout);
+std::unique_ptr<MatFileWriter> CreateMatioFile(const std::string& path);
+
+/// What the plugin offers: CreateSweepHdf5File (CreateSweepHdf5 once the layout is known) and
+/// CreateMatFile.
 struct DataFilesPlugin {
-  decltype(&WriteSweepHdf5) write_sweep_hdf5;
+  decltype(&CreateSweepHdf5File) create_sweep_hdf5;
   decltype(&CreateMatFile) create_mat_file;
 };
 
@@ -23,12 +29,5 @@ inline constexpr const char* kDataFilesPluginEntry = "servokit_data_files_plugin
 
 /// The plugin, loaded on the first call. Throws Error when it cannot be loaded.
 const DataFilesPlugin& DataFiles();
-
-// Defined in the plugin only.
-void WriteSweepHdf5File(const std::filesystem::path& path,
-                        const SweepFileMetadata& metadata,
-                        TableRecordReader& points,
-                        TableRecordReader& eigenvalues);
-std::unique_ptr<MatFileWriter> CreateMatioFile(const std::string& path);
 
 }  // namespace servokit

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <array>
 
-#include "reports/data_files_plugin.h"
-
 namespace servokit {
 namespace {
 
@@ -36,10 +34,6 @@ std::optional<std::string> MatlabNameProblem(const std::string& name) {
     return std::string("a MATLAB keyword");
   }
   return std::nullopt;
-}
-
-std::unique_ptr<MatFileWriter> CreateMatFile(const std::string& path) {
-  return DataFiles().create_mat_file(path);
 }
 
 }  // namespace servokit

@@ -3,23 +3,13 @@
 #include <string>
 
 #include "models/errors.h"
-#include "reports/data_files_plugin.h"
-#include "reports/plugins.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {
 
-const DataFilesPlugin& DataFiles() {
-  static const DataFilesPlugin* const plugin = reinterpret_cast<const DataFilesPlugin* (*)()>(
-      PluginSymbol("servokit_data_files", kDataFilesPluginEntry))();
-  return *plugin;
-}
-
-void WriteSweepHdf5(const std::filesystem::path& path,
-                    const SweepFileMetadata& metadata,
-                    TableRecordReader& points,
-                    TableRecordReader& eigenvalues) {
-  DataFiles().write_sweep_hdf5(path, metadata, points, eigenvalues);
+std::size_t RelativeDegreeTextWidth(std::size_t dof, std::size_t outputs) {
+  const std::size_t digits = std::to_string(2 * dof).size();
+  return outputs == 0 ? 0 : outputs * digits + (outputs - 1);
 }
 
 void CheckHdf5ColumnNames(const ParameterGrid& grid) {

@@ -83,10 +83,11 @@ PointHead TakePointHead(const char* bytes) {
   return head;
 }
 
-// The records file, mapped into memory: read in place, without copies.
-class RecordFile {
+// Records read in place, without copies: a records file mapped into memory, or records a sweep
+// holds in memory (a block's, not yet in a file).
+class RecordBytes {
  public:
-  explicit RecordFile(const std::filesystem::path& path) : path_(path) {
+  explicit RecordBytes(const std::filesystem::path& path) : path_(path) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw Error(path.string() + ": cannot read: " + std::strerror(errno));
     struct stat status = {};
@@ -102,15 +103,19 @@ class RecordFile {
         throw Error(path.string() + ": cannot map: " + std::strerror(errno));
       }
       data_ = static_cast<const char*>(data);
+      mapped_ = true;
       ::madvise(data, size_, MADV_SEQUENTIAL);  // advisory: read ahead
     }
     ::close(fd);  // the mapping stays valid
   }
-  ~RecordFile() {
-    if (data_ != nullptr) ::munmap(const_cast<char*>(data_), size_);
+  // `bytes` must outlive this; `what` names them in errors.
+  RecordBytes(std::string_view bytes, const std::filesystem::path& what)
+      : path_(what), data_(bytes.data()), size_(bytes.size()) {}
+  ~RecordBytes() {
+    if (mapped_) ::munmap(const_cast<char*>(data_), size_);
   }
-  RecordFile(const RecordFile&) = delete;
-  RecordFile& operator=(const RecordFile&) = delete;
+  RecordBytes(const RecordBytes&) = delete;
+  RecordBytes& operator=(const RecordBytes&) = delete;
 
   std::size_t size() const { return size_; }
   void Rewind() { position_ = 0; }
@@ -132,6 +137,7 @@ class RecordFile {
   const char* data_ = nullptr;
   std::size_t size_ = 0;
   std::size_t position_ = 0;
+  bool mapped_ = false;
 };
 
 // Sizes `chunk` for `rows` rows of `columns`; the reader sets every cell. Text cells keep their
@@ -176,12 +182,87 @@ class DisplayedValues {
   std::vector<std::vector<double>> axes_;
 };
 
+// The number of point records in `records`, from its position on, which it leaves unchanged.
+std::size_t CountPointRecords(RecordBytes& records) {
+  std::size_t count = 0;
+  while (!records.AtEnd()) {
+    const PointHead head = TakePointHead(records.Next(kPointHeadBytes));
+    records.Next(std::size_t{head.relative_degree_bytes} + head.error_bytes);
+    ++count;
+  }
+  return count;
+}
+
+// Rows 0.. of `chunk` (sized for `count` rows) from the next `count` point records, the first of
+// them point `first`. Columns after the parameters in the order of PointsTableColumns; empty CSV
+// fields are NaN and "".
+void DecodePointRows(const DisplayedValues& values,
+                     std::size_t axes,
+                     RecordBytes& records,
+                     std::size_t first,
+                     std::size_t count,
+                     TableChunk& chunk) {
+  for (std::size_t row = 0; row < count; ++row) {
+    values.Set(first + row, row, chunk);
+    const PointHead head = TakePointHead(records.Next(kPointHeadBytes));
+    const std::size_t relative_degree_bytes = head.relative_degree_bytes;
+    const char* relative_degree = records.Next(relative_degree_bytes + head.error_bytes);
+    const char* error = relative_degree + relative_degree_bytes;
+    const bool ok = head.ok != 0;
+    const bool structure = ok && head.internal_dynamics_order >= 0;
+    chunk.texts[axes][row] =
+        ok ? ToString(static_cast<Realization>(head.realization)) : std::string_view();
+    chunk.numbers[axes + 1][row] = ok ? static_cast<double>(head.rank) : kNone;
+    chunk.texts[axes + 2][row] = {relative_degree, structure ? relative_degree_bytes : 0};
+    chunk.numbers[axes + 3][row] = structure ? head.differentiation_index : kNone;
+    chunk.numbers[axes + 4][row] = structure ? head.internal_dynamics_order : kNone;
+    chunk.texts[axes + 5][row] =
+        ok ? ToString(static_cast<Stability>(head.stability)) : std::string_view();
+    chunk.numbers[axes + 6][row] = ok ? head.max_real_part : kNone;
+    chunk.texts[axes + 7][row] = {error, head.error_bytes};  // empty for a point with a solution
+  }
+}
+
+// Rows 0.. of `chunk` (sized for `count` rows) from the next `count` eigenvalue records.
+void DecodeEigenvalueRows(const DisplayedValues& values,
+                          std::size_t axes,
+                          std::size_t num_points,
+                          RecordBytes& records,
+                          std::size_t count,
+                          TableChunk& chunk) {
+  for (std::size_t row = 0; row < count; ++row) {
+    const char* record = records.Next(kEigenvalueRecordBytes);
+    const auto point = Take<std::uint64_t>(record);
+    const auto k = Take<std::uint64_t>(record);
+    const double re = Take<double>(record);
+    const double im = Take<double>(record);
+    if (point >= num_points) {
+      throw Error(records.path().string() + ": a record names point " + std::to_string(point) +
+                  ", outside the grid");
+    }
+    values.Set(static_cast<std::size_t>(point), row, chunk);
+    const Mode mode = ModeOf({re, im});
+    chunk.numbers[axes][row] = static_cast<double>(k);
+    chunk.numbers[axes + 1][row] = re;
+    chunk.numbers[axes + 2][row] = im;
+    chunk.numbers[axes + 3][row] = mode.frequency_hz;
+    chunk.numbers[axes + 4][row] = mode.damping_ratio;
+  }
+}
+
+void CheckWholeEigenvalueRecords(const RecordBytes& records) {
+  if (records.size() % kEigenvalueRecordBytes != 0) {
+    throw Error(records.path().string() + ": the sweep's records end in the middle of a row; " +
+                "delete the output directory to start the sweep again");
+  }
+}
+
 class PointRecordReader final : public TableRecordReader {
  public:
-  PointRecordReader(const ParameterGrid& grid, const std::filesystem::path& path)
-      : grid_(grid), columns_(PointsTableColumns(grid)), values_(grid), file_(path) {}
+  PointRecordReader(const ParameterGrid& grid, const std::filesystem::path& path, std::size_t rows)
+      : grid_(grid), columns_(PointsTableColumns(grid)), values_(grid), file_(path), rows_(rows) {}
   const std::vector<TableColumn>& columns() const override { return columns_; }
-  std::size_t rows() const override { return grid_.num_points(); }
+  std::size_t rows() const override { return rows_; }
   void Rewind() override {
     file_.Rewind();
     next_ = 0;
@@ -211,30 +292,10 @@ class PointRecordReader final : public TableRecordReader {
   std::size_t Read(std::size_t max_rows, TableChunk& chunk) override {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
-    const std::size_t axes = grid_.axes().size();
-    for (std::size_t row = 0; row < count; ++row, ++next_) {
-      values_.Set(next_, row, chunk);
-      const PointHead head = TakePointHead(file_.Next(kPointHeadBytes));
-      const std::size_t relative_degree_bytes = head.relative_degree_bytes;
-      const char* relative_degree = file_.Next(relative_degree_bytes + head.error_bytes);
-      const char* error = relative_degree + relative_degree_bytes;
-      // Columns after the parameters, in the order of PointsTableColumns; empty CSV fields are
-      // NaN and "".
-      const bool ok = head.ok != 0;
-      const bool structure = ok && head.internal_dynamics_order >= 0;
-      chunk.texts[axes][row] =
-          ok ? ToString(static_cast<Realization>(head.realization)) : std::string_view();
-      chunk.numbers[axes + 1][row] = ok ? static_cast<double>(head.rank) : kNone;
-      chunk.texts[axes + 2][row] = {relative_degree, structure ? relative_degree_bytes : 0};
-      chunk.numbers[axes + 3][row] = structure ? head.differentiation_index : kNone;
-      chunk.numbers[axes + 4][row] = structure ? head.internal_dynamics_order : kNone;
-      chunk.texts[axes + 5][row] =
-          ok ? ToString(static_cast<Stability>(head.stability)) : std::string_view();
-      chunk.numbers[axes + 6][row] = ok ? head.max_real_part : kNone;
-      chunk.texts[axes + 7][row] = {error, head.error_bytes};  // empty for a point with a solution
-    }
+    DecodePointRows(values_, grid_.axes().size(), file_, next_, count, chunk);
+    next_ += count;
     if (next_ == rows() && !file_.AtEnd()) {
-      throw Error(file_.path().string() + ": more records than the grid has points");
+      throw Error(file_.path().string() + ": more records than the sweep has points");
     }
     return count;
   }
@@ -243,7 +304,8 @@ class PointRecordReader final : public TableRecordReader {
   const ParameterGrid& grid_;
   std::vector<TableColumn> columns_;
   DisplayedValues values_;
-  RecordFile file_;
+  RecordBytes file_;
+  std::size_t rows_;
   std::size_t next_ = 0;
 };
 
@@ -251,10 +313,7 @@ class EigenvalueRecordReader final : public TableRecordReader {
  public:
   EigenvalueRecordReader(const ParameterGrid& grid, const std::filesystem::path& path)
       : grid_(grid), columns_(EigenvaluesTableColumns(grid)), values_(grid), file_(path) {
-    if (file_.size() % kEigenvalueRecordBytes != 0) {
-      throw Error(path.string() + ": the sweep's records end in the middle of a row; delete " +
-                  "the output directory to start the sweep again");
-    }
+    CheckWholeEigenvalueRecords(file_);
   }
   const std::vector<TableColumn>& columns() const override { return columns_; }
   std::size_t rows() const override {
@@ -271,25 +330,8 @@ class EigenvalueRecordReader final : public TableRecordReader {
   std::size_t Read(std::size_t max_rows, TableChunk& chunk) override {
     const std::size_t count = std::min(max_rows, rows() - next_);
     ResetChunk(columns_, count, chunk);
-    const std::size_t axes = grid_.axes().size();
-    for (std::size_t row = 0; row < count; ++row, ++next_) {
-      const char* record = file_.Next(kEigenvalueRecordBytes);
-      const auto point = Take<std::uint64_t>(record);
-      const auto k = Take<std::uint64_t>(record);
-      const double re = Take<double>(record);
-      const double im = Take<double>(record);
-      if (point >= grid_.num_points()) {
-        throw Error(file_.path().string() + ": a record names point " + std::to_string(point) +
-                    ", outside the grid");
-      }
-      values_.Set(static_cast<std::size_t>(point), row, chunk);
-      const Mode mode = ModeOf({re, im});
-      chunk.numbers[axes][row] = static_cast<double>(k);
-      chunk.numbers[axes + 1][row] = re;
-      chunk.numbers[axes + 2][row] = im;
-      chunk.numbers[axes + 3][row] = mode.frequency_hz;
-      chunk.numbers[axes + 4][row] = mode.damping_ratio;
-    }
+    DecodeEigenvalueRows(values_, grid_.axes().size(), grid_.num_points(), file_, count, chunk);
+    next_ += count;
     return count;
   }
 
@@ -297,7 +339,7 @@ class EigenvalueRecordReader final : public TableRecordReader {
   const ParameterGrid& grid_;
   std::vector<TableColumn> columns_;
   DisplayedValues values_;
-  RecordFile file_;
+  RecordBytes file_;
   std::size_t next_ = 0;
 };
 
@@ -340,12 +382,50 @@ void AppendRecordRows(std::size_t first,
 
 std::unique_ptr<TableRecordReader> OpenPointRecords(const ParameterGrid& grid,
                                                     const std::filesystem::path& path) {
-  return std::make_unique<PointRecordReader>(grid, path);
+  return std::make_unique<PointRecordReader>(grid, path, grid.num_points());
+}
+
+std::unique_ptr<TableRecordReader> OpenPointRecords(const ParameterGrid& grid,
+                                                    const std::filesystem::path& path,
+                                                    std::size_t points) {
+  return std::make_unique<PointRecordReader>(grid, path, points);
 }
 
 std::unique_ptr<TableRecordReader> OpenEigenvalueRecords(const ParameterGrid& grid,
                                                          const std::filesystem::path& path) {
   return std::make_unique<EigenvalueRecordReader>(grid, path);
+}
+
+struct RecordDecoder::DisplayedGrid : DisplayedValues {
+  using DisplayedValues::DisplayedValues;
+};
+
+RecordDecoder::RecordDecoder(const ParameterGrid& grid)
+    : grid_(grid),
+      points_columns_(PointsTableColumns(grid)),
+      eigenvalues_columns_(EigenvaluesTableColumns(grid)),
+      values_(std::make_unique<DisplayedGrid>(grid)) {}
+
+RecordDecoder::~RecordDecoder() = default;
+
+std::size_t RecordDecoder::DecodePoints(std::string_view records,
+                                        std::size_t first,
+                                        TableChunk& rows) const {
+  RecordBytes bytes(records, "the sweep's point records");
+  const std::size_t count = CountPointRecords(bytes);
+  bytes.Rewind();
+  ResetChunk(points_columns_, count, rows);
+  DecodePointRows(*values_, grid_.axes().size(), bytes, first, count, rows);
+  return count;
+}
+
+std::size_t RecordDecoder::DecodeEigenvalues(std::string_view records, TableChunk& rows) const {
+  RecordBytes bytes(records, "the sweep's eigenvalue records");
+  CheckWholeEigenvalueRecords(bytes);
+  const std::size_t count = records.size() / kEigenvalueRecordBytes;
+  ResetChunk(eigenvalues_columns_, count, rows);
+  DecodeEigenvalueRows(*values_, grid_.axes().size(), grid_.num_points(), bytes, count, rows);
+  return count;
 }
 
 }  // namespace servokit

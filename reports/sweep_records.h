@@ -38,47 +38,36 @@ void AppendRecordRows(std::size_t first,
                       std::string& points_records,
                       std::string& eigenvalue_records);
 
-/// Some consecutive rows of a table, by column (in the order of its TableColumn list): a number
-/// column in `numbers[c]`, a text column in `texts[c]` (the other vector of that column is empty).
-/// An empty CSV field is NaN in a number column and "" in a text column. A text points into the
-/// reader's records or to a constant: valid as long as the reader lives.
-struct TableChunk {
-  std::size_t rows = 0;
-  std::vector<std::vector<double>> numbers;
-  std::vector<std::vector<std::string_view>> texts;
-};
-
-/// Reads the rows of one table back from its records file, a chunk at a time, from the start.
-class TableRecordReader {
- public:
-  virtual ~TableRecordReader() = default;
-  /// The table's columns (PointsTableColumns or EigenvaluesTableColumns).
-  virtual const std::vector<TableColumn>& columns() const = 0;
-  /// Rows the file holds.
-  virtual std::size_t rows() const = 0;
-  /// Goes back to the first row.
-  virtual void Rewind() = 0;
-  /// The length of the longest value of each column (0 for a number column), found without
-  /// decoding the rows; leaves the reader at the first row.
-  virtual std::vector<std::size_t> TextWidths() = 0;
-  /// Replaces `chunk` by the next rows, at most `max_rows`; returns how many (0 at the end).
-  /// Throws Error when the file is cut short or holds a bad record.
-  virtual std::size_t Read(std::size_t max_rows, TableChunk& chunk) = 0;
-};
-
 /// A reader of the points records at `path`, which hold grid.num_points() points.
 std::unique_ptr<TableRecordReader> OpenPointRecords(const ParameterGrid& grid,
                                                     const std::filesystem::path& path);
+/// A reader of the first `points` points records at `path` (a sweep's, up to its checkpoint).
+std::unique_ptr<TableRecordReader> OpenPointRecords(const ParameterGrid& grid,
+                                                    const std::filesystem::path& path,
+                                                    std::size_t points);
 /// A reader of the eigenvalue records at `path`.
 std::unique_ptr<TableRecordReader> OpenEigenvalueRecords(const ParameterGrid& grid,
                                                          const std::filesystem::path& path);
 
-/// What sweep.h5 and sweep.mat record of the sweep besides its tables.
-struct SweepFileMetadata {
-  std::string model;             // the model's name
-  std::string content_hash;      // of the model file
-  std::string grid;              // the varied parameters and their values, in SI
-  std::string servokit_version;  // of the servokit that wrote the file
+/// Decodes records held in memory, as a sweep appends them block by block, into table rows, as
+/// the readers above decode the files.
+class RecordDecoder {
+ public:
+  explicit RecordDecoder(const ParameterGrid& grid);
+  ~RecordDecoder();
+  RecordDecoder(const RecordDecoder&) = delete;
+  RecordDecoder& operator=(const RecordDecoder&) = delete;
+  /// Replaces `rows` by the points table's rows of the point records `records`, the first of
+  /// them point `first`; returns their number.
+  std::size_t DecodePoints(std::string_view records, std::size_t first, TableChunk& rows) const;
+  /// Replaces `rows` by the eigenvalue table's rows of `records`; returns their number.
+  std::size_t DecodeEigenvalues(std::string_view records, TableChunk& rows) const;
+
+ private:
+  struct DisplayedGrid;  // each axis's values as the tables show them
+  const ParameterGrid& grid_;
+  std::vector<TableColumn> points_columns_, eigenvalues_columns_;
+  std::unique_ptr<DisplayedGrid> values_;
 };
 
 }  // namespace servokit

@@ -276,7 +276,7 @@ void FormatRows(const ParameterGrid& grid,
   eigenvalues_text.clear();
   if (encoding == TableEncoding::kCsv) {
     AppendCsvRows(grid, first, points, points_text, eigenvalues_text);
-  } else {
+  } else {  // records (their rows are decoded by PipelinedBlockFormatter)
     AppendRecordRows(first, points, points_text, eigenvalues_text);
   }
 }
@@ -323,11 +323,17 @@ PipelinedBlockFormatter::PipelinedBlockFormatter(const ParameterGrid& grid,
                                                  std::size_t chunk_size)
     : grid_(grid), encoding_(encoding), chunk_size_(chunk_size) {
   const std::size_t chunks = (block_size + chunk_size - 1) / chunk_size;
+  const bool rows = encoding == TableEncoding::kRecordsAndRows;
   for (FormattedBlock& block : blocks_) {
     block.points_csv.resize(chunks);
     block.eigenvalues_csv.resize(chunks);
+    block.points_rows.resize(rows ? chunks : 0);
+    block.eigenvalue_rows.resize(rows ? chunks : 0);
   }
+  if (rows) decoder_ = std::make_unique<RecordDecoder>(grid);
 }
+
+PipelinedBlockFormatter::~PipelinedBlockFormatter() = default;
 
 void PipelinedBlockFormatter::FormatChunk(int slot,
                                           std::size_t chunk,
@@ -338,6 +344,10 @@ void PipelinedBlockFormatter::FormatChunk(int slot,
   // these strings; each string's own buffer is written by this thread alone.
   FormatRows(grid_, first, points, encoding_, block.points_csv[chunk],
              block.eigenvalues_csv[chunk]);
+  if (decoder_) {
+    decoder_->DecodePoints(block.points_csv[chunk], first, block.points_rows[chunk]);
+    decoder_->DecodeEigenvalues(block.eigenvalues_csv[chunk], block.eigenvalue_rows[chunk]);
+  }
 }
 
 const FormattedBlock& PipelinedBlockFormatter::Block(int slot,
@@ -349,6 +359,7 @@ const FormattedBlock& PipelinedBlockFormatter::Block(int slot,
   for (std::size_t chunk = chunks; chunk < block.points_csv.size(); ++chunk) {
     block.points_csv[chunk].clear();
     block.eigenvalues_csv[chunk].clear();
+    if (decoder_) block.points_rows[chunk].rows = block.eigenvalue_rows[chunk].rows = 0;
   }
   block.first = first;
   block.points = points.size();

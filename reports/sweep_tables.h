@@ -13,6 +13,7 @@
 // writes instead of CSV text.
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -21,24 +22,15 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
+#include "reports/table_rows.h"
 
 namespace servokit {
+
+class RecordDecoder;  // reports/sweep_records.h
 
 /// The name of eigenvalues.csv's column that numbers a point's eigenvalues from 0 (not "k", which
 /// a stiffness parameter is often called).
 inline constexpr std::string_view kEigenvalueIndexColumn = "eigenvalue_index";
-
-/// What a column holds: numbers (CSV: FormatExact, empty for none; HDF5 and MAT: double, NaN for
-/// none) or text.
-enum class ColumnKind { kNumber, kText };
-
-/// One column of a table: its name, what it holds and its unit ("deg", "1/s", "Hz", "1" for a
-/// dimensionless ratio, "" for a count, a class, or a parameter in SI).
-struct TableColumn {
-  std::string name;
-  ColumnKind kind = ColumnKind::kNumber;
-  std::string unit;
-};
 
 /// The columns of the points table with their kinds and units (names as PointsColumns).
 std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid);
@@ -88,8 +80,10 @@ void AppendCsvRows(const ParameterGrid& grid,
                    std::string& eigenvalues_csv);
 
 /// How FormatBlock writes rows: CSV text (AppendCsvRows), or binary records (AppendRecordRows,
-/// reports/sweep_records.h) from which the HDF5 and MAT files are built.
-enum class TableEncoding { kCsv, kRecords };
+/// reports/sweep_records.h) from which the HDF5 and MAT files are built; kRecordsAndRows also
+/// decodes the records into TableChunks (PipelinedBlockFormatter only), for a file written while
+/// the sweep runs (sweep.h5), so that the thread writing it only copies them.
+enum class TableEncoding { kCsv, kRecords, kRecordsAndRows };
 
 /// One block of consecutive points, formatted as AppendCsvRows (or AppendRecordRows) writes
 /// them: what SweepOutput appends. The rows are held in slices (one per formatting thread), to be
@@ -99,6 +93,8 @@ struct FormattedBlock {
   std::size_t points = 0;                                // number of points in the block
   std::size_t points_without_solution = 0;               // of them, points whose row holds an error
   std::vector<std::string> points_csv, eigenvalues_csv;  // slices of rows, in order
+  // With kRecordsAndRows (PipelinedBlockFormatter): each slice's rows, decoded; else empty.
+  std::vector<TableChunk> points_rows, eigenvalue_rows;
 };
 
 /// Formats points first, first + 1, ... into `block` (AppendCsvRows, or AppendRecordRows for
@@ -129,12 +125,14 @@ class PipelinedBlockFormatter {
                    std::span<const SweepPoint> points);
   /// The block in `slot`, its points first, first + 1, ..., all of its chunks formatted.
   const FormattedBlock& Block(int slot, std::size_t first, std::span<const SweepPoint> points);
+  ~PipelinedBlockFormatter();
 
  private:
   const ParameterGrid& grid_;
   TableEncoding encoding_;
   std::size_t chunk_size_;
   std::array<FormattedBlock, kSweepSlots> blocks_;
+  std::unique_ptr<RecordDecoder> decoder_;  // with kRecordsAndRows
 };
 
 /// The text of relative_degree: one number per output, joined with ';' ("2", "1;2").
