@@ -313,21 +313,27 @@ std::size_t ComputeSweep(const SweepSetup& setup,
   };
   if (Processes().size == 1) {
     // The threads format their own chunks as they compute them, and this thread only writes
-    // finished blocks while they go on with the next ones.
-    // With two computing threads or more they also decode the records of sweep.h5 into its
-    // rows; with one, this thread does (it would otherwise wait for that thread).
-    TableEncoding encoding = TableEncodingOf(setup.format);
-    if (encoding == TableEncoding::kRecordsAndRows && workspaces.threads() < 2) {
-      encoding = TableEncoding::kRecords;
-    }
+    // finished blocks while they go on with the next ones. Binary records (sweep.h5, sweep.mat)
+    // are cheap to write, and the writing thread of a sweep with one computing thread has time
+    // to spare: it encodes them itself there (and decodes sweep.h5's rows from them); with two
+    // computing threads or more they do both.
+    const bool records = TableEncodingOf(setup.format) != TableEncoding::kCsv;
+    const bool format_here = records && workspaces.threads() < 2;
+    const TableEncoding encoding =
+        format_here ? TableEncoding::kRecords : TableEncodingOf(setup.format);
     PipelinedBlockFormatter formatter(setup.grid, encoding, setup.options.block_size,
                                       SweepChunkSize(setup.model));
+    const std::size_t chunk_size = SweepChunkSize(setup.model);
     return RunSweepPipeline(
         setup.model, setup.grid, setup.options, first_point, workspaces,
         [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {
-          formatter.FormatChunk(slot, chunk, first, points);
+          if (!format_here) formatter.FormatChunk(slot, chunk, first, points);
         },
         [&](int slot, std::size_t first, std::span<const SweepPoint> block) {
+          for (std::size_t begin = 0; format_here && begin < block.size(); begin += chunk_size) {
+            formatter.FormatChunk(slot, begin / chunk_size, first + begin,
+                                  block.subspan(begin, std::min(chunk_size, block.size() - begin)));
+          }
           output->Append(formatter.Block(slot, first, block));
           progress.Update(first + block.size());
           return !stop_requested();

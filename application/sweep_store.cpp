@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -556,12 +557,21 @@ void SweepOutput::Resume(const FileSizes& sizes) {
 void SweepOutput::StartHdf5File() {
   const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
                                       SERVOKIT_VERSION};
-  hdf5_ = CreateSweepHdf5(TemporaryPath(paths_.table_file), metadata, grid_,
-                          RelativeDegreeTextWidth(model_.dof, model_.outputs));
+  const std::filesystem::path path = TemporaryPath(paths_.table_file);
+  const std::size_t relative_degree_width = RelativeDegreeTextWidth(model_.dof, model_.outputs);
   records_ = std::make_unique<RecordDecoder>(grid_);
+  if (points_done_ == 0) {
+    // Loading HDF5 (some 40 shared libraries) and creating the file take some 10 ms: they run
+    // beside the analysis of the first points, and the first block appended waits for them.
+    const ParameterGrid& grid = grid_;
+    hdf5_pending_ = std::async(std::launch::async, [path, metadata, &grid, relative_degree_width] {
+      return CreateSweepHdf5(path, metadata, grid, relative_degree_width);
+    });
+    return;
+  }
+  hdf5_ = CreateSweepHdf5(path, metadata, grid_, relative_degree_width);
   // The rows of the points done before (a resumed sweep), from their records: the file's bytes
   // depend only on the rows, so it becomes the one an uninterrupted run writes.
-  if (points_done_ == 0) return;
   constexpr std::size_t kRowsPerRead = std::size_t{1} << 16;
   const std::unique_ptr<TableRecordReader> points =
       OpenPointRecords(grid_, paths_.points_partial, points_done_);
@@ -571,20 +581,27 @@ void SweepOutput::StartHdf5File() {
   while (eigenvalues->Read(kRowsPerRead, rows_) > 0) hdf5_->AppendEigenvalues(rows_);
 }
 
+SweepHdf5Writer& SweepOutput::Hdf5File() {
+  if (hdf5_pending_.valid()) hdf5_ = hdf5_pending_.get();  // rethrows what creating it threw
+  if (!hdf5_) StartHdf5File();  // a run resumed with every point done: at Finish
+  if (hdf5_pending_.valid()) hdf5_ = hdf5_pending_.get();
+  return *hdf5_;
+}
+
 void SweepOutput::AppendToHdf5File(const FormattedBlock& block) {
   if (!block.points_rows.empty()) {  // decoded by the threads that formatted the block
-    for (const TableChunk& rows : block.points_rows) hdf5_->AppendPoints(rows);
-    for (const TableChunk& rows : block.eigenvalue_rows) hdf5_->AppendEigenvalues(rows);
+    for (const TableChunk& rows : block.points_rows) Hdf5File().AppendPoints(rows);
+    for (const TableChunk& rows : block.eigenvalue_rows) Hdf5File().AppendEigenvalues(rows);
     return;
   }
   std::size_t first = block.first;
   for (const std::string& records : block.points_csv) {
     first += records_->DecodePoints(records, first, rows_);
-    hdf5_->AppendPoints(rows_);
+    Hdf5File().AppendPoints(rows_);
   }
   for (const std::string& records : block.eigenvalues_csv) {
     records_->DecodeEigenvalues(records, rows_);
-    hdf5_->AppendEigenvalues(rows_);
+    Hdf5File().AppendEigenvalues(rows_);
   }
 }
 
@@ -602,7 +619,7 @@ void SweepOutput::Append(const FormattedBlock& block) {
     StartWriteback(points_fd_, before.points, sizes_.points - before.points);
     StartWriteback(eigenvalues_fd_, before.eigenvalues, sizes_.eigenvalues - before.eigenvalues);
   }
-  if (hdf5_) AppendToHdf5File(block);
+  if (format_ == SweepFileFormat::kHdf5) AppendToHdf5File(block);
   points_done_ += block.points;
   points_without_solution_ += block.points_without_solution;
   if (std::chrono::steady_clock::now() - last_checkpoint_ >= checkpoint_interval_) {
@@ -678,8 +695,7 @@ void SweepOutput::WriteTableFile() {
   const std::filesystem::path temporary = TemporaryPath(paths_.table_file);
   if (format_ == SweepFileFormat::kHdf5) {
     // Written as the sweep ran; a run resumed with every point done starts it here.
-    if (!hdf5_) StartHdf5File();
-    hdf5_->Finish(*points);
+    Hdf5File().Finish(*points);
     hdf5_.reset();  // closes the file
   } else {
     const std::unique_ptr<TableRecordReader> eigenvalues =

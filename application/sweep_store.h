@@ -22,6 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <optional>
 #include <span>
@@ -185,6 +186,7 @@ class SweepOutput {
   void RenameCsvTables();
   void WriteTableFile();
   void StartHdf5File();
+  SweepHdf5Writer& Hdf5File();  // the writer, once created
   void AppendToHdf5File(const FormattedBlock& block);
 
   std::filesystem::path directory_;
@@ -205,6 +207,7 @@ class SweepOutput {
   std::chrono::steady_clock::time_point last_checkpoint_;
   // With --format hdf5: sweep.h5 (its temporary) written as the records are, from their rows.
   std::unique_ptr<SweepHdf5Writer> hdf5_;
+  std::future<std::unique_ptr<SweepHdf5Writer>> hdf5_pending_;  // being created, beside the sweep
   std::unique_ptr<RecordDecoder> records_;
   TableChunk rows_;
 };

@@ -311,7 +311,25 @@ ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
 // instruction over a contiguous array, results written in instruction order.
 void ExpressionProgram::Evaluate(const double* inputs, double* registers, double* outputs) const {
   std::copy_n(inputs, num_inputs_, registers);
+  LoadConstants(registers);
+  Run(registers);
+  for (std::size_t i = 0; i < output_registers_.size(); ++i) {
+    outputs[i] = registers[output_registers_[i]];
+  }
+}
+
+void ExpressionProgram::LoadConstants(double* registers) const {
   std::copy(constants_.begin(), constants_.end(), registers + num_inputs_);
+}
+
+void ExpressionProgram::EvaluateLoaded(double* registers, double* const* outputs) const {
+  Run(registers);
+  for (std::size_t i = 0; i < output_registers_.size(); ++i) {
+    *outputs[i] = registers[output_registers_[i]];
+  }
+}
+
+void ExpressionProgram::Run(double* registers) const {
   double* result = registers + num_inputs_ + constants_.size();
   for (const Instruction& instruction : instructions_) {
     const double a = registers[instruction.a];
@@ -394,9 +412,6 @@ void ExpressionProgram::Evaluate(const double* inputs, double* registers, double
         break;
     }
     *result++ = value;
-  }
-  for (std::size_t i = 0; i < output_registers_.size(); ++i) {
-    outputs[i] = registers[output_registers_[i]];
   }
 }
 

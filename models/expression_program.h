@@ -38,6 +38,14 @@ class ExpressionProgram {
   /// passes its own registers. Domain errors (log of a negative number) give NaN, as in <cmath>.
   void Evaluate(const double* inputs, double* registers, double* outputs) const;
 
+  /// For a caller that keeps `registers` (num_registers() values) for this program alone: writes
+  /// the constants into them, once.
+  void LoadConstants(double* registers) const;
+  /// Evaluate() on registers that hold the constants (LoadConstants) and the inputs (in
+  /// registers[0, num_inputs())), writing output k to *outputs[k]: nothing copied in or out but
+  /// the results, for a hot loop that evaluates the program into the same places again and again.
+  void EvaluateLoaded(double* registers, double* const* outputs) const;
+
  private:
   /// The operations of the instruction list. Binary operations read registers `a` and `b`; unary
   /// ones read `a`; kPowInt raises register `a` to the positive integer power `b`.
@@ -72,6 +80,9 @@ class ExpressionProgram {
     std::uint32_t a;
     std::uint32_t b;
   };
+
+  // Runs the instructions on registers holding the inputs and the constants.
+  void Run(double* registers) const;
 
   friend class ExpressionCompiler;  // expression_program.cpp builds programs
   std::size_t num_inputs_ = 0;

@@ -57,13 +57,6 @@ const ExpressionProgram& Model::program(Quantity quantity) const {
   return *programs_[index];
 }
 
-const ExpressionProgram* Model::combined_program(unsigned quantities) const {
-  for (const auto& [combination, program] : combined_programs_) {
-    if (combination == quantities) return program.get();
-  }
-  return nullptr;
-}
-
 std::size_t Model::max_registers() const {
   std::size_t registers = 0;
   for (const auto& program : programs_) registers = std::max(registers, program->num_registers());
@@ -110,6 +103,11 @@ Workspace::Workspace(const Model& model)
   program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
   registers_.assign(model.max_registers(), 0.0);
   outputs_.assign(model.max_outputs(), 0.0);
+  for (const auto& [quantities, program] : model.combined_programs()) {
+    std::vector<double>& registers = combined_registers_.emplace_back(program->num_registers());
+    program->LoadConstants(registers.data());
+  }
+  combined_destinations_.reserve(model.max_outputs());
 }
 
 bool Workspace::Fits(const Model& model) const {
@@ -119,48 +117,67 @@ bool Workspace::Fits(const Model& model) const {
     return false;
   }
   // Same shape is not enough: a different model may need more scratch registers.
-  return model.max_registers() <= registers_.size() && model.max_outputs() <= outputs_.size();
+  if (model.max_registers() > registers_.size() || model.max_outputs() > outputs_.size() ||
+      model.combined_programs().size() != combined_registers_.size()) {
+    return false;
+  }
+  for (std::size_t i = 0; i < combined_registers_.size(); ++i) {
+    if (model.combined_programs()[i].second->num_registers() != combined_registers_[i].size()) {
+      return false;
+    }
+  }
+  return true;
 }
 
 namespace {
 
-// Copies quantity's results from `source` (its blocks column-major, one after another, as the
-// loader compiles them) into the workspace; returns the end of what it read.
-const double* CopyResults(Quantity quantity, const double* source, Workspace& workspace) {
-  const auto copy_all = [&](std::vector<Eigen::MatrixXd>& blocks) {
-    for (Eigen::MatrixXd& block : blocks) source = CopyBlock(source, block);
-    return source;
+// Calls visit(data, size) for each block of quantity's results in the workspace, in the order
+// the loader compiles them (column-major, one after another).
+template <typename Visit>
+void ForEachResultBlock(Quantity quantity, Workspace& workspace, Visit visit) {
+  const auto block = [&](auto& matrix) {
+    visit(matrix.data(), static_cast<std::size_t>(matrix.size()));
   };
   switch (quantity) {
     case Quantity::kMassMatrix:
-      return CopyBlock(source, workspace.mass_matrix);
+      return block(workspace.mass_matrix);
     case Quantity::kForces:
-      return CopyBlock(source, workspace.forces);
+      return block(workspace.forces);
     case Quantity::kInputMatrix:
-      return CopyBlock(source, workspace.input_matrix);
+      return block(workspace.input_matrix);
     case Quantity::kOutput:
-      return CopyBlock(source, workspace.output);
+      return block(workspace.output);
     case Quantity::kOutputJacobian:
-      return CopyBlock(source, workspace.output_jacobian);
+      return block(workspace.output_jacobian);
     case Quantity::kOutputBias:
-      return CopyBlock(source, workspace.output_bias);
+      return block(workspace.output_bias);
     case Quantity::kForcesJacobians:
-      return CopyBlock(CopyBlock(source, workspace.forces_position_jacobian),
-                       workspace.forces_velocity_jacobian);
+      block(workspace.forces_position_jacobian);
+      return block(workspace.forces_velocity_jacobian);
     case Quantity::kMassMatrixDerivatives:
-      return copy_all(workspace.mass_matrix_derivatives);
+      for (Eigen::MatrixXd& matrix : workspace.mass_matrix_derivatives) block(matrix);
+      return;
     case Quantity::kInputMatrixDerivatives:
-      return copy_all(workspace.input_matrix_derivatives);
+      for (Eigen::MatrixXd& matrix : workspace.input_matrix_derivatives) block(matrix);
+      return;
     case Quantity::kOutputJacobianDerivatives:
-      return copy_all(workspace.output_jacobian_derivatives);
+      for (Eigen::MatrixXd& matrix : workspace.output_jacobian_derivatives) block(matrix);
+      return;
     case Quantity::kOutputBiasJacobians:
-      return CopyBlock(CopyBlock(source, workspace.output_bias_position_jacobian),
-                       workspace.output_bias_velocity_jacobian);
+      block(workspace.output_bias_position_jacobian);
+      return block(workspace.output_bias_velocity_jacobian);
     case Quantity::kZeroDynamicsPolynomial:
-      return CopyBlock(CopyBlock(source, workspace.zero_dynamics_polynomial),
-                       workspace.zero_dynamics_polynomial_scale);
+      block(workspace.zero_dynamics_polynomial);
+      return block(workspace.zero_dynamics_polynomial_scale);
   }
-  return source;
+}
+
+// Copies quantity's results from `source` into the workspace.
+void CopyResults(Quantity quantity, const double* source, Workspace& workspace) {
+  ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t size) {
+    std::copy_n(source, size, data);
+    source += size;
+  });
 }
 
 // Where a single-block result lives in the workspace, laid out column-major by the loader as
@@ -204,14 +221,24 @@ void Evaluate(const Model& model,
   const auto run = [&](const ExpressionProgram& program, double* destination) {
     program.Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(), destination);
   };
-  // A request the loader compiled as one program (its shared subexpressions computed once).
-  if (const ExpressionProgram* combined = model.combined_program(quantities)) {
-    run(*combined, workspace.outputs_.data());
-    const double* source = workspace.outputs_.data();
+  // A request the loader compiled as one program: its shared subexpressions computed once, on
+  // registers of its own that keep its constants, its results written in place.
+  const auto& combined = model.combined_programs();
+  for (std::size_t i = 0; i < combined.size(); ++i) {
+    if (combined[i].first != quantities) continue;
+    std::vector<double>& registers = workspace.combined_registers_[i];
+    std::copy(workspace.program_inputs_.begin(), workspace.program_inputs_.end(),
+              registers.begin());
+    std::vector<double*>& destinations = workspace.combined_destinations_;
+    destinations.clear();
     for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
       const auto quantity = static_cast<Quantity>(1u << bit);
-      if (Wants(quantities, quantity)) source = CopyResults(quantity, source, workspace);
+      if (!Wants(quantities, quantity)) continue;
+      ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t size) {
+        for (std::size_t k = 0; k < size; ++k) destinations.push_back(data + k);
+      });
     }
+    combined[i].second->EvaluateLoaded(registers.data(), destinations.data());
     return;
   }
   // One program per quantity.

@@ -113,11 +113,15 @@ class Model {
   /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
   /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
   bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
-  /// The program compiled for exactly this combination of quantities (their results one after
-  /// another, in Quantity order), or nullptr. Evaluate runs it instead of one program each, so
-  /// that the subexpressions they share (the cosine of a parameter, ...) are computed once.
-  /// Compiled for kPolynomialPathQuantities when the polynomial was derived.
-  const ExpressionProgram* combined_program(unsigned quantities) const;
+  /// Programs compiled for a combination of quantities (their results one after another, in
+  /// Quantity order), with the combination. Evaluate runs one for exactly its combination
+  /// instead of one program each, so that the subexpressions they share (the cosine of a
+  /// parameter, ...) are computed once. One for kPolynomialPathQuantities when the polynomial was
+  /// derived.
+  const std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>>&
+  combined_programs() const {
+    return combined_programs_;
+  }
   /// The most registers and outputs of any of its programs (Workspace's scratch).
   std::size_t max_registers() const;
   std::size_t max_outputs() const;
@@ -132,7 +136,7 @@ class Model {
   Eigen::VectorXd parameters_;
   std::shared_ptr<const SymbolicModel> symbolic_;
   std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
-  // Programs for combinations of quantities (combined_program), with their combination.
+  // Programs for combinations of quantities (combined_programs), with their combination.
   std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>> combined_programs_;
 };
 
@@ -186,6 +190,9 @@ class Workspace {
   std::vector<double> program_inputs_;  // [parameters, q, q_dot]
   std::vector<double> registers_;       // scratch for the largest program
   std::vector<double> outputs_;         // scratch for programs with several result blocks
+  // Each combined program's registers (its constants loaded once), and where its outputs go.
+  std::vector<std::vector<double>> combined_registers_;
+  std::vector<double*> combined_destinations_;
 };
 
 /// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with
