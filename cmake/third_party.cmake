@@ -3,9 +3,11 @@
 # property is ON (the `servokit` program, application/CMakeLists.txt).
 #
 # Why (issue #19, start-up): resolving the symbols of 20 shared libraries cost `servokit
-# --version` 2.7 of its 4.9 ms of CPU, and `analyze` of the mass on car 7.7 ms instead of 4.3 ms.
-# Archives are resolved once, when the program is linked. LAPACK, BLAS and gfortran stay shared
-# in every target: Debian's alternatives choose the BLAS implementation at run time. The
+# --version` 3.1 of its 4.9 ms of CPU, and `analyze` of the mass on car 7.7 ms instead of 3.7 ms.
+# Archives are resolved once, when the program is linked. ARPACK's LAPACK, BLAS and Fortran
+# runtime too (another 0.5 ms): in the program ARPACK uses the reference BLAS, whose share of its
+# time (products with the n x ncv basis) is small beside the sparse factorisation of the operator;
+# the libraries and the Python module keep the BLAS that Debian's alternatives choose. The
 # libraries, the plugins and the Python module link shared objects (Debian's archives are not
 # position-independent), and so does a project linking the installed package: the choice is a
 # generator expression on the head target, and no installed target sets the property.
@@ -48,8 +50,18 @@ servokit_archives(ginac_archives libginac.a libcln.a libgmp.a)
 servokit_archives(yaml_archives libyaml-cpp.a)
 servokit_archives(gsl_archives libgsl.a libgslcblas.a)
 servokit_archives(arpack_archives libarpack.a)
-find_library(SERVOKIT_LAPACK NAMES lapack)
-find_library(SERVOKIT_BLAS NAMES blas)
+servokit_archives(fortran_archives liblapack.a libblas.a)
+# The Fortran runtime's archives are the compiler's own.
+foreach(runtime gfortran quadmath)
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=lib${runtime}.a
+                  OUTPUT_VARIABLE path OUTPUT_STRIP_TRAILING_WHITESPACE)
+  if(IS_ABSOLUTE "${path}" AND EXISTS "${path}")
+    list(APPEND fortran_archives ${path})
+  else()
+    message(STATUS "servokit: lib${runtime}.a not found: the program links shared libraries")
+    set(SERVOKIT_STATIC_AVAILABLE OFF)
+  endif()
+endforeach()
 
 if(SERVOKIT_STATIC_AVAILABLE)
   # One imported target each, so that the archives stay together and in this order.
@@ -66,10 +78,10 @@ if(SERVOKIT_STATIC_AVAILABLE)
   set_target_properties(servokit_static_gsl PROPERTIES
     INTERFACE_LINK_LIBRARIES "${gsl_archives};m"
     INTERFACE_INCLUDE_DIRECTORIES "${GSL_INCLUDE_DIRS}")
-  # ARPACK is Fortran: its archive needs LAPACK, BLAS and the Fortran runtime, shared.
+  # ARPACK is Fortran: its archive needs LAPACK, BLAS and the Fortran runtime.
   add_library(servokit_static_arpack INTERFACE IMPORTED)
   set_target_properties(servokit_static_arpack PROPERTIES
-    INTERFACE_LINK_LIBRARIES "${arpack_archives};${SERVOKIT_LAPACK};${SERVOKIT_BLAS};gfortran")
+    INTERFACE_LINK_LIBRARIES "${arpack_archives};${fortran_archives};m")
   servokit_third_party(GINAC PkgConfig::GINAC servokit_static_ginac)
   servokit_third_party(YAML_CPP yaml-cpp servokit_static_yaml_cpp)
   servokit_third_party(GSL GSL::gsl servokit_static_gsl)
