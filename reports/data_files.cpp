@@ -31,8 +31,10 @@ const DataFilesPlugin& DataFiles() {
 std::unique_ptr<SweepHdf5Writer> CreateSweepHdf5(const std::filesystem::path& path,
                                                  const SweepFileMetadata& metadata,
                                                  const ParameterGrid& grid,
-                                                 std::size_t relative_degree_width) {
+                                                 std::size_t relative_degree_width,
+                                                 std::size_t most_kept_error_bytes) {
   SweepHdf5Layout layout;
+  layout.most_kept_error_bytes = most_kept_error_bytes;
   layout.points_columns = PointsTableColumns(grid);
   layout.eigenvalues_columns = EigenvaluesTableColumns(grid);
   layout.points = grid.num_points();

@@ -43,6 +43,9 @@ class SweepHdf5Writer {
   virtual void Finish(TableRecordReader& points) = 0;
 };
 
+/// The default of SweepHdf5Layout::most_kept_error_bytes: 64 MB.
+inline constexpr std::size_t kMostKeptErrorBytes = std::size_t{64} << 20;
+
 /// What the file holds besides its rows: the tables' columns (PointsTableColumns,
 /// EigenvaluesTableColumns) and the points table's size and text widths.
 struct SweepHdf5Layout {
@@ -51,14 +54,20 @@ struct SweepHdf5Layout {
   // For each points column: the width of its texts, known before the sweep (0 for a number
   // column and for error, whose width Finish finds).
   std::vector<std::size_t> points_text_widths;
+  // The error texts of the points are kept in memory up to this many bytes (points without a
+  // solution are usually few), so that Finish need not read every point's record again; beyond
+  // it Finish reads them from the records.
+  std::size_t most_kept_error_bytes = kMostKeptErrorBytes;
 };
 
 /// Creates `path` (replacing it) for the tables of a sweep over `grid`, whose relative_degree
 /// texts are at most `relative_degree_width` long. Throws Error naming `path` when HDF5 fails.
-std::unique_ptr<SweepHdf5Writer> CreateSweepHdf5(const std::filesystem::path& path,
-                                                 const SweepFileMetadata& metadata,
-                                                 const ParameterGrid& grid,
-                                                 std::size_t relative_degree_width);
+std::unique_ptr<SweepHdf5Writer> CreateSweepHdf5(
+    const std::filesystem::path& path,
+    const SweepFileMetadata& metadata,
+    const ParameterGrid& grid,
+    std::size_t relative_degree_width,
+    std::size_t most_kept_error_bytes = kMostKeptErrorBytes);
 
 /// The longest relative_degree text of a model with `dof` coordinates and `outputs` outputs:
 /// a number per output, each at most 2 dof (the order of the state), joined by ';'.

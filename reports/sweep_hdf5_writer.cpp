@@ -273,6 +273,7 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
       : path_(path),
         chunk_rows_(std::clamp<std::size_t>(layout.points, 1, kMostRowsPerChunk)),
         points_columns_(layout.points_columns),
+        most_kept_error_bytes_(layout.most_kept_error_bytes),
         file_(Create(path, metadata)),
         points_group_(CreateTableGroup(file_.get(), "points", points_columns_, path)) {
     // Every column but the last, error, whose width only the finished sweep knows (Finish).
@@ -353,10 +354,9 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
     return file;
   }
 
-  // The error texts of the points appended, kept while they take little memory (points without
-  // a solution are usually few), so that Finish need not read every point's record again.
+  // The error texts of the points appended, kept while they take little memory
+  // (SweepHdf5Layout::most_kept_error_bytes).
   void KeepErrors(const TableChunk& rows) {
-    constexpr std::size_t kMostErrorBytes = std::size_t{64} << 20;
     const std::size_t error = points_columns_.size() - 1;
     for (std::size_t row = 0; row < rows.rows && errors_kept_; ++row) {
       const std::string_view text = rows.texts[error][row];
@@ -364,7 +364,7 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
       error_bytes_ += text.size();
       error_width_ = std::max(error_width_, text.size());
       errors_.emplace_back(points_appended_ + row, std::string(text));
-      if (error_bytes_ > kMostErrorBytes) {
+      if (error_bytes_ > most_kept_error_bytes_) {
         errors_kept_ = false;
         errors_.clear();
         errors_.shrink_to_fit();
@@ -376,6 +376,7 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
   std::filesystem::path path_;
   std::size_t chunk_rows_;
   std::vector<TableColumn> points_columns_;
+  std::size_t most_kept_error_bytes_;
   std::size_t points_appended_ = 0;
   bool errors_kept_ = true;
   std::size_t error_bytes_ = 0, error_width_ = 0;

@@ -3,6 +3,8 @@
 // MAT need them, MATLAB identifiers checked before a sweep starts, and each column's unit.
 // The files themselves are read back against the CSV in tests/python/test_sweep_files.py.
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,7 +12,9 @@
 #include "models/errors.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_mat.h"
+#include "reports/sweep_records.h"
 #include "reports/sweep_tables.h"
+#include "tests/test_files.h"
 
 namespace servokit {
 namespace {
@@ -85,6 +89,49 @@ TEST_CASE("a column that is not a MATLAB name cannot go into a MAT file", "[repo
   CHECK_NOTHROW(CheckMatColumnNames(GridOf({std::string(63, 'm')})));
   CHECK_THROWS_WITH(CheckHdf5ColumnNames(GridOf({"a/b"})),
                     Catch::Contains("the column 'a/b' cannot name an HDF5 dataset"));
+}
+
+// sweep.h5's error column comes from the errors kept in memory, or, past their limit, from the
+// points records read again at the end: the two routes must write the same file.
+TEST_CASE("sweep.h5 is the same whether its errors were kept or read from the records",
+          "[reports][hdf5]") {
+  const ParameterGrid grid = GridOf({"d"});  // d = 0, 1
+  std::vector<SweepPoint> points(2);
+  points[0].ok = true;
+  points[0].realization = Realization::kNonIdealOrthogonal;
+  points[0].rank = 1;
+  points[0].relative_degree = {2};
+  points[0].differentiation_index = 3;
+  points[0].internal_dynamics_order = 2;
+  points[0].stability = Stability::kUnstable;
+  points[0].eigenvalues = {{1.5, 0.0}, {-1.5, 0.0}};
+  points[0].max_real_part = 1.5;
+  points[1].ok = false;
+  points[1].error = "no equilibrium found for y0 = [0]";
+  std::string point_records, eigenvalue_records;
+  AppendRecordRows(0, points, point_records, eigenvalue_records);
+  const testing::TemporaryDirectory directory;
+  {
+    std::ofstream file(directory / "points.records", std::ios::binary);
+    file << point_records;
+  }
+  const RecordDecoder decoder(grid);
+  TableChunk point_rows, eigenvalue_rows;
+  REQUIRE(decoder.DecodePoints(point_records, 0, point_rows) == 2);
+  REQUIRE(decoder.DecodeEigenvalues(eigenvalue_records, eigenvalue_rows) == 2);
+  const SweepFileMetadata metadata = {"test", "0123456789abcdef", "d=0:1:2", "0.0.0"};
+  const auto write = [&](const std::string& name, std::size_t most_kept_error_bytes) {
+    const std::unique_ptr<SweepHdf5Writer> writer = CreateSweepHdf5(
+        directory / name, metadata, grid, RelativeDegreeTextWidth(2, 1), most_kept_error_bytes);
+    writer->AppendPoints(point_rows);
+    writer->AppendEigenvalues(eigenvalue_rows);
+    writer->Finish(*OpenPointRecords(grid, directory / "points.records"));
+    return testing::ReadFile(directory / name);
+  };
+  const std::string kept = write("kept.h5", kMostKeptErrorBytes);
+  const std::string read_again = write("read_again.h5", 0);  // past the limit at the first error
+  CHECK(kept.find(points[1].error) != std::string::npos);
+  CHECK(kept == read_again);
 }
 
 }  // namespace
