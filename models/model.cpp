@@ -58,21 +58,20 @@ const ExpressionProgram& Model::program(Quantity quantity) const {
 }
 
 std::size_t Model::max_registers() const {
-  std::size_t registers = 0;
-  for (const auto& program : programs_) registers = std::max(registers, program->num_registers());
-  for (const auto& [combination, program] : combined_programs_) {
-    registers = std::max(registers, program->num_registers());
-  }
-  return registers;
+  return LargestOfPrograms(&ExpressionProgram::num_registers);
 }
 
 std::size_t Model::max_outputs() const {
-  std::size_t outputs = 0;
-  for (const auto& program : programs_) outputs = std::max(outputs, program->num_outputs());
+  return LargestOfPrograms(&ExpressionProgram::num_outputs);
+}
+
+std::size_t Model::LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const {
+  std::size_t largest = 0;
+  for (const auto& program : programs_) largest = std::max(largest, ((*program).*size)());
   for (const auto& [combination, program] : combined_programs_) {
-    outputs = std::max(outputs, program->num_outputs());
+    largest = std::max(largest, ((*program).*size)());
   }
-  return outputs;
+  return largest;
 }
 
 Workspace::Workspace(const Model& model)

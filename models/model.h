@@ -128,6 +128,8 @@ class Model {
 
  private:
   friend class ModelBuilder;  // models/model_loader.cpp fills a Model
+  // The largest size() of any of its programs (max_registers, max_outputs).
+  std::size_t LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const;
   std::string name_, description_, source_, content_hash_;
   std::vector<std::string> coordinates_, inputs_, parameter_names_;
   std::vector<DisplayUnit> parameter_units_;
