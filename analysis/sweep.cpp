@@ -23,10 +23,11 @@ namespace {
 
 // Points a thread takes from the block at a time (and formats together). Dynamic scheduling,
 // because a point where Newton struggles (or fails after its 50 iterations) costs many times an
-// easy one; 64 points (tens of microseconds even for the mass on car) make taking a chunk, two
-// short locked sections, cheap: with 16, two threads on the mass on car spent 20 % more CPU
-// than one and were 1.3 times as fast instead of 1.6.
-constexpr std::size_t kPointsPerChunk = 64;
+// easy one; 256 points (some 80 microseconds for the mass on car, whose points cost 0.3 us) make
+// taking a chunk, two short locked sections, and handing its rows over cheap: with 64, once its
+// points had become that cheap, two threads on the rotational arm spent 30 % more CPU than one
+// and were 1.35 times as fast instead of 1.6 (with 16, the mass on car 1.3 instead of 1.6).
+constexpr std::size_t kPointsPerChunk = 256;
 // A point of a large linear model costs milliseconds, so one at a time.
 constexpr std::size_t kLinearPointsPerChunk = 1;
 
@@ -121,7 +122,7 @@ namespace {
 // The state RunSweepPipeline's threads share. Blocks are numbered from the sweep's first point;
 // block b lives in slot b % kSweepSlots, which it may take only once block b - kSweepSlots was
 // consumed. Everything but the points themselves is guarded by `mutex`: a chunk is taken and
-// finished under it (two short critical sections per chunk of 64 points, against tens of
+// finished under it (two short critical sections per chunk of 256 points, against tens of
 // microseconds of analysis), and the points of a chunk are written by the one thread that took it.
 class SweepPipeline {
  public:

@@ -66,7 +66,7 @@ void WriteAll(int fd, const std::string& text, const std::filesystem::path& path
 }
 
 // Writes the texts one after another, as WriteAll each would, with few system calls: a block
-// of a pipelined sweep has a slice per 64-point chunk, 64 of them, and a write() each
+// of a pipelined sweep has a slice per 256-point chunk, 16 of them, and a write() each
 // would cost a fifth of a cheap model's analysis.
 void WriteAllInOrder(int fd,
                      const std::vector<std::string>& texts,
