@@ -321,9 +321,8 @@ std::size_t ComputeSweep(const SweepSetup& setup,
     const bool format_here = records && workspaces.threads() < 2;
     const TableEncoding encoding =
         format_here ? TableEncoding::kRecords : TableEncodingOf(setup.format);
-    PipelinedBlockFormatter formatter(setup.grid, encoding, setup.options.block_size,
-                                      SweepChunkSize(setup.model));
     const std::size_t chunk_size = SweepChunkSize(setup.model);
+    PipelinedBlockFormatter formatter(setup.grid, encoding, setup.options.block_size, chunk_size);
     return RunSweepPipeline(
         setup.model, setup.grid, setup.options, first_point, workspaces,
         [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {

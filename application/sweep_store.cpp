@@ -583,8 +583,8 @@ void SweepOutput::StartHdf5File() {
 
 SweepHdf5Writer& SweepOutput::Hdf5File() {
   if (hdf5_pending_.valid()) hdf5_ = hdf5_pending_.get();  // rethrows what creating it threw
-  if (!hdf5_) StartHdf5File();  // a run resumed with every point done: at Finish
-  if (hdf5_pending_.valid()) hdf5_ = hdf5_pending_.get();
+  // A run resumed with every point done starts it at Finish, from its records (at once).
+  if (!hdf5_) StartHdf5File();
   return *hdf5_;
 }
 

@@ -21,9 +21,7 @@ Prints one JSON line like the C++ bench: {"model", "dof", "k", "load_seconds",
 
     /usr/bin/python3 bench/scipy_bordered_eigs.py DIR/chain_100000.yaml [K [NCV [SIGMA]]]
 """
-import json
 import os
-import resource
 import sys
 import time
 
@@ -32,7 +30,7 @@ import scipy.linalg
 import scipy.sparse.linalg as sla
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scipy_large_eigs import TOLERANCE, assemble, read_model  # noqa: E402
+from scipy_large_eigs import TOLERANCE, assemble, print_result, read_model  # noqa: E402
 
 # The same fixed start vector on every run (ARPACK's own is random), so runs repeat.
 SEED = 20130613
@@ -82,14 +80,7 @@ def main():
     eigs_seconds = time.perf_counter() - start
     scale = max(abs(nus))
     values = [sigma + 1.0 / nu for nu in nus if abs(nu) > INFINITE_TOLERANCE * scale]
-    values = sorted(values, key=lambda z: (-z.real, -z.imag))
-    print(json.dumps({
-        "model": name, "dof": n, "k": k, "ncv": ncv,
-        "load_seconds": load_seconds, "assemble_seconds": assemble_seconds,
-        "eigs_seconds": eigs_seconds, "seconds": assemble_seconds + eigs_seconds,
-        "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "eigenvalues": [[float(z.real), float(z.imag)] for z in values],
-    }))
+    print_result(name, n, k, ncv, load_seconds, assemble_seconds, eigs_seconds, values)
 
 
 if __name__ == "__main__":

@@ -81,6 +81,19 @@ def read_model(path):
     return model.get("name"), parameters, terms
 
 
+def print_result(name, n, k, ncv, load_seconds, assemble_seconds, eigs_seconds, values):
+    """The peer's one JSON line: times, peak memory and the eigenvalues, largest real part first
+    (the form compare_large.sh reads from both peers)."""
+    values = sorted(values, key=lambda z: (-z.real, -z.imag))
+    print(json.dumps({
+        "model": name, "dof": n, "k": k, "ncv": ncv,
+        "load_seconds": load_seconds, "assemble_seconds": assemble_seconds,
+        "eigs_seconds": eigs_seconds, "seconds": assemble_seconds + eigs_seconds,
+        "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "eigenvalues": [[float(z.real), float(z.imag)] for z in values],
+    }))
+
+
 def main():
     path = sys.argv[1]
     k = int(sys.argv[2]) if len(sys.argv) > 2 else 10
@@ -109,14 +122,7 @@ def main():
     values = sla.eigs(pencil_a, k=k, M=pencil_e, sigma=0.0, ncv=ncv, tol=TOLERANCE,
                      return_eigenvectors=False)
     eigs_seconds = time.perf_counter() - start
-    values = sorted(values, key=lambda z: (-z.real, -z.imag))
-    print(json.dumps({
-        "model": name, "dof": n, "k": k, "ncv": ncv,
-        "load_seconds": load_seconds, "assemble_seconds": assemble_seconds,
-        "eigs_seconds": eigs_seconds, "seconds": assemble_seconds + eigs_seconds,
-        "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "eigenvalues": [[float(z.real), float(z.imag)] for z in values],
-    }))
+    print_result(name, n, k, ncv, load_seconds, assemble_seconds, eigs_seconds, values)
 
 
 if __name__ == "__main__":

@@ -179,26 +179,17 @@ void CopyResults(Quantity quantity, const double* source, Workspace& workspace) 
   });
 }
 
-// Where a single-block result lives in the workspace, laid out column-major by the loader as
-// Eigen stores it, so that its program writes it in place; nullptr for a result of several
+// Where a result of a single block lives in the workspace, laid out column-major by the loader
+// as Eigen stores it, so that its program writes it in place; nullptr for a result of several
 // blocks (it goes through outputs_ and CopyResults).
 double* InPlaceResult(Quantity quantity, Workspace& workspace) {
-  switch (quantity) {
-    case Quantity::kMassMatrix:
-      return workspace.mass_matrix.data();
-    case Quantity::kForces:
-      return workspace.forces.data();
-    case Quantity::kInputMatrix:
-      return workspace.input_matrix.data();
-    case Quantity::kOutput:
-      return workspace.output.data();
-    case Quantity::kOutputJacobian:
-      return workspace.output_jacobian.data();
-    case Quantity::kOutputBias:
-      return workspace.output_bias.data();
-    default:
-      return nullptr;
-  }
+  double* only = nullptr;
+  int blocks = 0;
+  ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t) {
+    only = data;
+    ++blocks;
+  });
+  return blocks == 1 ? only : nullptr;
 }
 
 }  // namespace
