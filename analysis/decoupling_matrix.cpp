@@ -41,7 +41,7 @@ DecouplingAnalysis AnalyzeDecouplingMatrix(const Linearization& linearization,
                      std::to_string(outputs));
   }
 
-  const Eigen::MatrixXd input_accelerations = linearization.mass_inverse * input_matrix;
+  const Eigen::MatrixXd& input_accelerations = linearization.input_acceleration;
   result.decoupling_matrix = DecouplingMatrix(output_jacobian, input_accelerations);
   result.singular_values = SingularValues(result.decoupling_matrix);
   // Scale: |H| |M^-1 B| bounds sigma_max(P); see ClassificationOptions::rank_tolerance.

@@ -137,6 +137,7 @@ Linearization Reduced(const LinearSystem& system, FactoredMass& factored, double
   reduced.mass_inverse = basis.transpose() * mass_inverse_basis;
   reduced.mass_inverse = 0.5 * (reduced.mass_inverse + reduced.mass_inverse.transpose()).eval();
   reduced.mass_matrix = reduced.mass_inverse.inverse();
+  reduced.input_acceleration = reduced.mass_inverse * reduced.input_matrix;
   return reduced;
 }
 

@@ -10,6 +10,7 @@
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
+#include "numerics/finite.h"
 
 namespace servokit {
 namespace {
@@ -44,8 +45,10 @@ Linearization Linearize(const Model& model,
   linearization.mass_matrix = workspace.mass_matrix;
   linearization.damping = workspace.forces_velocity_jacobian;
   linearization.stiffness = workspace.forces_position_jacobian;
+  Eigen::VectorXd input_force_change(dof);  // dB/dq_k u0
   for (Eigen::Index k = 0; k < dof; ++k) {
-    linearization.stiffness.col(k) -= workspace.input_matrix_derivatives[std::size_t(k)] * point.u;
+    input_force_change.noalias() = workspace.input_matrix_derivatives[std::size_t(k)] * point.u;
+    linearization.stiffness.col(k) -= input_force_change;
   }
   linearization.input_matrix = workspace.input_matrix;
   linearization.output_jacobian = workspace.output_jacobian;
@@ -57,7 +60,7 @@ Linearization Linearize(const Model& model,
       {"the input matrix B", &linearization.input_matrix},
       {"the output Jacobian H = dh/dq", &linearization.output_jacobian}};
   for (const auto& [name, matrix] : quantities) {
-    if (!matrix->allFinite()) {
+    if (!AllFinite(*matrix)) {
       throw NoSolution(std::string("the linearization at the operating point is not finite: ") +
                        name + " holds NaN or Inf (" + DescribeParameters(model, workspace) + ")");
     }
@@ -94,17 +97,19 @@ Linearization Linearize(const Model& model,
         " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit) + " (" +
         DescribeParameters(model, workspace) + ")");
   }
-  // The analyses form these products (ToStateSpace, P); parameters near the end of the double
+  // The analyses read these products (ToStateSpace, P); parameters near the end of the double
   // range (k = 1e308, say) overflow here although every entry above is finite.
-  const std::pair<const char*, const Eigen::MatrixXd*> factors[] = {
-      {"M^-1", nullptr},
-      {"M^-1 K", &linearization.stiffness},
-      {"M^-1 D", &linearization.damping},
-      {"M^-1 B", &linearization.input_matrix}};
-  Eigen::MatrixXd rate;
-  for (const auto& [name, factor] : factors) {
-    if (factor != nullptr) rate.noalias() = linearization.mass_inverse * *factor;
-    if (!(factor != nullptr ? rate : linearization.mass_inverse).allFinite()) {
+  linearization.stiffness_rate.noalias() = linearization.mass_inverse * linearization.stiffness;
+  linearization.damping_rate.noalias() = linearization.mass_inverse * linearization.damping;
+  linearization.input_acceleration.noalias() =
+      linearization.mass_inverse * linearization.input_matrix;
+  const std::pair<const char*, const Eigen::MatrixXd*> products[] = {
+      {"M^-1", &linearization.mass_inverse},
+      {"M^-1 K", &linearization.stiffness_rate},
+      {"M^-1 D", &linearization.damping_rate},
+      {"M^-1 B", &linearization.input_acceleration}};
+  for (const auto& [name, product] : products) {
+    if (!AllFinite(*product)) {
       throw NoSolution(std::string("the linearization overflows the range of double: ") + name +
                        " is not finite at the operating point (" +
                        DescribeParameters(model, workspace) + ")");
@@ -115,9 +120,8 @@ Linearization Linearize(const Model& model,
 
 StateSpace ToStateSpace(const Linearization& linearization) {
   const Eigen::Index dof = linearization.dof();
-  const Eigen::MatrixXd& mass_inverse = linearization.mass_inverse;
-  const Eigen::MatrixXd stiffness_rate = mass_inverse * linearization.stiffness;  // 1/s^2
-  const Eigen::MatrixXd damping_rate = mass_inverse * linearization.damping;      // 1/s
+  const Eigen::MatrixXd& stiffness_rate = linearization.stiffness_rate;  // 1/s^2
+  const Eigen::MatrixXd& damping_rate = linearization.damping_rate;      // 1/s
   // The model's own time scale: sqrt of the stiffness rate, or the damping rate if there is no
   // stiffness, or 1 for a free mass.
   // SafeNorm: norm() squares the entries, which overflows for a stiffness rate above 1e154
@@ -133,7 +137,7 @@ StateSpace ToStateSpace(const Linearization& linearization) {
   state_space.state_matrix.bottomLeftCorner(dof, dof) = -stiffness_rate / time_scale;
   state_space.state_matrix.bottomRightCorner(dof, dof) = -damping_rate;
   state_space.input_matrix = Eigen::MatrixXd::Zero(2 * dof, linearization.num_inputs());
-  state_space.input_matrix.bottomRows(dof) = mass_inverse * linearization.input_matrix / time_scale;
+  state_space.input_matrix.bottomRows(dof) = linearization.input_acceleration / time_scale;
   state_space.output_matrix = Eigen::MatrixXd::Zero(linearization.output_jacobian.rows(), 2 * dof);
   state_space.output_matrix.leftCols(dof) = linearization.output_jacobian;
   return state_space;

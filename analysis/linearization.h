@@ -18,6 +18,12 @@ struct Linearization {
   // M^-1, from its Cholesky factor, computed once: the dense analyses are small (a few dozen
   // coordinates at most), where one inverse is cheaper than repeated blocked solves.
   Eigen::MatrixXd mass_inverse;
+  // M^-1 K (1/s^2), M^-1 D (1/s) and M^-1 B: formed once, here, where their overflow is checked;
+  // the state space and P = H M^-1 B read them. (ReducedLinearization, which has no K and D,
+  // fills input_acceleration alone.)
+  Eigen::MatrixXd stiffness_rate;
+  Eigen::MatrixXd damping_rate;
+  Eigen::MatrixXd input_acceleration;
 
   Eigen::Index dof() const { return mass_matrix.rows(); }
   Eigen::Index num_inputs() const { return input_matrix.cols(); }

@@ -14,6 +14,7 @@
 
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/finite.h"
 #include "numerics/sundials_support.h"
 
 namespace servokit {
@@ -25,6 +26,9 @@ struct EquilibriumProblem {
   Workspace& workspace;
   Eigen::VectorXd y0;
   Eigen::VectorXd zero_velocity;
+  // Scratch, so that the residual and the Jacobian allocate nothing: B u and dB/dq_k u.
+  Eigen::VectorXd input_force;
+  Eigen::VectorXd input_force_change;
   // q of the last residual evaluated, if that residual was NaN or Inf (a finite one clears it:
   // KINSOL backtracked out of the overflow). When KINSOL gives up there, this is the reason to
   // report; its own flag for it is one SUNDIALS cannot name.
@@ -43,8 +47,9 @@ struct EquilibriumProblem {
 
   // The residual from f, B and h already evaluated at q (and velocity 0).
   void ResidualFromWorkspace(const Eigen::Ref<const Eigen::VectorXd>& u,
-                             Eigen::Ref<Eigen::VectorXd> residual) const {
-    residual.head(dof()) = workspace.forces - workspace.input_matrix * u;
+                             Eigen::Ref<Eigen::VectorXd> residual) {
+    input_force.noalias() = workspace.input_matrix * u;
+    residual.head(dof()) = workspace.forces - input_force;
     residual.tail(inputs()) = workspace.output - y0;
   }
 
@@ -57,7 +62,8 @@ struct EquilibriumProblem {
     jacobian.setZero();
     jacobian.topLeftCorner(dof(), dof()) = workspace.forces_position_jacobian;
     for (Eigen::Index k = 0; k < dof(); ++k) {
-      jacobian.col(k).head(dof()) -= workspace.input_matrix_derivatives[std::size_t(k)] * u;
+      input_force_change.noalias() = workspace.input_matrix_derivatives[std::size_t(k)] * u;
+      jacobian.col(k).head(dof()) -= input_force_change;
     }
     jacobian.topRightCorner(dof(), inputs()) = -workspace.input_matrix;
     jacobian.bottomLeftCorner(inputs(), dof()) = workspace.output_jacobian;
@@ -67,7 +73,7 @@ struct EquilibriumProblem {
 int KinsolResidual(N_Vector unknowns, N_Vector residual, void* user_data) {
   auto& problem = *static_cast<EquilibriumProblem*>(user_data);
   problem.Residual(AsEigen(unknowns), AsEigen(residual));
-  if (AsEigen(residual).allFinite()) {
+  if (AllFinite(AsEigen(residual))) {
     problem.non_finite_at.reset();
     return 0;
   }
@@ -81,7 +87,7 @@ int KinsolJacobian(
   const Eigen::Index size = static_cast<Eigen::Index>(SUNDenseMatrix_Rows(jacobian));
   Eigen::Map<Eigen::MatrixXd> view(SUNDenseMatrix_Data(jacobian), size, size);  // column-major
   problem.Jacobian(AsEigen(unknowns), view);
-  return view.allFinite() ? 0 : -1;
+  return AllFinite(view) ? 0 : -1;
 }
 
 // KINSOL prints its errors to stderr by default; keep the last one for our message instead.
@@ -182,11 +188,11 @@ void RunKinsol(EquilibriumProblem& problem,
     long int newton_iterations = 0;
     KINGetNumNonlinSolvIters(kinsol, &newton_iterations);
     iterations += static_cast<int>(newton_iterations);
-    if (!AsEigen(solution.get()).allFinite()) break;
+    if (!AllFinite(AsEigen(solution.get()))) break;
   }
   if (flag < 0 && problem.non_finite_at) {
     // A step so large that q itself overflowed says nothing by its value: name the overflow.
-    const std::string where = problem.non_finite_at->allFinite()
+    const std::string where = AllFinite(*problem.non_finite_at)
                                   ? "at q = " + FormatVector(*problem.non_finite_at)
                                   : "after a Newton step overflowed q";
     throw NoSolution(
@@ -210,12 +216,12 @@ void OperatingPointOptions::Validate(const Model& model) const {
   if (y0) {
     RequireOption(static_cast<std::size_t>(y0->size()) == model.num_outputs(), kOwner, "y0", *y0,
                   ValueCount(model.num_outputs(), "output"));
-    RequireOption(y0->allFinite(), kOwner, "y0", *y0, "must be finite");
+    RequireOption(AllFinite(*y0), kOwner, "y0", *y0, "must be finite");
   }
   if (q_guess) {
     RequireOption(static_cast<std::size_t>(q_guess->size()) == model.dof(), kOwner, "q_guess",
                   *q_guess, ValueCount(model.dof(), "coordinate"));
-    RequireOption(q_guess->allFinite(), kOwner, "q_guess", *q_guess, "must be finite");
+    RequireOption(AllFinite(*q_guess), kOwner, "q_guess", *q_guess, "must be finite");
   }
   RequireOption(residual_tolerance > 0.0, kOwner, "residual_tolerance", residual_tolerance,
                 "must be > 0");
@@ -241,9 +247,14 @@ OperatingPoint FindOperatingPoint(const Model& model,
   options.Validate(model);
   const auto dof = static_cast<Eigen::Index>(model.dof());
   const auto inputs = static_cast<Eigen::Index>(model.num_inputs());
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
-
-  EquilibriumProblem problem{model, workspace, Eigen::VectorXd(), zero, std::nullopt};
+  EquilibriumProblem problem{model,
+                             workspace,
+                             Eigen::VectorXd(),
+                             Eigen::VectorXd::Zero(dof),
+                             Eigen::VectorXd(dof),
+                             Eigen::VectorXd(dof),
+                             std::nullopt};
+  const Eigen::VectorXd& zero = problem.zero_velocity;
   // Start from q_guess and the inputs that best balance the forces there. f, B and h at the
   // start are evaluated at once; without q_guess the start is q = 0, where h gives y0 = h(0).
   Eigen::VectorXd unknowns(dof + inputs);
@@ -259,7 +270,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
   } else if (!options.q_guess) {
     problem.y0 = workspace.output;
   }
-  if (!options.y0 && !problem.y0.allFinite()) {
+  if (!options.y0 && !AllFinite(problem.y0)) {
     throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
   }
   // Least squares u = (B^T B)^-1 B^T f; B has full column rank in any sensible model, and the
@@ -274,12 +285,12 @@ OperatingPoint FindOperatingPoint(const Model& model,
 
   Eigen::MatrixXd jacobian(dof + inputs, dof + inputs);
   problem.Jacobian(unknowns, jacobian);
-  if (!jacobian.allFinite()) {
+  if (!AllFinite(jacobian)) {
     std::string quantities;
     for (const auto& [name, finite] :
-         {std::pair{"df/dq", workspace.forces_position_jacobian.allFinite()},
-          std::pair{"B", workspace.input_matrix.allFinite()},
-          std::pair{"H = dh/dq", workspace.output_jacobian.allFinite()}}) {
+         {std::pair{"df/dq", AllFinite(workspace.forces_position_jacobian)},
+          std::pair{"B", AllFinite(workspace.input_matrix)},
+          std::pair{"H = dh/dq", AllFinite(workspace.output_jacobian)}}) {
       if (!finite) quantities += (quantities.empty() ? "" : ", ") + std::string(name);
     }
     throw NoSolution("the model is not finite at q0 = " + FormatVector(unknowns.head(dof)) +
@@ -295,11 +306,11 @@ OperatingPoint FindOperatingPoint(const Model& model,
   OperatingPoint point;
   // Most operating points are the starting point itself (q = 0 and y0 = h(0)); then Newton
   // has nothing to do, which keeps sweeps fast.
-  if (!residual.allFinite() ||
+  if (!AllFinite(residual) ||
       residual.cwiseProduct(scaling).lpNorm<Eigen::Infinity>() > options.residual_tolerance) {
     RunKinsol(problem, unknowns, scaling, options, point.newton_iterations);
     problem.Residual(unknowns, residual);
-    if (!unknowns.allFinite() || !residual.allFinite()) {
+    if (!AllFinite(unknowns) || !AllFinite(residual)) {
       throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
                        ": the iteration left the domain where the model is finite");
     }
@@ -307,7 +318,8 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   // Decided on the equilibrated Jacobian: unscaled, one huge entry (k = 1e308, say) sets
   // FullPivLU's threshold and every other pivot looks like zero.
-  const Eigen::FullPivLU<Eigen::MatrixXd> lu(EquilibratedJacobian(jacobian));
+  const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
+      workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian));
   if (!lu.isInvertible()) {
     throw NoSolution("the equilibrium at q = " + FormatVector(unknowns.head(dof)) +
                      " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "

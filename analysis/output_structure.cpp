@@ -7,9 +7,26 @@
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
+#include "numerics/finite.h"
 
 namespace servokit {
 namespace {
+
+// next = row A for the state matrix of ToStateSpace, A = [0, t I; A21, A22] (t the time
+// scale): next = [b A21, t a + b A22] for row = [a b], without the products by the zero and
+// identity blocks. Column by column: each entry is a dot product with a contiguous column
+// piece, which for these few coordinates costs less than a general matrix-vector product.
+void MultiplyByStateMatrix(const StateSpace& system,
+                           const Eigen::RowVectorXd& row,
+                           Eigen::RowVectorXd& next) {
+  const Eigen::MatrixXd& A = system.state_matrix;
+  const Eigen::Index dof = A.rows() / 2;
+  const auto velocity_part = row.tail(dof).transpose();
+  for (Eigen::Index j = 0; j < dof; ++j) {
+    next(j) = velocity_part.dot(A.col(j).tail(dof));
+    next(dof + j) = system.time_scale * row(j) + velocity_part.dot(A.col(dof + j).tail(dof));
+  }
+}
 
 // Per-output relative degrees and the rows C_i A^(r_i - 1) B. A row counts as zero when it is
 // at most rank_tolerance |C_i A^k| |B| (the size its factors allow).
@@ -18,6 +35,7 @@ void FindRelativeDegrees(const StateSpace& system,
                          OutputStructure& structure) {
   const Eigen::Index outputs = system.output_matrix.rows();
   const Eigen::Index states = system.state_matrix.rows();
+  const Eigen::Index dof = states / 2;
   const double input_size = SafeNorm(system.input_matrix);
   structure.relative_degree.assign(std::size_t(outputs), 0);
   structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
@@ -26,10 +44,14 @@ void FindRelativeDegrees(const StateSpace& system,
   for (Eigen::Index i = 0; i < outputs; ++i) {
     output_row = system.output_matrix.row(i);
     for (Eigen::Index k = 0; k < states; ++k) {
-      markov_row.noalias() = output_row * system.input_matrix;
+      // B = [0; M^-1 B / t]: only the velocity part of the row meets it.
+      for (Eigen::Index input = 0; input < markov_row.size(); ++input) {
+        markov_row(input) =
+            output_row.tail(dof).dot(system.input_matrix.col(input).tail(dof).transpose());
+      }
       // SafeNorm: the squares of norm() overflow long before the entries do.
       const double allowed = rank_tolerance * SafeNorm(output_row) * input_size;
-      if (!markov_row.allFinite() || !std::isfinite(allowed)) {
+      if (!AllFinite(markov_row) || !std::isfinite(allowed)) {
         throw NoSolution("output y" + std::to_string(i + 1) + ": the Markov parameter C A^" +
                          std::to_string(k) +
                          " B overflows the range of double at the operating point (a "
@@ -40,7 +62,7 @@ void FindRelativeDegrees(const StateSpace& system,
         structure.decoupling_matrix.row(i) = markov_row;
         break;
       }
-      next_row.noalias() = output_row * system.state_matrix;
+      MultiplyByStateMatrix(system, output_row, next_row);
       output_row.swap(next_row);
     }
     if (structure.relative_degree[std::size_t(i)] == 0) {

@@ -1,6 +1,7 @@
 #include "analysis/subspaces.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace servokit {
@@ -12,11 +13,30 @@ namespace {
 // vectors of interest unchanged, and lets the two-sided Jacobi sweep run on its own.
 using SquareSvd = Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner>;
 
-Eigen::MatrixXd PadToSquare(const Eigen::MatrixXd& matrix) {
+// The square SVDs of this file, one per thread and per function, reused from call to call.
+// compute() overwrites everything an earlier call left, so only their memory carries over: the
+// several rank decisions of every sweep point then do not allocate JacobiSVD's workspaces (and
+// the padded copy) again, which was about a twentieth of a general-path sweep point. These
+// functions have no Workspace to keep them in; thread_local keeps sweep threads apart.
+enum class SvdUse : std::size_t { kSingularValues, kColumnSpace, kComplement, kNullSpace, kCount };
+
+struct ReusedSvd {
+  Eigen::MatrixXd padded;
+  SquareSvd svd;
+};
+
+ReusedSvd& Reused(SvdUse use) {
+  thread_local std::array<ReusedSvd, static_cast<std::size_t>(SvdUse::kCount)> reused;
+  return reused[static_cast<std::size_t>(use)];
+}
+
+// The SVD of `matrix` padded with zero rows or columns to a square matrix.
+const SquareSvd& PaddedSvd(const Eigen::MatrixXd& matrix, unsigned options, SvdUse use) {
+  ReusedSvd& reused = Reused(use);
   const Eigen::Index size = std::max(matrix.rows(), matrix.cols());
-  Eigen::MatrixXd square = Eigen::MatrixXd::Zero(size, size);
-  square.topLeftCorner(matrix.rows(), matrix.cols()) = matrix;
-  return square;
+  reused.padded.setZero(size, size);
+  reused.padded.topLeftCorner(matrix.rows(), matrix.cols()) = matrix;
+  return reused.svd.compute(reused.padded, options);
 }
 
 }  // namespace
@@ -24,6 +44,11 @@ Eigen::MatrixXd PadToSquare(const Eigen::MatrixXd& matrix) {
 Eigen::VectorXd SingularValues(const Eigen::MatrixXd& matrix) {
   if (matrix.rows() == 1 && matrix.cols() == 1 && std::isfinite(matrix(0, 0))) {
     return Eigen::VectorXd::Constant(1, std::abs(matrix(0, 0)));
+  }
+  // A square matrix needs no QR preconditioner (JacobiSVD runs none on it, but the default one
+  // allocates its workspace all the same): the same singular values, to the bit.
+  if (matrix.rows() == matrix.cols()) {
+    return Reused(SvdUse::kSingularValues).svd.compute(matrix).singularValues();
   }
   return Eigen::JacobiSVD<Eigen::MatrixXd>(matrix).singularValues();
 }
@@ -36,7 +61,7 @@ Eigen::Index NumericalRank(const Eigen::VectorXd& singular_values, double thresh
 
 Eigen::MatrixXd ColumnSpaceBasis(const Eigen::MatrixXd& matrix, double threshold) {
   if (matrix.cols() == 0 || matrix.rows() == 0) return Eigen::MatrixXd(matrix.rows(), 0);
-  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullU);
+  const SquareSvd& svd = PaddedSvd(matrix, Eigen::ComputeFullU, SvdUse::kColumnSpace);
   const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
   return svd.matrixU().topLeftCorner(matrix.rows(), rank);
 }
@@ -50,7 +75,7 @@ Eigen::MatrixXd ComplementBasis(const Eigen::MatrixXd& matrix, double threshold)
     return svd.matrixU().rightCols(matrix.rows() - rank);
   }
   // Zero columns only add zero singular values: U and its complement directions are unchanged.
-  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullU);
+  const SquareSvd& svd = PaddedSvd(matrix, Eigen::ComputeFullU, SvdUse::kComplement);
   const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
   return svd.matrixU().rightCols(matrix.rows() - rank);
 }
@@ -64,7 +89,7 @@ Eigen::MatrixXd NullSpaceBasis(const Eigen::MatrixXd& matrix, double threshold) 
     return svd.matrixV().rightCols(matrix.cols() - rank);
   }
   // Zero rows only add zero singular values: V and its null directions are unchanged.
-  const SquareSvd svd(PadToSquare(matrix), Eigen::ComputeFullV);
+  const SquareSvd& svd = PaddedSvd(matrix, Eigen::ComputeFullV, SvdUse::kNullSpace);
   const Eigen::Index rank = NumericalRank(svd.singularValues(), threshold);
   return svd.matrixV().rightCols(matrix.cols() - rank);
 }

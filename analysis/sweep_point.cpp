@@ -14,6 +14,7 @@
 #include "analysis/classification.h"
 #include "analysis/zero_dynamics.h"
 #include "models/errors.h"
+#include "numerics/finite.h"
 #include "numerics/gsl_support.h"
 
 namespace servokit {
@@ -132,8 +133,8 @@ bool AnalyzeFromPolynomial(const Model& model,
   }
   const Eigen::VectorXd& coefficients = workspace.zero_dynamics_polynomial;
   const Eigen::VectorXd& scales = workspace.zero_dynamics_polynomial_scale;
-  if (!coefficients.allFinite() || !workspace.mass_matrix.allFinite() ||
-      !workspace.output_jacobian.allFinite()) {
+  if (!AllFinite(coefficients) || !AllFinite(workspace.mass_matrix) ||
+      !AllFinite(workspace.output_jacobian)) {
     return false;
   }
   const double tolerance = options.rank_tolerance;
@@ -181,28 +182,32 @@ bool AnalyzeFromPolynomial(const Model& model,
   return true;
 }
 
-SweepPoint AnalyzeGenerally(const Model& model,
-                            Workspace& workspace,
-                            const ClassificationOptions& options) {
+// Classifies in full into `point`. A success sets every field, so the point's vectors keep
+// their memory from point to point (a sweep reuses its points).
+void AnalyzeGenerally(const Model& model,
+                      Workspace& workspace,
+                      const ClassificationOptions& options,
+                      SweepPoint& point) {
   ClassificationOptions point_options = options;
   point_options.cross_check = false;
-  SweepPoint point;
   try {
     const Classification c = Classify(model, workspace, point_options);
     point.ok = true;
+    point.error.clear();
     point.realization = c.decoupling.realization;
     point.rank = static_cast<long>(c.decoupling.rank);
-    point.relative_degree = c.structure.relative_degree;
+    point.relative_degree.assign(c.structure.relative_degree.begin(),
+                                 c.structure.relative_degree.end());
     point.differentiation_index = c.structure.differentiation_index;
     point.internal_dynamics_order = c.structure.internal_dynamics_order;
     point.stability = c.zero_dynamics.stability;
-    point.eigenvalues = c.zero_dynamics.eigenvalues;
+    point.eigenvalues.assign(c.zero_dynamics.eigenvalues.begin(),
+                             c.zero_dynamics.eigenvalues.end());
     point.max_real_part = MaxRealPart(point.eigenvalues);
   } catch (const NoSolution& error) {
-    point.ok = false;
+    point = SweepPoint{};  // rare: its memory need not be kept
     point.error = error.what();
   }
-  return point;
 }
 
 SweepPoint SummarizeLinearPoint(const LinearAnalysis& analysis) {
@@ -294,7 +299,7 @@ void AnalyzeSweepPointInto(const Model& model,
                            SweepPath path,
                            SweepPoint& point) {
   if (path == SweepPath::kFast && AnalyzeFromPolynomial(model, workspace, options, point)) return;
-  point = AnalyzeGenerally(model, workspace, options);
+  AnalyzeGenerally(model, workspace, options, point);
 }
 
 }  // namespace servokit

@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "models/errors.h"
+#include "numerics/finite.h"
 
 namespace servokit {
 
@@ -139,7 +140,7 @@ ZeroDynamics ComputeZeroDynamics(const OutputStructure& structure,
     // Householder QR without pivoting suffices: [V, B] has full column rank (checked).
     const Eigen::MatrixXd solution = basis.householderQr().solve(A * subspace);
     result.state_matrix = solution.topRows(order);
-    if (!result.state_matrix.allFinite()) {
+    if (!AllFinite(result.state_matrix)) {
       // Overflow, not a failure of the eigensolver: say so rather than "did not converge".
       throw NoSolution(
           "the zero dynamics' matrix overflows the range of double at the "

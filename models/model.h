@@ -179,6 +179,10 @@ class Workspace {
   Eigen::VectorXd zero_dynamics_polynomial;                  // a_0 .. a_(2 dof)
   Eigen::VectorXd zero_dynamics_polynomial_scale;            // sum of |terms| of each a_k
 
+  /// Factorizations an analysis redoes at every point of a sweep, kept here so that their
+  /// memory is allocated once per thread. Nothing but memory carries over between calls.
+  Eigen::FullPivLU<Eigen::MatrixXd> equilibrium_factor;  // FindOperatingPoint: isolated?
+
   /// True if this workspace was built for a model of the same shape.
   bool Fits(const Model& model) const;
 
