@@ -124,8 +124,10 @@ Eigen::VectorXd ResidualScaling(const Eigen::MatrixXd& jacobian) {
 // The Jacobian with its rows and then its columns scaled to a largest entry of 1, so that an
 // invertibility test compares each pivot with its own row's and column's size, not with the
 // largest entry of the whole matrix (which would make a test of isolation depend on units).
-Eigen::MatrixXd EquilibratedJacobian(const Eigen::MatrixXd& jacobian) {
-  Eigen::MatrixXd scaled = ResidualScaling(jacobian).asDiagonal() * jacobian;
+// `row_scaling`: ResidualScaling(jacobian).
+Eigen::MatrixXd EquilibratedJacobian(const Eigen::MatrixXd& jacobian,
+                                     const Eigen::VectorXd& row_scaling) {
+  Eigen::MatrixXd scaled = row_scaling.asDiagonal() * jacobian;
   for (Eigen::Index j = 0; j < scaled.cols(); ++j) {
     const double column_size = scaled.col(j).cwiseAbs().maxCoeff();
     if (column_size > 0.0) scaled.col(j) /= column_size;
@@ -297,7 +299,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
                      ": NaN or Inf in " + (quantities.empty() ? "the forces" : quantities) + " (" +
                      DescribeParameters(model, workspace) + ")");
   }
-  const Eigen::VectorXd scaling = ResidualScaling(jacobian);
+  Eigen::VectorXd scaling = ResidualScaling(jacobian);
   Eigen::VectorXd residual(dof + inputs);
   // f and h at the start are in the workspace, and B (evaluated again by the Jacobian at the
   // same q) is unchanged: the residual needs no evaluation.
@@ -315,11 +317,12 @@ OperatingPoint FindOperatingPoint(const Model& model,
                        ": the iteration left the domain where the model is finite");
     }
     problem.Jacobian(unknowns, jacobian);
+    scaling = ResidualScaling(jacobian);  // of the Jacobian at the equilibrium found
   }
   // Decided on the equilibrated Jacobian: unscaled, one huge entry (k = 1e308, say) sets
   // FullPivLU's threshold and every other pivot looks like zero.
   const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
-      workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian));
+      workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian, scaling));
   if (!lu.isInvertible()) {
     throw NoSolution("the equilibrium at q = " + FormatVector(unknowns.head(dof)) +
                      " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "
