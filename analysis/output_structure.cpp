@@ -1,6 +1,7 @@
 #include "analysis/output_structure.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -36,6 +37,9 @@ void FindRelativeDegrees(const StateSpace& system,
   const Eigen::Index outputs = system.output_matrix.rows();
   const Eigen::Index states = system.state_matrix.rows();
   const Eigen::Index dof = states / 2;
+  // The block structure of ToStateSpace that the products below rely on.
+  assert(system.state_matrix.topLeftCorner(dof, dof).isZero(0.0));
+  assert(system.input_matrix.topRows(dof).isZero(0.0));
   const double input_size = SafeNorm(system.input_matrix);
   structure.relative_degree.assign(std::size_t(outputs), 0);
   structure.decoupling_matrix = Eigen::MatrixXd::Zero(outputs, system.input_matrix.cols());
