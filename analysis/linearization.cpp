@@ -44,12 +44,9 @@ Linearization Linearize(const Model& model,
   Linearization linearization;
   linearization.mass_matrix = workspace.mass_matrix;
   linearization.damping = workspace.forces_velocity_jacobian;
-  linearization.stiffness = workspace.forces_position_jacobian;
-  Eigen::VectorXd input_force_change(dof);  // dB/dq_k u0
-  for (Eigen::Index k = 0; k < dof; ++k) {
-    input_force_change.noalias() = workspace.input_matrix_derivatives[std::size_t(k)] * point.u;
-    linearization.stiffness.col(k) -= input_force_change;
-  }
+  linearization.stiffness.resize(dof, dof);
+  Eigen::VectorXd input_force_change;
+  EquilibriumStiffness(workspace, point.u, linearization.stiffness, input_force_change);
   linearization.input_matrix = workspace.input_matrix;
   linearization.output_jacobian = workspace.output_jacobian;
 

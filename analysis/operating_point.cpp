@@ -60,11 +60,7 @@ struct EquilibriumProblem {
              Quantity::kForcesJacobians | Quantity::kInputMatrix |
                  Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
     jacobian.setZero();
-    jacobian.topLeftCorner(dof(), dof()) = workspace.forces_position_jacobian;
-    for (Eigen::Index k = 0; k < dof(); ++k) {
-      input_force_change.noalias() = workspace.input_matrix_derivatives[std::size_t(k)] * u;
-      jacobian.col(k).head(dof()) -= input_force_change;
-    }
+    EquilibriumStiffness(workspace, u, jacobian.topLeftCorner(dof(), dof()), input_force_change);
     jacobian.topRightCorner(dof(), inputs()) = -workspace.input_matrix;
     jacobian.bottomLeftCorner(inputs(), dof()) = workspace.output_jacobian;
   }
@@ -240,6 +236,18 @@ std::string DescribeParameters(const Model& model, const Workspace& workspace) {
          << workspace.parameters(static_cast<Eigen::Index>(i));
   }
   return text.str();
+}
+
+void EquilibriumStiffness(const Workspace& workspace,
+                          const Eigen::Ref<const Eigen::VectorXd>& u,
+                          Eigen::Ref<Eigen::MatrixXd> stiffness,
+                          Eigen::VectorXd& input_force_change) {
+  stiffness = workspace.forces_position_jacobian;
+  input_force_change.resize(stiffness.rows());
+  for (Eigen::Index k = 0; k < stiffness.cols(); ++k) {
+    input_force_change.noalias() = workspace.input_matrix_derivatives[std::size_t(k)] * u;
+    stiffness.col(k) -= input_force_change;
+  }
 }
 
 OperatingPoint FindOperatingPoint(const Model& model,

@@ -37,6 +37,16 @@ struct OperatingPoint {
 /// messages about a point where the model misbehaves.
 std::string DescribeParameters(const Model& model, const Workspace& workspace);
 
+/// K = df/dq - sum_k dB/dq_k u_k, dof x dof, into `stiffness`, from df/dq and dB/dq in
+/// `workspace` (evaluated at velocity 0): the position block of the equilibrium equations'
+/// Jacobian, and the stiffness of the linearization (analysis/linearization.h).
+/// `input_force_change` is scratch (dB/dq_k u), the caller's, so that a sweep point, which
+/// forms K twice, allocates nothing here (a local vector cost the six-mass chain 8 %).
+void EquilibriumStiffness(const Workspace& workspace,
+                          const Eigen::Ref<const Eigen::VectorXd>& u,
+                          Eigen::Ref<Eigen::MatrixXd> stiffness,
+                          Eigen::VectorXd& input_force_change);
+
 /// Finds the equilibrium by Newton's method (SUNDIALS KINSOL) from options.q_guess.
 /// Throws UsageError for bad options and NoSolution when Newton does not converge, the
 /// equilibrium is not isolated (singular Jacobian) or the model evaluates to NaN or Inf.

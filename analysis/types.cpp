@@ -1,5 +1,6 @@
 #include "analysis/types.h"
 
+#include <algorithm>
 #include <array>
 #include <utility>
 
@@ -58,7 +59,17 @@ std::optional<Enum> ReverseLookup(const NameTable<Enum, N>& table, std::string_v
   return std::nullopt;
 }
 
+template <typename Enum, std::size_t N>
+std::size_t LongestName(const NameTable<Enum, N>& table) {
+  std::size_t longest = 0;
+  for (const auto& entry : table) longest = std::max(longest, entry.second.size());
+  return longest;
+}
+
 }  // namespace
+
+std::size_t LongestRealizationName() { return LongestName(kRealizationNames); }
+std::size_t LongestStabilityName() { return LongestName(kStabilityNames); }
 
 std::string_view ToString(Realization realization) {
   return Lookup(kRealizationNames, realization);

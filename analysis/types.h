@@ -1,6 +1,7 @@
 #pragma once
 // The named classes of servokit's analysis and their strings. Each enum has one table that maps
 // it to the string DESIGN.md uses (JSON, CSV, Markdown and the command line all go through it).
+#include <cstddef>
 #include <optional>
 #include <string_view>
 
@@ -51,6 +52,11 @@ std::string_view ToString(Realization realization);
 std::string_view ToString(Stability stability);
 std::string_view ToString(SolverMethod method);
 std::string_view ToString(ThresholdEvent event);
+
+/// The length of the longest name ToString gives any Realization or Stability: the width of a
+/// fixed-width text column that holds them (sweep.h5).
+std::size_t LongestRealizationName();
+std::size_t LongestStabilityName();
 
 std::optional<Realization> RealizationFromString(std::string_view text);
 std::optional<Stability> StabilityFromString(std::string_view text);

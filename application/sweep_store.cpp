@@ -554,9 +554,12 @@ void SweepOutput::Resume(const FileSizes& sizes) {
   last_checkpoint_ = std::chrono::steady_clock::now();
 }
 
+SweepFileMetadata SweepOutput::TableFileMetadata() const {
+  return {model_.name, model_.content_hash, DescribeGrid(grid_), SERVOKIT_VERSION};
+}
+
 void SweepOutput::StartHdf5File() {
-  const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
-                                      SERVOKIT_VERSION};
+  const SweepFileMetadata metadata = TableFileMetadata();
   const std::filesystem::path path = TemporaryPath(paths_.table_file);
   const std::size_t relative_degree_width = RelativeDegreeTextWidth(model_.dof, model_.outputs);
   records_ = std::make_unique<RecordDecoder>(grid_);
@@ -700,9 +703,7 @@ void SweepOutput::WriteTableFile() {
   } else {
     const std::unique_ptr<TableRecordReader> eigenvalues =
         OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
-    const SweepFileMetadata metadata = {model_.name, model_.content_hash, DescribeGrid(grid_),
-                                        SERVOKIT_VERSION};
-    WriteSweepMat(temporary, metadata, *points, *eigenvalues);
+    WriteSweepMat(temporary, TableFileMetadata(), *points, *eigenvalues);
   }
   int fd = OpenFile(temporary, O_RDONLY);
   try {

@@ -185,6 +185,7 @@ class SweepOutput {
   bool FinalFilesExist() const;
   void RenameCsvTables();
   void WriteTableFile();
+  SweepFileMetadata TableFileMetadata() const;  // what sweep.h5 and sweep.mat record besides rows
   void StartHdf5File();
   SweepHdf5Writer& Hdf5File();  // the writer, once created
   void AppendToHdf5File(const FormattedBlock& block);

@@ -1,26 +1,11 @@
 // The front of the data-files plugin (reports/data_files_plugin.h): loads it on first use and
 // hands it what it needs as plain data, so that it links none of the analysis.
-#include <algorithm>
-
 #include "analysis/types.h"
 #include "reports/data_files_plugin.h"
 #include "reports/plugins.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {
-namespace {
-
-// The width of the longest word ToString gives for an enumeration of `count` values.
-template <typename Enumeration>
-std::size_t LongestWord(int count) {
-  std::size_t width = 0;
-  for (int value = 0; value < count; ++value) {
-    width = std::max(width, ToString(static_cast<Enumeration>(value)).size());
-  }
-  return width;
-}
-
-}  // namespace
 
 const DataFilesPlugin& DataFiles() {
   static const DataFilesPlugin* const plugin = reinterpret_cast<const DataFilesPlugin* (*)()>(
@@ -40,9 +25,9 @@ std::unique_ptr<SweepHdf5Writer> CreateSweepHdf5(const std::filesystem::path& pa
   layout.points = grid.num_points();
   for (const TableColumn& column : layout.points_columns) {
     std::size_t width = 0;
-    if (column.name == "realization") width = LongestWord<Realization>(4);
+    if (column.name == "realization") width = LongestRealizationName();
     if (column.name == "relative_degree") width = relative_degree_width;
-    if (column.name == "stability") width = LongestWord<Stability>(5);
+    if (column.name == "stability") width = LongestStabilityName();
     layout.points_text_widths.push_back(width);
   }
   return DataFiles().create_sweep_hdf5(path, metadata, layout);

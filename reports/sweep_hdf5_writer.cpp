@@ -253,9 +253,7 @@ Handle CreateTableGroup(hid_t file,
         path, "track the order of the columns");
   Handle group(H5Gcreate2(file, name, H5P_DEFAULT, group_properties.get(), H5P_DEFAULT), H5Gclose,
                path, "create a group");
-  std::vector<std::string> names;
-  for (const TableColumn& column : columns) names.push_back(column.name);
-  WriteStringListAttribute(group.get(), "columns", names, path);
+  WriteStringListAttribute(group.get(), "columns", ColumnNames(columns), path);
   return group;
 }
 

@@ -184,12 +184,6 @@ std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid) {
   return columns;
 }
 
-std::vector<std::string> ColumnNames(const std::vector<TableColumn>& columns) {
-  std::vector<std::string> names;
-  for (const TableColumn& column : columns) names.push_back(column.name);
-  return names;
-}
-
 void CheckSweepColumns(const ParameterGrid& grid) {
   const std::vector<TableColumn> points = PointsTableColumns(grid);
   const std::vector<TableColumn> eigenvalues = EigenvaluesTableColumns(grid);

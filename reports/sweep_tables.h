@@ -37,9 +37,6 @@ std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid);
 /// The columns of the eigenvalues table with their kinds and units (names as EigenvaluesColumns).
 std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid);
 
-/// The names of `columns`, in order (unique: CheckSweepColumns).
-std::vector<std::string> ColumnNames(const std::vector<TableColumn>& columns);
-
 /// Throws UsageError "parameter 'name': its column 'column' ..." when a varied parameter's column
 /// (GridAxis::ColumnName) is also a fixed column of points.csv or eigenvalues.csv, or another
 /// varied parameter's column: a table cannot have two columns of one name, in any format (CSV

@@ -22,6 +22,13 @@ struct TableColumn {
   std::string unit;
 };
 
+/// The names of `columns`, in order (unique: CheckSweepColumns, reports/sweep_tables.h).
+inline std::vector<std::string> ColumnNames(const std::vector<TableColumn>& columns) {
+  std::vector<std::string> names;
+  for (const TableColumn& column : columns) names.push_back(column.name);
+  return names;
+}
+
 /// Some consecutive rows of a table, by column (in the order of its TableColumn list): a number
 /// column in `numbers[c]`, a text column in `texts[c]` (the other vector of that column is empty).
 /// An empty CSV field is NaN in a number column and "" in a text column. A text points into the
