@@ -9,6 +9,7 @@
 #include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
+#include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 #include "numerics/gsl_support.h"
 
@@ -174,6 +175,9 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     }
   }
 
+  // From here on GiNaC: one derivation under the lock (models/symbolic_lock.h). The sign
+  // changes are located on compiled programs, but only a few dozen times per condition.
+  const SymbolicLock lock;
   GiNaC::exmap at_rest;
   for (std::size_t k = 0; k < dof; ++k) {
     at_rest[symbolic.coordinates()[k]] = 0;

@@ -7,7 +7,8 @@
 // the open left half plane iff all Hurwitz determinants have the sign of the leading
 // coefficient; and, for oscillation, the discriminant.
 //
-// Symbolic work: call once per model and parameter, never per point.
+// Symbolic work: call once per model and parameter, never per point. Thread-safe: the GiNaC
+// part runs under SymbolicLock (models/symbolic_lock.h).
 #include <optional>
 #include <string>
 #include <vector>

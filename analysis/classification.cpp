@@ -1,6 +1,11 @@
 #include "analysis/classification.h"
 
 #include <cassert>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "models/errors.h"
 
 namespace servokit {
 
@@ -22,6 +27,54 @@ SolverMethod RecommendSolver(bool flat, Stability stability, int projected_index
   return projected_index <= 1 ? SolverMethod::kBdf : SolverMethod::kNormalForm;
 }
 
+namespace {
+
+// ZeroDynamicsCrossCheck::note of a check that does not agree: what QZ did, and which route
+// the verdict is.
+std::string CrossCheckNote(const ZeroDynamicsCrossCheck& check,
+                           const ZeroDynamics& zero_dynamics,
+                           const std::string& failure,
+                           const ClassificationOptions& options) {
+  std::ostringstream note;
+  if (!failure.empty()) {
+    note << failure;
+  } else if (check.invariant_zeros.size() != zero_dynamics.eigenvalues.size()) {
+    note << "QZ counts " << check.invariant_zeros.size()
+         << " finite invariant zeros where the orders of the infinite zeros give "
+         << zero_dynamics.eigenvalues.size();
+  } else {
+    note << "the invariant zeros by QZ differ from the normal form's by more than "
+            "cross_check_tolerance = "
+         << options.cross_check_tolerance;
+  }
+  note << "; the zero dynamics and stability shown are the normal form's, the more reliable "
+          "route (time-scaled first-order form, number of zeros from the orders of the "
+          "infinite zeros; QZ works on the unscaled pencil)";
+  return note.str();
+}
+
+// The QZ route against the normal form (ZeroDynamicsCrossCheck). A failure of QZ is the
+// cross-check's, not the analysis's: it is recorded, and the verdict stays the normal form's.
+ZeroDynamicsCrossCheck CrossCheckZeroDynamics(const Linearization& linearization,
+                                              const ZeroDynamics& zero_dynamics,
+                                              const ClassificationOptions& options) {
+  ZeroDynamicsCrossCheck check;
+  std::string failure;
+  try {
+    check.invariant_zeros = InvariantZeros(linearization, options);
+    check.max_difference = EigenvalueDistance(check.invariant_zeros, zero_dynamics.eigenvalues);
+  } catch (const NoSolution& error) {
+    failure = error.what();
+    check.invariant_zeros.clear();
+    check.max_difference = std::numeric_limits<double>::infinity();
+  }
+  check.agrees = check.max_difference <= options.cross_check_tolerance;
+  if (!check.agrees) check.note = CrossCheckNote(check, zero_dynamics, failure, options);
+  return check;
+}
+
+}  // namespace
+
 Classification Classify(const Model& model,
                         Workspace& workspace,
                         const ClassificationOptions& options) {
@@ -36,12 +89,8 @@ Classification Classify(const Model& model,
   result.structure = AnalyzeOutputStructure(result.linearization, options);
   result.zero_dynamics = ComputeZeroDynamics(result.structure, options);
   if (options.cross_check) {
-    ZeroDynamicsCrossCheck check;
-    check.invariant_zeros = InvariantZeros(result.linearization, options);
-    check.max_difference =
-        EigenvalueDistance(check.invariant_zeros, result.zero_dynamics.eigenvalues);
-    check.agrees = check.max_difference <= options.cross_check_tolerance;
-    result.cross_check = std::move(check);
+    result.cross_check =
+        CrossCheckZeroDynamics(result.linearization, result.zero_dynamics, options);
   }
   result.flat = result.structure.internal_dynamics_order == 0;
   result.recommended_solver = RecommendSolver(result.flat, result.zero_dynamics.stability,

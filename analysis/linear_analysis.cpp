@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <string>
 
 #include "analysis/subspaces.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/sparse_structure.h"
 
 namespace servokit {
 namespace {
@@ -24,6 +26,11 @@ struct FactoredMass {
 };
 
 void FactorMass(const LinearSystem& system, FactoredMass& factored) {
+  // Before the LU, which never returns for a large M with too few entries (FindZeroColumn).
+  if (const std::optional<Eigen::Index> column = FindZeroColumn(system.mass)) {
+    throw NoSolution("the mass matrix M is singular: its column " + std::to_string(*column + 1) +
+                     " is zero");
+  }
   SparseMatrix compressed = system.mass;
   compressed.makeCompressed();
   factored.solver.compute(compressed);

@@ -7,12 +7,14 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
 
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "numerics/sparse_structure.h"
 
 namespace servokit {
 namespace {
@@ -379,6 +381,7 @@ Eigen::VectorXcd ZeroNullVectorBordered(const LinearSystem& system,
                                         NullSide side) {
   using ComplexSparse = Eigen::SparseMatrix<std::complex<double>>;
   const ComplexSparse rosenbrock = RosenbrockMatrixAt(system, lambda);
+  if (FindZeroColumn(rosenbrock)) return {};  // singular, and SparseLU might not return
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(rosenbrock);
   if (lu.info() != Eigen::Success) return {};
   const Eigen::VectorXcd start = NullVectorStart(rosenbrock.rows());
@@ -407,6 +410,8 @@ Eigen::VectorXcd ZeroNullVectorAt(const LinearSystem& system,
                           lambda * system.damping.cast<std::complex<double>>() +
                           (lambda * lambda) * system.mass.cast<std::complex<double>>();
   dynamic.makeCompressed();
+  // A zero column: Q(lambda) is singular, and SparseLU might not return (FindZeroColumn).
+  if (FindZeroColumn(dynamic)) return ZeroNullVectorBordered(system, lambda, side);
   Eigen::SparseLU<ComplexSparse, Eigen::COLAMDOrdering<int>> lu(dynamic);
   if (lu.info() != Eigen::Success) return ZeroNullVectorBordered(system, lambda, side);
   const auto solve = [&](const Eigen::MatrixXcd& right_hand_side) -> Eigen::MatrixXcd {
@@ -692,6 +697,11 @@ bool LinearZeroDynamicsWorkspace::FactorizeSchur(const LinearSystem& system,
 
 void LinearZeroDynamicsWorkspace::FactorizeBordered(const LinearSystem& system, double shift) {
   SparseMatrix rosenbrock = BuildRosenbrockMatrix(system, shift);
+  // Before the LU, which never returns for a large R with too few entries (FindZeroColumn).
+  if (const std::optional<Eigen::Index> column = FindZeroColumn(rosenbrock)) {
+    throw NoSolution(
+        SingularRosenbrockMessage(shift, "its column " + std::to_string(*column + 1) + " is zero"));
+  }
   if (!analysed_ || !SamePattern(rosenbrock, rosenbrock_)) {
     lu_.analyzePattern(rosenbrock);
     analysed_ = true;

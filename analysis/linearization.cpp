@@ -3,6 +3,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -29,6 +30,68 @@ std::string ShortNumber(double value) {
 
 }  // namespace
 
+std::optional<std::string> FindLinearizationProblem(Linearization& linearization) {
+  const Eigen::Index dof = linearization.dof();
+  const std::pair<const char*, const Eigen::MatrixXd*> quantities[] = {
+      {"the mass matrix M", &linearization.mass_matrix},
+      {"the damping df/dq_dot", &linearization.damping},
+      {"the stiffness df/dq - d(B u0)/dq", &linearization.stiffness},
+      {"the input matrix B", &linearization.input_matrix},
+      {"the output Jacobian H = dh/dq", &linearization.output_jacobian}};
+  for (const auto& [name, matrix] : quantities) {
+    if (!AllFinite(*matrix)) {
+      return std::string("the linearization at the operating point is not finite: ") + name +
+             " holds NaN or Inf";
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd> mass_factor(linearization.mass_matrix);
+  if (mass_factor.info() != Eigen::Success) {
+    return std::string("the mass matrix is not positive definite at the operating point");
+  }
+  // rcond() divides by the 1-norm of M: when that overflows, the estimate is 0 for a reason
+  // that is not singularity.
+  const double mass_norm = linearization.mass_matrix.cwiseAbs().colwise().sum().maxCoeff();
+  if (!std::isfinite(mass_norm)) {
+    return std::string("the mass matrix overflows the range of double at the operating point");
+  }
+  linearization.mass_inverse.setIdentity(dof, dof);
+  mass_factor.solveInPlace(linearization.mass_inverse);
+  // LLT's rcond() estimates |M^-1|_1 from below (Hager-Higham: the largest |M^-1 x|_1 it
+  // tries, |x|_1 = 1), so its reciprocal condition is at least the exact one, here from the
+  // explicit inverse. When the exact one clears the limit with room to spare for rounding, so
+  // does the estimate, and the estimate (several triangular solves, a tenth of a sweep point
+  // of the six-mass chain) is not needed for the same decision.
+  const double inverse_norm = linearization.mass_inverse.cwiseAbs().colwise().sum().maxCoeff();
+  const bool clearly_regular =
+      std::isfinite(inverse_norm) &&
+      1.0 / (mass_norm * inverse_norm) > 2.0 * kMassMatrixReciprocalConditionLimit;
+  const double reciprocal_condition = clearly_regular ? 1.0 : mass_factor.rcond();
+  if (!(reciprocal_condition > kMassMatrixReciprocalConditionLimit)) {
+    return "the mass matrix is singular to working precision at the operating point: "
+           "reciprocal condition number " +
+           ShortNumber(reciprocal_condition) +
+           " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit);
+  }
+  // The analyses read these products (ToStateSpace, P); parameters near the end of the double
+  // range (k = 1e308, say) overflow here although every entry above is finite.
+  linearization.stiffness_rate.noalias() = linearization.mass_inverse * linearization.stiffness;
+  linearization.damping_rate.noalias() = linearization.mass_inverse * linearization.damping;
+  linearization.input_acceleration.noalias() =
+      linearization.mass_inverse * linearization.input_matrix;
+  const std::pair<const char*, const Eigen::MatrixXd*> products[] = {
+      {"M^-1", &linearization.mass_inverse},
+      {"M^-1 K", &linearization.stiffness_rate},
+      {"M^-1 D", &linearization.damping_rate},
+      {"M^-1 B", &linearization.input_acceleration}};
+  for (const auto& [name, product] : products) {
+    if (!AllFinite(*product)) {
+      return std::string("the linearization overflows the range of double: ") + name +
+             " is not finite at the operating point";
+    }
+  }
+  return std::nullopt;
+}
+
 Linearization Linearize(const Model& model,
                         Workspace& workspace,
                         const OperatingPoint& point,
@@ -50,72 +113,13 @@ Linearization Linearize(const Model& model,
   linearization.input_matrix = workspace.input_matrix;
   linearization.output_jacobian = workspace.output_jacobian;
 
-  const std::pair<const char*, const Eigen::MatrixXd*> quantities[] = {
-      {"the mass matrix M", &linearization.mass_matrix},
-      {"the damping df/dq_dot", &linearization.damping},
-      {"the stiffness df/dq - d(B u0)/dq", &linearization.stiffness},
-      {"the input matrix B", &linearization.input_matrix},
-      {"the output Jacobian H = dh/dq", &linearization.output_jacobian}};
-  for (const auto& [name, matrix] : quantities) {
-    if (!AllFinite(*matrix)) {
-      throw NoSolution(std::string("the linearization at the operating point is not finite: ") +
-                       name + " holds NaN or Inf (" + DescribeParameters(model, workspace) + ")");
-    }
-  }
-  const Eigen::LLT<Eigen::MatrixXd> mass_factor(linearization.mass_matrix);
-  if (mass_factor.info() != Eigen::Success) {
-    throw NoSolution("the mass matrix is not positive definite at the operating point (" +
-                     DescribeParameters(model, workspace) + ")");
-  }
-  // rcond() divides by the 1-norm of M: when that overflows, the estimate is 0 for a reason
-  // that is not singularity.
-  const double mass_norm = linearization.mass_matrix.cwiseAbs().colwise().sum().maxCoeff();
-  if (!std::isfinite(mass_norm)) {
-    throw NoSolution("the mass matrix overflows the range of double at the operating point (" +
-                     DescribeParameters(model, workspace) + ")");
-  }
-  linearization.mass_inverse.setIdentity(dof, dof);
-  mass_factor.solveInPlace(linearization.mass_inverse);
-  // LLT's rcond() estimates |M^-1|_1 from below (Hager-Higham: the largest |M^-1 x|_1 it
-  // tries, |x|_1 = 1), so its reciprocal condition is at least the exact one, here from the
-  // explicit inverse. When the exact one clears the limit with room to spare for rounding, so
-  // does the estimate, and the estimate (several triangular solves, a tenth of a sweep point
-  // of the six-mass chain) is not needed for the same decision.
-  const double inverse_norm = linearization.mass_inverse.cwiseAbs().colwise().sum().maxCoeff();
-  const bool clearly_regular =
-      std::isfinite(inverse_norm) &&
-      1.0 / (mass_norm * inverse_norm) > 2.0 * kMassMatrixReciprocalConditionLimit;
-  const double reciprocal_condition = clearly_regular ? 1.0 : mass_factor.rcond();
-  if (!(reciprocal_condition > kMassMatrixReciprocalConditionLimit)) {
-    throw NoSolution(
-        "the mass matrix is singular to working precision at the operating point: "
-        "reciprocal condition number " +
-        ShortNumber(reciprocal_condition) +
-        " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit) + " (" +
-        DescribeParameters(model, workspace) + ")");
-  }
-  // The analyses read these products (ToStateSpace, P); parameters near the end of the double
-  // range (k = 1e308, say) overflow here although every entry above is finite.
-  linearization.stiffness_rate.noalias() = linearization.mass_inverse * linearization.stiffness;
-  linearization.damping_rate.noalias() = linearization.mass_inverse * linearization.damping;
-  linearization.input_acceleration.noalias() =
-      linearization.mass_inverse * linearization.input_matrix;
-  const std::pair<const char*, const Eigen::MatrixXd*> products[] = {
-      {"M^-1", &linearization.mass_inverse},
-      {"M^-1 K", &linearization.stiffness_rate},
-      {"M^-1 D", &linearization.damping_rate},
-      {"M^-1 B", &linearization.input_acceleration}};
-  for (const auto& [name, product] : products) {
-    if (!AllFinite(*product)) {
-      throw NoSolution(std::string("the linearization overflows the range of double: ") + name +
-                       " is not finite at the operating point (" +
-                       DescribeParameters(model, workspace) + ")");
-    }
+  if (const std::optional<std::string> problem = FindLinearizationProblem(linearization)) {
+    throw NoSolution(*problem + " (" + DescribeParameters(model, workspace) + ")");
   }
   return linearization;
 }
 
-StateSpace ToStateSpace(const Linearization& linearization) {
+void ToStateSpace(const Linearization& linearization, StateSpace& state_space) {
   const Eigen::Index dof = linearization.dof();
   const Eigen::MatrixXd& stiffness_rate = linearization.stiffness_rate;  // 1/s^2
   const Eigen::MatrixXd& damping_rate = linearization.damping_rate;      // 1/s
@@ -127,16 +131,20 @@ StateSpace ToStateSpace(const Linearization& linearization) {
   if (!(time_scale > 0.0)) time_scale = SafeNorm(damping_rate);
   if (!(time_scale > 0.0)) time_scale = 1.0;
 
-  StateSpace state_space;
   state_space.time_scale = time_scale;
-  state_space.state_matrix = Eigen::MatrixXd::Zero(2 * dof, 2 * dof);
+  state_space.state_matrix.setZero(2 * dof, 2 * dof);
   state_space.state_matrix.topRightCorner(dof, dof).setIdentity() *= time_scale;
   state_space.state_matrix.bottomLeftCorner(dof, dof) = -stiffness_rate / time_scale;
   state_space.state_matrix.bottomRightCorner(dof, dof) = -damping_rate;
-  state_space.input_matrix = Eigen::MatrixXd::Zero(2 * dof, linearization.num_inputs());
+  state_space.input_matrix.setZero(2 * dof, linearization.num_inputs());
   state_space.input_matrix.bottomRows(dof) = linearization.input_acceleration / time_scale;
-  state_space.output_matrix = Eigen::MatrixXd::Zero(linearization.output_jacobian.rows(), 2 * dof);
+  state_space.output_matrix.setZero(linearization.output_jacobian.rows(), 2 * dof);
   state_space.output_matrix.leftCols(dof) = linearization.output_jacobian;
+}
+
+StateSpace ToStateSpace(const Linearization& linearization) {
+  StateSpace state_space;
+  ToStateSpace(linearization, state_space);
   return state_space;
 }
 

@@ -3,6 +3,8 @@
 //   M dq'' + damping dq' + stiffness dq = B du,   dy = H dq,
 // with stiffness = df/dq - d(B u0)/dq and damping = df/dq' (M'(q) q'' vanishes at rest).
 #include <Eigen/Dense>
+#include <optional>
+#include <string>
 
 #include "analysis/operating_point.h"
 #include "models/model.h"
@@ -29,10 +31,18 @@ struct Linearization {
   Eigen::Index num_inputs() const { return input_matrix.cols(); }
 };
 
-/// Linearizes `model` at `point`. Throws NoSolution, naming the quantity and the parameter
-/// values, if a matrix is not finite there, M(q0) is not symmetric positive definite or is
-/// singular to working precision (reciprocal condition number at most 1e3 epsilon), or
-/// M^-1, M^-1 K, M^-1 D or M^-1 B overflows.
+/// The checks of a linearization, in one place: every matrix finite; M symmetric positive
+/// definite, of finite norm and not singular to working precision (reciprocal condition number
+/// above 1e3 epsilon); M^-1, M^-1 K, M^-1 D and M^-1 B finite. Reads mass_matrix, damping,
+/// stiffness, input_matrix and output_jacobian and fills mass_inverse, stiffness_rate,
+/// damping_rate and input_acceleration. Returns the first problem found, one line naming the
+/// quantity (without the parameter values), or nullopt. Linearize throws it as NoSolution; a
+/// sweep's polynomial path (analysis/sweep_point.cpp) runs the same checks, so that a sweep
+/// point fails exactly where `analyze` does.
+std::optional<std::string> FindLinearizationProblem(Linearization& linearization);
+
+/// Linearizes `model` at `point`. Throws NoSolution with FindLinearizationProblem's message and
+/// the parameter values if the linearization fails its checks.
 /// With `workspace_holds_jacobians`, the caller vouches that the workspace holds df/dq,
 /// df/dq_dot, B, dB/dq and H evaluated at (point.q, 0) as FindOperatingPoint leaves them, and
 /// only M is evaluated (Classify: a sweep point does not evaluate the Jacobians twice).
@@ -53,5 +63,7 @@ struct StateSpace {
   double time_scale = 1.0;        // velocities are divided by this (1/s)
 };
 StateSpace ToStateSpace(const Linearization& linearization);
+/// The same into `state_space`, whose matrices keep their memory when their sizes do not change.
+void ToStateSpace(const Linearization& linearization, StateSpace& state_space);
 
 }  // namespace servokit

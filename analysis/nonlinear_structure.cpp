@@ -11,6 +11,7 @@
 
 #include "models/canonical_expression.h"
 #include "models/errors.h"
+#include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 
 namespace servokit {
@@ -283,6 +284,7 @@ int NonlinearStructure::integrators() const {
 }
 
 std::vector<GiNaC::ex> NonlinearStructure::ProgramInputs() const {
+  const SymbolicLock lock;
   std::vector<ex> inputs(parameters.begin(), parameters.end());
   inputs.insert(inputs.end(), coordinates.begin(), coordinates.end());
   inputs.insert(inputs.end(), velocities.begin(), velocities.end());
@@ -506,11 +508,14 @@ class StructureAlgorithm {
 
 NonlinearStructure DeriveNonlinearStructure(const Model& model,
                                             const NonlinearStructureOptions& options) {
+  const SymbolicLock lock;
   return StructureAlgorithm(model, options).Run();
 }
 
 NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
                                                       const NonlinearStructureOptions& options) {
+  // The structure's expressions live in this scope: they are made and destroyed under the lock.
+  const SymbolicLock lock;
   NonlinearStructureSummary summary;
   NonlinearStructure structure;
   try {

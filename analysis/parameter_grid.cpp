@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -10,13 +11,28 @@
 namespace servokit {
 namespace {
 
+// "no parameters", or the names: the message reads "(the model has ...)".
 std::string KnownParameters(const std::vector<std::string>& parameter_names) {
+  if (parameter_names.empty()) return "no parameters";
   std::string list;
   for (const std::string& name : parameter_names) {
     if (!list.empty()) list += ", ";
     list += name;
   }
   return list;
+}
+
+// Value i of `count` values evenly spaced from `first` to `last` (0 < i < count - 1): numpy's
+// first + i (last - first) / (count - 1). When last - first overflows (ends of opposite signs
+// near the largest double: -1e308:1e308:3), the same point as first (1 - t) + last t with
+// t = i / (count - 1), whose two terms are finite and of opposite signs, so that their sum is
+// too (0 in the middle of a symmetric range, not inf - inf).
+double EvenlySpaced(double first, double last, std::size_t i, std::size_t count) {
+  const double intervals = static_cast<double>(count - 1);
+  const double span = last - first;
+  if (std::isfinite(span)) return first + static_cast<double>(i) * (span / intervals);
+  const double t = static_cast<double>(i) / intervals;
+  return first * (1.0 - t) + last * t;
 }
 
 }  // namespace
@@ -42,13 +58,14 @@ double GridAxis::Value(std::size_t i) const {
   if (i + 1 == range.count) return range.last;  // exact, whatever the rounding of the step
   if (display_unit == DisplayUnit::kDegree) {
     // Evenly spaced in the degrees shown, so that 0deg:90deg:91 holds 1 deg, 2 deg, ... exactly
-    // as "1 deg", "2 deg" would be converted, and its table shows 1, 2, ...
+    // as "1 deg", "2 deg" would be converted, and its table shows 1, 2, ... (An end beyond
+    // 1e306 rad has no degree value, and the range is spaced in radians.)
     const double first = DisplayDegrees(range.first), last = DisplayDegrees(range.last);
-    const double step = (last - first) / static_cast<double>(range.count - 1);
-    return DegreesToRadians(first + static_cast<double>(i) * step);
+    if (std::isfinite(first) && std::isfinite(last)) {
+      return DegreesToRadians(EvenlySpaced(first, last, i, range.count));
+    }
   }
-  const double step = (range.last - range.first) / static_cast<double>(range.count - 1);
-  return range.first + static_cast<double>(i) * step;
+  return EvenlySpaced(range.first, range.last, i, range.count);
 }
 
 std::size_t ParameterIndex(const std::vector<std::string>& parameter_names, std::string_view name) {

@@ -17,7 +17,9 @@
 namespace servokit {
 
 /// `count` values evenly spaced from `first` to `last` (SI), both included, as numpy.linspace:
-/// value i is first + i (last - first) / (count - 1), and the last one is exactly `last`.
+/// value i is first + i (last - first) / (count - 1), and the last one is exactly `last`. Where
+/// last - first overflows (-1e308:1e308:3), value i is first (1 - t) + last t, t = i / (count - 1),
+/// which cannot (the middle of that range is 0).
 /// count = 1 means `first` only. On an axis shown in degrees the spacing is even in degrees
 /// (GridAxis::Value).
 struct ValueRange {

@@ -7,6 +7,7 @@
 #include <charconv>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdlib>
 #include <exception>
 #include <limits>
 #include <memory>
@@ -39,8 +40,12 @@ void ValidateOptions(const LoadedModel& model, const SweepOptions& options) {
   }
   RequireOption(options.threads >= 0, "SweepOptions", "threads", options.threads,
                 "must be >= 0 (0: all cores)");
+  RequireOption(options.threads <= kMaxSweepThreads, "SweepOptions", "threads", options.threads,
+                "must be <= " + std::to_string(kMaxSweepThreads));
   RequireOption(options.block_size >= 1, "SweepOptions", "block_size", options.block_size,
                 "must be >= 1");
+  RequireOption(options.block_size <= kMaxSweepBlockSize, "SweepOptions", "block_size",
+                options.block_size, "must be <= " + std::to_string(kMaxSweepBlockSize));
 }
 
 // Keeps the first exception thrown in an OpenMP region, to rethrow after it: an exception must
@@ -92,7 +97,21 @@ std::vector<int> SweepWorkspaces::pattern_analyses() const {
 }
 
 int SweepThreads(const SweepOptions& options) {
-  return options.threads > 0 ? options.threads : omp_get_max_threads();
+  if (options.threads > 0) return std::min(options.threads, kMaxSweepThreads);
+  const int threads = omp_get_max_threads();
+  if (threads <= kMaxSweepThreads) return threads;
+  // Above the limit only when asked for: a machine with more cores than that gets the limit.
+  if (const char* variable = std::getenv("OMP_NUM_THREADS")) {
+    throw UsageError("OMP_NUM_THREADS=" + std::string(variable) + ": " + std::to_string(threads) +
+                     " threads: must be at most " + std::to_string(kMaxSweepThreads));
+  }
+  return kMaxSweepThreads;
+}
+
+int SweepThreads(const SweepOptions& options, std::size_t points) {
+  const int threads = SweepThreads(options);
+  return static_cast<int>(
+      std::min<std::size_t>(static_cast<std::size_t>(threads), std::max<std::size_t>(points, 1)));
 }
 
 void ParallelFor(std::size_t count,
@@ -327,7 +346,8 @@ std::size_t RunSweep(const LoadedModel& model,
                      std::size_t first_point,
                      const SweepConsumer& consume) {
   ValidateOptions(model, options);
-  SweepWorkspaces workspaces(model, SweepThreads(options));
+  const std::size_t points = grid.num_points() - std::min(first_point, grid.num_points());
+  SweepWorkspaces workspaces(model, SweepThreads(options, points));
   return RunSweep(model, grid, options, first_point, workspaces, consume);
 }
 

@@ -28,12 +28,25 @@ namespace servokit {
 /// fraction of a second.
 inline constexpr std::size_t kSweepBlockSize = 4096;
 
+/// The largest block_size: 16 times the default. Blocks beyond the default gain nothing (the
+/// threads are busy already), while memory grows with them: kSweepSlots blocks of points and
+/// their formatted rows, 0.55 kB a point for the mass on car (0.3 GB at this size, measured;
+/// 4e9 took 7.8 GB for 3 points).
+inline constexpr std::size_t kMaxSweepBlockSize = 65536;
+
+/// The most threads a sweep runs (threads, or OpenMP's default from OMP_NUM_THREADS): more than
+/// the hardware threads of any one machine servokit runs on, so that it never limits a real
+/// run, while each thread's stack and workspace stay affordable; libgomp crashed at 100000.
+inline constexpr int kMaxSweepThreads = 1024;
+
 /// How each point is analysed (AnalysisOptions: the options of the model's kind; the QZ
 /// cross-check of a multibody model is never run in a sweep, SweepPoint), and how the sweep runs.
 struct SweepOptions : AnalysisOptions {
-  // Threads to use; 0 means OpenMP's default (all cores, or OMP_NUM_THREADS).
+  // Threads to use, at most kMaxSweepThreads; 0 means OpenMP's default (all cores, or
+  // OMP_NUM_THREADS).
   int threads = 0;
-  // Points per block handed to the consumer (>= 1); the results do not depend on it.
+  // Points per block handed to the consumer (1 .. kMaxSweepBlockSize); the results do not
+  // depend on it.
   std::size_t block_size = kSweepBlockSize;
 };
 
@@ -41,8 +54,13 @@ struct SweepOptions : AnalysisOptions {
 /// Returns false to stop the sweep after this block (an interrupt).
 using SweepConsumer = std::function<bool(std::size_t first, std::span<const SweepPoint> block)>;
 
-/// The number of threads RunSweep uses for `options` (resolves threads = 0).
+/// The number of threads RunSweep uses for `options`: threads, or for threads = 0 OpenMP's
+/// default, at most kMaxSweepThreads. Throws UsageError naming OMP_NUM_THREADS when that asks
+/// for more.
 int SweepThreads(const SweepOptions& options);
+
+/// The same for a sweep of `points` points: no more threads than points (at least one).
+int SweepThreads(const SweepOptions& options, std::size_t points);
 
 /// Runs body(i, thread) for every i in [0, count) on `threads` threads (OpenMP, dynamic
 /// schedule, `chunk` consecutive indices at a time); `thread` is in [0, threads) and no two

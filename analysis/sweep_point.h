@@ -43,7 +43,10 @@ struct SweepPoint {
 /// polynomial where it applies (one output, small model, operating point at rest at q = 0)
 /// and the general path elsewhere; kGeneral always classifies in full (Classify). The two
 /// agree on every class and on the eigenvalues to round-off (tests/analysis/sweep_point_test.cpp),
-/// except inside the tolerance band of a singular point, where the fast path defers.
+/// except inside the tolerance band of a singular point, where the fast path defers. The fast
+/// path runs analyze's checks of the linearization (FindLinearizationProblem) and answers only
+/// where its numbers are well scaled, so that a point fails exactly where `analyze` fails, with
+/// analyze's message (issue #29).
 enum class SweepPath { kFast, kGeneral };
 
 /// Classifies at workspace.parameters. Options are validated by the caller once per sweep;

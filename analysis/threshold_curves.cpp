@@ -87,6 +87,8 @@ void ThresholdCurveOptions::Validate(const Model& model) const {
   RequireOption(max_join_step > 0.0 && max_join_step <= 1.0, kOwner, "max_join_step", max_join_step,
                 "must be > 0 and <= 1");
   RequireOption(threads >= 0, kOwner, "threads", threads, "must be >= 0");
+  RequireOption(threads <= kMaxSweepThreads, kOwner, "threads", threads,
+                "must be <= " + std::to_string(kMaxSweepThreads));
 }
 
 std::string CurveLabel(const ThresholdCurve& curve) {

@@ -38,7 +38,8 @@ struct ThresholdCurveOptions {
   // apart along the line, relative to the span of the traced axis: a curve that runs nearly
   // along the lines leaves them far apart, and is traced by the lines of the other direction.
   double max_join_step = 0.25;
-  // Threads for the lines (0: OpenMP's default); the curves do not depend on it.
+  // Threads for the lines (0: OpenMP's default; at most kMaxSweepThreads); the curves do not
+  // depend on it.
   int threads = 0;
   // Throws UsageError naming the field, its value and the rule it breaks.
   void Validate(const Model& model) const;

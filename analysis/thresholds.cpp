@@ -524,6 +524,8 @@ void ThresholdOptions::Validate(const Model& model) const {
   classification.Validate(model);
   constexpr const char* kOwner = "ThresholdOptions";
   RequireOption(scan_intervals >= 1, kOwner, "scan_intervals", scan_intervals, "must be >= 1");
+  RequireOption(scan_intervals <= kMaxScanIntervals, kOwner, "scan_intervals", scan_intervals,
+                "must be <= " + std::to_string(kMaxScanIntervals));
   RequireOption(relative_tolerance > 0.0 && relative_tolerance < 1.0, kOwner, "relative_tolerance",
                 relative_tolerance, "must be > 0 and < 1");
   RequireOption(merge_tolerance >= 0.0, kOwner, "merge_tolerance", merge_tolerance, "must be >= 0");

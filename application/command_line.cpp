@@ -92,6 +92,17 @@ std::string CommandLineMessage(const std::exception& error) {
   return error.what();
 }
 
+// An empty --out names no file or directory: `solve --out ""` wrote nothing and exited 0.
+// Checked here, once, for every command that has --out (and its subcommands: generate chain).
+void RefuseEmptyOut(const CLI::App& command) {
+  for (const CLI::App* subcommand : command.get_subcommands()) RefuseEmptyOut(*subcommand);
+  const CLI::Option* out = command.get_option_no_throw("--out");
+  if (out == nullptr) return;
+  for (const std::string& value : out->results()) {
+    if (value.empty()) throw UsageError("--out \"\": must name a file or directory");
+  }
+}
+
 }  // namespace
 
 Eigen::VectorXd ParseValues(const std::string& option, const std::vector<std::string>& texts) {
@@ -149,6 +160,7 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
     } catch (const CLI::ParseError& error) {
       throw UsageError(error.what());
     }
+    RefuseEmptyOut(app);
     for (const Command& command : commands) {
       if (command.app->parsed()) return command.run(out, err);
     }

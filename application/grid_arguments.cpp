@@ -99,14 +99,20 @@ ValueRange StepRange(std::string_view text,
   const auto shown = [&](const ParsedQuantity& q) {
     return degrees ? DisplayDegrees(q.value) : q.value;
   };
-  const double steps = (shown(b) - shown(a)) / shown(h);
+  // b/h - a/h where b - a overflows (-1e308:1e308:step=1e308 is three values).
+  const double span = shown(b) - shown(a);
+  const double steps =
+      std::isfinite(span) ? span / shown(h) : shown(b) / shown(h) - shown(a) / shown(h);
   if (!(steps < kMaxStepCount)) throw VaryError(text, "the step h is too small for a..b");
   const double whole = std::round(steps);
   if (std::abs(steps - whole) <= kWholeStepsTolerance * std::max(1.0, whole)) {
     return {a.value, b.value, static_cast<std::size_t>(whole) + 1};
   }
   const double below = std::floor(steps);
-  const double last = shown(a) + below * shown(h);
+  // The last value lies between a and b; where a + below h overflows on the way, the same sum
+  // in halves (scaling by 2 is exact).
+  double last = shown(a) + below * shown(h);
+  if (!std::isfinite(last)) last = 2.0 * (shown(a) / 2.0 + below * (shown(h) / 2.0));
   return {a.value, degrees ? DegreesToRadians(last) : last, static_cast<std::size_t>(below) + 1};
 }
 

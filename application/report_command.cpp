@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <ostream>
+#include <sstream>
 #include <string_view>
 #include <system_error>
 
@@ -17,6 +18,7 @@
 #include "application/exit_codes.h"
 #include "application/grid_arguments.h"
 #include "application/sweep_store.h"
+#include "files/input_file.h"
 #include "models/errors.h"
 #include "models/model.h"
 #include "reports/class_map.h"
@@ -98,8 +100,7 @@ struct CsvTable {
 };
 
 CsvTable ReadCsvTable(const std::filesystem::path& file, const std::vector<std::string>& columns) {
-  std::ifstream in(file);
-  if (!in) throw UsageError(file.string() + ": cannot read the sweep table");
+  std::istringstream in(ReadInputFile(file.string(), "the sweep table", kTableFileLimit));
   CsvTable table{file, {}, {}};
   std::string line;
   if (!std::getline(in, line) || (table.header = CsvFields(line)) != columns) {

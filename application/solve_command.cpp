@@ -17,6 +17,7 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
 #include "reports/solve_figures.h"
@@ -293,6 +294,10 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
                        (error ? " (" + error.message() + ")" : std::string()));
     }
   }
+  if (arguments.out == "-") {
+    // stdout carries the summary (JSON or text); the table would be mixed into it.
+    throw UsageError("--out -: standard output holds the summary; name a file for the table");
+  }
   const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
   if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
     throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
@@ -315,6 +320,10 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
     throw UsageError(arguments.trajectory + ": " + std::to_string(trajectory.sample_values.cols()) +
                      " output columns after t" + per_output);
   }
+
+  // The inputs are read: no output may be one of them, a link, a FIFO or a directory.
+  for (std::size_t k = 0; k < methods.size(); ++k)
+    CheckOutputPath(OutFileOf(arguments.out, methods, k));
 
   api::SolveOptions options;
   options.force = arguments.force;

@@ -154,7 +154,8 @@ class StopRequest {
 // (OpenMP's count follows mpirun's binding) shared among the ranks on this machine, unless it is
 // bound to fewer cores than the machine has (then they are its own); OMP_NUM_THREADS wins.
 int DefaultThreadsPerProcess(const ProcessGroup& processes) {
-  if (std::getenv("OMP_NUM_THREADS") != nullptr) return omp_get_max_threads();
+  // 0: OpenMP's default, which SweepThreads() checks against kMaxSweepThreads.
+  if (std::getenv("OMP_NUM_THREADS") != nullptr) return 0;
   const int available = omp_get_num_procs();
   const auto machine = static_cast<int>(std::thread::hardware_concurrency());
   if (available < machine) return std::max(available, 1);
@@ -162,10 +163,12 @@ int DefaultThreadsPerProcess(const ProcessGroup& processes) {
 }
 
 // The command line as given, rebuilt from the parsed options (RunCommandLine does not pass argv
-// on); options come in the order they are declared, each with every value it was given.
+// on); options come in the order they are declared, each with every value it was given. The
+// thread count is left out: sweep.json, like the tables, is the same bytes for any count.
 std::vector<std::string> CommandLine(const CLI::App& sweep) {
   std::vector<std::string> line = {"servokit", sweep.get_name()};
   for (const CLI::Option* option : sweep.get_options()) {
+    if (option->get_name() == "--threads") continue;
     for (const std::string& value : option->results()) {
       if (!option->get_positional()) line.push_back(option->get_name());
       line.push_back(value);
@@ -201,11 +204,20 @@ SweepOptions MakeSweepOptions(const SweepArguments& arguments,
       throw UsageError("--threads " + std::to_string(arguments.threads) +
                        ": must be at least 1 (default: all cores)");
     }
+    if (arguments.threads > kMaxSweepThreads) {
+      throw UsageError("--threads " + std::to_string(arguments.threads) + ": must be at most " +
+                       std::to_string(kMaxSweepThreads));
+    }
     options.threads = arguments.threads;
   } else if (Processes().size > 1) {
     options.threads = DefaultThreadsPerProcess(Processes());
   }
+  SweepThreads(options);  // OMP_NUM_THREADS too, before the output directory is made
   if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
+  if (arguments.block_size > kMaxSweepBlockSize) {
+    throw UsageError("--block-size " + std::to_string(arguments.block_size) + ": must be at most " +
+                     std::to_string(kMaxSweepBlockSize));
+  }
   options.block_size = arguments.block_size;
   // Before the output directory is touched: a bad option must not leave a half-made sweep.
   if (const Model* multibody = model.multibody()) options.classification.Validate(*multibody);
@@ -301,13 +313,13 @@ void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
 std::size_t ComputeSweep(const SweepSetup& setup,
                          std::size_t first_point,
                          SweepOutput* output,
+                         StopRequest& stop_requested,
                          std::ostream& err) {
   ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
-  const InterruptGuard interrupt;
-  StopRequest stop_requested(interrupt, setup.test_hooks);
   // The per-thread workspaces are kept across blocks (and, under MPI, across the blocks of this
   // rank), so each thread of a linear sweep analyses the sparsity pattern once.
-  SweepWorkspaces workspaces(setup.model, SweepThreads(setup.options));
+  SweepWorkspaces workspaces(setup.model,
+                             SweepThreads(setup.options, setup.grid.num_points() - first_point));
   const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
     return RunSweep(setup.model, setup.grid, setup.options, first, workspaces, consume);
   };
@@ -377,7 +389,12 @@ int RunSweepCommand(const SweepArguments& arguments,
   if (first_point > 0) {
     err << "servokit: resuming at point " << first_point << " of " << total << "\n";
   }
-  const std::size_t done = ComputeSweep(*setup, first_point, output ? &*output : nullptr, err);
+  // Held until the tables are finished: Ctrl-C while sweep.mat is built is honoured too (and
+  // the stop test hook counts the table file's chunks after the blocks).
+  const InterruptGuard interrupt;
+  StopRequest stop_requested(interrupt, setup->test_hooks);
+  const std::size_t done =
+      ComputeSweep(*setup, first_point, output ? &*output : nullptr, stop_requested, err);
   if (!root) {
     return done < total ? kInterruptedExitStatus : static_cast<int>(ExitCode::kSuccess);
   }
@@ -387,7 +404,12 @@ int RunSweepCommand(const SweepArguments& arguments,
         << "; run the same command again to resume\n";
     return kInterruptedExitStatus;
   }
-  output->Finish();
+  if (!output->Finish([&] { return stop_requested(); })) {
+    output->Checkpoint();
+    err << "servokit: error: interrupted while writing the tables (every point is done); run "
+        << "the same command again to finish them\n";
+    return kInterruptedExitStatus;
+  }
   out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out << " ("
       << SweepTableFileNames(setup->format) << ", sweep.json); "
       << output->points_without_solution() << " without a solution\n";
@@ -427,12 +449,15 @@ Command AddSweepCommand(CLI::App& app) {
                    "mat (sweep.mat, MAT 5)")
       ->capture_default_str();
   sweep->add_option("--threads", arguments->threads,
-                    "Threads (default: all cores; under mpirun, per rank: the cores of its "
-                    "machine shared among its ranks)");
+                    "Threads, at most " + std::to_string(kMaxSweepThreads) +
+                        " and never more than the points (default: all cores, or "
+                        "OMP_NUM_THREADS, which must not ask for more; under mpirun, per rank: "
+                        "the cores of its machine shared among its ranks)");
   sweep
       ->add_option("--block-size", arguments->block_size,
-                   "Points per block: computed in parallel, then written; under mpirun block b "
-                   "goes to rank b mod K. The files do not depend on it")
+                   "Points per block, at most " + std::to_string(kMaxSweepBlockSize) +
+                       ": computed in parallel, then written; under mpirun block b goes to "
+                       "rank b mod K. The files do not depend on it")
       ->capture_default_str();
   sweep
       ->add_option("--checkpoint-interval", arguments->checkpoint_interval,

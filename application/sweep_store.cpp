@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/uio.h>
 #include <unistd.h>
 
@@ -22,6 +23,8 @@
 
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "files/input_file.h"
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
 #include "reports/sweep_hdf5.h"
@@ -43,9 +46,26 @@ Error IoError(const std::filesystem::path& path, const std::string& what) {
   return Error(path.string() + ": " + what + ": " + std::strerror(errno));
 }
 
+// Opens one of the sweep's own files, never through a link and only if it is a regular file:
+// a link planted in --out would make a sweep write (or cut, on resume) a file elsewhere, and a
+// FIFO would block it forever. The output directory itself (O_DIRECTORY) is the user's to name.
 int OpenFile(const std::filesystem::path& path, int flags) {
-  const int fd = ::open(path.c_str(), flags | O_CLOEXEC, 0644);
+  const bool directory = (flags & O_DIRECTORY) != 0;
+  const int fd =
+      ::open(path.c_str(), flags | O_CLOEXEC | (directory ? 0 : O_NOFOLLOW | O_NONBLOCK), 0644);
+  if (fd < 0 && errno == ELOOP) {
+    throw UsageError(path.string() + ": is a symbolic link; servokit does not write through links");
+  }
+  if (fd < 0 && errno == ENXIO) {  // a FIFO without a reader
+    throw UsageError(path.string() + ": is not a regular file (a FIFO, socket or device)");
+  }
   if (fd < 0) throw IoError(path, "cannot open");
+  struct stat status {};
+  if (!directory && (::fstat(fd, &status) != 0 || !S_ISREG(status.st_mode))) {
+    ::close(fd);
+    throw UsageError(path.string() + ": is not a regular file (a FIFO, socket or device)");
+  }
+  if (!directory) ::fcntl(fd, F_SETFL, flags & O_APPEND);  // blocking again, as asked
   return fd;
 }
 
@@ -121,12 +141,31 @@ std::filesystem::path TemporaryPath(const std::filesystem::path& path) {
   return temporary;
 }
 
+// One of the sweep's own small files (sweep.json, the checkpoint), opened as OpenFile does.
 std::string ReadFile(const std::filesystem::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw IoError(path, "cannot read");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
+  int fd = OpenFile(path, O_RDONLY);
+  struct stat status {};
+  const bool sized = ::fstat(fd, &status) == 0;
+  if (!sized || static_cast<std::uintmax_t>(status.st_size) > kRecordFileLimit) {
+    CloseFile(fd);
+    throw Error(path.string() + ": not a servokit sweep file (larger than " +
+                std::to_string(kRecordFileLimit) + " bytes)");
+  }
+  std::string text(static_cast<std::size_t>(status.st_size), '\0');
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::read(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  const int error = errno;
+  CloseFile(fd);
+  if (done != text.size()) {
+    errno = error;
+    throw IoError(path, "cannot read");
+  }
+  return text;
 }
 
 // ---- checkpoint ------------------------------------------------------------------------------
@@ -446,6 +485,10 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
       checkpoint_interval_(output_options.checkpoint_interval) {
   Lock();
   try {
+    for (const std::filesystem::path& path :
+         {paths_.points, paths_.eigenvalues, paths_.record, paths_.table_file}) {
+      if (!path.empty()) CheckOutputPath(path.string());
+    }
     RemoveStaleTemporaries();
     if (std::filesystem::exists(paths_.checkpoint)) {
       const CheckpointRecord checkpoint = ReadCheckpoint(paths_.checkpoint);
@@ -538,15 +581,22 @@ void SweepOutput::Resume(const FileSizes& sizes) {
   if (points_done_ == grid_.num_points()) return;  // Finish() may have renamed them already
   for (const auto& [path, size] : {std::pair{paths_.points_partial, sizes.points},
                                    std::pair{paths_.eigenvalues_partial, sizes.eigenvalues}}) {
-    std::error_code error;
-    const std::uintmax_t actual = std::filesystem::file_size(path, error);
-    if (error || actual < size) {
-      throw Error(path.string() + ": missing or shorter than the checkpoint records (" +
-                  std::to_string(size) + " bytes); delete " + directory_.string() +
-                  " to start the sweep again");
+    const auto missing = [&] {
+      return Error(path.string() + ": missing or shorter than the checkpoint records (" +
+                   std::to_string(size) + " bytes); delete " + directory_.string() +
+                   " to start the sweep again");
+    };
+    if (!std::filesystem::exists(std::filesystem::symlink_status(path))) throw missing();
+    int fd = OpenFile(path, O_WRONLY);
+    struct stat status {};
+    if (::fstat(fd, &status) != 0 || static_cast<std::uintmax_t>(status.st_size) < size) {
+      CloseFile(fd);
+      throw missing();
     }
     // Rows written after the checkpoint may be incomplete; they are computed again.
-    std::filesystem::resize_file(path, size);
+    const bool cut = ::ftruncate(fd, static_cast<off_t>(size)) == 0;
+    CloseFile(fd);
+    if (!cut) throw IoError(path, "cannot cut to the checkpoint");
   }
   points_fd_ = OpenFile(paths_.points_partial, O_WRONLY | O_APPEND);
   eigenvalues_fd_ = OpenFile(paths_.eigenvalues_partial, O_WRONLY | O_APPEND);
@@ -639,9 +689,10 @@ void SweepOutput::Checkpoint() {
   last_checkpoint_ = std::chrono::steady_clock::now();
 }
 
-void SweepOutput::Finish() {
+bool SweepOutput::Finish(const std::function<bool()>& stop_requested) {
   assert(points_done_ == grid_.num_points());
-  if (already_complete_) return;
+  if (already_complete_) return true;
+  if (stop_requested && stop_requested()) return false;
   if (format_ == SweepFileFormat::kCsv) {
     // The checkpoint must say "all done" before the first rename: a crash between the renames
     // then resumes here instead of missing a partial file.
@@ -653,7 +704,7 @@ void SweepOutput::Finish() {
     // durable first: a crash before sweep.json says completed resumes at the last checkpoint,
     // and the file built again then has the same bytes.
     CloseTables();
-    WriteTableFile();
+    if (!WriteTableFile(stop_requested)) return false;
   }
   SyncDirectory();
   WriteRecord(true);
@@ -666,6 +717,7 @@ void SweepOutput::Finish() {
   }
   SyncDirectory();
   already_complete_ = true;
+  return true;
 }
 
 bool SweepOutput::FinalFilesExist() const {
@@ -678,6 +730,7 @@ void SweepOutput::RenameCsvTables() {
        {std::pair{paths_.points_partial, paths_.points},
         std::pair{paths_.eigenvalues_partial, paths_.eigenvalues}}) {
     if (std::filesystem::exists(partial)) {
+      CheckOutputPath(final_path.string());
       std::filesystem::rename(partial, final_path);
     } else if (!std::filesystem::exists(final_path)) {
       throw Error(partial.string() + ": missing; delete " + directory_.string() +
@@ -686,11 +739,11 @@ void SweepOutput::RenameCsvTables() {
   }
 }
 
-void SweepOutput::WriteTableFile() {
+bool SweepOutput::WriteTableFile(const std::function<bool()>& stop_requested) {
   const bool have_records = std::filesystem::exists(paths_.points_partial) &&
                             std::filesystem::exists(paths_.eigenvalues_partial);
   if (!have_records) {
-    if (std::filesystem::exists(paths_.table_file)) return;  // built before a crash
+    if (std::filesystem::exists(paths_.table_file)) return true;  // built before a crash
     throw Error(paths_.points_partial.string() + ": missing; delete " + directory_.string() +
                 " to start the sweep again");
   }
@@ -703,7 +756,9 @@ void SweepOutput::WriteTableFile() {
   } else {
     const std::unique_ptr<TableRecordReader> eigenvalues =
         OpenEigenvalueRecords(grid_, paths_.eigenvalues_partial);
-    WriteSweepMat(temporary, TableFileMetadata(), *points, *eigenvalues);
+    if (!WriteSweepMat(temporary, TableFileMetadata(), *points, *eigenvalues, stop_requested)) {
+      return false;
+    }
   }
   int fd = OpenFile(temporary, O_RDONLY);
   try {
@@ -713,7 +768,9 @@ void SweepOutput::WriteTableFile() {
     throw;
   }
   CloseFile(fd);
+  CheckOutputPath(paths_.table_file.string());
   std::filesystem::rename(temporary, paths_.table_file);
+  return true;
 }
 
 void SweepOutput::WriteRecord(bool completed) const {
@@ -775,6 +832,7 @@ void SweepOutput::WriteDurably(const std::filesystem::path& path,
     throw;
   }
   CloseFile(fd);
+  CheckOutputPath(path.string());
   std::filesystem::rename(temporary, path);
   SyncDirectory();
 }

@@ -22,6 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <memory>
 #include <optional>
@@ -161,8 +162,10 @@ class SweepOutput {
   /// After the last point: renames the partial files to points.csv and eigenvalues.csv (or builds
   /// sweep.h5 or sweep.mat from them and removes them), writes sweep.json with completed true
   /// and removes the checkpoint. Safe to repeat after a crash in the middle of it (the
-  /// constructor resumes at the last point, and Finish completes it).
-  void Finish();
+  /// constructor resumes at the last point, and Finish completes it). Asks `stop_requested`
+  /// (when given) before and while it builds a table file: once it says true, returns false
+  /// with the sweep as resumable as at the last checkpoint; true when finished.
+  bool Finish(const std::function<bool()>& stop_requested = {});
 
  private:
   struct Paths {
@@ -184,7 +187,7 @@ class SweepOutput {
   void CloseTables();
   bool FinalFilesExist() const;
   void RenameCsvTables();
-  void WriteTableFile();
+  bool WriteTableFile(const std::function<bool()>& stop_requested);
   SweepFileMetadata TableFileMetadata() const;  // what sweep.h5 and sweep.mat record besides rows
   void StartHdf5File();
   SweepHdf5Writer& Hdf5File();  // the writer, once created

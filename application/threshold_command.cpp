@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 #include <sstream>
+#include <string>
 
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/thresholds.h"
@@ -200,7 +201,8 @@ Command AddThresholdCommand(CLI::App& app) {
                         "Output value at the operating point, one per output (default: h(0))");
   threshold->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
   threshold
-      ->add_option("--scan", arguments->options.scan_intervals, "Scan intervals before bisection")
+      ->add_option("--scan", arguments->options.scan_intervals,
+                   "Scan intervals before bisection, 1 to " + std::to_string(kMaxScanIntervals))
       ->capture_default_str();
   threshold
       ->add_option("--tolerance", arguments->options.relative_tolerance,

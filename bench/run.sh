@@ -33,6 +33,9 @@ echo
 echo "== stable inversion against SciPy solve_bvp (issue #5) =="
 "$root/bench/compare_stable_inversion.sh" "$build"
 echo
+echo "== a sampled trajectory against its closed form: cost linear in the samples (issue #29) =="
+"$root/bench/compare_sampled_trajectory.sh" "$build"
+echo
 echo "== large linear models: ARPACK against scipy.sparse.linalg.eigs (issue #6) =="
 "$root/bench/compare_large.sh" "$build"
 echo

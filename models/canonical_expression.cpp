@@ -4,6 +4,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "models/symbolic_lock.h"
+
 namespace servokit {
 namespace {
 
@@ -447,11 +449,13 @@ void CanonicalExpressions::PrintNode(NodeId id, int context, std::string& out) c
 }
 
 std::string CanonicalText(const GiNaC::ex& expression) {
+  const SymbolicLock lock;
   CanonicalExpressions canonical;
   return canonical.Text(canonical.Add(expression));
 }
 
 GiNaC::ex CanonicalNormal(const GiNaC::ex& expression) {
+  const SymbolicLock lock;
   const GiNaC::ex fraction = expression.numer_denom();
   return fraction.op(0).expand() / fraction.op(1).expand();
 }

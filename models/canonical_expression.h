@@ -19,6 +19,8 @@
 //     subexpressions common to several expressions, whatever sign GiNaC gave them.
 // Everything numeric that servokit builds from GiNaC goes through this form (the compiler of
 // models/expression_program.h), and so does every closed form it prints (CanonicalText).
+// GiNaC work: callers hold a SymbolicLock (models/symbolic_lock.h) while they use these
+// expressions; CanonicalText and CanonicalNormal take one as well.
 #include <ginac/ginac.h>
 
 #include <cstdint>

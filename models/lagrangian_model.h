@@ -4,7 +4,8 @@
 // the kinetic energy T, the potential energy V, the Rayleigh dissipation function R and the
 // generalized forces Q. The one place these formulas are written; models/model_loader.cpp reads
 // the file, checks the result and hands M and f to the same SymbolicModel as the explicit form.
-// Internal to models/ (namespace detail).
+// Internal to models/ (namespace detail); runs under the loader's SymbolicLock
+// (models/symbolic_lock.h).
 #include <ginac/ginac.h>
 
 #include <vector>

@@ -20,6 +20,8 @@
 #include <sstream>
 #include <utility>
 
+#include "files/input_file.h"
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/loader_support.h"
@@ -42,6 +44,7 @@ constexpr std::string_view kDefaultFactor = "1";
 using detail::Contains;
 using detail::ContentHasher;
 using detail::FindUnsupported;
+using detail::FreeTextProblem;
 using detail::Indexed;
 using detail::IsIdentifierChar;
 using detail::Join;
@@ -61,19 +64,6 @@ std::string ShortNumber(double value) {
   std::array<char, 32> text;
   const auto result = std::to_chars(text.data(), text.data() + text.size(), value);
   return std::string(text.data(), result.ptr);
-}
-
-// The whole file as bytes; nullopt with errno set if it cannot be read. Sized up front: matrix
-// files of large models run to hundreds of megabytes.
-std::optional<std::string> ReadBytes(const std::string& path) {
-  std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) return std::nullopt;
-  const std::streamoff size = file.tellg();
-  if (size < 0) return std::nullopt;
-  file.seekg(0);
-  std::string bytes(static_cast<std::size_t>(size), '\0');
-  if (!file.read(bytes.data(), size)) return std::nullopt;
-  return bytes;
 }
 
 // Same pattern and the same bits in every stored value.
@@ -186,9 +176,15 @@ class LinearModelBuilder {
   void ReadName() {
     const YAML::Node name = Entry("name");
     if (!name.IsScalar() || name.Scalar().empty()) Fail("name", "expected a non-empty string");
+    if (const std::optional<std::string> problem = FreeTextProblem(name.Scalar(), false)) {
+      Fail("name", *problem);
+    }
     model_.name_ = name.Scalar();
     if (const YAML::Node description = Entry("description")) {
       if (!description.IsScalar()) Fail("description", "expected a string");
+      if (const std::optional<std::string> problem = FreeTextProblem(description.Scalar(), true)) {
+        Fail("description", *problem);
+      }
       model_.description_ = description.Scalar();
     }
   }
@@ -293,11 +289,9 @@ class LinearModelBuilder {
     if (const auto cached = matrices_.find(path_text); cached != matrices_.end()) {
       return cached->second;
     }
-    errno = 0;
-    const std::optional<std::string> bytes = ReadBytes(path_text);
-    if (!bytes) {
-      Fail(where, "cannot read the matrix file " + path_text + " (" + std::strerror(errno) + ")");
-    }
+    std::string reason;
+    const std::optional<std::string> bytes = TryReadInputFile(path_text, kMatrixFileLimit, reason);
+    if (!bytes) Fail(where, "cannot read the matrix file " + path_text + " (" + reason + ")");
     hasher_.Add(*bytes);
     try {
       SparseMatrix matrix = ParseMatrixMarket(*bytes, path_text);
@@ -501,13 +495,10 @@ class ModelWriter {
     yaml << YAML::EndMap;
     if (!yaml.good()) throw UsageError("cannot write the model file: " + yaml.GetLastError());
     const std::filesystem::path path = directory_ / (files_.name + ".yaml");
-    std::ofstream file(path, std::ios::binary);
-    file << yaml.c_str() << "\n";
-    file.close();
-    if (!file) {
-      throw UsageError(path.string() + ": cannot write the model file (" + std::strerror(errno) +
-                       ")");
-    }
+    OutputFile file(path.string());
+    file.Write(yaml.c_str());
+    file.Write("\n");
+    file.Commit();
     return path.string();
   }
 

@@ -1,6 +1,9 @@
 // The model-file reader: one read, one parse, then the builder of the file's kind
 // (models/model_loader.cpp, models/linear_model.cpp). LoadModel and LoadLinearModel are this
-// reader for callers that accept one kind only.
+// reader for callers that accept one kind only. Reading the file and its YAML runs in parallel;
+// building the model is symbolic work (GiNaC parses and derives, also a linear model's parameter
+// expressions) and runs under SymbolicLock (models/symbolic_lock.h), so that models can be
+// loaded from several threads at once.
 #include "models/loaded_model.h"
 
 #include <string>
@@ -10,12 +13,14 @@
 #include "models/linear_model.h"
 #include "models/loader_support.h"
 #include "models/model.h"
+#include "models/symbolic_lock.h"
 
 namespace servokit {
 namespace {
 
 LoadedModel LoadDocument(const detail::ModelDocument& document,
                          const std::vector<ParameterOverride>& overrides) {
+  const SymbolicLock lock;
   switch (detail::ReadModelKind(document)) {
     case ModelKind::kLinear:
       return LoadedModel(detail::BuildLinearModel(document, overrides));
@@ -33,6 +38,7 @@ Model LoadMultibodyDocument(const detail::ModelDocument& document,
                      ": a linear model (Matrix Market matrices), which only the linear analysis "
                      "and its sweep read; this needs a multibody model");
   }
+  const SymbolicLock lock;
   return detail::BuildModel(document, overrides);
 }
 
@@ -67,6 +73,7 @@ LinearModel LoadLinearModel(const std::string& path,
                      std::string(detail::kLinearKind) +
                      " (this is a multibody model; load it with LoadModel)");
   }
+  const SymbolicLock lock;
   return detail::BuildLinearModel(document, overrides);
 }
 

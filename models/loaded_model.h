@@ -72,7 +72,8 @@ class LoadedModel {
 /// loads the model its `kind` names, with `overrides` applied. Throws ModelError ("file: key:
 /// entry: problem") for a file that cannot be read, bad YAML, an unknown kind, and whatever
 /// LoadModel or LoadLinearModel report for a bad file of their kind; UsageError for a bad
-/// override. Uses GiNaC, which is not thread-safe: load models from one thread, then share them.
+/// override. Thread-safe: the part that uses GiNaC runs under SymbolicLock
+/// (models/symbolic_lock.h).
 LoadedModel LoadModelFile(const std::string& path,
                           const std::vector<ParameterOverride>& overrides = {});
 

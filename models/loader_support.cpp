@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "files/input_file.h"
 #include "models/errors.h"
 #include "models/units.h"
 
@@ -236,6 +238,20 @@ std::string ContentHasher::Hex() const {
   return hex.str();
 }
 
+std::optional<std::string> FreeTextProblem(std::string_view text, bool line_breaks_allowed) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    const bool line_break = byte == '\n' || byte == '\r' || byte == '\t';
+    if ((byte < 0x20 || byte == 0x7f) && !(line_breaks_allowed && line_break)) {
+      std::array<char, 8> code{};
+      std::snprintf(code.data(), code.size(), "0x%02x", unsigned(byte));
+      return "holds the control character " + std::string(code.data()) + " at character " +
+             std::to_string(i + 1) + (line_breaks_allowed ? "" : " (a name is one line)");
+    }
+  }
+  return std::nullopt;
+}
+
 bool IsIdentifierStart(char c) { return std::isalpha(static_cast<unsigned char>(c)) != 0; }
 bool IsIdentifierChar(char c) {
   return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
@@ -443,7 +459,14 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
 ModelDocument ParseModelDocument(std::string yaml_text, std::string source) {
   ModelDocument document{std::move(source), std::move(yaml_text), {}};
   try {
-    document.root = YAML::Load(document.text);
+    // A second document (after "---") would be ignored by YAML::Load: the model would silently
+    // be only its first part.
+    std::vector<YAML::Node> documents = YAML::LoadAll(document.text);
+    if (documents.size() > 1) {
+      throw ModelError(document.source + ": holds " + std::to_string(documents.size()) +
+                       " YAML documents (separated by ---); a model file is one");
+    }
+    if (!documents.empty()) document.root = documents.front();
   } catch (const YAML::ParserException& error) {
     // yaml-cpp counts lines and columns from 0; editors count from 1.
     throw ModelError(document.source + ":" + std::to_string(error.mark.line + 1) + ":" +
@@ -453,19 +476,8 @@ ModelDocument ParseModelDocument(std::string yaml_text, std::string source) {
 }
 
 ModelDocument ReadModelDocument(const std::string& path) {
-  errno = 0;  // so that the message gives the reason of this failure
-  std::ifstream file(path, std::ios::binary);
-  const auto fail = [&path] {
-    throw ModelError(path + ": cannot read the model file (" + std::strerror(errno) + ")");
-  };
-  if (!file) fail();
-  std::string text;
-  std::array<char, 4096> chunk;
-  while (file.read(chunk.data(), chunk.size()) || file.gcount() > 0) {
-    text.append(chunk.data(), static_cast<std::size_t>(file.gcount()));
-  }
-  if (file.bad()) fail();
-  return ParseModelDocument(std::move(text), path);
+  return ParseModelDocument(
+      ReadInputFile(path, "the model file", kModelFileLimit, ErrorKind::kModel), path);
 }
 
 ModelKind ReadModelKind(const ModelDocument& document) {

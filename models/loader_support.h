@@ -121,6 +121,12 @@ bool IsIdentifier(std::string_view name);
 /// name, pi or one of GiNaC's constants), or nullopt.
 std::optional<std::string> ReservedNameProblem(const std::string& name);
 
+// What is wrong with a model's free text (its name, its description), or nothing: a control
+// character (a line break, a tab, ESC, DEL, NUL) would end a line of a gnuplot script, a
+// Modelica comment or a terminal's text early. A description may hold line breaks and tabs
+// (YAML's folded and literal blocks make them); a name may not.
+std::optional<std::string> FreeTextProblem(std::string_view text, bool line_breaks_allowed);
+
 /// "key[i]".
 std::string Indexed(std::string_view key, std::size_t i);
 

@@ -16,6 +16,7 @@
 #include <system_error>
 #include <vector>
 
+#include "files/output_file.h"
 #include "models/errors.h"
 
 namespace servokit {
@@ -375,10 +376,6 @@ void Format(const SparseMatrix& matrix, std::string_view comment, ChunkedWriter&
   writer.Flush();
 }
 
-struct FileCloser {
-  void operator()(std::FILE* file) const { std::fclose(file); }
-};
-
 }  // namespace
 
 SparseMatrix ParseMatrixMarket(std::string_view text, const std::string& source) {
@@ -395,19 +392,10 @@ std::string FormatMatrixMarket(const SparseMatrix& matrix, std::string_view comm
 void WriteMatrixMarket(const SparseMatrix& matrix,
                        const std::string& path,
                        std::string_view comment) {
-  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
-  if (!file) {
-    throw UsageError(path + ": cannot write the matrix file (" + std::strerror(errno) + ")");
-  }
-  ChunkedWriter writer([&](std::string_view chunk) {
-    if (std::fwrite(chunk.data(), 1, chunk.size(), file.get()) != chunk.size()) {
-      throw UsageError(path + ": cannot write the matrix file (" + std::strerror(errno) + ")");
-    }
-  });
+  OutputFile file(path);
+  ChunkedWriter writer([&](std::string_view chunk) { file.Write(chunk); });
   Format(matrix, comment, writer);
-  if (std::fclose(file.release()) != 0) {
-    throw UsageError(path + ": cannot write the matrix file (" + std::strerror(errno) + ")");
-  }
+  file.Commit();
 }
 
 }  // namespace servokit

@@ -4,7 +4,8 @@
 // Model is built once by LoadModel() and never changed afterwards; it is shared by all threads.
 // Workspace holds every buffer an evaluation needs; each thread owns one (as Pinocchio keeps
 // Model apart from Data). Numeric code evaluates compiled ExpressionPrograms only and never
-// calls GiNaC, which is slow per call and not thread-safe.
+// calls GiNaC, which is slow per call and not thread-safe; symbolic work runs under
+// SymbolicLock (models/symbolic_lock.h), and so does the destruction of a model's expressions.
 #include <Eigen/Dense>
 #include <cstddef>
 #include <memory>
@@ -106,7 +107,8 @@ class Model {
   /// Index of a parameter by name, or nullopt.
   std::optional<std::size_t> FindParameter(std::string_view name) const;
 
-  /// The GiNaC expressions (for closed forms and reports; not for numeric loops).
+  /// The GiNaC expressions (for closed forms and reports; not for numeric loops). Hold a
+  /// SymbolicLock (models/symbolic_lock.h) while you use them: other threads may be using them.
   const SymbolicModel& symbolic() const { return *symbolic_; }
   /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot].
   const ExpressionProgram& program(Quantity quantity) const;
@@ -146,7 +148,8 @@ class Model {
 /// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
 /// for a bad file (a linear model's too; LoadModelFile, models/loaded_model.h, reads a file of
 /// either kind) and ParameterOverrideError for a bad override (unknown name, bad value). Uses
-/// GiNaC, which is not thread-safe: load models from one thread, then share them.
+/// GiNaC, which is not thread-safe, under SymbolicLock (models/symbolic_lock.h): models load
+/// from several threads at once, one after the other where they use GiNaC.
 Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
 
 /// As LoadModel, from YAML text; `source` names it in error messages.

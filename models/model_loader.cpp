@@ -91,6 +91,7 @@ Form FormOf(const YAML::Node& root) {
 
 // Optional: the kind of model file; models/loaded_model.cpp has read it and dispatched on it
 // already.
+using detail::FreeTextProblem;
 using detail::kKindKey;
 
 using detail::Contains;
@@ -244,10 +245,16 @@ class ModelBuilder {
     if (!name.IsScalar() || name.Scalar().empty()) {
       Fail("name", "expected a non-empty string");
     }
+    if (const std::optional<std::string> problem = FreeTextProblem(name.Scalar(), false)) {
+      Fail("name", *problem);
+    }
     model_.name_ = name.Scalar();
     if (const YAML::Node description = Entry(std::string(kDescriptionKey))) {
       if (!description.IsScalar()) {
         Fail(std::string(kDescriptionKey), "expected a string");
+      }
+      if (const std::optional<std::string> problem = FreeTextProblem(description.Scalar(), true)) {
+        Fail(std::string(kDescriptionKey), *problem);
       }
       model_.description_ = description.Scalar();
     }

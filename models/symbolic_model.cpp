@@ -68,81 +68,91 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                              GiNaC::matrix mass_matrix,
                              GiNaC::matrix forces,
                              GiNaC::matrix input_matrix,
-                             GiNaC::matrix output)
-    : parameters_(std::move(parameters)),
-      coordinates_(std::move(coordinates)),
-      velocities_(std::move(velocities)),
-      mass_matrix_(std::move(mass_matrix)),
-      forces_(std::move(forces)),
-      input_matrix_(std::move(input_matrix)),
-      output_(std::move(output)) {
-  assert(velocities_.size() == coordinates_.size());
-  assert(mass_matrix_.rows() == dof() && mass_matrix_.cols() == dof());
-  assert(forces_.rows() == dof() && forces_.cols() == 1);
-  assert(input_matrix_.rows() == dof());
-  assert(output_.cols() == 1);
-  output_jacobian_ = Jacobian(output_, coordinates_);
-  output_jacobian_derivatives_ = Derivatives(output_jacobian_, coordinates_);
-  output_bias_ = OutputBias(output_jacobian_derivatives_, velocities_, output_.rows());
-  forces_position_jacobian_ = Jacobian(forces_, coordinates_);
-  forces_velocity_jacobian_ = Jacobian(forces_, velocities_);
-  mass_matrix_derivatives_ = Derivatives(mass_matrix_, coordinates_);
-  input_matrix_derivatives_ = Derivatives(input_matrix_, coordinates_);
-  output_bias_position_jacobian_ = Jacobian(output_bias_, coordinates_);
-  output_bias_velocity_jacobian_ = Jacobian(output_bias_, velocities_);
+                             GiNaC::matrix output) {
+  const SymbolicLock lock;
+  expressions_.reset(new Expressions());
+  Expressions& e = *expressions_;
+  e.parameters = std::move(parameters);
+  e.coordinates = std::move(coordinates);
+  e.velocities = std::move(velocities);
+  e.mass_matrix = std::move(mass_matrix);
+  e.forces = std::move(forces);
+  e.input_matrix = std::move(input_matrix);
+  e.output = std::move(output);
+  assert(e.velocities.size() == e.coordinates.size());
+  assert(e.mass_matrix.rows() == dof() && e.mass_matrix.cols() == dof());
+  assert(e.forces.rows() == dof() && e.forces.cols() == 1);
+  assert(e.input_matrix.rows() == dof());
+  assert(e.output.cols() == 1);
+  e.output_jacobian = Jacobian(e.output, e.coordinates);
+  e.output_jacobian_derivatives = Derivatives(e.output_jacobian, e.coordinates);
+  e.output_bias = OutputBias(e.output_jacobian_derivatives, e.velocities, e.output.rows());
+  e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
+  e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
+  e.mass_matrix_derivatives = Derivatives(e.mass_matrix, e.coordinates);
+  e.input_matrix_derivatives = Derivatives(e.input_matrix, e.coordinates);
+  e.output_bias_position_jacobian = Jacobian(e.output_bias, e.coordinates);
+  e.output_bias_velocity_jacobian = Jacobian(e.output_bias, e.velocities);
   if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs()) {
     GiNaC::exmap at_rest;
-    for (const GiNaC::realsymbol& velocity : velocities_) at_rest[velocity] = 0;
+    for (const GiNaC::realsymbol& velocity : e.velocities) at_rest[velocity] = 0;
     const GiNaC::realsymbol lambda("lambda");
     const GiNaC::ex polynomial =
         GiNaC::numer(GiNaC::normal(RosenbrockDeterminant(lambda, at_rest))).expand();
     for (int k = 0; k <= int(2 * dof()); ++k) {
       const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
-      zero_dynamics_polynomial_.push_back(coefficient);
-      zero_dynamics_polynomial_scale_.push_back(SumOfAbsoluteTerms(coefficient));
+      e.zero_dynamics_polynomial.push_back(coefficient);
+      e.zero_dynamics_polynomial_scale.push_back(SumOfAbsoluteTerms(coefficient));
     }
   }
 }
 
 GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,
                                                const GiNaC::exmap& at) const {
+  const SymbolicLock lock;
+  const Expressions& e = *expressions_;
   const unsigned n = unsigned(dof()), m = unsigned(num_inputs());
   GiNaC::matrix rosenbrock(n + m, n + m);
   for (unsigned i = 0; i < n; ++i) {
     for (unsigned j = 0; j < n; ++j) {
       rosenbrock(i, j) =
-          (mass_matrix_(i, j) * GiNaC::pow(lambda, 2) + forces_velocity_jacobian_(i, j) * lambda +
-           forces_position_jacobian_(i, j))
+          (e.mass_matrix(i, j) * GiNaC::pow(lambda, 2) + e.forces_velocity_jacobian(i, j) * lambda +
+           e.forces_position_jacobian(i, j))
               .subs(at);
     }
-    for (unsigned k = 0; k < m; ++k) rosenbrock(i, n + k) = -input_matrix_(i, k).subs(at);
+    for (unsigned k = 0; k < m; ++k) rosenbrock(i, n + k) = -e.input_matrix(i, k).subs(at);
   }
-  for (unsigned r = 0; r < output_.rows(); ++r) {
-    for (unsigned j = 0; j < n; ++j) rosenbrock(n + r, j) = output_jacobian_(r, j).subs(at);
+  for (unsigned r = 0; r < e.output.rows(); ++r) {
+    for (unsigned j = 0; j < n; ++j) rosenbrock(n + r, j) = e.output_jacobian(r, j).subs(at);
   }
   return rosenbrock.determinant();
 }
 
 std::vector<GiNaC::ex> SymbolicModel::ProgramInputs() const {
+  const SymbolicLock lock;
+  const Expressions& e = *expressions_;
   std::vector<GiNaC::ex> inputs;
-  inputs.reserve(parameters_.size() + coordinates_.size() + velocities_.size());
-  inputs.insert(inputs.end(), parameters_.begin(), parameters_.end());
-  inputs.insert(inputs.end(), coordinates_.begin(), coordinates_.end());
-  inputs.insert(inputs.end(), velocities_.begin(), velocities_.end());
+  inputs.reserve(e.parameters.size() + e.coordinates.size() + e.velocities.size());
+  inputs.insert(inputs.end(), e.parameters.begin(), e.parameters.end());
+  inputs.insert(inputs.end(), e.coordinates.begin(), e.coordinates.end());
+  inputs.insert(inputs.end(), e.velocities.begin(), e.velocities.end());
   return inputs;
 }
 
 GiNaC::exmap SymbolicModel::ParameterValues(const Eigen::VectorXd& values) const {
-  assert(static_cast<std::size_t>(values.size()) == parameters_.size());
+  const SymbolicLock lock;
+  const std::vector<GiNaC::realsymbol>& symbols = expressions_->parameters;
+  assert(static_cast<std::size_t>(values.size()) == symbols.size());
   GiNaC::exmap substitution;
-  for (std::size_t i = 0; i < parameters_.size(); ++i) {
-    substitution[parameters_[i]] = GiNaC::numeric(values[static_cast<Eigen::Index>(i)]);
+  for (std::size_t i = 0; i < symbols.size(); ++i) {
+    substitution[symbols[i]] = GiNaC::numeric(values[static_cast<Eigen::Index>(i)]);
   }
   return substitution;
 }
 
 GiNaC::ex SymbolicModel::SubstituteParameters(const GiNaC::ex& expression,
                                               const Eigen::VectorXd& values) const {
+  const SymbolicLock lock;
   return expression.subs(ParameterValues(values));
 }
 

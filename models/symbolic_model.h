@@ -3,12 +3,16 @@
 // expressions of M, f, B, h as read from the model file, and everything derived from them once
 // at load time. Numeric code uses the compiled programs instead (models/model.h); this view is
 // for closed forms (characteristic polynomials, normal forms) and for reports. GiNaC is not
-// thread-safe: use a SymbolicModel from one thread at a time.
+// thread-safe: hold a SymbolicLock (models/symbolic_lock.h) while you use the expressions; the
+// member functions that make new ones take it themselves, and any thread may destroy a
+// SymbolicModel (its expressions go under the lock).
 #include <ginac/ginac.h>
 
 #include <Eigen/Dense>
 #include <cstddef>
 #include <vector>
+
+#include "models/symbolic_lock.h"
 
 namespace servokit {
 
@@ -18,7 +22,8 @@ namespace servokit {
 class SymbolicModel {
  public:
   /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
-  /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`.
+  /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`. The caller
+  /// holds a SymbolicLock (it made the arguments); the derivation takes one too.
   SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                 std::vector<GiNaC::realsymbol> coordinates,
                 std::vector<GiNaC::realsymbol> velocities,
@@ -28,56 +33,60 @@ class SymbolicModel {
                 GiNaC::matrix output);
 
   /// Number of coordinates q.
-  std::size_t dof() const { return coordinates_.size(); }
+  std::size_t dof() const { return expressions_->coordinates.size(); }
   /// Number of inputs u (columns of B).
-  std::size_t num_inputs() const { return input_matrix_.cols(); }
+  std::size_t num_inputs() const { return expressions_->input_matrix.cols(); }
   /// Number of outputs y (rows of h).
-  std::size_t num_outputs() const { return output_.rows(); }
+  std::size_t num_outputs() const { return expressions_->output.rows(); }
 
   /// The parameter symbols, in the order of Model::parameter_names().
-  const std::vector<GiNaC::realsymbol>& parameters() const { return parameters_; }
+  const std::vector<GiNaC::realsymbol>& parameters() const { return expressions_->parameters; }
   /// q, in the order of Model::coordinates().
-  const std::vector<GiNaC::realsymbol>& coordinates() const { return coordinates_; }
+  const std::vector<GiNaC::realsymbol>& coordinates() const { return expressions_->coordinates; }
   /// q_dot; the symbol of coordinate c is named c_dot.
-  const std::vector<GiNaC::realsymbol>& velocities() const { return velocities_; }
+  const std::vector<GiNaC::realsymbol>& velocities() const { return expressions_->velocities; }
   /// The inputs of every compiled program: [parameters, q, q_dot].
   std::vector<GiNaC::ex> ProgramInputs() const;
 
   /// M(q), dof x dof (paper Eq. 1).
-  const GiNaC::matrix& mass_matrix() const { return mass_matrix_; }
+  const GiNaC::matrix& mass_matrix() const { return expressions_->mass_matrix; }
   /// f(q, q_dot), dof x 1 (paper Eq. 1).
-  const GiNaC::matrix& forces() const { return forces_; }
+  const GiNaC::matrix& forces() const { return expressions_->forces; }
   /// B(q), dof x inputs (paper Eq. 1).
-  const GiNaC::matrix& input_matrix() const { return input_matrix_; }
+  const GiNaC::matrix& input_matrix() const { return expressions_->input_matrix; }
   /// h(q), outputs x 1 (paper Eq. 3).
-  const GiNaC::matrix& output() const { return output_; }
+  const GiNaC::matrix& output() const { return expressions_->output; }
   /// H = dh/dq, outputs x dof (paper Eq. 4).
-  const GiNaC::matrix& output_jacobian() const { return output_jacobian_; }
+  const GiNaC::matrix& output_jacobian() const { return expressions_->output_jacobian; }
   /// h_bar = H_dot q_dot = sum_jk d2h/dq_j dq_k q_dot_j q_dot_k, outputs x 1 (paper Eq. 5).
-  const GiNaC::matrix& output_bias() const { return output_bias_; }
+  const GiNaC::matrix& output_bias() const { return expressions_->output_bias; }
   /// df/dq, dof x dof.
-  const GiNaC::matrix& forces_position_jacobian() const { return forces_position_jacobian_; }
+  const GiNaC::matrix& forces_position_jacobian() const {
+    return expressions_->forces_position_jacobian;
+  }
   /// df/dq_dot, dof x dof.
-  const GiNaC::matrix& forces_velocity_jacobian() const { return forces_velocity_jacobian_; }
+  const GiNaC::matrix& forces_velocity_jacobian() const {
+    return expressions_->forces_velocity_jacobian;
+  }
   /// dM/dq_k for k = 0..dof-1, each dof x dof.
   const std::vector<GiNaC::matrix>& mass_matrix_derivatives() const {
-    return mass_matrix_derivatives_;
+    return expressions_->mass_matrix_derivatives;
   }
   /// dB/dq_k for k = 0..dof-1, each dof x inputs.
   const std::vector<GiNaC::matrix>& input_matrix_derivatives() const {
-    return input_matrix_derivatives_;
+    return expressions_->input_matrix_derivatives;
   }
   /// dH/dq_k for k = 0..dof-1, each outputs x dof.
   const std::vector<GiNaC::matrix>& output_jacobian_derivatives() const {
-    return output_jacobian_derivatives_;
+    return expressions_->output_jacobian_derivatives;
   }
   /// d h_bar/dq, outputs x dof.
   const GiNaC::matrix& output_bias_position_jacobian() const {
-    return output_bias_position_jacobian_;
+    return expressions_->output_bias_position_jacobian;
   }
   /// d h_bar/dq_dot, outputs x dof.
   const GiNaC::matrix& output_bias_velocity_jacobian() const {
-    return output_bias_velocity_jacobian_;
+    return expressions_->output_bias_velocity_jacobian;
   }
 
   /// det [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]] with `at` substituted (e.g.
@@ -91,12 +100,12 @@ class SymbolicModel {
   /// larger ones: a symbolic determinant costs like n!). Denominators are cleared, which
   /// scales every coefficient alike and keeps the roots.
   const std::vector<GiNaC::ex>& zero_dynamics_polynomial() const {
-    return zero_dynamics_polynomial_;
+    return expressions_->zero_dynamics_polynomial;
   }
   /// For each coefficient, the sum of the absolute values of its terms: the size against which
   /// "this coefficient is zero" is decided (cancellation down to round-off).
   const std::vector<GiNaC::ex>& zero_dynamics_polynomial_scale() const {
-    return zero_dynamics_polynomial_scale_;
+    return expressions_->zero_dynamics_polynomial_scale;
   }
   /// Rows of the Rosenbrock matrix (dof + inputs) up to which zero_dynamics_polynomial() is
   /// derived at load; keeps loading well under the 100 ms goal.
@@ -109,14 +118,19 @@ class SymbolicModel {
   GiNaC::ex SubstituteParameters(const GiNaC::ex& expression, const Eigen::VectorXd& values) const;
 
  private:
-  std::vector<GiNaC::realsymbol> parameters_, coordinates_, velocities_;
-  GiNaC::matrix mass_matrix_, forces_, input_matrix_, output_;
-  GiNaC::matrix output_jacobian_, output_bias_;
-  GiNaC::matrix forces_position_jacobian_, forces_velocity_jacobian_;
-  std::vector<GiNaC::matrix> mass_matrix_derivatives_, input_matrix_derivatives_,
-      output_jacobian_derivatives_;
-  GiNaC::matrix output_bias_position_jacobian_, output_bias_velocity_jacobian_;
-  std::vector<GiNaC::ex> zero_dynamics_polynomial_, zero_dynamics_polynomial_scale_;
+  // Everything GiNaC of the model. A Model shares it with its copies, and the thread that drops
+  // the last one may be any, so it is destroyed under SymbolicLock (models/symbolic_lock.h).
+  struct Expressions {
+    std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
+    GiNaC::matrix mass_matrix, forces, input_matrix, output;
+    GiNaC::matrix output_jacobian, output_bias;
+    GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
+    std::vector<GiNaC::matrix> mass_matrix_derivatives, input_matrix_derivatives,
+        output_jacobian_derivatives;
+    GiNaC::matrix output_bias_position_jacobian, output_bias_velocity_jacobian;
+    std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
+  };
+  SymbolicPtr<Expressions> expressions_;
 };
 
 }  // namespace servokit

@@ -8,6 +8,7 @@
 
 #include "analysis/classification.h"
 #include "analysis/threshold_curves.h"
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "models/units.h"
 #include "reports/number_format.h"
@@ -140,7 +141,8 @@ void AddClassMap(Document& document,
   }
   // One colour and dash type per change; the key names each change once.
   std::vector<std::string> changes;
-  std::ofstream csv(directory / (stem + "_curves.csv"));
+  OutputFile csv_file((directory / (stem + "_curves.csv")).string());
+  std::ostream& csv = csv_file.stream();
   csv << "curve,event,from,to,via,traced_along," << x.ColumnName() << "," << y.ColumnName()
       << ",bracket_width\n";
   Table curve_table;
@@ -184,8 +186,7 @@ void AddClassMap(Document& document,
                                 FormatShort(low_x) + " to " + FormatShort(high_x),
                                 FormatShort(low_y) + " to " + FormatShort(high_y)});
   }
-  if (!csv) throw Error("cannot write " + (directory / (stem + "_curves.csv")).string());
-  csv.close();
+  csv_file.Commit();
   DrawPlot(directory.string(), plot);
 
   document.Add(Heading{2, "Map over " + x.name + " and " + y.name});

@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "reports/escaping.h"
 #include "reports/number_format.h"
 
 namespace servokit {
@@ -132,7 +133,8 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
     rows.push_back({"cross-check (QZ)",
                     std::string(c.cross_check->agrees ? "agrees" : "DISAGREES") +
                         ": invariant zeros " + EigenvaluesToText(c.cross_check->invariant_zeros) +
-                        ", largest difference " + FormatShort(c.cross_check->max_difference)});
+                        ", largest difference " + FormatShort(c.cross_check->max_difference) +
+                        (c.cross_check->note.empty() ? "" : "; " + c.cross_check->note)});
   }
   if (c.nonlinear_structure) {
     const NonlinearStructureSummary& nonlinear = *c.nonlinear_structure;
@@ -219,6 +221,8 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
         {"max_difference", c.cross_check->max_difference},
         {"agrees", c.cross_check->agrees},
     };
+    // Only when the routes disagree, so that the object of an agreeing check is unchanged.
+    if (!c.cross_check->note.empty()) zero_dynamics["cross_check"]["note"] = c.cross_check->note;
   }
   nlohmann::ordered_json json = {
       {"model", model.name()},
@@ -264,7 +268,7 @@ std::string RowsToText(const std::string& name,
                        const std::string& source,
                        const SummaryRows& rows) {
   std::ostringstream out;
-  out << name << " (" << source << ")\n";
+  out << PlainText(name) << " (" << PlainText(source) << ")\n";
   for (const auto& [label, value] : rows) {
     out << "  " << label << std::string(label.size() < 24 ? 24 - label.size() : 1, ' ') << value
         << "\n";
@@ -276,8 +280,8 @@ std::string RowsToMarkdown(const std::string& name,
                            const std::string& description,
                            const SummaryRows& rows) {
   std::ostringstream out;
-  out << "## " << name << "\n\n";
-  if (!description.empty()) out << description << "\n\n";
+  out << "## " << MarkdownText(name) << "\n\n";
+  if (!description.empty()) out << MarkdownText(description) << "\n\n";
   out << "| property | value |\n| --- | --- |\n";
   for (const auto& [label, value] : rows) out << "| " << label << " | " << value << " |\n";
   return out.str();

@@ -1,53 +1,53 @@
 #include "reports/document.h"
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "models/errors.h"
+#include "reports/escaping.h"
 
 namespace servokit {
 namespace {
 
-std::string EscapeHtml(const std::string& text) {
-  std::string escaped;
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        escaped += "&amp;";
-        break;
-      case '<':
-        escaped += "&lt;";
-        break;
-      case '>':
-        escaped += "&gt;";
-        break;
-      case '"':
-        escaped += "&quot;";
-        break;
-      default:
-        escaped += c;
-    }
-  }
-  return escaped;
-}
-
-// `code` spans become <code>; everything else is escaped.
+// Inline Markdown as HTML: `code` spans become <code>; outside them a backslash before ASCII
+// punctuation stands for that character (CommonMark's escapes, as MarkdownText writes them);
+// everything else is escaped.
 std::string InlineHtml(const std::string& text) {
   std::string html;
   bool in_code = false;
   std::string span;
-  for (const char c : text) {
-    if (c == '`') {
-      html += in_code ? "<code>" + EscapeHtml(span) + "</code>" : EscapeHtml(span);
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (!in_code && c == '\\' && i + 1 < text.size() &&
+        std::ispunct(static_cast<unsigned char>(text[i + 1]))) {
+      span += text[++i];
+    } else if (c == '`') {
+      html += in_code ? "<code>" + HtmlText(span) + "</code>" : HtmlText(span);
       span.clear();
       in_code = !in_code;
     } else {
       span += c;
     }
   }
-  html += EscapeHtml(span);
+  html += HtmlText(span);
   return html;
+}
+
+// Inline Markdown as plain text, for an HTML title or attribute: the escapes resolved, the code
+// spans' backticks dropped.
+std::string InlineText(const std::string& text) {
+  std::string plain;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '\\' && i + 1 < text.size() &&
+        std::ispunct(static_cast<unsigned char>(text[i + 1]))) {
+      plain += text[++i];
+    } else if (text[i] != '`') {
+      plain += text[i];
+    }
+  }
+  return plain;
 }
 
 std::string EscapeTableCell(const std::string& text) {
@@ -137,7 +137,7 @@ struct HtmlRenderer {
   void operator()(const Figure& figure) const {
     out << "<figure><img src=\"data:image/svg+xml;base64,"
         << Base64(ReadBytes(directory + "/" + figure.svg)) << "\" alt=\""
-        << EscapeHtml(figure.caption) << "\"><figcaption>" << InlineHtml(figure.caption)
+        << HtmlText(InlineText(figure.caption)) << "\"><figcaption>" << InlineHtml(figure.caption)
         << " (files beside this page: ";
     std::string links;
     const std::size_t dot = figure.png.rfind('.');
@@ -145,13 +145,13 @@ struct HtmlRenderer {
     const bool has_pdf = !pdf.empty() && std::filesystem::exists(directory + "/" + pdf);
     for (const std::string* file : {&pdf, &figure.png, &figure.svg}) {
       if (file->empty() || (file == &pdf && !has_pdf)) continue;
-      links += (links.empty() ? "" : ", ") + std::string("<a href=\"") + EscapeHtml(*file) + "\">" +
-               EscapeHtml(*file) + "</a>";
+      links += (links.empty() ? "" : ", ") + std::string("<a href=\"") + HtmlText(*file) + "\">" +
+               HtmlText(*file) + "</a>";
     }
     out << links << ")</figcaption></figure>\n";
   }
   void operator()(const CodeBlock& code) const {
-    out << "<pre>" << EscapeHtml(code.text) << "</pre>\n";
+    out << "<pre>" << HtmlText(code.text) << "</pre>\n";
   }
 };
 
@@ -167,7 +167,7 @@ std::string RenderMarkdown(const Document& document) {
 std::string RenderHtml(const Document& document, const std::string& directory) {
   std::ostringstream out;
   out << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>"
-      << EscapeHtml(document.title) << "</title>\n<style>\n"
+      << HtmlText(InlineText(document.title)) << "</title>\n<style>\n"
       << "body { font-family: sans-serif; max-width: 60em; margin: 2em auto; line-height: 1.4; }\n"
       << "table { border-collapse: collapse; margin: 1em 0; }\n"
       << "th, td { border: 1px solid #999; padding: 0.25em 0.6em; text-align: left; }\n"

@@ -22,9 +22,10 @@ struct MatColumn {
   std::variant<std::vector<double>, std::vector<std::string>> values;
 };
 
-/// A MAT v5 file being written (CreateMatFile). It is created as PATH.partial and renamed to
-/// PATH by Commit(), so an interrupted write never leaves a truncated PATH; destroyed
-/// uncommitted, it removes the partial file. The header text is fixed (matio's default holds the
+/// A MAT v5 file being written (CreateMatFile). It is written to a temporary file and renamed to
+/// PATH by Commit() once its structure is checked complete (files/output_file.h), so an
+/// interrupted write or a full disk never leaves a truncated PATH; destroyed uncommitted, it
+/// removes the temporary file. The header text is fixed (matio's default holds the
 /// creation time, which would make every file differ) and nothing is compressed. Every call
 /// throws Error naming the file when matio fails, UsageError when a name is not a MATLAB name.
 class MatFileWriter {

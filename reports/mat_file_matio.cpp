@@ -2,12 +2,17 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <optional>
 #include <variant>
 #include <vector>
 
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "reports/data_files_plugin.h"
 
@@ -23,6 +28,31 @@ const std::string kHeaderText = [] {
   text.resize(kHeaderTextLength, ' ');
   return text;
 }();
+
+// What is wrong with the MAT v5 file at `path`, which should hold `variables` variables, or
+// nothing: after the 128-byte header, each variable is a tag (type, byte count; 4 bytes each,
+// in the file's byte order, which matio makes this machine's) and that many bytes, 8-aligned;
+// together they must end exactly at the end of the file.
+std::optional<std::string> MatFileStructureProblem(const std::string& path, std::size_t variables) {
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  if (!file) return "cannot read it back";
+  const auto size = static_cast<std::uint64_t>(file.tellg());
+  constexpr std::uint64_t kHeaderBytes = 128, kTagBytes = 8;
+  std::uint64_t offset = kHeaderBytes;
+  std::size_t found = 0;
+  while (offset + kTagBytes <= size) {
+    std::array<std::uint32_t, 2> tag{};
+    file.seekg(static_cast<std::streamoff>(offset));
+    if (!file.read(reinterpret_cast<char*>(tag.data()), sizeof(tag))) return "cannot read it back";
+    const std::uint64_t bytes = (std::uint64_t{tag[1]} + 7) / 8 * 8;
+    offset += kTagBytes + bytes;
+    ++found;
+  }
+  if (offset != size || found != variables) {
+    return "matio left it incomplete (" + std::to_string(size) + " bytes)";
+  }
+  return std::nullopt;
+}
 
 struct VariableDeleter {
   void operator()(matvar_t* variable) const { Mat_VarFree(variable); }
@@ -164,21 +194,18 @@ class MatioFileWriter final : public MatFileWriter {
   void Write(matvar_t* variable, const std::string& name);
 
   std::string path_;
-  std::string partial_;
+  OutputFile output_;  // matio writes its temporary file by name
   mat_t* file_ = nullptr;
+  std::size_t variables_ = 0;  // written so far
 };
 
-MatioFileWriter::MatioFileWriter(const std::string& path)
-    : path_(path), partial_(path + ".partial") {
-  file_ = Mat_CreateVer(partial_.c_str(), kHeaderText.c_str(), MAT_FT_MAT5);
+MatioFileWriter::MatioFileWriter(const std::string& path) : path_(path), output_(path) {
+  file_ = Mat_CreateVer(output_.temporary_path().c_str(), kHeaderText.c_str(), MAT_FT_MAT5);
   if (file_ == nullptr) throw Error("cannot write " + path_ + " (matio cannot create it)");
 }
 
 MatioFileWriter::~MatioFileWriter() {
-  if (file_ == nullptr) return;
-  Mat_Close(file_);
-  std::error_code ignored;  // an uncommitted file is abandoned; its removal may fail quietly
-  std::filesystem::remove(partial_, ignored);
+  if (file_ != nullptr) Mat_Close(file_);  // the OutputFile removes the uncommitted file
 }
 
 void MatioFileWriter::WriteColumn(const std::string& name,
@@ -232,18 +259,23 @@ void MatioFileWriter::Write(matvar_t* variable, const std::string& name) {
     throw Error("cannot write " + path_ + " (matio failed on the variable " + name +
                 "; MAT 5 holds at most 2 GiB per variable)");
   }
+  ++variables_;
 }
 
 void MatioFileWriter::Commit() {
   const int closed = Mat_Close(file_);
   file_ = nullptr;
-  std::error_code error;
-  if (closed != 0) {
-    std::filesystem::remove(partial_, error);
-    throw Error("cannot write " + path_ + " (matio cannot close it)");
+  if (closed != 0) throw Error("cannot write " + path_ + " (matio cannot close it)");
+  // matio does not check every write it makes: a full disk would leave a short file behind a
+  // successful close. The file's own structure says how long it must be.
+  if (const std::optional<std::string> problem =
+          MatFileStructureProblem(output_.temporary_path(), variables_)) {
+    if (FileSystemFull(output_.temporary_path())) {
+      throw Error("cannot write " + path_ + ": " + std::strerror(ENOSPC));
+    }
+    throw Error("cannot write " + path_ + ": " + *problem);
   }
-  std::filesystem::rename(partial_, path_, error);
-  if (error) throw Error("cannot write " + path_ + ": " + error.message());
+  output_.Commit();
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "models/units.h"
 #include "reports/class_map.h"
 #include "reports/classification_report.h"
+#include "reports/escaping.h"
 #include "reports/number_format.h"
 #include "reports/report_support.h"
 
@@ -135,8 +136,8 @@ void WriteModelReport(const std::string& directory,
   const std::filesystem::path out(directory);
   std::filesystem::create_directories(out);
   Document document;
-  document.title = "servokit report: " + model.name();
-  if (!model.description().empty()) document.Add(Paragraph{model.description()});
+  document.title = "servokit report: " + MarkdownText(model.name());
+  if (!model.description().empty()) document.Add(Paragraph{MarkdownText(model.description())});
   document.Add(Heading{2, "Classification at the nominal parameters"});
   Workspace workspace(model);
   const Classification classification = Classify(model, workspace, options);

@@ -10,11 +10,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
 
+#include "files/output_file.h"
 #include "models/errors.h"
+#include "reports/escaping.h"
 #include "reports/number_format.h"
 
 extern char** environ;
@@ -30,13 +33,8 @@ std::string Quoted(const std::string& text) {
   return "'" + text + "'";
 }
 
-// Text shown in a figure: a single quote is written as the typographic one, so that a label can
-// never end a gnuplot string early.
-std::string QuotedText(const std::string& text) {
-  std::string shown;
-  for (const char c : text) shown += c == '\'' ? std::string("\u2019") : std::string(1, c);
-  return "'" + shown + "'";
-}
+// Text shown in a figure, verbatim (reports/escaping.h).
+std::string QuotedText(const std::string& text) { return GnuplotString(text); }
 
 // The colour values of series i, or none.
 const std::vector<double>& ColoursOf(const PlotColouring& colouring, std::size_t i) {
@@ -45,7 +43,8 @@ const std::vector<double>& ColoursOf(const PlotColouring& colouring, std::size_t
 }
 
 void WriteData(const std::string& path, const PlotSpec& spec, const PlotColouring& colouring) {
-  std::ofstream data(path);
+  OutputFile file(path);
+  std::ostream& data = file.stream();
   for (std::size_t i = 0; i < spec.series.size(); ++i) {
     const PlotSeries& series = spec.series[i];
     const std::vector<double>& colours = ColoursOf(colouring, i);
@@ -54,7 +53,7 @@ void WriteData(const std::string& path, const PlotSpec& spec, const PlotColourin
                   std::to_string(colours.size()) + " colours for " +
                   std::to_string(series.points.size()) + " points");
     }
-    data << "# " << series.title << "\n";
+    data << "# " << PlainText(series.title) << "\n";
     for (std::size_t k = 0; k < series.points.size(); ++k) {
       data << FormatExact(series.points[k].first) << " " << FormatExact(series.points[k].second);
       if (!colours.empty()) data << " " << FormatExact(colours[k]);
@@ -62,7 +61,7 @@ void WriteData(const std::string& path, const PlotSpec& spec, const PlotColourin
     }
     data << "\n\n";  // gnuplot: a new data set (index)
   }
-  if (!data) throw Error("cannot write " + path);
+  file.Commit();
 }
 
 // Marker labels: markers at (nearly) the same x share one label ("stability, oscillation");
@@ -178,7 +177,8 @@ void WriteScript(const std::string& path,
   for (std::size_t i = 0; i < spec.series.size(); ++i) {
     coloured = coloured || !ColoursOf(colouring, i).empty();
   }
-  std::ofstream script(path);
+  OutputFile file(path);
+  std::ostream& script = file.stream();
   script << "set encoding utf8\nset title " << QuotedText(spec.title) << "\nset xlabel "
          << QuotedText(spec.x_label) << "\nset ylabel " << QuotedText(spec.y_label)
          << "\nset grid\n";
@@ -228,7 +228,7 @@ void WriteScript(const std::string& path,
          << Quoted(stem + ".svg")
          << "\nreplot\nset terminal pdfcairo noenhanced size 5in,3.5in font ',12'\nset output "
          << Quoted(stem + ".pdf") << "\nreplot\nunset output\n";
-  if (!script) throw Error("cannot write " + path);
+  file.Commit();
 }
 
 // The environment for gnuplot: the caller's, with TZ=UTC, so that the date cairo writes into a
@@ -262,13 +262,17 @@ void FixPdfDate(const std::string& path) {
   while (end < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[end]))) ++end;
   if (end - digits != fixed.size()) return;
   bytes.replace(digits, fixed.size(), fixed);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << bytes;
-  if (!out) throw Error("cannot write " + path);
+  OutputFile out(path);
+  out.Write(bytes);
+  out.Commit();
 }
 
-// Runs gnuplot on the script, in `directory`, with its messages in `log`.
-void RunGnuplot(const std::string& directory, const std::string& script, const std::string& log) {
+// Runs gnuplot on the script, in `directory`, with its messages in `log`; messages name the files
+// as they will be in `shown_directory`.
+void RunGnuplot(const std::string& directory,
+                const std::string& script,
+                const std::string& log,
+                const std::string& shown_directory) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addchdir_np(&actions, directory.c_str());
@@ -287,7 +291,7 @@ void RunGnuplot(const std::string& directory, const std::string& script, const s
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) {
     throw Error("cannot run gnuplot (" + std::string(std::strerror(spawned)) +
-                "): install gnuplot-nox; the data and scripts are in " + directory);
+                "): install gnuplot-nox; the data and scripts are in " + shown_directory);
   }
   int status = 0;
   while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
@@ -296,7 +300,7 @@ void RunGnuplot(const std::string& directory, const std::string& script, const s
     std::ifstream messages(directory + "/" + log);
     std::string first_line;
     std::getline(messages, first_line);
-    throw Error("gnuplot failed on " + directory + "/" + script +
+    throw Error("gnuplot failed on " + shown_directory + "/" + script +
                 (WIFEXITED(status) && WEXITSTATUS(status) == 127
                      ? ": gnuplot not found (install gnuplot-nox)"
                      : ": " + first_line));
@@ -382,10 +386,31 @@ std::string PlotSymbol(const std::string& name) {
 }
 
 void DrawPlot(const std::string& directory, const PlotSpec& spec, const PlotColouring& colouring) {
-  WriteData(directory + "/" + spec.name + ".dat", spec, colouring);
-  WriteScript(directory + "/" + spec.name + ".gp", spec.name, spec, colouring);
-  RunGnuplot(directory, spec.name + ".gp", spec.name + ".log");
-  FixPdfDate(directory + "/" + spec.name + ".pdf");
+  // gnuplot writes its figures by name: into a directory of servokit's own, from where each
+  // finished file is moved over its final name (files/output_file.h), so that a link planted
+  // in `directory` is never followed and a failed run leaves no half-written figure.
+  const ScratchDirectory scratch(directory);
+  const auto publish = [&](const std::vector<std::string>& extensions) {
+    for (const std::string& extension : extensions) {
+      const std::string name = spec.name + extension;
+      if (std::filesystem::exists(scratch.path() + "/" + name)) {
+        scratch.Publish(name, directory + "/" + name);
+      } else {
+        throw Error("gnuplot wrote no " + directory + "/" + name);
+      }
+    }
+  };
+  WriteData(scratch.path() + "/" + spec.name + ".dat", spec, colouring);
+  WriteScript(scratch.path() + "/" + spec.name + ".gp", spec.name, spec, colouring);
+  try {
+    RunGnuplot(scratch.path(), spec.name + ".gp", spec.name + ".log", directory);
+  } catch (const Error&) {
+    publish({".dat", ".gp"});  // for the user to look at, as the message says
+    if (std::filesystem::exists(scratch.path() + "/" + spec.name + ".log")) publish({".log"});
+    throw;
+  }
+  FixPdfDate(scratch.path() + "/" + spec.name + ".pdf");
+  publish({".dat", ".gp", ".log", ".png", ".svg", ".pdf"});
 }
 
 }  // namespace servokit

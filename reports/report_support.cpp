@@ -2,6 +2,7 @@
 
 #include <fstream>
 
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
 
@@ -110,9 +111,9 @@ void WriteDocument(const std::filesystem::path& directory, const Document& docum
   for (const auto& [name, text] :
        {std::pair{"report.md", RenderMarkdown(document)},
         std::pair{"report.html", RenderHtml(document, directory.string())}}) {
-    std::ofstream file(directory / name);
-    file << text;
-    if (!file) throw Error("cannot write " + (directory / name).string());
+    OutputFile file((directory / name).string());
+    file.Write(text);
+    file.Commit();
   }
 }
 

@@ -11,8 +11,10 @@
 #include <set>
 #include <utility>
 
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "reports/classification_report.h"
+#include "reports/escaping.h"
 #include "reports/mat_file.h"
 #include "reports/number_format.h"
 
@@ -59,21 +61,13 @@ Eigen::VectorXd FeedforwardRow(const OutputTrajectory& trajectory,
   return row;
 }
 
-// Writes what `write_text` writes to FILE.partial and renames it to FILE, so that an
-// interrupted write never leaves a truncated FILE.
+// Writes what `write_text` writes to a temporary file and renames it to FILE
+// (files/output_file.h), so that an interrupted or failed write never leaves a truncated FILE.
 template <typename WriteText>
 void WriteAndRename(const std::string& path, WriteText write_text) {
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream file(partial);
-    if (!file) throw Error("cannot write " + path + " (" + std::strerror(errno) + ")");
-    write_text(file);
-    file.flush();
-    if (!file) throw Error("cannot write " + path);
-  }
-  std::error_code error;
-  std::filesystem::rename(partial, path, error);
-  if (error) throw Error("cannot write " + path + ": " + error.message());
+  OutputFile file(path);
+  write_text(file.stream());
+  file.Commit();
 }
 
 }  // namespace
@@ -161,7 +155,7 @@ void WriteFeedforwardCsv(const std::string& path,
                          const Model& model,
                          const OutputTrajectory& trajectory,
                          const FeedforwardSolution& solution) {
-  WriteAndRename(path, [&](std::ofstream& file) {
+  WriteAndRename(path, [&](std::ostream& file) {
     std::string line;
     for (const std::string& column : FeedforwardColumns(model)) {
       line += (line.empty() ? "" : ",") + column;
@@ -227,10 +221,10 @@ void WriteFeedforwardModelica(const std::string& path,
     }
   }
   const std::vector<std::string>& inputs = model.inputs();
-  WriteAndRename(path, [&](std::ofstream& file) {
+  WriteAndRename(path, [&](std::ostream& file) {
     file << "#1\n"
-         << "# servokit solve: the feedforward u_d(t) of the model " << model.name() << " ("
-         << summary.at("method").get<std::string>() << ", "
+         << "# servokit solve: the feedforward u_d(t) of the model " << PlainText(model.name())
+         << " (" << summary.at("method").get<std::string>() << ", "
          << summary.at("status").get<std::string>() << ")\n"
          << "# for Modelica.Blocks.Sources.CombiTimeTable(tableOnFile = true, tableName = \""
          << kModelicaTableName << "\", columns = 2:" << inputs.size() + 1 << ")\n"

@@ -263,6 +263,11 @@ std::vector<std::size_t> Indices(std::size_t begin, std::size_t end) {
   return indices;
 }
 
+// HDF5 prints its own error stack by default; the Errors thrown here say what failed. Debian's
+// HDF5 is built thread-safe, where the setting is each thread's own: the file is created on one
+// thread and written and closed on another, so every entry point sets it for its thread.
+void SilenceHdf5Errors() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
 class Hdf5SweepFile final : public SweepHdf5Writer {
  public:
   Hdf5SweepFile(const std::filesystem::path& path,
@@ -292,13 +297,23 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
                          chunk_rows_, path);
   }
 
+  // The handles close after this body: a close that fails (a full disk) says nothing.
+  ~Hdf5SweepFile() override { SilenceHdf5Errors(); }
+  Hdf5SweepFile(const Hdf5SweepFile&) = delete;
+  Hdf5SweepFile& operator=(const Hdf5SweepFile&) = delete;
+
   void AppendPoints(const TableChunk& rows) override {
+    SilenceHdf5Errors();
     points_->Append(rows);
     KeepErrors(rows);
   }
-  void AppendEigenvalues(const TableChunk& rows) override { eigenvalues_->Append(rows); }
+  void AppendEigenvalues(const TableChunk& rows) override {
+    SilenceHdf5Errors();
+    eigenvalues_->Append(rows);
+  }
 
   void Finish(TableRecordReader& points) override {
+    SilenceHdf5Errors();
     points_->Flush();
     eigenvalues_->Flush();
     const std::size_t error = points_columns_.size() - 1;
@@ -333,8 +348,12 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
 
  private:
   static Handle Create(const std::filesystem::path& path, const SweepFileMetadata& metadata) {
-    // HDF5 prints its own error stack by default; the Error thrown here says what failed.
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    // No clean-up of HDF5's at exit: after a failed write (a full disk) the file cannot be
+    // flushed, so its close fails and the handler would loop over it ("infinite loop closing
+    // library") and crash; the Error thrown here has said what failed, and the temporary file
+    // is not kept. It must come before any other HDF5 call.
+    H5dont_atexit();
+    SilenceHdf5Errors();
     Handle access(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, path, "create a property list");
     // Fixed format versions: a newer library must not write other bytes (or a file older
     // readers, such as MATLAB's, cannot open).

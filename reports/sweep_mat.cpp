@@ -13,8 +13,10 @@ namespace {
 // Rows read from the records at a time.
 constexpr std::size_t kRowsPerRead = std::size_t{1} << 16;
 
-// The whole table as columns (MAT 5 writes a variable whole).
-std::vector<MatColumn> ReadColumns(TableRecordReader& table) {
+// The whole table as columns (MAT 5 writes a variable whole); nullopt once `stop_requested`
+// says true.
+std::optional<std::vector<MatColumn>> ReadColumns(TableRecordReader& table,
+                                                  const std::function<bool()>& stop_requested) {
   const std::vector<TableColumn>& columns = table.columns();
   std::vector<MatColumn> result;
   for (const TableColumn& column : columns) {
@@ -25,6 +27,7 @@ std::vector<MatColumn> ReadColumns(TableRecordReader& table) {
   table.Rewind();
   TableChunk chunk;
   while (const std::size_t count = table.Read(kRowsPerRead, chunk)) {
+    if (stop_requested && stop_requested()) return std::nullopt;
     for (std::size_t c = 0; c < columns.size(); ++c) {
       if (auto* numbers = std::get_if<std::vector<double>>(&result[c].values)) {
         numbers->insert(numbers->end(), chunk.numbers[c].begin(), chunk.numbers[c].end());
@@ -46,10 +49,11 @@ nlohmann::ordered_json Units(const std::vector<TableColumn>& columns) {
 
 }  // namespace
 
-void WriteSweepMat(const std::filesystem::path& path,
+bool WriteSweepMat(const std::filesystem::path& path,
                    const SweepFileMetadata& metadata,
                    TableRecordReader& points,
-                   TableRecordReader& eigenvalues) {
+                   TableRecordReader& eigenvalues,
+                   const std::function<bool()>& stop_requested) {
   const std::unique_ptr<MatFileWriter> file = CreateMatFile(path.string());
   file->WriteStruct("sweep", {{"model", metadata.model},
                               {"model_content_hash", metadata.content_hash},
@@ -57,9 +61,15 @@ void WriteSweepMat(const std::filesystem::path& path,
                               {"servokit_version", metadata.servokit_version},
                               {"points_units", Units(points.columns())},
                               {"eigenvalues_units", Units(eigenvalues.columns())}});
-  file->WriteTable("points", ReadColumns(points));
-  file->WriteTable("eigenvalues", ReadColumns(eigenvalues));
+  for (auto [name, table] :
+       {std::pair{"points", &points}, std::pair{"eigenvalues", &eigenvalues}}) {
+    const std::optional<std::vector<MatColumn>> columns = ReadColumns(*table, stop_requested);
+    if (!columns) return false;  // the writer, destroyed uncommitted, removes its file
+    file->WriteTable(name, *columns);
+  }
+  if (stop_requested && stop_requested()) return false;
   file->Commit();
+  return true;
 }
 
 void CheckMatColumnNames(const ParameterGrid& grid) {

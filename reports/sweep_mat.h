@@ -11,17 +11,21 @@
 // the contents.
 // MAT 5 holds at most 2 GiB per variable: the whole file is built in memory.
 #include <filesystem>
+#include <functional>
 
 #include "reports/sweep_records.h"
 
 namespace servokit {
 
 /// Writes `path` (replacing it) from the two readers, read from their start. Throws Error
-/// naming `path` when matio fails (a variable too large for MAT 5, a full disk).
-void WriteSweepMat(const std::filesystem::path& path,
+/// naming `path` when matio fails (a variable too large for MAT 5, a full disk). Asks
+/// `stop_requested` (when given) between chunks of rows: once it says true, returns false and
+/// leaves `path` as it was; true when the file was written.
+bool WriteSweepMat(const std::filesystem::path& path,
                    const SweepFileMetadata& metadata,
                    TableRecordReader& points,
-                   TableRecordReader& eigenvalues);
+                   TableRecordReader& eigenvalues,
+                   const std::function<bool()>& stop_requested = {});
 
 /// Throws UsageError when a column name is not a MATLAB name (MatlabNameProblem): it could not
 /// be a field of the structs.

@@ -14,6 +14,12 @@
 // plain values. Errors are the exceptions of servokit/errors.h, each with a kind (usage, model,
 // no solution). The header needs only Eigen and the standard library: GiNaC, SUNDIALS and the
 // rest stay inside the compiled library.
+//
+// Every function may be called from several threads at once, on one model or on several. The
+// symbolic steps (loading a model, Analyze's nonlinear structure, the inverse a solve derives
+// once per model and options) use GiNaC, which is not thread-safe, and run one thread at a time
+// under one process-wide lock; the numeric work (operating points, zero dynamics, sweeps,
+// integration) runs in parallel.
 #include <Eigen/Dense>
 #include <complex>
 #include <cstddef>
@@ -96,7 +102,7 @@ struct AnalyzeOptions {
   double imaginary_axis_tolerance = 1e-9;
   // Multibody models: also run the structure algorithm on the nonlinear model (relative degree
   // along the motion, dynamic extension), as `servokit analyze` does; it costs a symbolic
-  // derivation per call, which sweeps skip.
+  // derivation per call, which sweeps skip (and which runs one thread at a time).
   bool nonlinear_structure = true;
   // Linear models: "auto" (dense up to 200 coordinates, ARPACK above), "dense" or "arpack";
   // how many zeros ARPACK computes; its real shift (1/s); which zeros, "nearest" the shift or

@@ -3,12 +3,12 @@
 #include "analysis/sweep.h"
 
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <span>
 
 #include "analysis/parameter_grid.h"
 #include "analysis/zero_dynamics.h"
+#include "files/output_file.h"
 #include "models/errors.h"
 #include "models/option_check.h"
 #include "reports/sweep_tables.h"
@@ -112,13 +112,10 @@ std::size_t SweepToFiles(const Model& model,
   std::error_code error;
   std::filesystem::create_directories(folder, error);
   if (error) throw Error(directory + ": cannot create the directory: " + error.message());
-  std::ofstream points_file(folder / "points.csv", std::ios::binary);
-  std::ofstream eigenvalues_file(folder / "eigenvalues.csv", std::ios::binary);
-  if (!points_file || !eigenvalues_file) {
-    throw Error(directory + ": cannot write points.csv and eigenvalues.csv");
-  }
-  points_file << PointsCsvHeader(grid);
-  eigenvalues_file << EigenvaluesCsvHeader(grid);
+  OutputFile points_file((folder / "points.csv").string());
+  OutputFile eigenvalues_file((folder / "eigenvalues.csv").string());
+  points_file.Write(PointsCsvHeader(grid));
+  eigenvalues_file.Write(EigenvaluesCsvHeader(grid));
   std::string points_csv, eigenvalues_csv;
   std::size_t count = 0;
   RunModelSweep(model, grid, options,
@@ -126,15 +123,12 @@ std::size_t SweepToFiles(const Model& model,
                   points_csv.clear();
                   eigenvalues_csv.clear();
                   AppendCsvRows(grid, first, block, points_csv, eigenvalues_csv);
-                  points_file << points_csv;
-                  eigenvalues_file << eigenvalues_csv;
+                  points_file.Write(points_csv);
+                  eigenvalues_file.Write(eigenvalues_csv);
                   count = first + block.size();
                 });
-  points_file.close();
-  eigenvalues_file.close();
-  if (!points_file || !eigenvalues_file) {
-    throw Error(directory + ": writing points.csv and eigenvalues.csv failed");
-  }
+  points_file.Commit();
+  eigenvalues_file.Commit();
   return count;
 }
 

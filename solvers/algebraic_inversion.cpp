@@ -356,6 +356,9 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
                      std::to_string(options.reference_q.size()) + " values, the model " +
                      std::to_string(model.dof()) + " coordinates");
   }
+  // Everything symbolic below (the structure, its programs' expressions, the closed forms) is
+  // made and destroyed in this scope.
+  const SymbolicLock lock;
   try {
     NonlinearStructureOptions structure_options;
     structure_options.rank_tolerance = options.rank_tolerance;
@@ -456,8 +459,10 @@ AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOpt
     for (std::size_t p : structure.pinned_parameters) {
       programs->pinned.emplace_back(p, model.parameters()[static_cast<Eigen::Index>(p)]);
     }
-    derivative_symbols_ = structure.output_derivatives;
-    if (rows == states) input_formulas_ = ClosedForms(structure);
+    auto formulas = SymbolicPtr<Formulas>(new Formulas());
+    formulas->derivative_symbols = structure.output_derivatives;
+    if (rows == states) formulas->input_formulas = ClosedForms(structure);
+    formulas_ = std::move(formulas);
     programs_ = std::move(programs);
   } catch (const Error&) {
     throw;
@@ -479,12 +484,12 @@ int AlgebraicInverse::highest_output_derivative() const {
 
 const GiNaC::realsymbol& AlgebraicInverse::output_derivative_symbol(std::size_t output,
                                                                     int order) const {
-  if (output >= derivative_symbols_.size() || order < 0 ||
-      static_cast<std::size_t>(order) >= derivative_symbols_[output].size()) {
+  if (output >= formulas_->derivative_symbols.size() || order < 0 ||
+      static_cast<std::size_t>(order) >= formulas_->derivative_symbols[output].size()) {
     throw std::out_of_range("AlgebraicInverse::output_derivative_symbol: no derivative " +
                             std::to_string(order) + " of output " + std::to_string(output));
   }
-  return derivative_symbols_[output][static_cast<std::size_t>(order)];
+  return formulas_->derivative_symbols[output][static_cast<std::size_t>(order)];
 }
 
 void AlgebraicInverse::Programs::PrepareScratch(const Eigen::VectorXd& parameters,
@@ -768,10 +773,12 @@ std::string CacheKey(const Model& model, const AlgebraicInverseOptions& options)
 
 std::shared_ptr<const AlgebraicInverse> DeriveAlgebraicInverse(
     const Model& model, const AlgebraicInverseOptions& options) {
+  // Lock order: SymbolicLock, then `mutex`, never the other way round; an inverse is never
+  // destroyed while `mutex` is held (its destructor takes SymbolicLock).
   static std::mutex mutex;
   static std::vector<CachedInverse> cache;
   const std::string key = CacheKey(model, options);
-  {
+  const auto find = [&key]() -> std::shared_ptr<const AlgebraicInverse> {
     const std::lock_guard<std::mutex> lock(mutex);
     for (auto entry = cache.begin(); entry != cache.end(); ++entry) {
       if (entry->key != key) continue;
@@ -780,12 +787,24 @@ std::shared_ptr<const AlgebraicInverse> DeriveAlgebraicInverse(
       cache.push_back(found);
       return found.inverse;
     }
-  }
+    return nullptr;
+  };
+  if (auto cached = find()) return cached;
+  // Derive under the symbolic lock, and look once more there: a thread that asked for the same
+  // inverse a moment earlier has derived it meanwhile.
+  const SymbolicLock symbolic;
+  if (auto cached = find()) return cached;
   auto inverse = std::make_shared<const AlgebraicInverse>(model, options);
-  const std::lock_guard<std::mutex> lock(mutex);
-  if (cache.size() == kCachedInverses) cache.erase(cache.begin());
-  cache.push_back({key, inverse});
-  return inverse;
+  CachedInverse evicted;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (cache.size() == kCachedInverses) {
+      evicted = std::move(cache.front());
+      cache.erase(cache.begin());
+    }
+    cache.push_back({key, inverse});
+  }
+  return inverse;  // `evicted` goes here, under SymbolicLock and outside `mutex`
 }
 
 }  // namespace servokit

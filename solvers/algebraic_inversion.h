@@ -31,6 +31,7 @@
 
 #include "analysis/nonlinear_structure.h"
 #include "models/model.h"
+#include "models/symbolic_lock.h"
 
 namespace servokit {
 
@@ -52,7 +53,8 @@ struct AlgebraicInverseOptions {
 
 class AlgebraicInverse {
  public:
-  /// Derives the inverse from model.symbolic() (GiNaC: call from one thread). Throws NoSolution
+  /// Derives the inverse from model.symbolic(), under SymbolicLock (models/symbolic_lock.h: the
+  /// derivation is GiNaC's, one thread at a time; any thread may destroy it). Throws NoSolution
   /// naming the reason when the problem is not flat in the sense above (internal dynamics
   /// remain, unless options.internal_dynamics; an output never depends on the inputs within
   /// 2 dof derivatives; the u-coefficient matrix or the constraint Jacobian is singular at the
@@ -136,8 +138,8 @@ class AlgebraicInverse {
   /// u_d as closed forms in the parameters and the symbols of y_d^(k) when the state
   /// constraints are linear in (q, q'), one per input; empty otherwise. For mass on car case 4:
   /// (m1 + m2) y1_d'' + m1 m2 / k y1_d'''' (Eq. 47). Parameters that were 0 at construction
-  /// are already substituted.
-  const std::vector<GiNaC::ex>& input_formulas() const { return input_formulas_; }
+  /// are already substituted. GiNaC expressions: hold a SymbolicLock while you use them.
+  const std::vector<GiNaC::ex>& input_formulas() const { return formulas_->input_formulas; }
   /// The symbol standing for d^order y_i / dt^order in input_formulas(), named
   /// "y<i+1>_d" followed by `order` primes; order 0..r_i. Throws std::out_of_range otherwise.
   const GiNaC::realsymbol& output_derivative_symbol(std::size_t output, int order) const;
@@ -148,15 +150,21 @@ class AlgebraicInverse {
   std::vector<int> relative_degree_;
   std::vector<StructureStep> extension_steps_;
   int integrators_ = 0;
-  std::vector<std::vector<GiNaC::realsymbol>> derivative_symbols_;  // [output][order]
-  std::vector<GiNaC::ex> input_formulas_;
+  // The symbolic results, kept for input_formulas(); destroyed under SymbolicLock, since the
+  // last owner of a shared inverse (DeriveAlgebraicInverse) may be any thread.
+  struct Formulas {
+    std::vector<std::vector<GiNaC::realsymbol>> derivative_symbols;  // [output][order]
+    std::vector<GiNaC::ex> input_formulas;
+  };
+  SymbolicPtr<const Formulas> formulas_;
   std::unique_ptr<const Programs> programs_;
 };
 
 /// The inverse of `model` (with its parameters) for `options`, derived once per process for
 /// the same model file, parameter values and options (the last few are kept), so that solving
 /// many trajectories of one model pays for the symbolic derivation once. Throws as the
-/// constructor. Thread-safe; the derivation itself runs in the calling thread (GiNaC).
+/// constructor. Thread-safe: a derivation runs under SymbolicLock, once for the callers that
+/// ask for the same inverse at once; a cached inverse is returned without waiting for it.
 std::shared_ptr<const AlgebraicInverse> DeriveAlgebraicInverse(
     const Model& model, const AlgebraicInverseOptions& options = {});
 

@@ -100,13 +100,30 @@ class ShiftedMotion final : public MotionExtension {
   Eigen::VectorXd q0_, u0_;
 };
 
+// `text` as a double-quoted YAML scalar: the model's name is free text (quotes, colons, '#').
+std::string YamlString(const std::string& text) {
+  std::string quoted = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      quoted += '\\';
+      quoted += c;
+    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      quoted += ' ';  // refused in names at load; never a line break in this text
+    } else {
+      quoted += c;
+    }
+  }
+  return quoted + "\"";
+}
+
 }  // namespace
 
 Model LinearizedModel(const Model& model, const Classification& classification) {
   const Linearization& linear = classification.linearization;
   const std::vector<std::string>& coordinates = model.coordinates();
-  std::string text = "name: " + model.name() + "_linearized\n";
-  text += "description: " + model.name() + " linearized at its operating point (deviations)\n";
+  std::string text = "name: " + YamlString(model.name() + "_linearized") + "\n";
+  text += "description: " +
+          YamlString(model.name() + " linearized at its operating point (deviations)") + "\n";
   text += "parameters: {}\ncoordinates: [";
   for (std::size_t j = 0; j < coordinates.size(); ++j) text += (j ? ", " : "") + coordinates[j];
   text += "]\ninputs: [";

@@ -10,11 +10,14 @@
 // The inverse reads y_d up to order r = differentiation index - 1 and needs those derivatives
 // continuous: the spline has degree 2k + 1 with k = max(4, r), so that k derivatives are
 // continuous everywhere, including where it joins the rest before and after it.
-#include <gsl/gsl_bspline.h>
-
+//
+// Each evaluation finds its knot interval by binary search and the basis there by de Boor's
+// recurrence: O(log n + k^2) for n samples, so that a solve costs time linear in the samples.
+// (GSL 2.7's gsl_bspline_deriv_eval_nonzero searches the knots from the first, O(n) per call:
+// 10^4 samples took 2.9 s, 10^5 over two minutes.)
 #include <Eigen/Dense>
+#include <Eigen/SparseCore>
 #include <functional>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,7 +34,9 @@ namespace servokit {
 class SampledTrajectory final : public OutputTrajectory {
  public:
   /// `values` has one row per sample and one column per output. Throws UsageError unless there
-  /// are at least two samples, times strictly increasing, every number finite and k >= 1.
+  /// are from two to kMaxTrajectoryPoints samples, times strictly increasing, every number
+  /// finite, 1 <= k <= kMaxContinuousDerivatives, and the spline's derivatives up to order k
+  /// finite (samples too close for their values would overflow them).
   SampledTrajectory(std::vector<double> times,
                     Eigen::MatrixXd values,
                     int continuous_derivatives = 4);
@@ -46,23 +51,36 @@ class SampledTrajectory final : public OutputTrajectory {
   std::vector<double> breakpoints() const override { return {times_.front(), times_.back()}; }
 
  private:
-  struct WorkspaceDeleter {
-    void operator()(gsl_bspline_workspace* workspace) const { gsl_bspline_free(workspace); }
-  };
-  struct MatrixDeleter {
-    void operator()(gsl_matrix* matrix) const { gsl_matrix_free(matrix); }
-  };
-  // The B-spline basis at t and its derivatives 0..highest into basis_derivatives_ (GSL),
-  // returning the index of the first basis function that is nonzero there.
-  std::size_t EvaluateBasis(double t, int highest) const;
+  // The B-spline basis functions nonzero at t (degree + 1 of them) and their derivatives
+  // 0..highest into scratch_.basis (function j in row j, order m in column m); returns the
+  // index of the first of them.
+  Eigen::Index EvaluateBasis(double t, int highest) const;
+  // The steps of EvaluateBasis: basis values of every degree at t, then their derivatives.
+  void FillBasisTable(double t, Eigen::Index span) const;
+  void DifferentiateBasis(int highest) const;
+  // The interpolation conditions on the B-spline coefficients, and their right side.
+  Eigen::SparseMatrix<double> InterpolationConditions(Eigen::MatrixXd& right_side) const;
+  // Knot j of the clamped knot vector: the first time degree + 1 times, each inner time once,
+  // the last time degree + 1 times (as gsl_bspline_knots lays them out).
+  double Knot(Eigen::Index j) const;
+  // Throws UsageError when a derivative up to order k of a spline with coefficients up to
+  // `largest_coefficient` could overflow.
+  void RequireFiniteDerivatives(double largest_coefficient) const;
 
   std::vector<double> times_;
   Eigen::MatrixXd values_;
   int continuous_derivatives_;
+  int degree_ = 0;                // 2k + 1
   Eigen::MatrixXd coefficients_;  // one row per B-spline basis function, one column per output
-  // GSL's evaluation scratch: a trajectory is read by one solve at a time, never by two threads.
-  std::unique_ptr<gsl_bspline_workspace, WorkspaceDeleter> workspace_;
-  std::unique_ptr<gsl_matrix, MatrixDeleter> basis_derivatives_;
+  // Evaluation scratch, sized once: a trajectory is read by one solve at a time, never by two
+  // threads.
+  struct BasisScratch {
+    Eigen::MatrixXd basis;        // (degree + 1)^2: function j in row j, order m in column m
+    Eigen::MatrixXd table;        // (degree + 1)^2: basis values above, knot spans below
+    Eigen::MatrixXd differences;  // 2 x (degree + 1): two rows of derivative coefficients
+    Eigen::VectorXd left, right;  // t - knot, knot - t
+  };
+  mutable BasisScratch scratch_;
 };
 
 /// Samples of y_d read from a CSV file: a header line (the first column is the time, each other
@@ -73,7 +91,8 @@ struct TrajectorySamples {
   Eigen::MatrixXd values;  // one row per time, one column per output
 };
 
-/// Reads a samples file. Throws ModelError "file:line: problem" naming the line and column.
+/// Reads a samples file. Throws ModelError "file:line: problem" naming the line and column, and
+/// at the first sample beyond kMaxTrajectoryPoints, before it is stored.
 TrajectorySamples LoadTrajectorySamples(const std::string& path);
 
 /// y_d from a function of the caller's: derivatives(t, highest, d) fills d (outputs x
@@ -85,8 +104,9 @@ class FunctionTrajectory final : public OutputTrajectory {
   using DerivativeFunction =
       std::function<void(double t, int highest, Eigen::MatrixXd& derivatives)>;
 
-  /// Throws UsageError unless outputs >= 1, continuous_derivatives >= 1 and breakpoints holds
-  /// at least one finite time, in increasing order.
+  /// Throws UsageError unless outputs >= 1, 1 <= continuous_derivatives <=
+  /// kMaxContinuousDerivatives and breakpoints holds at least one finite time, in increasing
+  /// order.
   FunctionTrajectory(DerivativeFunction derivatives,
                      Eigen::Index outputs,
                      int continuous_derivatives,

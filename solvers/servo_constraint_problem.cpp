@@ -7,6 +7,7 @@
 #include "analysis/decoupling_matrix.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 
 namespace servokit {
@@ -110,6 +111,8 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
   }
 
   const auto independent_of_q = [&](const GiNaC::matrix& matrix) {
+    // GiNaC: the model's expressions are shared with other threads (models/symbolic_lock.h).
+    const SymbolicLock lock;
     for (unsigned row = 0; row < matrix.rows(); ++row) {
       for (unsigned column = 0; column < matrix.cols(); ++column) {
         for (const GiNaC::realsymbol& coordinate : model.symbolic().coordinates()) {

@@ -44,6 +44,13 @@ std::vector<double> RestToRestCoefficients(int continuous_derivatives) {
   return coefficients;
 }
 
+void RequireContinuousDerivatives(const std::string& what, int continuous_derivatives) {
+  if (continuous_derivatives < 1 || continuous_derivatives > kMaxContinuousDerivatives) {
+    throw UsageError(what + ": continuous derivatives = " + std::to_string(continuous_derivatives) +
+                     ": must be from 1 to " + std::to_string(kMaxContinuousDerivatives));
+  }
+}
+
 int RestToRestOrderFor(int needed_derivatives) {
   return std::max(kPaperContinuousDerivatives, needed_derivatives);
 }
@@ -66,10 +73,7 @@ RestToRestTrajectory::RestToRestTrajectory(
     throw UsageError("rest-to-rest: t0 = " + FormatNumber(t0) + ", tf = " + FormatNumber(tf) +
                      ": needs t0 < tf");
   }
-  if (continuous_derivatives < 1) {
-    throw UsageError("rest-to-rest: continuous derivatives = " +
-                     std::to_string(continuous_derivatives) + ": must be >= 1");
-  }
+  RequireContinuousDerivatives("rest-to-rest", continuous_derivatives);
   const int k = continuous_derivatives_;
   std::vector<double> falling(std::size_t(k + 1));  // k! / (k - j)!
   value_weights_.resize(std::size_t(k + 1));
@@ -89,6 +93,25 @@ RestToRestTrajectory::RestToRestTrajectory(
       derivative_terms_[std::size_t(n)].push_back(
           {j, m,
            sign * scale * Binomial(n - 1, j) * falling[std::size_t(j)] * falling[std::size_t(m)]});
+    }
+  }
+  RequireFiniteDerivatives();
+}
+
+// |p^(n)(tau)| <= sum |factor| on [0, 1], where tau and 1 - tau are at most 1: with that bound
+// times |yf - y0| finite, every derivative the solvers read (orders up to k) is finite.
+void RestToRestTrajectory::RequireFiniteDerivatives() const {
+  const double distance = (yf_ - y0_).lpNorm<Eigen::Infinity>();
+  for (int n = 1; n <= continuous_derivatives_; ++n) {
+    double bound = 0.0;
+    for (const LeibnizTerm& term : derivative_terms_[std::size_t(n)]) {
+      bound += std::abs(term.factor);
+    }
+    if (!std::isfinite(distance * bound)) {
+      throw UsageError("rest-to-rest: y0 to yf (|yf - y0| = " + FormatNumber(distance) +
+                       ") from t0 = " + FormatNumber(t0_) + " to tf = " + FormatNumber(tf_) +
+                       ": the derivative of order " + std::to_string(n) +
+                       " of y_d overflows (the motion is too short for its distance)");
     }
   }
 }

@@ -9,9 +9,31 @@
 // continuous (r = the highest infinite-zero order, or more for the DAE solvers) needs k >= r,
 // and RestToRestOrderFor() raises k when Eq. (65) is not enough.
 #include <Eigen/Dense>
+#include <cstddef>
+#include <string>
 #include <vector>
 
 namespace servokit {
+
+/// The most continuous derivatives k a trajectory may ask for (a waypoint file's
+/// continuous_derivatives, a function's, the order a solve raises Eq. 65 to). The six-mass chain
+/// needs 12; 32 serves chains of 16 bodies. A rest-to-rest segment then has degree 65 and a
+/// table of (k + 1)^2 Leibniz terms, and its derivatives up to order 2k + 1 stay below 1e110 on
+/// a motion of one second; above about 70 they overflow doubles, and a million (a typo) would
+/// take hours to tabulate.
+inline constexpr int kMaxContinuousDerivatives = 32;
+
+/// The most samples (a CSV file, an array) or waypoints a trajectory may have: 10^6 is a
+/// kilohertz for a quarter of an hour. A sampled trajectory takes 0.7 kB and 2 us per sample to
+/// read and build (a million: 0.7 GB; with a Radau solve of the mass on car 2.4 s, measured),
+/// and its derivatives carry the samples' rounding amplified by (c/h)^order, so that denser
+/// data serves no solve better; far more is a mistake (a file of another kind, a unit off by
+/// 1000) and is refused before memory is taken for it.
+inline constexpr std::size_t kMaxTrajectoryPoints = 1'000'000;
+
+/// Throws UsageError "<what>: continuous derivatives = k: must be from 1 to 32" unless
+/// 1 <= k <= kMaxContinuousDerivatives.
+void RequireContinuousDerivatives(const std::string& what, int continuous_derivatives);
 
 /// A desired output trajectory y_d(t) with exact derivatives: what every inverse-model solver
 /// reads. Implemented by RestToRestTrajectory and WaypointTrajectory.
@@ -43,7 +65,9 @@ int RestToRestOrderFor(int needed_derivatives);
 /// y_d(t) from y0 (at rest before t0) to yf (at rest after tf), for any number of outputs.
 class RestToRestTrajectory final : public OutputTrajectory {
  public:
-  /// Throws UsageError unless t0 < tf, the sizes of y0 and yf agree and everything is finite.
+  /// Throws UsageError unless t0 < tf, the sizes of y0 and yf agree, everything is finite,
+  /// 1 <= continuous_derivatives <= kMaxContinuousDerivatives, and the derivatives up to that
+  /// order are finite too (a motion far too short for its distance would overflow them).
   RestToRestTrajectory(
       Eigen::VectorXd y0, Eigen::VectorXd yf, double t0, double tf, int continuous_derivatives = 4);
 
@@ -73,6 +97,8 @@ class RestToRestTrajectory final : public OutputTrajectory {
   std::vector<std::vector<LeibnizTerm>> derivative_terms_;
   // d^order p / dtau^order at tau, scaled by (tf - t0)^-order; the one place this is evaluated.
   double ScaledPolynomialDerivative(double tau, int order) const;
+  // Throws UsageError naming y0, yf, t0 and tf when a derivative up to order k could overflow.
+  void RequireFiniteDerivatives() const;
 };
 
 }  // namespace servokit

@@ -3,10 +3,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <optional>
 #include <sstream>
 
+#include "files/input_file.h"
 #include "models/errors.h"
 #include "models/units.h"
 
@@ -19,9 +21,20 @@ WaypointTrajectory::WaypointTrajectory(std::vector<double> times,
   if (times_.size() < 2 || times_.size() != outputs.size()) {
     throw UsageError("a trajectory needs at least two waypoints, each with a time and outputs");
   }
+  if (times_.size() > kMaxTrajectoryPoints) {
+    throw UsageError("waypoints: " + std::to_string(times_.size()) + " waypoints: at most " +
+                     std::to_string(kMaxTrajectoryPoints));
+  }
+  RequireContinuousDerivatives("waypoints", continuous_derivatives);
+  segments_.reserve(times_.size() - 1);
   for (std::size_t i = 0; i + 1 < times_.size(); ++i) {
-    segments_.emplace_back(outputs[i], outputs[i + 1], times_[i], times_[i + 1],
-                           continuous_derivatives);
+    try {
+      segments_.emplace_back(outputs[i], outputs[i + 1], times_[i], times_[i + 1],
+                             continuous_derivatives);
+    } catch (const UsageError& error) {
+      throw UsageError("waypoints[" + std::to_string(i) + "] to waypoints[" +
+                       std::to_string(i + 1) + "]: " + error.what());
+    }
   }
 }
 
@@ -72,8 +85,11 @@ WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text
   int continuous_derivatives = 4;
   if (const YAML::Node node = root["continuous_derivatives"]) {
     const double value = ReadNumber(node, source, "continuous_derivatives");
-    if (value < 1 || value != double(int(value))) {
-      Fail(source, "continuous_derivatives", "must be a whole number >= 1");
+    // Compared as a double first: int(value) of 1e12 would be undefined.
+    if (!(value >= 1 && value <= kMaxContinuousDerivatives) || value != std::floor(value)) {
+      std::ostringstream problem;
+      problem << value << ": must be a whole number from 1 to " << kMaxContinuousDerivatives;
+      Fail(source, "continuous_derivatives", problem.str());
     }
     continuous_derivatives = int(value);
   }
@@ -81,6 +97,11 @@ WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text
   if (!waypoints) Fail(source, "waypoints", "missing");
   if (!waypoints.IsSequence() || waypoints.size() < 2) {
     Fail(source, "waypoints", "expected a list of at least two {t: ..., y: [...]}");
+  }
+  if (waypoints.size() > kMaxTrajectoryPoints) {
+    Fail(source, "waypoints",
+         std::to_string(waypoints.size()) + " waypoints: at most " +
+             std::to_string(kMaxTrajectoryPoints));
   }
   std::vector<double> times;
   std::vector<Eigen::VectorXd> outputs;
@@ -110,15 +131,16 @@ WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text
     times.push_back(t);
     outputs.push_back(y);
   }
-  return WaypointTrajectory(std::move(times), std::move(outputs), continuous_derivatives);
+  try {
+    return WaypointTrajectory(std::move(times), std::move(outputs), continuous_derivatives);
+  } catch (const UsageError& error) {  // a segment that cannot be one (e.g. its derivatives)
+    throw ModelError(source + ": " + error.what());
+  }
 }
 
 WaypointTrajectory LoadWaypointTrajectory(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw ModelError(path + ": cannot read the trajectory file");
-  std::stringstream text;
-  text << file.rdbuf();
-  return LoadWaypointTrajectoryFromString(text.str(), path);
+  return LoadWaypointTrajectoryFromString(
+      ReadInputFile(path, "the trajectory file", kTrajectoryFileLimit, ErrorKind::kModel), path);
 }
 
 }  // namespace servokit

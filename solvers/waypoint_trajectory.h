@@ -17,8 +17,10 @@ namespace servokit {
 
 class WaypointTrajectory final : public OutputTrajectory {
  public:
-  /// Throws UsageError unless there are at least two waypoints with increasing times and
-  /// equally many finite output values.
+  /// Throws UsageError unless there are from two to kMaxTrajectoryPoints waypoints with
+  /// increasing times and equally many finite output values, 1 <= continuous_derivatives <=
+  /// kMaxContinuousDerivatives, and every segment's derivatives are finite (the message names
+  /// the segment's waypoints).
   WaypointTrajectory(std::vector<double> times,
                      std::vector<Eigen::VectorXd> outputs,
                      int continuous_derivatives = 4);
@@ -50,7 +52,8 @@ class WaypointTrajectory final : public OutputTrajectory {
 };
 
 /// Reads a trajectory file. Throws ModelError "file: key: problem" naming the entry
-/// (e.g. "traj.yaml: waypoints[2].t: 5 is not after waypoints[1].t = 6").
+/// (e.g. "traj.yaml: waypoints[2].t: 5 is not after waypoints[1].t = 6"), also for more than
+/// kMaxTrajectoryPoints waypoints and continuous_derivatives above kMaxContinuousDerivatives.
 WaypointTrajectory LoadWaypointTrajectory(const std::string& path);
 
 /// As LoadWaypointTrajectory, from YAML text; `source` names it in messages.

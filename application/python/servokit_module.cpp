@@ -662,8 +662,10 @@ PYBIND11_MODULE(servokit, module) {
           py::arg("imaginary_axis_tolerance") = analyze_defaults.imaginary_axis_tolerance,
           py::arg("table") = "auto",
           "Classifies every point of the full grid {parameter: values (SI)}, the first "
-          "parameter varying slowest. Returns (points, eigenvalues): the tables `servokit sweep` "
-          "writes as points.csv and eigenvalues.csv, as pandas DataFrames (table='auto' when "
+          "parameter varying slowest, on `threads` threads (0: all cores, or OMP_NUM_THREADS; "
+          "at most 1024, a UsageError above). Returns (points, eigenvalues): the tables "
+          "`servokit sweep` writes as points.csv and eigenvalues.csv, as pandas DataFrames "
+          "(table='auto' when "
           "pandas is importable, or 'pandas') or numpy structured arrays (table='numpy'; a "
           "missing integer is -1 there).")
       .def(

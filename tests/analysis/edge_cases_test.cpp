@@ -45,6 +45,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
+using Catch::Matchers::StartsWith;
 using testing::ClassifyFile;
 using testing::ModelPath;
 using testing::ReadFile;
@@ -354,14 +355,14 @@ TEST_CASE("huge stiffness: exact zero dynamics up to k = 1e300, a clear overflow
                ClassifyFile(ModelPath("mass_on_car.yaml"), {{"k", "1e308"}, {"d", "0"}});
              }),
              Contains("overflows the range of double"));
-  // The sweep's polynomial route never forms k / m2 and gets it right: a second method.
+  // A sweep decides as analyze does (issue #29): its polynomial route never forms k / m2 and
+  // would have roots here, but the point records analyze's overflow, not a verdict analyze
+  // refuses.
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"k", "1e308"}, {"d", "0"}});
   Workspace workspace(model);
   const SweepPoint point = AnalyzeSweepPoint(model, workspace, ClassificationOptions{});
-  REQUIRE(point.ok);
-  REQUIRE(point.eigenvalues.size() == 2);
-  CHECK(point.eigenvalues[0].imag() ==
-        Approx(std::sqrt(1e308) / std::sqrt(kM2 * kSin2)).epsilon(1e-9));
+  CHECK_FALSE(point.ok);
+  CHECK_THAT(point.error, Contains("overflows the range of double"));
 }
 
 TEST_CASE("a mass matrix beyond the largest double is an overflow error, not a singular one",
@@ -416,6 +417,69 @@ TEST_CASE("huge damping overflows with a message, not 'did not converge'", "[ana
                ClassifyFile(ModelPath("mass_on_car.yaml"), {{"d", "1e308"}});
              }),
              Contains("overflows the range of double"));
+}
+
+// ---- the two routes to the zero dynamics disagree (issue #29) -------------------------------
+
+TEST_CASE(
+    "a cross-check that disagrees is stated with its reason; the verdict is the normal form's",
+    "[analysis]") {
+  // tests/data/edge_tan_pole.yaml: the spring force k tan(s + pi/2), at s = 0 where double's
+  // tan(pi/2) = t = 1.633e16 (pi/2 rounded below the pole). The linearization's stiffness is
+  // k (1 + t^2) = 1.33e33, and the zero dynamics (Eq. 36 with that stiffness) are
+  // m2 sin^2(alpha) lambda^2 + d lambda + k (1 + t^2) = 0: lambda = -d / (2 m2 sin^2 alpha)
+  // +- i omega, omega = sqrt(k (1 + t^2) / (m2 sin^2 alpha) - (d / (2 m2 sin^2 alpha))^2)
+  // = 2.96e17, damping ratio 1.1e-16: on the imaginary axis by the axis tolerance (critical).
+  // QZ of the unscaled pencil finds four finite zeros instead of two.
+  const double t = std::tan(std::numbers::pi / 2);
+  const double mass = kM2 * kSin2;
+  const double omega = std::sqrt(kK * (1.0 + t * t) / mass - std::pow(1.0 / (2.0 * mass), 2));
+  const Classification c = ClassifyFile(TestDataPath("edge_tan_pole.yaml"));
+  REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+  // The normal form's eigenvalues: round-off of a 2 x 2 eigenproblem, relative to |lambda|.
+  CHECK(c.zero_dynamics.eigenvalues[0].imag() == Approx(omega).epsilon(1e-9));
+  CHECK(std::abs(c.zero_dynamics.eigenvalues[0].real()) <= 1e-9 * omega);
+  CHECK(c.zero_dynamics.stability == Stability::kCritical);
+  REQUIRE(c.cross_check.has_value());
+  CHECK_FALSE(c.cross_check->agrees);
+  CHECK(c.cross_check->invariant_zeros.size() != 2);
+  CHECK_THAT(c.cross_check->note,
+             Contains("QZ counts " + std::to_string(c.cross_check->invariant_zeros.size()) +
+                      " finite invariant zeros where the orders of the infinite zeros give 2") &&
+                 Contains("the zero dynamics and stability shown are the normal form's"));
+  // A sweep (no QZ) gives the same verdict.
+  const Model model = LoadModel(TestDataPath("edge_tan_pole.yaml"));
+  Workspace workspace(model);
+  const SweepPoint point = AnalyzeSweepPoint(model, workspace, ClassificationOptions{});
+  REQUIRE(point.ok);
+  CHECK(point.stability == Stability::kCritical);
+  // Through the command line: the row and the JSON say which route decided, on one line.
+  const TemporaryDirectory work;
+  const Run text = RunBinary(work, {"analyze", TestDataPath("edge_tan_pole.yaml")});
+  CHECK(text.status == 0);
+  static const std::regex row(R"(\n  cross-check \(QZ\) +DISAGREES: [^\n]*normal form's[^\n]*\n)");
+  CHECK(std::regex_search(text.out, row));
+  const Run json =
+      RunBinary(work, {"analyze", TestDataPath("edge_tan_pole.yaml"), "--format", "json"});
+  REQUIRE(json.status == 0);
+  const nlohmann::json check = nlohmann::json::parse(json.out)["zero_dynamics"]["cross_check"];
+  CHECK(check["agrees"] == false);
+  CHECK(check["note"].get<std::string>() == c.cross_check->note);
+}
+
+TEST_CASE("QZ that does not converge fails the cross-check, not the analysis", "[analysis]") {
+  // m2 = k = 1e300, d = 0: the zero dynamics m2 sin^2(alpha) lambda^2 + k = 0 are
+  // +-i sqrt(k / m2) / sin(alpha) = +-i / sin(5 deg) = +-11.47i, which the normal form finds;
+  // QZ of the pencil with entries 1 and 1e300 does not converge. Before: exit status 3.
+  const Classification c =
+      ClassifyFile(ModelPath("mass_on_car.yaml"), {{"m2", "1e300"}, {"k", "1e300"}, {"d", "0"}});
+  REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+  CHECK(c.zero_dynamics.eigenvalues[0].imag() == Approx(1.0 / std::sin(kAlpha)).epsilon(1e-9));
+  REQUIRE(c.cross_check.has_value());
+  CHECK_FALSE(c.cross_check->agrees);
+  CHECK(c.cross_check->invariant_zeros.empty());
+  CHECK_THAT(c.cross_check->note, StartsWith("QZ of the Rosenbrock pencil did not converge; ") &&
+                                      Contains("normal form's"));
 }
 
 // ---- NaN and Inf ----------------------------------------------------------------------------
@@ -512,13 +576,15 @@ TEST_CASE("a sweep records edge points that fail with their message and writes n
   const std::vector<std::string> rows = testing::Lines(ReadFile(out / "points.csv"));
   REQUIRE(rows.size() == 5);
   CHECK_THAT(rows[1], Contains("0,,,,,,,,\"the equilibrium at q = [0, 0] is not isolated"));
+  // k = 1e308: the error analyze gives (the zero dynamics overflow), not a verdict.
+  CHECK_THAT(rows[4], Contains("1e+308,,,,,,,,\"") && Contains("overflows the range of double"));
   const std::string eigenvalues = ReadFile(out / "eigenvalues.csv");
   CHECK_FALSE(HasNonFiniteNumber(ReadFile(out / "points.csv")));
   CHECK_FALSE(HasNonFiniteNumber(eigenvalues));
   const std::vector<std::string> eigenvalue_rows = testing::Lines(eigenvalues);
-  // Two eigenvalues for each of the three points with a solution, after the header.
-  REQUIRE(eigenvalue_rows.size() == 7);
-  const std::vector<double> stiffnesses = {5.0, 1e300, 1e308};
+  // Two eigenvalues for each of the two points with a solution, after the header.
+  REQUIRE(eigenvalue_rows.size() == 5);
+  const std::vector<double> stiffnesses = {5.0, 1e300};
   for (std::size_t i = 0; i < stiffnesses.size(); ++i) {
     const double k = stiffnesses[i];
     INFO("k = " << k);
@@ -559,6 +625,54 @@ TEST_CASE("a sweep records edge points that fail with their message and writes n
   const auto roots = testing::QuadraticRoots(kM2 * kSin2, 1.0, kK);
   CheckMassOnCarRow(nan_rows[2], 25.0, "asymptotically-stable", roots[0].real(),
                     std::abs(roots[1]));
+}
+
+TEST_CASE("a sweep row is an error exactly where analyze exits with status 3", "[analysis]") {
+  // The reproductions of issue #29 through the program. alpha = 0, d = 1: det M = m1 m2 is 0
+  // at m1 = 0, and m1 + m2 rounds to m2 at m1 = 1e-20 (singular to working precision); at
+  // m1 = 1, M is regular, P = sin^2(alpha) / det M = 0 (tangential), the zero dynamics
+  // d s' + k s = 0 have the one root -k/d = -5 (relative degree 2 dof - 1 = 3, index 4).
+  // Before, all three rows were "tangential, asymptotically-stable".
+  const TemporaryDirectory work;
+  const std::vector<std::string> fixed = {"--set", "alpha=0", "--set", "d=1"};
+  const auto with = [](std::vector<std::string> first, const std::vector<std::string>& rest) {
+    first.insert(first.end(), rest.begin(), rest.end());
+    return first;
+  };
+  const Run sweep =
+      RunBinary(work, with({"sweep", ModelPath("mass_on_car.yaml"), "--vary", "m1=0,1e-20,1",
+                            "--out", (work / "masses").string(), "--threads", "1"},
+                           fixed));
+  REQUIRE(sweep.status == 0);
+  const std::vector<std::string> rows = testing::Lines(ReadFile(work / "masses" / "points.csv"));
+  REQUIRE(rows.size() == 4);
+  for (const std::string m1 : {"0", "1e-20", "1"}) {
+    INFO("m1 = " << m1);
+    const Run analyze = RunBinary(
+        work, with({"analyze", ModelPath("mass_on_car.yaml"), "--set", "m1=" + m1}, fixed));
+    CHECK(analyze.status == (m1 == "1" ? 0 : 3));
+  }
+  CHECK_THAT(rows[1], StartsWith("0,,,,,,,,\"the mass matrix is singular to working precision"));
+  CHECK_THAT(rows[2],
+             StartsWith("1e-20,,,,,,,,\"the mass matrix is singular to working precision"));
+  CHECK(rows[3] == "1,tangential,0,3,4,1,asymptotically-stable,-5,");
+  // d = +-1e308 at alpha = 5 deg: the root -d / (m2 sin^2 alpha) is beyond the largest double
+  // (analyze: status 3); before, the rows said "critical".
+  const Run damped =
+      RunBinary(work, {"sweep", ModelPath("mass_on_car.yaml"), "--vary", "d=1e308,-1e308,1",
+                       "--out", (work / "dampers").string(), "--threads", "1"});
+  REQUIRE(damped.status == 0);
+  const std::vector<std::string> damped_rows =
+      testing::Lines(ReadFile(work / "dampers" / "points.csv"));
+  REQUIRE(damped_rows.size() == 4);
+  for (std::size_t i = 1; i <= 2; ++i) {
+    const std::string d = i == 1 ? "1e308" : "-1e308";
+    INFO("d = " << d);
+    CHECK(RunBinary(work, {"analyze", ModelPath("mass_on_car.yaml"), "--set", "d=" + d}).status ==
+          3);
+    CHECK_THAT(damped_rows[i], Contains(",,,,,,,,\"") && Contains("overflows the range of double"));
+  }
+  CHECK_THAT(damped_rows[3], StartsWith("1,non-ideal-orthogonal,1,2,3,2,asymptotically-stable,"));
 }
 
 TEST_CASE("threshold refuses a range whose midpoints overflow and finds k = 0 exactly",

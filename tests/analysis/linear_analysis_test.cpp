@@ -18,7 +18,9 @@
 
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
+#include <chrono>
 #include <cmath>
+#include <complex>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -28,6 +30,7 @@
 #include "models/linear_model.h"
 #include "models/model.h"
 #include "models/model_generators.h"
+#include "numerics/sparse_structure.h"
 
 namespace servokit {
 namespace {
@@ -147,6 +150,79 @@ TEST_CASE("an output no input reaches is NoSolution", "[analysis]") {
   system.stiffness.coeffRef(2, 1) = 0.0;
   CHECK_THROWS_AS(Analyze(system), NoSolution);
   CHECK_THROWS_WITH(Analyze(system), Catch::Contains("infinite relative degree"));
+}
+
+// ---- singular M of any size (issue #29) ----------------------------------------------------
+//
+// M = e1 e1^T (one entry, M(0,0) = 1), n coordinates: columns 2..n of M are zero, so M is
+// singular whatever its size. Eigen 3.4's SparseLU loops forever on a matrix with fewer than
+// n / 20 - 1 stored entries (numerics/sparse_structure.h): at n = 40 it failed cleanly, from
+// n = 41 on the analysis never returned.
+
+namespace {
+
+// The chain's K (tridiagonal, grounded at one end), B = e1, C = e1^T, and M = e1 e1^T.
+LinearSystem ChainWithPointMass(long masses) {
+  LinearSystem system = Chain(masses, 1, 0.1);
+  system.mass = SparseMatrix(masses, masses);
+  system.mass.insert(0, 0) = 1.0;
+  system.mass.makeCompressed();
+  return system;
+}
+
+}  // namespace
+
+TEST_CASE("a zero column is found whether it stores nothing or only zeros", "[analysis]") {
+  SparseMatrix full(3, 3);
+  full.insert(0, 0) = 1.0;
+  full.insert(2, 1) = -2.0;
+  full.insert(1, 2) = 0.5;
+  CHECK_FALSE(FindZeroColumn(full).has_value());
+  SparseMatrix empty_column = full;
+  empty_column.prune([](Eigen::Index, Eigen::Index column, double) { return column != 1; });
+  REQUIRE(FindZeroColumn(empty_column).has_value());
+  CHECK(*FindZeroColumn(empty_column) == 1);
+  SparseMatrix stored_zero = full;
+  stored_zero.coeffRef(2, 1) = 0.0;  // the entry stays in the pattern, with the value 0
+  REQUIRE(stored_zero.nonZeros() == 3);
+  REQUIRE(FindZeroColumn(stored_zero).has_value());
+  CHECK(*FindZeroColumn(stored_zero) == 1);
+  // The Rosenbrock matrices of the zero dynamics are complex.
+  const Eigen::SparseMatrix<std::complex<double>> complex_full = full.cast<std::complex<double>>();
+  CHECK_FALSE(FindZeroColumn(complex_full).has_value());
+  CHECK(*FindZeroColumn(Eigen::SparseMatrix<std::complex<double>>(3, 3)) == 0);
+}
+
+TEST_CASE("a singular mass matrix of any size is NoSolution at once, never a hang", "[analysis]") {
+  for (const long masses : {40L, 41L, 200L, 5000L}) {
+    INFO(masses << " coordinates");
+    const LinearSystem system = ChainWithPointMass(masses);
+    const auto start = std::chrono::steady_clock::now();
+    // Column 2 is the first zero column of e1 e1^T (1-based, as the message counts).
+    CHECK_THROWS_AS(Analyze(system), NoSolution);
+    CHECK_THROWS_WITH(Analyze(system), "the mass matrix M is singular: its column 2 is zero");
+    // The other entry points factor M the same way.
+    CHECK_THROWS_AS(ComputeLinearRelativeDegrees(system, 1e-10), NoSolution);
+    CHECK_THROWS_AS(ReducedLinearization(system, 1e-10), NoSolution);
+    // A structural test, O(entries): far below a second even at 5000 coordinates (before, the
+    // first call never returned).
+    CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(1));
+  }
+}
+
+TEST_CASE("a Rosenbrock matrix with a zero column is NoSolution naming it, never a hang",
+          "[analysis]") {
+  // K = D = 0 and M = e1 e1^T, B = e1, C = e1^T, n = 200: Q(0) = K = 0 has no row to factor,
+  // so the workspace takes the bordered R(0) = [[0, e1], [e1^T, 0]], size 201 with 2 entries;
+  // its column 2 (q_2) is zero. Eigen's SparseLU would loop forever on it (20 * 3 < 201).
+  LinearSystem system = ChainWithPointMass(200);
+  system.stiffness = SparseMatrix(200, 200);
+  system.damping = SparseMatrix(200, 200);
+  LinearZeroDynamicsWorkspace workspace;
+  CHECK_THROWS_AS(workspace.Factorize(system, 0.0), NoSolution);
+  CHECK_THROWS_WITH(
+      workspace.Factorize(system, 0.0),
+      Catch::Contains("singular at the shift s = 0") && Catch::Contains("its column 2 is zero"));
 }
 
 }  // namespace servokit

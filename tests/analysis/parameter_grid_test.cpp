@@ -4,6 +4,7 @@
 #include "analysis/parameter_grid.h"
 
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
@@ -62,6 +63,45 @@ TEST_CASE("a range ends exactly at its last value whatever the rounding of its s
   const GridAxis axis = RangeAxis(Names(), "k", 0.1, 0.7, 7);
   CHECK(axis.Value(6) == 0.7);
   CHECK(axis.Value(3) == 0.1 + 3 * ((0.7 - 0.1) / 6));  // numpy.linspace's formula
+}
+
+TEST_CASE("a range whose span overflows is spaced without overflow: its middle is 0",
+          "[analysis]") {
+  // last - first = 2e308 is beyond the largest double (1.8e308). Value i is then
+  // first (1 - t) + last t with t = i / (count - 1): for -a:a, a (2t - 1), whose middle t = 1/2
+  // is -a/2 + a/2 = 0 exactly (halving is exact). Before: inf - inf... the middle was inf.
+  const GridAxis three = RangeAxis(Names(), "d", -1e308, 1e308, 3);
+  CHECK(AxisValues(three) == std::vector<double>{-1e308, 0.0, 1e308});
+  const double largest = std::numeric_limits<double>::max();
+  const GridAxis widest = RangeAxis(Names(), "d", -largest, largest, 5);
+  const std::vector<double> values = AxisValues(widest);
+  REQUIRE(values.size() == 5);
+  CHECK(values[0] == -largest);
+  CHECK(values[1] == Approx(-largest / 2).epsilon(1e-15));  // a (2/4 - 1)
+  CHECK(values[2] == 0.0);
+  CHECK(values[3] == Approx(largest / 2).epsilon(1e-15));
+  CHECK(values[4] == largest);
+  // Descending, and many values: finite and strictly decreasing, ends exact.
+  const GridAxis down = RangeAxis(Names(), "d", 1e308, -1e308, 1001);
+  double previous = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < down.size(); ++i) {
+    const double value = down.Value(i);
+    INFO("value " << i << " = " << value);
+    REQUIRE(std::isfinite(value));
+    CHECK(value < previous);
+    previous = value;
+  }
+  CHECK(down.Value(500) == 0.0);
+  CHECK(down.Value(1000) == -1e308);
+}
+
+TEST_CASE("a range whose span is finite keeps numpy's spacing, bit for bit", "[analysis]") {
+  // A sweep store resumes by the grid's values: they must not change where nothing overflows.
+  const GridAxis axis = RangeAxis(Names(), "d", 0.0, 1.0, 11);
+  CHECK(axis.Value(3) == 0.0 + 3 * ((1.0 - 0.0) / 10));  // 0.30000000000000004, not 0.3
+  CHECK(axis.Value(3) != 0.3);
+  const GridAxis wide = RangeAxis(Names(), "d", -1e307, 1e307, 3);  // span 2e307 is finite
+  CHECK(wide.Value(1) == -1e307 + 1 * ((1e307 - -1e307) / 2));
 }
 
 TEST_CASE("a range of one value is its first value", "[analysis]") {

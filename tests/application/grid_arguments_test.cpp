@@ -182,6 +182,21 @@ TEST_CASE("a:b:step=h is a, a + h, ... up to b, b included within a rounding tol
   }
 }
 
+TEST_CASE("ranges whose span overflows the largest double are read without overflow", "[reports]") {
+  // b - a = 2e308 overflows: a:b:3 is a, (a + b) / 2 = 0, b (parameter_grid.h), and
+  // a:b:step=h counts (b - a) / h as b/h - a/h = 2 steps. Before: the middle value was inf, and
+  // the step form said "the step h is too small".
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:3")) ==
+        std::vector<double>{-1e308, 0.0, 1e308});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:step=1e308")) ==
+        std::vector<double>{-1e308, 0.0, 1e308});
+  // 2e308 / 3e307 = 6.67 steps: the whole ones, up to -1e308 + 6 * 3e307 = 8e307.
+  const std::vector<double> sixths =
+      AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:step=3e307"));
+  REQUIRE(sixths.size() == 7);
+  CHECK(sixths.back() == Approx(8e307).epsilon(1e-15));
+}
+
 TEST_CASE("a --vary in degrees, or of a parameter the model gives in degrees, is shown in degrees",
           "[reports]") {
   // mass_on_car.yaml: alpha: 5 deg, the others in SI.

@@ -29,6 +29,7 @@
 #include "tests/application/run_servokit.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"
+#include "tests/test_process.h"
 
 extern char** environ;
 
@@ -384,6 +385,12 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
        "--vary alpha: the parameter is varied twice (give all its values in one --vary)"},
       {Sweep(model, {"alpha=0:1:n=2"}, out, {"--threads", "0"}),
        "--threads 0: must be at least 1 (default: all cores)"},
+      // libgomp crashed on 100000 threads; 4e9 points per block took 7.8 GB for 3 points.
+      {Sweep(model, {"alpha=0:1:n=2"}, out, {"--threads", "100000"}),
+       "--threads 100000: must be at most 1024"},
+      {Sweep(model, {"alpha=0:1:n=2"}, out, {"--block-size", "4000000000"}),
+       "--block-size 4000000000: must be at most 65536"},
+      {Sweep(model, {"alpha=0:1:n=2"}, ""), "--out \"\": must name a file or directory"},
       {Sweep(model, {"alpha=0:1:n=2"}, out, {"--checkpoint-interval", "0"}),
        "--checkpoint-interval 0: must be > 0 seconds"},
       {Sweep(model, {"alpha=0:1:n=2"}, out, {"--set", "alpha=1"}),
@@ -397,6 +404,31 @@ TEST_CASE("sweep usage errors exit 2 with one line and create nothing", "[report
     CHECK(run.err == "servokit: error: " + message + "\n");
     CHECK_FALSE(fs::exists(out));
   }
+}
+
+TEST_CASE("OMP_NUM_THREADS above the limit is a usage error naming it, not a crash", "[reports]") {
+  const TemporaryDirectory work;
+  const testing::ProcessResult run =
+      testing::RunProcess(work.path(),
+                          {SERVOKIT_BINARY, "sweep", ModelPath("mass_on_car.yaml"), "--vary",
+                           "d=0:1:n=3", "--out", "out"},
+                          {{{"OMP_NUM_THREADS", "100000"}}});
+  CHECK(run.status == 2);
+  const std::string message = "OMP_NUM_THREADS=100000: 100000 threads: must be at most 1024";
+  CHECK(run.err == "servokit: error: " + message + "\n");
+  CHECK_FALSE(fs::exists(work / "out"));
+}
+
+TEST_CASE("the most threads on a grid of fewer points run one thread per point, same bytes",
+          "[reports]") {
+  const TemporaryDirectory work;
+  for (const char* threads : {"1", "1024"}) {
+    const Run run = RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"d=0:1:n=3"}, work / threads,
+                                      {"--threads", threads, "--block-size", "65536"}));
+    INFO(run.err);
+    REQUIRE(run.status == 0);
+  }
+  CheckSameTables(work / "1", work / "1024");
 }
 
 TEST_CASE("a finished sweep run again is reported complete and not computed again", "[reports]") {

@@ -1,7 +1,9 @@
 """Errors raise servokit.UsageError, ModelError and NoSolution (all servokit.Error), each by the
 kind of the C++ error and with the command line's one-line message (issue #17)."""
+import os
 import pathlib
 import subprocess
+import sys
 
 import pytest
 
@@ -66,3 +68,33 @@ def test_bad_arguments_are_usage_errors(mass_on_car):
 def test_a_missing_file_is_an_error(tmp_path):
     with pytest.raises(servokit.Error):
         servokit.load(str(tmp_path / "missing.yaml"))
+
+
+def test_too_many_threads_is_a_usage_error_naming_threads(mass_on_car):
+    # libgomp crashed the interpreter at threads=10**6; the limit is kMaxSweepThreads = 1024.
+    model = servokit.load(mass_on_car)
+    with pytest.raises(servokit.UsageError, match=r"threads = 1000000: must be <= 1024"):
+        model.sweep({"d": [0.0, 1.0]}, threads=10**6)
+
+
+def test_omp_num_threads_above_the_limit_is_a_usage_error_naming_it(mass_on_car):
+    # OpenMP reads the variable when the module loads, so it is set for a fresh interpreter.
+    script = ("import servokit, sys\n"
+              "try:\n"
+              "    servokit.load(sys.argv[1]).sweep({'d': [0.0, 1.0]})\n"
+              "except servokit.UsageError as error:\n"
+              "    print(error)\n")
+    completed = subprocess.run([sys.executable, "-c", script, mass_on_car], capture_output=True,
+                               text=True, env={**os.environ, "OMP_NUM_THREADS": "100000"})
+    assert completed.returncode == 0, completed.stderr
+    assert completed.stdout == "OMP_NUM_THREADS=100000: 100000 threads: must be at most 1024\n"
+
+
+def test_trajectory_sizes_beyond_their_limits_are_usage_errors(mass_on_car):
+    model = servokit.load(mass_on_car)
+    with pytest.raises(servokit.UsageError,
+                       match="continuous derivatives = 1000000: must be from 1 to 32"):
+        model.solve(function=lambda t, order: 0.0, continuous_derivatives=10**6, t_end=2)
+    times = [float(i) for i in range(1_000_001)]
+    with pytest.raises(servokit.UsageError, match="1000001 samples: at most 1000000"):
+        model.solve(samples=(times, [0.0] * len(times)), t_end=2)

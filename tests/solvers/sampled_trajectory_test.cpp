@@ -5,9 +5,13 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <fstream>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "models/errors.h"
+#include "tests/test_files.h"
 
 namespace servokit {
 namespace {
@@ -113,6 +117,112 @@ TEST_CASE("the interpolation error of a smoother motion falls as h^10", "[solver
   CHECK(coarse > 0.0);
   CHECK(fine < coarse / 256.0);
   CHECK(fine < 1e-7);
+}
+
+// The Euler numbers' E_10 = -50521: K = |E_10| / (4^5 10!) is Favard's constant K_10 / pi^10,
+// the sharp bound of odd-degree spline interpolation at the knots (periodic; for the complete
+// cubic it is Hall's 5/384): |y - s| <= K h^10 max |y^(10)| for degree 9.
+constexpr double kFavardDegree9 = 50521.0 / (1024.0 * 3628800.0);
+
+TEST_CASE("the interpolation error of a smoother motion is within K h^10 max |y^(10)|",
+          "[solvers]") {
+  // p_6 (degree 13) rests to order 6 at the ends, more than the spline's end conditions ask,
+  // so the spline is the complete interpolant of y = 1 - 3 p_6(t / 2) and the bound applies.
+  double tenth = 0.0;  // max |y^(10)| on [0, 2], from the closed form
+  for (double t = 0.0; t <= 2.0; t += 1.0 / 4096.0) {
+    tenth = std::max(tenth, std::abs(Motion(6, t, 10)));
+  }
+  for (const int intervals : {8, 16, 32}) {
+    std::vector<double> times;
+    for (int i = 0; i <= intervals; ++i) times.push_back(2.0 * i / intervals);
+    const SampledTrajectory trajectory = SampleMotion(6, times);
+    double error = 0.0;
+    for (double t = 0.0; t <= 2.0; t += 1.0 / 2048.0) {
+      error = std::max(error, std::abs(trajectory.Derivative(t, 0)(0) - Motion(6, t, 0)));
+    }
+    const double bound = kFavardDegree9 * std::pow(2.0 / intervals, 10) * tenth;
+    INFO(intervals << " intervals: error " << error << ", bound " << bound);
+    CHECK(error <= bound);
+  }
+}
+
+TEST_CASE(
+    "10^4 samples of Eq. (65) give it back within their round-off, as amplified by the spline",
+    "[solvers][paper]") {
+  // Eq. (65) lies in the spline's space, so the interpolation error is zero and what is left is
+  // the spline through the samples' rounding delta: its B-spline coefficients are at most
+  // ||A^-1|| max |delta| (A: the collocation matrix of degree 9 with its scaled end rows, whose
+  // inverse has norm 65.5 on the data for any number of samples, SciPy's BSpline), and each
+  // derivative multiplies them by at most 2 p / h (differences of coefficients over knot spans
+  // of at least h, p = 9). delta: a few ulps of evaluating y and the solve's backward error, at
+  // most 64 eps max |y|. Orders 0..2: what a projected or BDF solve reads.
+  constexpr int kSamples = 10000;
+  std::vector<double> times;
+  for (int i = 0; i < kSamples; ++i) times.push_back(2.0 * i / (kSamples - 1));
+  const SampledTrajectory trajectory = SampleMotion(4, times);
+  const double spacing = 2.0 / (kSamples - 1);
+  const double coefficient_error = 65.5 * 64.0 * std::numeric_limits<double>::epsilon() * 2.0;
+  Eigen::MatrixXd derivatives;
+  double errors[3] = {0.0, 0.0, 0.0};
+  for (int i = 0; i <= 100000; ++i) {
+    const double t = 2.0 * i / 100000;
+    trajectory.Derivatives(t, 2, derivatives);
+    for (int order = 0; order <= 2; ++order) {
+      errors[order] =
+          std::max(errors[order], std::abs(derivatives(0, order) - Motion(4, t, order)));
+    }
+  }
+  for (int order = 0; order <= 2; ++order) {
+    const double bound = coefficient_error * std::pow(2.0 * 9.0 / spacing, order);
+    INFO("order " << order << ": error " << errors[order] << ", bound " << bound);
+    CHECK(errors[order] <= bound);
+  }
+}
+
+TEST_CASE("samples beyond the limit or too close for their values are refused", "[solvers]") {
+  const std::size_t too_many = kMaxTrajectoryPoints + 1;
+  std::vector<double> times(too_many);
+  for (std::size_t i = 0; i < too_many; ++i) times[i] = double(i);
+  CHECK_THROWS_WITH(SampledTrajectory(times, Eigen::MatrixXd::Zero(Eigen::Index(too_many), 1)),
+                    "samples: 1000001 samples: at most 1000000");
+  // 1e-300 s apart: the first derivative alone would be some 1e300.
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1e-300, 1.0}, Eigen::Vector3d(0.0, 1.0, 1.0)),
+                    "samples: values up to 1, times 0 = 0 and 1 = 1e-300 the closest: the "
+                    "spline's derivatives up to order 4 overflow (samples too close, or values "
+                    "too large, for doubles)");
+  CHECK_THROWS_WITH(
+      SampledTrajectory({0.0, 1.0, 2.0, 3.0}, Eigen::Vector4d(0.0, 1e308, -1e308, 0.0)),
+      Catch::Contains("samples: values up to 1e+308, times 0 = 0 and 1 = 1 the "
+                      "closest: the spline's derivatives up to order 4 overflow"));
+}
+
+TEST_CASE("a samples file beyond the limit is refused at its first sample beyond it", "[solvers]") {
+  const testing::TemporaryDirectory directory;
+  const std::string path = (directory.path() / "many.csv").string();
+  {
+    std::ofstream file(path);
+    file << "t,y\n";
+    for (std::size_t i = 0; i <= kMaxTrajectoryPoints; ++i) file << i << ",0\n";
+  }
+  // Line 1 is the header, so sample 10^6 + 1 is on line 10^6 + 2.
+  CHECK_THROWS_WITH(LoadTrajectorySamples(path),
+                    path + ":1000002: more than 1000000 samples, the most a trajectory may have");
+}
+
+TEST_CASE("more continuous derivatives than the limit are refused by every trajectory kind",
+          "[solvers]") {
+  const int too_many = kMaxContinuousDerivatives + 1;
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1.0}, Eigen::Vector2d(0.0, 1.0), too_many),
+                    "samples: continuous derivatives = 33: must be from 1 to 32");
+  CHECK_THROWS_WITH(SampledTrajectory({0.0, 1.0}, Eigen::Vector2d(0.0, 1.0), 0),
+                    "samples: continuous derivatives = 0: must be from 1 to 32");
+  CHECK_THROWS_WITH(FunctionTrajectory([](double, int, Eigen::MatrixXd&) {}, 1, 1000000, {0.0}),
+                    "trajectory function: continuous derivatives = 1000000: must be from 1 to 32");
+  // At the limit: degree 65, and its derivatives still finite and at rest at the ends.
+  const SampledTrajectory highest({0.0, 0.5, 1.0}, Eigen::Vector3d(0.0, 0.5, 1.0),
+                                  kMaxContinuousDerivatives);
+  CHECK(highest.Derivative(0.25, kMaxContinuousDerivatives).allFinite());
+  CHECK(highest.Derivative(1.0, kMaxContinuousDerivatives).norm() == 0.0);
 }
 
 TEST_CASE("bad samples are refused with the sample named", "[solvers]") {

@@ -111,5 +111,43 @@ TEST_CASE("a trajectory with tf <= t0 or mismatched ends is a usage error", "[so
                     Catch::Contains("y0 has 1 values, yf 2"));
 }
 
+TEST_CASE("a motion too short for its distance is refused naming y0, yf, t0 and tf", "[solvers]") {
+  // y_d'' = (yf - y0) p''(tau) / (tf - t0)^2: with tf - t0 = 1e-300 the square underflows and
+  // the second derivative is infinite (the first, 1e300 p', is still a double).
+  CHECK_THROWS_WITH(
+      RestToRestTrajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0, 1e-300),
+      "rest-to-rest: y0 to yf (|yf - y0| = 1) from t0 = 0 to tf = 1e-300: the derivative of "
+      "order 2 of y_d overflows (the motion is too short for its distance)");
+  // yf - y0 = 2e308 is no double at all: already the first derivative overflows.
+  CHECK_THROWS_WITH(RestToRestTrajectory(Eigen::VectorXd::Constant(1, -1e308),
+                                         Eigen::VectorXd::Constant(1, 1e308), 0, 1),
+                    Catch::Contains("|yf - y0| = inf) from t0 = 0 to tf = 1: the derivative of "
+                                    "order 1 of y_d overflows"));
+}
+
+TEST_CASE("continuous derivatives are limited to 32, where a one-second motion stays finite",
+          "[solvers]") {
+  CHECK_THROWS_WITH(RestToRestTrajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0, 1,
+                                         kMaxContinuousDerivatives + 1),
+                    "rest-to-rest: continuous derivatives = 33: must be from 1 to 32");
+  CHECK_THROWS_WITH(
+      RestToRestTrajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0, 1, 1000000),
+      "rest-to-rest: continuous derivatives = 1000000: must be from 1 to 32");
+  // p_32 of a unit motion: |p^(n)| <= (2k + 1) C(2k, k) sum_j C(n - 1, j) k!/(k - j)! k!/(k - m)!
+  // (Leibniz on p' = tau^k (1 - tau)^k / B(k + 1, k + 1)), which stays below 1.6e109 for every
+  // n <= 2k + 1 = 65 (summed exactly in integers, Python).
+  const int k = kMaxContinuousDerivatives;
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Ones(1), 0, 1,
+                                        k);
+  for (const double t : {0.0, 0.01, 0.25, 0.5, 0.99, 1.0}) {
+    for (const int order : {1, k, 2 * k + 1}) {
+      INFO("t = " << t << ", order " << order);
+      const double derivative = trajectory.Derivative(t, order)(0);
+      CHECK(std::isfinite(derivative));
+      CHECK(std::abs(derivative) < 1.6e109);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace servokit
