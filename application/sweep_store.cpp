@@ -611,6 +611,9 @@ SweepFileMetadata SweepOutput::TableFileMetadata() const {
 void SweepOutput::StartHdf5File() {
   const SweepFileMetadata metadata = TableFileMetadata();
   const std::filesystem::path path = TemporaryPath(paths_.table_file);
+  // HDF5 creates it exclusively (never through a link): whatever a killed run left there goes.
+  std::error_code ignored;
+  std::filesystem::remove(path, ignored);
   const std::size_t relative_degree_width = RelativeDegreeTextWidth(model_.dof, model_.outputs);
   records_ = std::make_unique<RecordDecoder>(grid_);
   if (points_done_ == 0) {

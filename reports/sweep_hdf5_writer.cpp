@@ -362,8 +362,10 @@ class Hdf5SweepFile final : public SweepHdf5Writer {
     // The root group is created with the file: its times are turned off in the file's creation
     // properties (a kind of group creation properties).
     const Handle creation = UntimedObjectProperties(H5P_FILE_CREATE, path);
-    Handle file(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, creation.get(), access.get()), H5Fclose,
-                path, "create the file");
+    // Exclusive (O_CREAT | O_EXCL): a link planted at the name is never followed; the caller
+    // removes a file a killed run left there.
+    Handle file(H5Fcreate(path.c_str(), H5F_ACC_EXCL, creation.get(), access.get()), H5Fclose, path,
+                "create the file");
     WriteStringAttribute(file.get(), "model", metadata.model, path);
     WriteStringAttribute(file.get(), "model_content_hash", metadata.content_hash, path);
     WriteStringAttribute(file.get(), "grid", metadata.grid, path);
