@@ -33,9 +33,6 @@ std::string Quoted(const std::string& text) {
   return "'" + text + "'";
 }
 
-// Text shown in a figure, verbatim (reports/escaping.h).
-std::string QuotedText(const std::string& text) { return GnuplotString(text); }
-
 // The colour values of series i, or none.
 const std::vector<double>& ColoursOf(const PlotColouring& colouring, std::size_t i) {
   static const std::vector<double> kNone;
@@ -179,11 +176,11 @@ void WriteScript(const std::string& path,
   }
   OutputFile file(path);
   std::ostream& script = file.stream();
-  script << "set encoding utf8\nset title " << QuotedText(spec.title) << "\nset xlabel "
-         << QuotedText(spec.x_label) << "\nset ylabel " << QuotedText(spec.y_label)
+  script << "set encoding utf8\nset title " << GnuplotString(spec.title) << "\nset xlabel "
+         << GnuplotString(spec.x_label) << "\nset ylabel " << GnuplotString(spec.y_label)
          << "\nset grid\n";
   if (coloured) {
-    script << kPalette << "set cblabel " << QuotedText(colouring.label)
+    script << kPalette << "set cblabel " << GnuplotString(colouring.label)
            << "\nset colorbox\nset key below\n";
   } else {
     // A key of long titles (the classes and curves of a map) goes below the graph, where it
@@ -205,7 +202,7 @@ void WriteScript(const std::string& path,
   const auto [x_low, x_high] = XExtent(spec);
   const double span = x_high - x_low;
   for (const MarkerLabel& label : PlaceLabels(spec, x_low, span)) {
-    script << "set label " << QuotedText(label.Text()) << " at first " << FormatExact(label.x)
+    script << "set label " << GnuplotString(label.Text()) << " at first " << FormatExact(label.x)
            << ", graph "
            << FormatExact(double(kLabelTopPercent - kLabelStepPercent * label.level) / 100.0)
            << (label.right_aligned ? " right offset -0.5,0" : " left offset 0.5,0")
@@ -218,7 +215,7 @@ void WriteScript(const std::string& path,
             (ColoursOf(colouring, i).empty()
                  ? " using 1:2 with " + series.style
                  : " using 1:2:3 with " + series.style + " linecolor palette") +
-            (series.title.empty() ? " notitle" : " title " + QuotedText(series.title));
+            (series.title.empty() ? " notitle" : " title " + GnuplotString(series.title));
   }
   // Sizes and fonts for a slide: the PDF at 5 x 3.5 in with 12 pt text; the bitmaps at the
   // same proportions.
