@@ -2,7 +2,8 @@
 // --t0 T0 --tf TF]
 //     [--t-start TS] --t-end TE --method
 //     auto|algebraic|euler|radau|bdf|normal-form|stable-inversion|linearized|M1,M2,...
-//     [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT] [--pre-actuation S]
+//     [--sample-tolerance E] [--force] [--step H] [--rtol R] [--atol A] [--sample-time DT]
+//     [--pre-actuation S]
 //     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica] [--plot DIR]
 //     [--summary json|text]
 #include <algorithm>
@@ -19,14 +20,15 @@
 #include "application/exit_codes.h"
 #include "files/output_file.h"
 #include "models/errors.h"
+#include "models/option_check.h"
 #include "reports/number_format.h"
 #include "reports/solve_figures.h"
 #include "reports/solve_files.h"
 #include "servokit/servokit.h"
 #include "solvers/method_choice.h"
-#include "solvers/sampled_trajectory.h"
 #include "solvers/solve_settings.h"
 #include "solvers/solve_summary.h"
+#include "trajectories/sampled_trajectory.h"
 
 namespace servokit {
 namespace {
@@ -41,6 +43,7 @@ struct SolveArguments {
   std::string method = "auto";
   bool force = false;
   std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
+  std::optional<double> sample_tolerance;
   bool verify = false;
   std::string out;
   std::optional<std::string> format;
@@ -51,6 +54,11 @@ struct SolveArguments {
 // The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
 api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
   api::OutputTrajectory trajectory;
+  if (arguments.sample_tolerance &&
+      std::filesystem::path(arguments.trajectory).extension() != ".csv") {
+    throw UsageError("--sample-tolerance belongs to a CSV file of samples, not to --trajectory " +
+                     arguments.trajectory);
+  }
   if (arguments.trajectory == "rest-to-rest") {
     if (arguments.y0.empty() || arguments.yf.empty() || !arguments.t0 || !arguments.tf) {
       throw UsageError("--trajectory rest-to-rest needs --y0, --yf, --t0 and --tf");
@@ -72,6 +80,14 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
                      "file of samples)");
   }
   if (std::filesystem::path(arguments.trajectory).extension() == ".csv") {
+    if (arguments.sample_tolerance) {
+      const double tolerance = *arguments.sample_tolerance;
+      if (!(tolerance >= 0.0 && tolerance < 1.0)) {
+        throw UsageError("--sample-tolerance " + FormatNumber(tolerance) +
+                         ": must be >= 0 (0: through every sample) and < 1");
+      }
+      trajectory.sample_tolerance = tolerance;
+    }
     TrajectorySamples samples = LoadTrajectorySamples(arguments.trajectory);
     trajectory.sample_times = std::move(samples.times);
     trajectory.sample_values = std::move(samples.values);
@@ -430,8 +446,8 @@ Command AddSolveCommand(CLI::App& app) {
   solve
       ->add_option("--trajectory", arguments->trajectory,
                    "rest-to-rest (Eq. 65, with --y0 --yf --t0 --tf), a YAML file of waypoints, "
-                   "or a CSV file of samples (t,y1,...: joined by an interpolating spline at "
-                   "rest before the first and after the last)")
+                   "or a CSV file of samples (t,y1,...: joined by a spline at rest before the "
+                   "first and after the last, see --sample-tolerance)")
       ->required();
   solve->add_option("--y0", arguments->y0, "Rest-to-rest: output at t0, one per output");
   solve->add_option("--yf", arguments->yf, "Rest-to-rest: output at tf, one per output");
@@ -461,6 +477,10 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--atol", arguments->atol,
                     "Absolute tolerance (default 1e-10 radau, euler and stable inversion, 1e-12 "
                     "bdf and normal-form)");
+  solve->add_option("--sample-tolerance", arguments->sample_tolerance,
+                    "Samples: how far the spline may keep from them, root mean square, relative "
+                    "to each output's range (default 1e-10: it takes as few knots as that "
+                    "allows; 0: through every sample, whose rounding its derivatives then carry)");
   solve->add_option("--sample-time", arguments->sample_time,
                     "Write rows at t_start + k DT over exactly [t_start, t_end], from the "
                     "method's continuous extension [s] (default: the method's own points)");

@@ -7,9 +7,8 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <mutex>
-#include <set>
-#include <tuple>
 #include <utility>
 
 #include "servokit/errors.h"
@@ -17,29 +16,37 @@
 namespace servokit {
 namespace {
 
-// The files read so far, as they were read: device, inode and the time of their last change.
-// A name can change, the file cannot; and an inode that a deleted input leaves free, taken by a
-// new file later in a long-running process (a Python session), has another change time.
-using FileIdentity = std::tuple<dev_t, ino_t, std::int64_t, std::int64_t>;
+// The files read so far, each as it was last read: device and inode, and the time of its last
+// change then. A name can change, the file cannot; and an inode that a deleted input leaves free,
+// taken by a new file later in a long-running process (a Python session), has another change
+// time. One entry per file however often it is read: a file edited and read again replaces its
+// entry (the older change time can never be the file's again), so that a process reading a
+// changing file over and over does not grow (the fuzz targets, which rewrite one file per input,
+// grew by an entry per input, and libFuzzer ran a leak check after each).
+using FileKey = std::pair<dev_t, ino_t>;
+using ChangeTime = std::pair<std::int64_t, std::int64_t>;
 
-FileIdentity IdentityOf(const struct stat& status) {
-  return {status.st_dev, status.st_ino, status.st_ctim.tv_sec, status.st_ctim.tv_nsec};
+FileKey KeyOf(const struct stat& status) { return {status.st_dev, status.st_ino}; }
+
+ChangeTime ChangeTimeOf(const struct stat& status) {
+  return {status.st_ctim.tv_sec, status.st_ctim.tv_nsec};
 }
 
 class InputRegistry {
  public:
   void Add(const struct stat& status) {
     const std::lock_guard<std::mutex> lock(mutex_);
-    files_.insert(IdentityOf(status));
+    files_[KeyOf(status)] = ChangeTimeOf(status);
   }
   bool Contains(const struct stat& status) const {
     const std::lock_guard<std::mutex> lock(mutex_);
-    return files_.count(IdentityOf(status)) != 0;
+    const auto found = files_.find(KeyOf(status));
+    return found != files_.end() && found->second == ChangeTimeOf(status);
   }
 
  private:
   mutable std::mutex mutex_;
-  std::set<FileIdentity> files_;
+  std::map<FileKey, ChangeTime> files_;
 };
 
 InputRegistry& Inputs() {

@@ -5,8 +5,10 @@
 #include <sys/statvfs.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
+#include <climits>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -35,6 +37,17 @@ void WriteAll(int fd, const char* bytes, std::size_t size, const std::string& pa
     bytes += count;
     size -= static_cast<std::size_t>(count);
   }
+}
+
+// The temporary file's name for `final_path`, for mkostemp: hidden, beside the final name (a
+// rename within one file system is atomic), unique once mkostemp has filled in the X's. Of a final
+// name near the longest a file name may be (NAME_MAX bytes) only the start is kept, so that any
+// name the file system takes as an output gets a temporary too.
+std::string TemporaryPattern(const std::filesystem::path& final_path) {
+  constexpr std::string_view kPrefix = ".", kSuffix = ".XXXXXX";
+  std::string stem = final_path.filename().string();
+  stem.resize(std::min(stem.size(), std::size_t{NAME_MAX} - kPrefix.size() - kSuffix.size()));
+  return (final_path.parent_path() / (std::string(kPrefix) + stem + std::string(kSuffix))).string();
 }
 
 std::string DirectoryOf(const std::string& path) {
@@ -106,11 +119,9 @@ void CheckOutputPath(const std::string& path) {
 
 OutputFile::OutputFile(std::string path) : path_(std::move(path)) {
   CheckOutputPath(path_);
-  const std::filesystem::path final_path(path_);
-  // Hidden, beside the final name (a rename within one file system is atomic), unique: mkostemp
-  // creates it with O_CREAT | O_EXCL, which fails on anything already there, links included.
-  std::string pattern =
-      (final_path.parent_path() / ("." + final_path.filename().string() + ".XXXXXX")).string();
+  // mkostemp creates it with O_CREAT | O_EXCL, which fails on anything already there, links
+  // included.
+  std::string pattern = TemporaryPattern(path_);
   fd_ = ::mkostemp(pattern.data(), O_CLOEXEC);
   if (fd_ < 0) FailWriting(path_, errno);
   temporary_ = pattern;

@@ -18,6 +18,7 @@
 #include "files/input_file.h"
 #include "models/errors.h"
 #include "models/units.h"
+#include "models/yaml_document.h"
 
 namespace servokit::detail {
 namespace {
@@ -458,20 +459,7 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
 
 ModelDocument ParseModelDocument(std::string yaml_text, std::string source) {
   ModelDocument document{std::move(source), std::move(yaml_text), {}};
-  try {
-    // A second document (after "---") would be ignored by YAML::Load: the model would silently
-    // be only its first part.
-    std::vector<YAML::Node> documents = YAML::LoadAll(document.text);
-    if (documents.size() > 1) {
-      throw ModelError(document.source + ": holds " + std::to_string(documents.size()) +
-                       " YAML documents (separated by ---); a model file is one");
-    }
-    if (!documents.empty()) document.root = documents.front();
-  } catch (const YAML::ParserException& error) {
-    // yaml-cpp counts lines and columns from 0; editors count from 1.
-    throw ModelError(document.source + ":" + std::to_string(error.mark.line + 1) + ":" +
-                     std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
-  }
+  document.root = LoadSingleYamlDocument(document.text, document.source, "a model file");
   return document;
 }
 

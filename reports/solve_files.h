@@ -10,8 +10,8 @@
 #include "analysis/classification.h"
 #include "models/model.h"
 #include "solvers/inverse_model.h"
-#include "solvers/trajectory.h"
 #include "solvers/verification.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

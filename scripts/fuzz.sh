@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs the libFuzzer targets of tests/fuzz/ side by side for SECONDS each (make fuzz-smoke,
 # make fuzz). Usage: scripts/fuzz.sh BUILD_DIR SECONDS TARGET...
-# Each target starts from its seed corpus tests/fuzz/corpus/<target>/ (and for model files and
-# matrices the shipped and test ones) and grows its own copy in
+# Each target starts from its seed corpus tests/fuzz/corpus/<target>/ (and for model files,
+# matrices, samples and waypoint files the shipped and test ones) and grows its own copy in
 # BUILD_DIR/corpus/<target>/ (kept between runs). A crash, sanitizer report, leak, hang
 # (> 20 s for one input) or memory blow-up (> 4 GB) is saved as BUILD_DIR/findings/<target>-*
 # and fails the run; to keep it as a regression test, copy it to tests/fuzz/regressions/<target>/.
@@ -15,11 +15,17 @@ shift 2
 export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0"
 rm -rf "$build_dir/findings"  # this run's findings only: keep the ones that matter as regressions
 mkdir -p "$build_dir/findings"
-# More seeds, read but not grown: the shipped models and the test models and matrices.
+# More seeds, read but not grown: the shipped models, the test models, matrices and trajectory
+# files (not the demo's solves: a megabyte each, they would slow every mutation). Every target
+# has a folder, if an empty one.
 rm -rf "$build_dir/seeds"
-mkdir -p "$build_dir/seeds/model_file" "$build_dir/seeds/expression" "$build_dir/seeds/matrix_market"
+for target in "$@"; do mkdir -p "$build_dir/seeds/$target"; done
+mkdir -p "$build_dir/seeds/model_file" "$build_dir/seeds/matrix_market" \
+  "$build_dir/seeds/trajectory_file" "$build_dir/seeds/waypoint_file"
 cp models/*.yaml tests/data/*.yaml tests/data/linear/*.yaml "$build_dir/seeds/model_file/"
 cp tests/data/linear/*.mtx "$build_dir/seeds/matrix_market/"
+cp tests/data/errors/samples_*.csv "$build_dir/seeds/trajectory_file/"
+cp tests/data/errors/waypoints_*.yaml "$build_dir/seeds/waypoint_file/"
 keep_going=()
 if [ "${FUZZ_KEEP_GOING:-0}" = 1 ]; then
   keep_going=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1)

@@ -247,8 +247,10 @@ std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery
 ///     derivatives, from y0 at t0 to yf at tf;
 ///   - waypoints: the YAML file `waypoint_file`;
 ///   - samples: y_d at `sample_times` (one row of `sample_values` per time, one column per
-///     output), joined by the interpolating spline of degree 2k + 1, k = max(4, r), at rest
-///     before the first sample and after the last (solvers/sampled_trajectory.h);
+///     output), joined by a spline of degree 2k + 1, k = max(4, r), at rest before the first
+///     sample and after the last, that keeps within `sample_tolerance` times each output's
+///     range of the samples (root mean square) on as few knots as that allows; 0 interpolates
+///     (trajectories/sampled_trajectory.h);
 ///   - a function of the caller's: `function(t, highest, d)` fills d (outputs x (highest + 1))
 ///     with y_d and its derivatives up to `highest` at t.
 /// y0, yf, t0 and tf belong to rest-to-rest only.
@@ -258,6 +260,7 @@ struct OutputTrajectory {
   std::string waypoint_file;  // when set, the trajectory is this file
   std::vector<double> sample_times;
   Eigen::MatrixXd sample_values;
+  double sample_tolerance = 1e-10;  // relative to each output's range; 0: interpolate
   std::function<void(double t, int highest, Eigen::MatrixXd& derivatives)> function;
   int function_outputs = 1;
   // How many derivatives of `function` are continuous; 0 means as many as the inverse reads.

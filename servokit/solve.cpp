@@ -10,10 +10,10 @@
 #include "reports/solve_files.h"
 #include "servokit/toolkit_bridge.h"
 #include "solvers/inverse_model.h"
-#include "solvers/sampled_trajectory.h"
-#include "solvers/trajectory.h"
 #include "solvers/verification.h"
-#include "solvers/waypoint_trajectory.h"
+#include "trajectories/sampled_trajectory.h"
+#include "trajectories/trajectory.h"
+#include "trajectories/waypoint_trajectory.h"
 
 namespace servokit::api {
 namespace {
@@ -51,6 +51,29 @@ std::string ValuesName(const OutputTrajectory& trajectory, TrajectoryKind kind) 
   return "OutputTrajectory";
 }
 
+// What a solve from samples says of its spline: the degree (above 9 when the inverse reads y_d
+// to a higher order), the knots, and how closely it keeps to the samples.
+std::string SamplesNote(const SampledTrajectory& spline,
+                        std::size_t samples,
+                        int needed_derivatives) {
+  const int degree = 2 * spline.continuous_derivatives() + 1;
+  std::string note =
+      std::to_string(samples) + " samples joined by a spline of degree " + std::to_string(degree);
+  if (degree > 9) {
+    note += " (the inverse reads y_d up to order " + std::to_string(needed_derivatives) + ")";
+  }
+  const std::size_t stride = spline.knot_stride();
+  if (stride == 1) {
+    note += " through every sample";
+  } else if (stride >= samples - 1) {
+    note += " without inner knots";
+  } else {
+    note += " with a knot every " + std::to_string(stride) + " samples";
+  }
+  return note + ": largest deviation from a sample " + FormatNumber(spline.largest_deviation()) +
+         " of the output's range";
+}
+
 // The desired trajectory, raised in order when the problem needs more continuous derivatives
 // of y_d than asked for (the inverse reads y_d up to order differentiation index - 1); `note`
 // says so when it was.
@@ -78,13 +101,15 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
       }
       return std::make_unique<WaypointTrajectory>(std::move(file));
     }
-    case TrajectoryKind::kSamples:
-      if (order > 4) {
-        note = "samples joined by a spline of degree " + std::to_string(2 * order + 1) +
-               ": the inverse reads y_d up to order " + std::to_string(needed_derivatives);
-      }
-      return std::make_unique<SampledTrajectory>(trajectory.sample_times, trajectory.sample_values,
-                                                 order);
+    case TrajectoryKind::kSamples: {
+      RequireOption(trajectory.sample_tolerance >= 0.0 && trajectory.sample_tolerance < 1.0,
+                    "OutputTrajectory", "sample_tolerance", trajectory.sample_tolerance,
+                    "must be >= 0 (0: through every sample) and < 1");
+      auto samples = std::make_unique<SampledTrajectory>(
+          trajectory.sample_times, trajectory.sample_values, order, trajectory.sample_tolerance);
+      note = SamplesNote(*samples, trajectory.sample_times.size(), needed_derivatives);
+      return samples;
+    }
     case TrajectoryKind::kFunction: {
       const int declared = trajectory.function_continuous_derivatives;
       RequireOption(declared >= 0, "OutputTrajectory", "function_continuous_derivatives", declared,

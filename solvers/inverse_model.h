@@ -18,7 +18,7 @@
 #include "solvers/solve_settings.h"
 #include "solvers/solve_summary.h"
 #include "solvers/stable_inversion.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

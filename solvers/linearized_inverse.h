@@ -9,7 +9,7 @@
 #include "analysis/classification.h"
 #include "models/model.h"
 #include "solvers/inverse_model.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

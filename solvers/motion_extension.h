@@ -17,7 +17,7 @@
 #include "solvers/algebraic_inversion.h"
 #include "solvers/dense_output.h"
 #include "solvers/servo_constraint_problem.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

@@ -10,7 +10,7 @@
 
 #include "models/model.h"
 #include "solvers/algebraic_inversion.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

@@ -23,7 +23,7 @@
 #include "models/model.h"
 #include "solvers/linearly_implicit_dae.h"
 #include "solvers/solve_summary.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

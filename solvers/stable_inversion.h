@@ -20,7 +20,7 @@
 #include "solvers/algebraic_inversion.h"
 #include "solvers/motion_extension.h"
 #include "solvers/solve_summary.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

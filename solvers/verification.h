@@ -19,7 +19,7 @@
 #include "models/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/solve_summary.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

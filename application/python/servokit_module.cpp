@@ -465,6 +465,12 @@ PYBIND11_MODULE(servokit, module) {
       "servokit: servo-constraint problems of underactuated multibody systems (Seifried and "
       "Blajer 2013). load() a model file, then analyze, sweep, threshold and solve.";
   module.attr("__version__") = SERVOKIT_VERSION;
+  // numpy's C API, looked up now, on the importing thread. pybind11 before 2.12 (Debian 12 has
+  // 2.10) looks it up on first use, in a function-local static whose initializer imports numpy:
+  // that import lets the GIL go, and a second thread entering the module then waits for the
+  // static's guard while it holds the GIL, forever (pybind/pybind11#4877). 8 threads making the
+  // process's first solve at once hung every time when nothing had imported numpy yet.
+  static_cast<void>(py::dtype::of<double>());
 
   // Errors: servokit.Error and one subclass per kind, with the command line's one-line message.
   static py::exception<servokit::Error> error(module, "Error");
@@ -708,9 +714,10 @@ PYBIND11_MODULE(servokit, module) {
           "solve",
           [](const sk::Model& model, const py::object& y0, const py::object& yf, double t0,
              const py::object& tf, const py::object& waypoints, const py::object& samples,
-             const py::object& function, const py::object& breakpoints, int continuous_derivatives,
-             double t_end, const std::string& method, const py::object& sample_time, bool verify,
-             bool force, const py::object& t_start, const py::object& step, const py::object& rtol,
+             const py::object& sample_tolerance, const py::object& function,
+             const py::object& breakpoints, int continuous_derivatives, double t_end,
+             const std::string& method, const py::object& sample_time, bool verify, bool force,
+             const py::object& t_start, const py::object& step, const py::object& rtol,
              const py::object& atol, const py::object& pre_actuation,
              const py::object& post_actuation, const py::object& out,
              const std::string& file_format, const std::string& table) {
@@ -726,6 +733,9 @@ PYBIND11_MODULE(servokit, module) {
                   "solve: y0, yf and tf belong to a rest-to-rest trajectory; waypoints, samples "
                   "and function give their own");
             }
+            if (samples.is_none() && !sample_tolerance.is_none()) {
+              throw servokit::UsageError("solve: sample_tolerance belongs to samples");
+            }
             if (function.is_none() && (!breakpoints.is_none() || continuous_derivatives != 0)) {
               throw servokit::UsageError(
                   "solve: breakpoints and continuous_derivatives belong to function");
@@ -736,6 +746,9 @@ PYBIND11_MODULE(servokit, module) {
                   py::str(py::module_::import("os").attr("fspath")(waypoints));
             } else if (!samples.is_none()) {
               SetSamples(samples, trajectory);
+              if (!sample_tolerance.is_none()) {
+                trajectory.sample_tolerance = sample_tolerance.cast<double>();
+              }
             } else if (!function.is_none()) {
               python_trajectory.emplace(function, Eigen::Index(model.num_outputs()));
               trajectory.function = *python_trajectory;
@@ -786,19 +799,22 @@ PYBIND11_MODULE(servokit, module) {
           },
           py::kw_only(), py::arg("y0") = py::none(), py::arg("yf") = py::none(),
           py::arg("t0") = 0.0, py::arg("tf") = py::none(), py::arg("waypoints") = py::none(),
-          py::arg("samples") = py::none(), py::arg("function") = py::none(),
-          py::arg("breakpoints") = py::none(), py::arg("continuous_derivatives") = 0,
-          py::arg("t_end"), py::arg("method") = solve_defaults.method,
-          py::arg("sample_time") = py::none(), py::arg("verify") = solve_defaults.verify,
-          py::arg("force") = solve_defaults.force, py::arg("t_start") = py::none(),
-          py::arg("step") = py::none(), py::arg("rtol") = py::none(), py::arg("atol") = py::none(),
+          py::arg("samples") = py::none(), py::arg("sample_tolerance") = py::none(),
+          py::arg("function") = py::none(), py::arg("breakpoints") = py::none(),
+          py::arg("continuous_derivatives") = 0, py::arg("t_end"),
+          py::arg("method") = solve_defaults.method, py::arg("sample_time") = py::none(),
+          py::arg("verify") = solve_defaults.verify, py::arg("force") = solve_defaults.force,
+          py::arg("t_start") = py::none(), py::arg("step") = py::none(),
+          py::arg("rtol") = py::none(), py::arg("atol") = py::none(),
           py::arg("pre_actuation") = py::none(), py::arg("post_actuation") = py::none(),
           py::arg("out") = py::none(), py::arg("format") = solve_defaults.file_format,
           py::arg("table") = "auto",
           "Solves for the feedforward up to t_end. The desired output is one of: rest-to-rest "
           "(paper Eq. 65) from y0 at t0 to yf at tf; `waypoints`, a YAML file; `samples=(t, "
-          "y)`, joined by the interpolating spline of degree 2k+1 (k = max(4, the order the "
-          "inverse reads)) at rest before t[0] and after t[-1]; or `function`, a callable "
+          "y)`, joined by a spline of degree 2k+1 (k = max(4, the order the inverse reads)) at "
+          "rest before t[0] and after t[-1], within `sample_tolerance` (default 1e-10, root mean "
+          "square, relative to each output's range; 0 interpolates) of the samples on as few "
+          "knots as that allows; or `function`, a callable "
           "f(t, order) giving d^order y_d/dt^order, or a list [y_d, y_d', ...] of callables "
           "f(t), with `breakpoints` (default [t0]: the solve starts at the first) and "
           "`continuous_derivatives` (0: as many as the inverse reads). `out` also writes the "

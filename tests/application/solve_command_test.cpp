@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "solvers/trajectory.h"
 #include "tests/application/run_servokit.h"
 #include "tests/test_paths.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 namespace {

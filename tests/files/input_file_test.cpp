@@ -51,6 +51,22 @@ TEST_CASE("a file made anew where an input was is not that input", "[files]") {
   CHECK(!IsInputFile(path));
 }
 
+TEST_CASE("an input edited and read again is an input as it is now, not as it was", "[files]") {
+  // The registry keeps one entry per file, the last read (the fuzz targets rewrite and read one
+  // file per input). The pauses let the change time move on (see the test above).
+  const TemporaryDirectory directory;
+  const std::string path = (directory / "samples.csv").string();
+  std::ofstream(path) << "t,y\n0,0\n";
+  ReadInputFile(path, "the samples file", kTrajectoryFileLimit);
+  for (const char* edit : {"t,y\n0,1\n", "t,y\n0,2\n"}) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::ofstream(path) << edit;
+    CHECK(!IsInputFile(path));  // changed since it was read
+    ReadInputFile(path, "the samples file", kTrajectoryFileLimit);
+    CHECK(IsInputFile(path));
+  }
+}
+
 TEST_CASE("a FIFO is refused at once instead of blocking the read", "[files]") {
   const TemporaryDirectory directory;
   const std::string path = (directory / "fifo.yaml").string();

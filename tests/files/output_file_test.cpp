@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <climits>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -53,6 +54,23 @@ TEST_CASE("a committed output holds what was written, under its name only", "[fi
   }
   CHECK(ReadFile(path) == "t,x\n0,1\n");
   CHECK(Entries(directory.path()) == 1);  // the temporary is gone (renamed)
+}
+
+// Found replaying the seeds of the fuzz target output_path: the temporary's name, the final one
+// with 8 bytes more, was too long for a file name when the final one had 248 to 255 bytes.
+TEST_CASE("an output named as long as a file name may be is written, through a shorter temporary",
+          "[files]") {
+  const TemporaryDirectory directory;
+  const std::string path = (directory / std::string(NAME_MAX, 'n')).string();
+  {
+    OutputFile file(path);
+    CHECK(std::filesystem::path(file.temporary_path()).filename().string().size() <=
+          std::size_t{NAME_MAX});
+    file.Write("long name");
+    file.Commit();
+  }
+  CHECK(ReadFile(path) == "long name");
+  CHECK(Entries(directory.path()) == 1);
 }
 
 TEST_CASE("an output not committed leaves nothing, and an old file as it was", "[files]") {

@@ -1,4 +1,4 @@
-// The libFuzzer entry point, built once per reader of tests/fuzz/fuzz_inputs.h with
+// The libFuzzer entry point, built once per function of tests/fuzz/fuzz_inputs.h with
 // SERVOKIT_FUZZ_TARGET naming it (tests/fuzz/CMakeLists.txt). A servokit::Error is the clear
 // message a user would get; any other exception escapes and aborts, which libFuzzer reports as
 // a crash and saves with its input.

@@ -90,6 +90,29 @@ def test_bad_trajectory_data_is_a_usage_error(flat_car):
         flat_car.solve(samples=([0.0, 1.0], [0.0, 1.0]), function=desired, t_end=8)
     with pytest.raises(servokit.UsageError, match="belong to function"):
         flat_car.solve(y0=0, yf=1, tf=1, breakpoints=[0.0], t_end=2)
+    with pytest.raises(servokit.UsageError, match="sample_tolerance belongs to samples"):
+        flat_car.solve(y0=0, yf=1, tf=1, sample_tolerance=0.0, t_end=2)
+    with pytest.raises(servokit.UsageError, match="sample_tolerance = -1: must be >= 0"):
+        flat_car.solve(samples=([0.0, 1.0], [0.0, 1.0]), sample_tolerance=-1.0, t_end=8)
+
+
+def test_noisy_samples_are_fitted_within_the_tolerance(flat_car):
+    # F reads the fourth derivative of y_d (closed_form_force): 2001 samples of Eq. (65) with a
+    # measurement's noise of 1e-6 interpolated give a force far off (the noise times some
+    # (c/h)^4: here 1.9e5 N); fitted with the tolerance at the noise (1e-6 of the range 2), the
+    # spline is the least-squares polynomial of Eq. (65)'s space (no inner knot), which averages
+    # the noise over the 2001 samples, and the force is the closed form's to 1e-3 of its size.
+    t = np.linspace(0.0, T, 2001)
+    noise = 1e-6 * np.random.default_rng(7).uniform(-1.0, 1.0, len(t))
+    noisy = np.array([desired(ti, 0) for ti in t]) + noise
+    fitted = flat_car.solve(samples=(t, noisy), sample_tolerance=1e-6, t_end=8, sample_time=0.25)
+    interpolated = flat_car.solve(samples=(t, noisy), sample_tolerance=0.0, t_end=8,
+                                  sample_time=0.25)
+    expected = np.array([closed_form_force(ti) for ti in fitted.table["t"]])
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(fitted.table["F"].to_numpy() - expected)) < 1e-3 * scale
+    assert np.max(np.abs(interpolated.table["F"].to_numpy() - expected)) > scale
+    assert "2001 samples joined by a spline of degree 9 without inner knots" in fitted.notes[0]
 
 
 def test_the_command_reads_samples_from_csv(flat_car, mass_on_car, servokit_binary, tmp_path):

@@ -9,8 +9,8 @@
 #include <complex>
 
 #include "solvers/linear_stable_inversion.h"
-#include "solvers/trajectory.h"
 #include "tests/test_paths.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 namespace {

@@ -11,7 +11,7 @@
 #include <complex>
 
 #include "models/errors.h"
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 namespace {

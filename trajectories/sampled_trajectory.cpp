@@ -1,16 +1,17 @@
-#include "solvers/sampled_trajectory.h"
+#include "trajectories/sampled_trajectory.h"
 
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <sstream>
+#include <limits>
 #include <string>
+#include <string_view>
 #include <system_error>
 
 #include "files/input_file.h"
 #include "models/errors.h"
 #include "models/option_check.h"
+#include "trajectories/banded_least_squares.h"
 
 namespace servokit {
 namespace {
@@ -41,32 +42,52 @@ void RequireSamples(const std::vector<double>& times, const Eigen::MatrixXd& val
   }
 }
 
-// The fields of one CSV line (no quoting: the file holds numbers and plain names).
-std::vector<std::string> SplitFields(const std::string& line) {
-  std::vector<std::string> fields(1);
-  for (const char c : line) {
-    if (c == ',') {
-      fields.emplace_back();
-    } else if (c != '\r') {
-      fields.back() += c;
+// A field as a message quotes it: control bytes as \xNN, at most 40 characters, so that a hostile
+// file cannot write to the terminal or flood it.
+std::string Quoted(std::string_view field) {
+  constexpr std::size_t kLongest = 40;
+  std::string quoted = "'";
+  for (const char c : field.substr(0, kLongest)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7f) {
+      constexpr char kHex[] = "0123456789abcdef";
+      quoted += {'\\', 'x', kHex[byte >> 4], kHex[byte & 0xf]};
+    } else {
+      quoted += c;
     }
   }
-  return fields;
+  return quoted + (field.size() > kLongest ? "...'" : "'");
+}
+
+// The fields of one CSV line (no quoting: the file holds numbers and plain names), views into it.
+void SplitFields(std::string_view line, std::vector<std::string_view>& fields) {
+  fields.clear();
+  for (std::size_t start = 0;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma - start));
+    if (comma == std::string_view::npos) return;
+    start = comma + 1;
+  }
 }
 
 }  // namespace
 
 TrajectorySamples LoadTrajectorySamples(const std::string& path) {
-  std::istringstream file(
-      ReadInputFile(path, "the samples file", kTrajectoryFileLimit, ErrorKind::kModel));
-  TrajectorySamples samples;
-  std::vector<std::vector<double>> rows;
-  std::size_t columns = 0;
-  std::string line;
-  for (std::size_t number = 1; std::getline(file, line); ++number) {
+  const std::string text =
+      ReadInputFile(path, "the samples file", kTrajectoryFileLimit, ErrorKind::kModel);
+  std::vector<double> numbers;  // row after row, `columns` each
+  std::vector<std::string_view> fields;
+  std::size_t columns = 0, rows = 0;
+  std::size_t number = 0;  // of the line
+  for (std::size_t start = 0; start < text.size();) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    std::string_view line(text.data() + start, end - start);
+    start = end + 1;
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.empty() || line.front() == '#') continue;
     const auto where = [&] { return path + ":" + std::to_string(number) + ": "; };
-    if (line.empty() || line == "\r" || line.front() == '#') continue;
-    const std::vector<std::string> fields = SplitFields(line);
+    SplitFields(line, fields);
     if (columns == 0) {  // the header
       if (fields.size() < 2) {
         throw ModelError(where() +
@@ -74,35 +95,37 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
                          "per output");
       }
       columns = fields.size();
+      numbers.reserve(std::min(text.size() / (8 * columns), kMaxTrajectoryPoints) * columns);
       continue;
     }
     if (fields.size() != columns) {
       throw ModelError(where() + std::to_string(fields.size()) + " fields, but the header has " +
                        std::to_string(columns));
     }
-    std::vector<double> row;
-    for (std::size_t column = 0; column < columns; ++column) {
-      const std::string& field = fields[column];
-      double value = 0.0;
-      const auto [end, error] = std::from_chars(field.data(), field.data() + field.size(), value);
-      if (error != std::errc() || end != field.data() + field.size() || !std::isfinite(value)) {
-        throw ModelError(where() + "column " + std::to_string(column + 1) + ": '" + field +
-                         "' is not a finite number");
-      }
-      row.push_back(value);
-    }
-    if (rows.size() == kMaxTrajectoryPoints) {
+    if (rows == kMaxTrajectoryPoints) {
       throw ModelError(where() + "more than " + std::to_string(kMaxTrajectoryPoints) +
                        " samples, the most a trajectory may have");
     }
-    rows.push_back(std::move(row));
+    for (std::size_t column = 0; column < columns; ++column) {
+      const std::string_view field = fields[column];
+      double value = 0.0;
+      const auto [last, error] = std::from_chars(field.data(), field.data() + field.size(), value);
+      if (error != std::errc() || last != field.data() + field.size() || !std::isfinite(value)) {
+        throw ModelError(where() + "column " + std::to_string(column + 1) + ": " + Quoted(field) +
+                         " is not a finite number");
+      }
+      numbers.push_back(value);
+    }
+    ++rows;
   }
-  if (rows.empty()) throw ModelError(path + ": no samples (a header line, then one line each)");
-  samples.values.resize(Eigen::Index(rows.size()), Eigen::Index(columns - 1));
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    samples.times.push_back(rows[i][0]);
+  if (rows == 0) throw ModelError(path + ": no samples (a header line, then one line each)");
+  TrajectorySamples samples;
+  samples.times.resize(rows);
+  samples.values.resize(Eigen::Index(rows), Eigen::Index(columns - 1));
+  for (std::size_t i = 0; i < rows; ++i) {
+    samples.times[i] = numbers[i * columns];
     for (std::size_t j = 1; j < columns; ++j) {
-      samples.values(Eigen::Index(i), Eigen::Index(j - 1)) = rows[i][j];
+      samples.values(Eigen::Index(i), Eigen::Index(j - 1)) = numbers[i * columns + j];
     }
   }
   return samples;
@@ -110,68 +133,119 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
 
 SampledTrajectory::SampledTrajectory(std::vector<double> times,
                                      Eigen::MatrixXd values,
-                                     int continuous_derivatives)
+                                     int continuous_derivatives,
+                                     double relative_tolerance)
     : times_(std::move(times)),
       values_(std::move(values)),
       continuous_derivatives_(continuous_derivatives) {
   RequireSamples(times_, values_);
   RequireContinuousDerivatives("samples", continuous_derivatives);
+  RequireOption(relative_tolerance >= 0.0 && relative_tolerance < 1.0, "SampledTrajectory",
+                "relative_tolerance", relative_tolerance, "must be >= 0 (0: interpolate) and < 1");
   degree_ = 2 * continuous_derivatives_ + 1;
   RequireFiniteDerivatives(values_.lpNorm<Eigen::Infinity>());
   const auto order = Eigen::Index(degree_ + 1);
   scratch_.basis.resize(order, order);
   scratch_.table.resize(order, order);
+  scratch_.inverse_spans.resize(order, order);
+  scratch_.knots_below.resize(order);
+  scratch_.knots_above.resize(order);
   scratch_.differences.resize(2, order);
   scratch_.left.resize(order);
   scratch_.right.resize(order);
-  Eigen::MatrixXd right_side;
-  // Built apart, so that its triplets are freed before the factorisation takes its memory.
-  const Eigen::SparseMatrix<double> conditions = InterpolationConditions(right_side);
-  Eigen::SparseLU<Eigen::SparseMatrix<double>> factor(conditions);
-  if (factor.info() == Eigen::Success) coefficients_ = factor.solve(right_side);
-  if (factor.info() != Eigen::Success) {
+  // Each output's range, the scale of its tolerance (its largest value for a constant one).
+  Eigen::VectorXd scale = values_.colwise().maxCoeff() - values_.colwise().minCoeff();
+  for (Eigen::Index output = 0; output < scale.size(); ++output) {
+    if (scale(output) == 0.0) scale(output) = values_.col(output).cwiseAbs().maxCoeff();
+  }
+  const Eigen::VectorXd allowed = relative_tolerance * scale;
+  // Bisection on j for the stride 2^j, between 0 (interpolation, always taken) and the first
+  // stride past the last sample (no inner knot), which smooth samples pass at once.
+  int passes = 0, fails = 0;
+  while ((std::size_t(1) << fails) < times_.size() - 1) ++fails;
+  if (relative_tolerance > 0.0 && Fit(std::size_t(1) << fails, allowed)) {
+    passes = fails;
+  } else if (relative_tolerance > 0.0) {
+    while (fails - passes > 1) {
+      const int middle = (passes + fails) / 2;
+      (Fit(std::size_t(1) << middle, allowed) ? passes : fails) = middle;
+    }
+  }
+  const std::size_t stride = std::size_t(1) << passes;
+  if (knot_stride_ != stride || coefficients_.size() == 0) {
+    Fit(stride, Eigen::VectorXd::Constant(allowed.size(), INFINITY));
+  }
+  if (coefficients_.size() == 0) {
     throw UsageError("samples: no interpolating spline of degree " + std::to_string(degree_) +
                      " through the " + std::to_string(times_.size()) +
                      " samples (the interpolation conditions are singular)");
   }
   RequireFiniteDerivatives(coefficients_.lpNorm<Eigen::Infinity>());
+  largest_deviation_ = LargestDeviation(scale);
 }
 
-// One row per condition: y(t_i) = y_i at every sample, then y^(d) = 0 at the first and the last
-// sample for d = 1..k. A derivative row is scaled by h^d (h: the end interval), so that every
-// row has entries of order one and the solve keeps its accuracy on any time scale. Over n
-// breakpoints the basis of degree 2k + 1 has n + 2k functions, as many as the conditions.
-Eigen::SparseMatrix<double> SampledTrajectory::InterpolationConditions(
-    Eigen::MatrixXd& right_side) const {
+// The coefficients of the basis functions that meet the ends are fixed: the first k + 1 equal
+// the first sample (then the spline's value there is that sample and its first k derivatives
+// are zero: on a clamped knot vector the d-th derivative at the end is a combination of the
+// first d + 1 coefficients' differences), the last k + 1 the last sample. The rest, one per inner
+// knot, are the least-squares solution over the inner samples.
+bool SampledTrajectory::Fit(std::size_t stride, const Eigen::VectorXd& allowed) {
   const int k = continuous_derivatives_;
-  const auto samples = Eigen::Index(times_.size());
-  const auto order = Eigen::Index(degree_ + 1);
-  const Eigen::Index functions = samples + 2 * k;
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(std::size_t(functions * order));
-  right_side = Eigen::MatrixXd::Zero(functions, values_.cols());
-  Eigen::Index row = 0;
-  const auto add_row = [&](double t, int derivative, double scale) {
-    const Eigen::Index first = EvaluateBasis(t, derivative);
-    for (Eigen::Index j = 0; j < order; ++j) {
-      const double entry = scratch_.basis(j, derivative);
-      if (entry != 0.0) entries.emplace_back(row, first + j, scale * entry);
+  const std::size_t samples = times_.size();
+  breaks_.assign(1, times_.front());
+  for (std::size_t i = stride; i < samples - 1; i += stride) breaks_.push_back(times_[i]);
+  breaks_.push_back(times_.back());
+  knot_stride_ = stride;
+  scratch_.span = -1;  // the knots moved
+  const auto functions = Eigen::Index(breaks_.size()) + degree_ - 1;
+  const Eigen::Index unknowns = functions - 2 * (k + 1);  // the inner knots
+  const Eigen::Index outputs = values_.cols();
+  const Eigen::RowVectorXd first_value = values_.row(0), last_value = values_.bottomRows(1);
+  BandedLeastSquares fit(unknowns, degree_ + 1, outputs);
+  std::vector<double> row(std::size_t(degree_ + 1));
+  Eigen::RowVectorXd right_side(outputs);
+  for (std::size_t i = 1; i + 1 < samples; ++i) {
+    const Eigen::Index first = EvaluateBasis(times_[i], 0);
+    const Eigen::Index first_unknown = std::max<Eigen::Index>(first - (k + 1), 0);
+    right_side = values_.row(Eigen::Index(i));
+    std::fill(row.begin(), row.end(), 0.0);
+    for (Eigen::Index j = 0; j <= degree_; ++j) {
+      const Eigen::Index function = first + j;
+      const double basis = scratch_.basis(j, 0);
+      if (function <= k) {
+        right_side -= basis * first_value;
+      } else if (function >= functions - (k + 1)) {
+        right_side -= basis * last_value;
+      } else {
+        row[std::size_t(function - (k + 1) - first_unknown)] = basis;
+      }
     }
-    ++row;
-  };
-  for (Eigen::Index i = 0; i < samples; ++i) {
-    right_side.row(row) = values_.row(i);
-    add_row(times_[std::size_t(i)], 0, 1.0);
+    fit.AddRow(first_unknown, row.data(), right_side.data());
   }
-  const double first_interval = times_[1] - times_[0];
-  const double last_interval = times_.back() - times_[times_.size() - 2];
-  for (int derivative = 1; derivative <= k; ++derivative) {
-    add_row(times_.front(), derivative, std::pow(first_interval, derivative));
-    add_row(times_.back(), derivative, std::pow(last_interval, derivative));
+  const BandedLeastSquares::RowMajorMatrix inner = fit.Solve();
+  if (inner.rows() != unknowns || !inner.allFinite()) {
+    coefficients_.resize(0, 0);
+    return false;
   }
-  Eigen::SparseMatrix<double> conditions(functions, functions);
-  conditions.setFromTriplets(entries.begin(), entries.end());
-  return conditions;
+  coefficients_.resize(functions, outputs);
+  coefficients_.topRows(k + 1).rowwise() = first_value;
+  coefficients_.middleRows(k + 1, unknowns) = inner;
+  coefficients_.bottomRows(k + 1).rowwise() = last_value;
+  const auto rows = double(std::max<std::size_t>(samples - 2, 1));
+  return ((fit.residual_squares() / rows).cwiseSqrt().array() <= allowed.array()).all();
+}
+
+double SampledTrajectory::LargestDeviation(const Eigen::VectorXd& scale) const {
+  double largest = 0.0;
+  Eigen::MatrixXd value;
+  for (std::size_t i = 1; i + 1 < times_.size(); ++i) {
+    Derivatives(times_[i], 0, value);
+    const Eigen::ArrayXd deviation =
+        (value.col(0) - values_.row(Eigen::Index(i)).transpose()).cwiseAbs().array() /
+        scale.array().max(std::numeric_limits<double>::min());
+    largest = std::max(largest, deviation.maxCoeff());
+  }
+  return largest;
 }
 
 // The derivative of order m of a spline of degree p is a spline of degree p - m whose
@@ -186,7 +260,9 @@ void SampledTrajectory::RequireFiniteDerivatives(double largest_coefficient) con
     if (times_[i] - times_[i - 1] < times_[closest] - times_[closest - 1]) closest = i;
   }
   const double growth = 2.0 * degree_ / (times_[closest] - times_[closest - 1]);
-  double bound = largest_coefficient;
+  // At least 1: the basis functions' derivatives, (2p / h)^m, must be finite on their own, or
+  // zero values would give 0 * inf = NaN.
+  double bound = std::max(largest_coefficient, 1.0);
   for (int m = 1; m <= continuous_derivatives_ && std::isfinite(bound); ++m) bound *= growth;
   if (std::isfinite(bound)) return;
   throw UsageError("samples: values up to " + FormatNumber(values_.lpNorm<Eigen::Infinity>()) +
@@ -199,17 +275,17 @@ void SampledTrajectory::RequireFiniteDerivatives(double largest_coefficient) con
 }
 
 double SampledTrajectory::Knot(Eigen::Index j) const {
-  const Eigen::Index last = Eigen::Index(times_.size()) - 1;
-  return times_[std::size_t(std::clamp<Eigen::Index>(j - degree_, 0, last))];
+  const Eigen::Index last = Eigen::Index(breaks_.size()) - 1;
+  return breaks_[std::size_t(std::clamp<Eigen::Index>(j - degree_, 0, last))];
 }
 
 // The nonzero B-splines at t and their derivatives by de Boor's recurrence in the form of
 // Piegl and Tiller, The NURBS Book (2nd ed., 1997), Algorithm A2.3.
 Eigen::Index SampledTrajectory::EvaluateBasis(double t, int highest) const {
   // The interval [t_i, t_i+1) holding t, the last one for t = the last time: O(log n).
-  const auto last_interval = std::ptrdiff_t(times_.size()) - 2;
+  const auto last_interval = std::ptrdiff_t(breaks_.size()) - 2;
   const std::ptrdiff_t interval = std::clamp<std::ptrdiff_t>(
-      std::upper_bound(times_.begin(), times_.end(), t) - times_.begin() - 1, 0, last_interval);
+      std::upper_bound(breaks_.begin(), breaks_.end(), t) - breaks_.begin() - 1, 0, last_interval);
   const Eigen::Index span = interval + degree_;  // in the clamped knot vector
   FillBasisTable(t, span);
   DifferentiateBasis(highest);
@@ -220,16 +296,31 @@ Eigen::Index SampledTrajectory::EvaluateBasis(double t, int highest) const {
 // table, with the knot spans they divide by below it); the last column holds degree p's.
 void SampledTrajectory::FillBasisTable(double t, Eigen::Index span) const {
   Eigen::MatrixXd& table = scratch_.table;
+  Eigen::MatrixXd& inverse = scratch_.inverse_spans;
   Eigen::VectorXd& left = scratch_.left;
   Eigen::VectorXd& right = scratch_.right;
+  Eigen::VectorXd& below = scratch_.knots_below;
+  Eigen::VectorXd& above = scratch_.knots_above;
+  if (scratch_.span != span) {
+    for (int j = 1; j <= degree_; ++j) {
+      below(j) = Knot(span + 1 - j);
+      above(j) = Knot(span + j);
+    }
+    for (int j = 1; j <= degree_; ++j) {
+      for (int r = 0; r < j; ++r) {
+        table(j, r) = Knot(span + r + 1) - Knot(span + 1 - j + r);  // never 0 (times increase)
+        inverse(j, r) = 1.0 / table(j, r);
+      }
+    }
+    scratch_.span = span;
+  }
   table(0, 0) = 1.0;
   for (int j = 1; j <= degree_; ++j) {
-    left(j) = t - Knot(span + 1 - j);
-    right(j) = Knot(span + j) - t;
+    left(j) = t - below(j);
+    right(j) = above(j) - t;
     double saved = 0.0;
     for (int r = 0; r < j; ++r) {
-      table(j, r) = right(r + 1) + left(j - r);  // a knot span: never 0 (times increase)
-      const double ratio = table(r, j - 1) / table(j, r);
+      const double ratio = table(r, j - 1) * inverse(j, r);
       table(r, j) = saved + right(r + 1) * ratio;
       saved = left(j - r) * ratio;
     }
@@ -246,6 +337,7 @@ void SampledTrajectory::DifferentiateBasis(int highest) const {
   Eigen::MatrixXd& basis = scratch_.basis;
   Eigen::MatrixXd& a = scratch_.differences;
   for (int j = 0; j <= p; ++j) basis(j, 0) = table(j, p);
+  if (highest == 0) return;
   for (int r = 0; r <= p; ++r) {
     Eigen::Index current = 0, next = 1;
     a(0, 0) = 1.0;

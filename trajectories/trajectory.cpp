@@ -1,4 +1,4 @@
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 #include <algorithm>
 #include <cmath>
@@ -72,6 +72,10 @@ RestToRestTrajectory::RestToRestTrajectory(
   if (!(t0 < tf)) {
     throw UsageError("rest-to-rest: t0 = " + FormatNumber(t0) + ", tf = " + FormatNumber(tf) +
                      ": needs t0 < tf");
+  }
+  if (!std::isfinite(tf - t0)) {  // tau = (t - t0) / (tf - t0) would be NaN at tf
+    throw UsageError("rest-to-rest: t0 = " + FormatNumber(t0) + ", tf = " + FormatNumber(tf) +
+                     ": tf - t0 overflows (too far apart for doubles)");
   }
   RequireContinuousDerivatives("rest-to-rest", continuous_derivatives);
   const int k = continuous_derivatives_;

@@ -1,10 +1,11 @@
-// Trajectories from samples and from a caller's function (solvers/sampled_trajectory.h),
+// Trajectories from samples and from a caller's function (trajectories/sampled_trajectory.h),
 // against closed forms: polynomials at rest at both ends, which the spline must reproduce, and
 // a smooth motion of higher degree, for which the interpolation error must fall as h^(2k + 2).
-#include "solvers/sampled_trajectory.h"
+#include "trajectories/sampled_trajectory.h"
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -51,13 +52,17 @@ double Motion(int k, double t, int order) {
   return (order == 0 ? 1.0 : 0.0) - 3.0 * RestToRest(k, t / 2.0, order) / std::pow(2.0, order);
 }
 
-SampledTrajectory SampleMotion(int motion_order, const std::vector<double>& times) {
+// The samples of Motion (and twice it as a second output) joined with the given tolerance; 0
+// asks for the interpolating spline, whose error bounds the tests below check.
+SampledTrajectory SampleMotion(int motion_order,
+                               const std::vector<double>& times,
+                               double tolerance = 0.0) {
   Eigen::MatrixXd values(Eigen::Index(times.size()), 2);
   for (std::size_t i = 0; i < times.size(); ++i) {
     values(Eigen::Index(i), 0) = Motion(motion_order, times[i], 0);
     values(Eigen::Index(i), 1) = 2.0 * Motion(motion_order, times[i], 0);  // a second output
   }
-  return SampledTrajectory(times, values, 4);
+  return SampledTrajectory(times, values, 4, tolerance);
 }
 
 TEST_CASE("samples of Eq. (65) give Eq. (65) back, with its derivatives", "[solvers][paper]") {
@@ -177,6 +182,80 @@ TEST_CASE(
     INFO("order " << order << ": error " << errors[order] << ", bound " << bound);
     CHECK(errors[order] <= bound);
   }
+}
+
+// Samples rounded to 12 significant digits, as a measurement or a short CSV gives them.
+SampledTrajectory SampleRounded(int motion_order, int samples, double tolerance) {
+  std::vector<double> times;
+  Eigen::MatrixXd values(samples, 1);
+  for (int i = 0; i < samples; ++i) {
+    times.push_back(2.0 * i / (samples - 1));
+    const double exact = Motion(motion_order, times.back(), 0);
+    char text[32];
+    std::snprintf(text, sizeof text, "%.11e", exact);
+    values(i, 0) = std::stod(text);
+  }
+  return SampledTrajectory(times, values, 4, tolerance);
+}
+
+TEST_CASE("rounded samples: the fit keeps the derivatives that interpolation loses",
+          "[solvers][paper]") {
+  // 10^4 samples of Eq. (65) rounded to 12 digits (5e-12 at most, 1.7e-12 of the range 3):
+  // the interpolating spline carries the rounding into y_d'' multiplied by some (2p / h)^2 =
+  // 8e9 (h = 2e-4, p = 9), while Eq. (65) itself lies in every spline space the fit tries, so
+  // the fit takes no inner knot and gives Eq. (65) back but for its end samples' rounding.
+  const SampledTrajectory interpolated = SampleRounded(4, 10000, 0.0);
+  const SampledTrajectory fitted = SampleRounded(4, 10000, kSampleTolerance);
+  CHECK(interpolated.knot_stride() == 1);
+  CHECK(fitted.knot_stride() >= 9999);
+  CHECK(fitted.largest_deviation() <= 2e-12);  // the rounding, relative to the range 3
+  double interpolation_error = 0.0, fit_error = 0.0;
+  for (int i = 0; i <= 20000; ++i) {
+    const double t = 2.0 * i / 20000;
+    interpolation_error =
+        std::max(interpolation_error, std::abs(interpolated.Derivative(t, 2)(0) - Motion(4, t, 2)));
+    fit_error = std::max(fit_error, std::abs(fitted.Derivative(t, 2)(0) - Motion(4, t, 2)));
+  }
+  INFO("y_d'' errors: interpolated " << interpolation_error << ", fitted " << fit_error);
+  CHECK(interpolation_error > 1e-5);  // the failure the fit is for (max |y''| is some 6)
+  CHECK(fit_error < 1e-9);
+}
+
+TEST_CASE("a motion outside the spline's space is fitted within the tolerance on fewer knots",
+          "[solvers]") {
+  // p_6 (degree 13) is no spline of degree 9: the fit needs inner knots, fewer than samples.
+  // Checked here with the closed form, independently of the fit's own residuals: the root mean
+  // square of the deviations at the samples within 1e-10 of the range 3, every derivative the
+  // inverse reads within what the knot spacing allows.
+  constexpr int kSamples = 4001;
+  std::vector<double> times;
+  for (int i = 0; i < kSamples; ++i) times.push_back(2.0 * i / (kSamples - 1));
+  const SampledTrajectory trajectory = SampleMotion(6, times, kSampleTolerance);
+  INFO("knot stride " << trajectory.knot_stride());
+  CHECK(trajectory.knot_stride() > 1);
+  CHECK(trajectory.knot_stride() < kSamples - 1);
+  double squares = 0.0, largest = 0.0;
+  for (const double t : times) {
+    const double deviation = std::abs(trajectory.Derivative(t, 0)(0) - Motion(6, t, 0));
+    squares += deviation * deviation;
+    largest = std::max(largest, deviation);
+  }
+  CHECK(std::sqrt(squares / kSamples) <= 1e-10 * 3.0);
+  CHECK(trajectory.largest_deviation() == Approx(largest / 3.0).epsilon(1e-6));
+  // Jackson: a spline of degree 9 on knots H apart is within C H^(10 - m) of the m-th derivative;
+  // with its values within 1e-10 here, the fourth derivative (max some 2e3) keeps 1e-5 of it.
+  for (double t = 0.0; t <= 2.0; t += 1.0 / 1024.0) {
+    CHECK(trajectory.Derivative(t, 4)(0) == Approx(Motion(6, t, 4)).margin(2e-2));
+  }
+}
+
+TEST_CASE("the sample tolerance is checked", "[solvers]") {
+  const std::vector<double> times{0.0, 1.0, 2.0};
+  const Eigen::Vector3d values(0.0, 1.0, 1.0);
+  CHECK_THROWS_WITH(SampledTrajectory(times, values, 4, -1e-3),
+                    Catch::Contains("relative_tolerance = -0.001: must be >= 0"));
+  CHECK_THROWS_WITH(SampledTrajectory(times, values, 4, 1.0), Catch::Contains("and < 1"));
+  CHECK_THROWS_AS(SampledTrajectory(times, values, 4, std::nan("")), UsageError);
 }
 
 TEST_CASE("samples beyond the limit or too close for their values are refused", "[solvers]") {

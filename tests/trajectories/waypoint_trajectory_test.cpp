@@ -1,6 +1,6 @@
 // Trajectory files: waypoints joined by rest-to-rest segments (issue #4), against the single
 // segment of Eq. (65) and hand-checked hold and error cases.
-#include "solvers/waypoint_trajectory.h"
+#include "trajectories/waypoint_trajectory.h"
 
 #include <catch2/catch.hpp>
 #include <numbers>

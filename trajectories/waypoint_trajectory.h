@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 namespace servokit {
 

@@ -1,6 +1,6 @@
 // Rest-to-rest trajectories (paper Eq. 65), against the paper's printed coefficients and
 // against independent numerical checks.
-#include "solvers/trajectory.h"
+#include "trajectories/trajectory.h"
 
 #include <ginac/ginac.h>
 

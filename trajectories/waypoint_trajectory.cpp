@@ -1,4 +1,4 @@
-#include "solvers/waypoint_trajectory.h"
+#include "trajectories/waypoint_trajectory.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -11,6 +11,7 @@
 #include "files/input_file.h"
 #include "models/errors.h"
 #include "models/units.h"
+#include "models/yaml_document.h"
 
 namespace servokit {
 
@@ -64,20 +65,16 @@ double ReadNumber(const YAML::Node& node, const std::string& source, const std::
   return *value;
 }
 
-}  // namespace
-
-WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text,
-                                                    const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& error) {
-    throw ModelError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
-                     std::to_string(error.mark.column + 1) + ": bad YAML: " + error.msg);
-  }
+WaypointTrajectory ParseWaypoints(const std::string& yaml_text, const std::string& source) {
+  const YAML::Node root = LoadSingleYamlDocument(yaml_text, source, "a waypoint file");
   if (!root.IsMap()) Fail(source, "(top level)", "expected a map with the key 'waypoints'");
   for (const auto& entry : root) {
-    const std::string key = entry.first.as<std::string>();
+    if (!entry.first.IsScalar()) {
+      Fail(source, "(top level)",
+           "a key that is not a name (expected waypoints, "
+           "continuous_derivatives)");
+    }
+    const std::string key = entry.first.Scalar();
     if (key != "waypoints" && key != "continuous_derivatives") {
       Fail(source, key, "unknown key (expected waypoints, continuous_derivatives)");
     }
@@ -135,6 +132,19 @@ WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text
     return WaypointTrajectory(std::move(times), std::move(outputs), continuous_derivatives);
   } catch (const UsageError& error) {  // a segment that cannot be one (e.g. its derivatives)
     throw ModelError(source + ": " + error.what());
+  }
+}
+
+}  // namespace
+
+WaypointTrajectory LoadWaypointTrajectoryFromString(const std::string& yaml_text,
+                                                    const std::string& source) {
+  try {
+    return ParseWaypoints(yaml_text, source);
+  } catch (const YAML::Exception& error) {  // a node of a shape the reader did not foresee
+    if (error.mark.is_null()) throw ModelError(source + ": " + error.msg);
+    throw ModelError(source + ":" + std::to_string(error.mark.line + 1) + ":" +
+                     std::to_string(error.mark.column + 1) + ": " + error.msg);
   }
 }
 
