@@ -7,10 +7,13 @@ are deterministic, so any difference is a race.
 
 Each call is made up to 50 times per thread, fewer when it is slow (as often as fits in about
 0.4 s of its reference time, at least twice): a symbolic call (load, analyze's nonlinear
-structure, a model's first algebraic solve) runs one thread at a time, 10 to 100 ms each."""
+structure, a model's first algebraic solve) runs one thread at a time, 10 to 100 ms each. The
+last test makes a fresh interpreter's first calls from 8 threads at once, with no reference."""
 import concurrent.futures
 import os
 import pathlib
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -141,3 +144,31 @@ def test_solving_by_every_method_from_8_threads_gives_one_answer():
         calls[f"flat mass_on_car m1 = {mass} algebraic"] = rest_to_rest(
             lighter, **car_move, t_end=3, method="algebraic", step=0.01)
     check_threaded_answers_equal_single_threaded(calls)
+
+
+FIRST_CALLS = """
+import sys, threading
+import servokit
+model = servokit.load(sys.argv[1], s=0.5)
+barrier = threading.Barrier(8)
+def work():
+    barrier.wait()
+    model.solve(y0=[0], yf=[0.1], t0=1, tf=3, t_end=3.5, method="normal-form", table="numpy")
+threads = [threading.Thread(target=work) for _ in range(8)]
+for thread in threads:
+    thread.start()
+for thread in threads:
+    thread.join()
+print("done")
+"""
+
+
+def test_the_first_calls_of_a_process_from_8_threads_at_once_finish():
+    """The tests above make every call once on one thread first; here a fresh interpreter that
+    has not imported numpy makes its first solves from 8 threads at once. pybind11 2.10 looked
+    numpy's C API up on first use, under a static's guard that a thread holding the GIL waited
+    for: every run hung (application/python/servokit_module.cpp looks it up at import)."""
+    done = subprocess.run([sys.executable, "-c", FIRST_CALLS,
+                           str(MODELS / "rotational_arm.yaml")],
+                          capture_output=True, text=True, timeout=60)
+    assert (done.returncode, done.stdout.strip()) == (0, "done"), done.stderr[-2000:]
