@@ -143,7 +143,7 @@ std::vector<double> FixedGrid(double t_start,
                               double step,
                               const std::vector<double>& breakpoints) {
   std::vector<double> times;
-  const long count = long(std::ceil((t_end - t_start) / step - 1e-9));
+  const long count = long(std::ceil((t_end - t_start) / step - kWholeSamplesTolerance));
   for (long k = 0; k < count; ++k) times.push_back(t_start + double(k) * step);
   times.push_back(t_end);
   for (double breakpoint : breakpoints) {

@@ -44,6 +44,11 @@ constexpr unsigned kOutputGeometry = Quantity::kOutput | Quantity::kOutputJacobi
 // above this; below it, the unactuated coordinates are a poor chart of the constraint manifold
 // (H_a nearly singular, paper Sect. 2.4) and the tangent basis D_0 is used instead.
 constexpr double kMinChartReciprocalCondition = 1e-8;
+// Along the motion the chart is re-checked by its LU pivots only, which come free with the
+// factorisation: their spread bounds the condition number from below and may understate it by
+// orders of magnitude, so the check refuses only what is singular to round-off (1e-12), four
+// orders below the choice at the start, lest a chart chosen well there be refused on the way.
+constexpr double kMinChartPivotRatio = 1e-4 * kMinChartReciprocalCondition;
 
 }  // namespace
 
@@ -224,7 +229,7 @@ bool ServoConstraintProblem::StateFromInternal(double t,
     chart_factor_.compute(chart_);
     // The pivots' spread bounds the condition number from below, at no extra cost.
     const auto pivots = chart_factor_.matrixLU().diagonal().cwiseAbs();
-    if (!(pivots.minCoeff() > kMinChartReciprocalCondition * 1e-4 * pivots.maxCoeff())) {
+    if (!(pivots.minCoeff() > kMinChartPivotRatio * pivots.maxCoeff())) {
       why = "y and the internal coordinates no longer determine q ([H; C^T] is singular)";
       last_failure_ = SolveStatus::kNoConvergence;
       return false;

@@ -35,6 +35,9 @@ constexpr double kTrajectoryRestTolerance = 1e-14;
 // Restarted segments at most: a plant growing so fast that more would be needed leaves no
 // meaningful check (each segment is a CVODE start); the check then says so.
 constexpr int kMaxSegments = 100000;
+// A span within this many segments of a whole number of them is that number (a span of 4 s cut
+// into 0.1 s segments is 40.000000000000003 of them, not 41).
+constexpr double kWholeSegmentsTolerance = 1e-9;
 // Steps allowed in all forward runs: a smooth u_d on the shipped models needs a few thousand;
 // one that is not smooth (noise in a high derivative of y_d) would otherwise crawl for minutes.
 constexpr long kMaxForwardSteps = 1000000;
@@ -266,7 +269,8 @@ Verification VerifyFeedforward(const Model& model,
         " /s) that the forward check's " + std::to_string(kMaxSegments) +
         " segments let errors grow by more than " + Number(options.segment_growth) + " within one");
   } else {
-    verification.segments = int(std::ceil(span / verification.segment_length - 1e-9));
+    verification.segments =
+        int(std::ceil(span / verification.segment_length - kWholeSegmentsTolerance));
   }
 
   // The forward runs, segment by segment.
