@@ -89,6 +89,7 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
       trajectory.sample_tolerance = tolerance;
     }
     TrajectorySamples samples = LoadTrajectorySamples(arguments.trajectory);
+    trajectory.sample_source = arguments.trajectory;
     trajectory.sample_times = std::move(samples.times);
     trajectory.sample_values = std::move(samples.values);
     return trajectory;

@@ -260,7 +260,8 @@ struct OutputTrajectory {
   std::string waypoint_file;  // when set, the trajectory is this file
   std::vector<double> sample_times;
   Eigen::MatrixXd sample_values;
-  double sample_tolerance = 1e-10;  // relative to each output's range; 0: interpolate
+  double sample_tolerance = 1e-10;        // relative to each output's range; 0: interpolate
+  std::string sample_source = "samples";  // names the samples in messages (e.g. their file)
   std::function<void(double t, int highest, Eigen::MatrixXd& derivatives)> function;
   int function_outputs = 1;
   // How many derivatives of `function` are continuous; 0 means as many as the inverse reads.

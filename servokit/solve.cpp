@@ -106,7 +106,8 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
                     "OutputTrajectory", "sample_tolerance", trajectory.sample_tolerance,
                     "must be >= 0 (0: through every sample) and < 1");
       auto samples = std::make_unique<SampledTrajectory>(
-          trajectory.sample_times, trajectory.sample_values, order, trajectory.sample_tolerance);
+          trajectory.sample_times, trajectory.sample_values, order, trajectory.sample_tolerance,
+          trajectory.sample_source);
       note = SamplesNote(*samples, trajectory.sample_times.size(), needed_derivatives);
       return samples;
     }

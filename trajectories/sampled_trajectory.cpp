@@ -16,26 +16,28 @@
 namespace servokit {
 namespace {
 
-void RequireSamples(const std::vector<double>& times, const Eigen::MatrixXd& values) {
+void RequireSamples(const std::string& source,
+                    const std::vector<double>& times,
+                    const Eigen::MatrixXd& values) {
   if (times.size() < 2) {
-    throw UsageError("samples: " + std::to_string(times.size()) +
+    throw UsageError(source + ": " + std::to_string(times.size()) +
                      " sample times; a sampled trajectory needs at least two");
   }
   if (times.size() > kMaxTrajectoryPoints) {
-    throw UsageError("samples: " + std::to_string(times.size()) + " samples: at most " +
+    throw UsageError(source + ": " + std::to_string(times.size()) + " samples: at most " +
                      std::to_string(kMaxTrajectoryPoints));
   }
   if (Eigen::Index(times.size()) != values.rows() || values.cols() == 0) {
-    throw UsageError("samples: " + std::to_string(times.size()) + " times but " +
+    throw UsageError(source + ": " + std::to_string(times.size()) + " times but " +
                      std::to_string(values.rows()) + " rows of values (one row per time, one " +
                      "column per output)");
   }
   for (std::size_t i = 0; i < times.size(); ++i) {
     if (!std::isfinite(times[i]) || !values.row(Eigen::Index(i)).allFinite()) {
-      throw UsageError("samples: sample " + std::to_string(i) + " is not finite");
+      throw UsageError(source + ": sample " + std::to_string(i) + " is not finite");
     }
     if (i > 0 && !(times[i] > times[i - 1])) {
-      throw UsageError("samples: time " + std::to_string(i) + " = " + FormatNumber(times[i]) +
+      throw UsageError(source + ": time " + std::to_string(i) + " = " + FormatNumber(times[i]) +
                        " is not after time " + std::to_string(i - 1) + " = " +
                        FormatNumber(times[i - 1]) + " (times must increase strictly)");
     }
@@ -134,12 +136,14 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
 SampledTrajectory::SampledTrajectory(std::vector<double> times,
                                      Eigen::MatrixXd values,
                                      int continuous_derivatives,
-                                     double relative_tolerance)
-    : times_(std::move(times)),
+                                     double relative_tolerance,
+                                     std::string source)
+    : source_(std::move(source)),
+      times_(std::move(times)),
       values_(std::move(values)),
       continuous_derivatives_(continuous_derivatives) {
-  RequireSamples(times_, values_);
-  RequireContinuousDerivatives("samples", continuous_derivatives);
+  RequireSamples(source_, times_, values_);
+  RequireContinuousDerivatives(source_, continuous_derivatives);
   RequireOption(relative_tolerance >= 0.0 && relative_tolerance < 1.0, "SampledTrajectory",
                 "relative_tolerance", relative_tolerance, "must be >= 0 (0: interpolate) and < 1");
   degree_ = 2 * continuous_derivatives_ + 1;
@@ -176,7 +180,7 @@ SampledTrajectory::SampledTrajectory(std::vector<double> times,
     Fit(stride, Eigen::VectorXd::Constant(allowed.size(), INFINITY));
   }
   if (coefficients_.size() == 0) {
-    throw UsageError("samples: no interpolating spline of degree " + std::to_string(degree_) +
+    throw UsageError(source_ + ": no interpolating spline of degree " + std::to_string(degree_) +
                      " through the " + std::to_string(times_.size()) +
                      " samples (the interpolation conditions are singular)");
   }
@@ -265,7 +269,7 @@ void SampledTrajectory::RequireFiniteDerivatives(double largest_coefficient) con
   double bound = std::max(largest_coefficient, 1.0);
   for (int m = 1; m <= continuous_derivatives_ && std::isfinite(bound); ++m) bound *= growth;
   if (std::isfinite(bound)) return;
-  throw UsageError("samples: values up to " + FormatNumber(values_.lpNorm<Eigen::Infinity>()) +
+  throw UsageError(source_ + ": values up to " + FormatNumber(values_.lpNorm<Eigen::Infinity>()) +
                    ", times " + std::to_string(closest - 1) + " = " +
                    FormatNumber(times_[closest - 1]) + " and " + std::to_string(closest) + " = " +
                    FormatNumber(times_[closest]) +

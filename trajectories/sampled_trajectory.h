@@ -51,10 +51,12 @@ class SampledTrajectory final : public OutputTrajectory {
   /// are from two to kMaxTrajectoryPoints samples, times strictly increasing, every number
   /// finite, 1 <= k <= kMaxContinuousDerivatives, 0 <= relative_tolerance < 1, and the spline's
   /// derivatives up to order k finite (samples too close for their values would overflow them).
+  /// Messages begin with `source` (the samples' file, where they came from one).
   SampledTrajectory(std::vector<double> times,
                     Eigen::MatrixXd values,
                     int continuous_derivatives = 4,
-                    double relative_tolerance = kSampleTolerance);
+                    double relative_tolerance = kSampleTolerance,
+                    std::string source = "samples");
 
   /// The spline's inner knots: every knot_stride()-th sample time (1: it interpolates).
   std::size_t knot_stride() const { return knot_stride_; }
@@ -90,6 +92,7 @@ class SampledTrajectory final : public OutputTrajectory {
   // `largest_coefficient` could overflow.
   void RequireFiniteDerivatives(double largest_coefficient) const;
 
+  std::string source_;
   std::vector<double> times_;
   Eigen::MatrixXd values_;
   int continuous_derivatives_;
