@@ -14,9 +14,10 @@ CMAKE_FLAGS += -DSERVOKIT_WERROR=$(SERVOKIT_WERROR)
 endif
 MAKEFLAGS   += --no-print-directory
 
-# Build and run dependencies (DESIGN.md, "Dependencies"). The Python module (application/python)
-# needs pybind11 and the interpreter's headers, its tests pytest and numpy; its tables are pandas
-# DataFrames (numpy structured arrays where pandas is missing, which CI must test too).
+# Build and run dependencies (docs/development.md, "Building"). The Python module
+# (application/python) needs pybind11 and the interpreter's headers, its tests pytest and numpy;
+# its tables are pandas DataFrames (numpy structured arrays where pandas is missing, which CI
+# must test too).
 # `sweep --format hdf5|mat` needs HDF5 and matio; its tests read the files back with h5py and
 # scipy.io.loadmat.
 PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-dev libgsl-dev \
@@ -28,12 +29,12 @@ PACKAGES := cmake g++ make pkg-config libeigen3-dev libsundials-dev libarpack2-d
 BENCH_PACKAGES := python3-scipy python3-numpy python3-yaml python3-sympy
 # Only fuzzing needs clang and its libFuzzer runtime.
 FUZZ_PACKAGES := clang libclang-rt-dev
-# The formatter, pinned to Debian's clang-format 14 (.clang-format, STYLE.md "Format"): another
+# The formatter, pinned to Debian's clang-format 14 (.clang-format, docs/development.md "Style"): another
 # version formats some constructs differently, and CI must judge every file alike.
 FORMAT_PACKAGES := clang-format-14
 CLANG_FORMAT    := clang-format-14
 
-# Hardening (README "Hardening"): the whole suite under AddressSanitizer and
+# Hardening (docs/hardening.md): the whole suite under AddressSanitizer and
 # UndefinedBehaviorSanitizer, and the libFuzzer targets of tests/fuzz/.
 SANITIZE_DIR  ?= build-sanitize
 FUZZ_DIR      ?= build-fuzz

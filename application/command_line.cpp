@@ -130,7 +130,7 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
   app.footer(
       "Example:\n  servokit analyze models/mass_on_car.yaml\n"
       "`servokit SUBCOMMAND --help` shows each subcommand's options and an example; the errors\n"
-      "and exit statuses are listed in the README (\"Errors and exit status\").");
+      "and exit statuses are listed in docs/errors.md.");
   app.set_version_flag("--version", std::string("servokit ") + SERVOKIT_VERSION);
   const std::vector<Command> commands = {AddAnalyzeCommand(app), AddThresholdCommand(app),
                                          AddSweepCommand(app),   AddSolveCommand(app),

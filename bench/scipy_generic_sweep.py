@@ -18,7 +18,7 @@ point:
   5. the stability verdict of the zeros;
 
 and writes points.csv and eigenvalues.csv in servokit's layout (numbers as repr). Model
-conventions are servokit's (README "Model files"): M(q) q'' + f(q, q_dot) = B(q) u, velocities
+conventions are servokit's (docs/model-files.md): M(q) q'' + f(q, q_dot) = B(q) u, velocities
 named <coordinate>_dot, ^ for powers, parameters in SI or "<number> deg". Tolerances and verdict
 rules are servokit's (analysis/options.h): a quantity is zero when at most 1e-10 times the
 product of its factors' norms; an eigenvalue is on the imaginary axis when its damping ratio

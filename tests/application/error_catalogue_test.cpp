@@ -1,6 +1,6 @@
-// The error catalogue of README.md ("Errors and exit status", issue #7): every row that gives an
-// example command is run in-process, from the repository root, and must exit with the row's
-// status and print exactly one error line on stderr, "servokit: error: ...", containing the
+// The error catalogue of docs/errors.md (issue #7; in the README until issue #30): every row that
+// gives an example command is run in-process, from the repository root, and must exit with the
+// row's status and print exactly one error line on stderr, "servokit: error: ...", containing the
 // row's fragment, after at most some "servokit: warning: ..." lines. Rows without a command (`—`)
 // name the test that covers them instead.
 #include <algorithm>
@@ -22,9 +22,9 @@ using testing::TemporaryDirectory;
 
 // Rows the catalogue holds when this test was written: deleting rows fails the test.
 constexpr std::size_t kCatalogueRows = 170;
-// The statuses "Errors and exit status" documents for errors.
+// The statuses docs/errors.md documents for errors.
 const std::set<int> kDocumentedStatuses = {1, 2, 3, 4, 130};
-constexpr std::string_view kSection = "## Errors and exit status";
+constexpr std::string_view kCatalogue = "docs/errors.md";
 constexpr std::string_view kHeader = "| status | situation | example command | message contains |";
 // Output paths under /tmp in the catalogue are moved into a fresh directory of the test.
 constexpr std::string_view kTemporaryPrefix = "/tmp/";
@@ -32,7 +32,7 @@ constexpr std::string_view kTemporaryPrefix = "/tmp/";
 struct CatalogueRow {
   int status = -1;
   std::string situation, command, fragment;
-  std::size_t line = 0;  // in README.md, for messages
+  std::size_t line = 0;  // in docs/errors.md, for messages
 };
 
 std::string Trim(const std::string& text) {
@@ -63,15 +63,13 @@ std::vector<std::string> Cells(const std::string& line) {
   return cells;
 }
 
-// Every row of every catalogue table (a table under kHeader) in the section.
-std::vector<CatalogueRow> ReadCatalogue(const std::string& readme) {
-  const std::vector<std::string> lines = testing::Lines(readme);
+// Every row of every catalogue table (a table under kHeader) of the page.
+std::vector<CatalogueRow> ReadCatalogue(const std::string& page) {
+  const std::vector<std::string> lines = testing::Lines(page);
   std::vector<CatalogueRow> rows;
-  bool in_section = false, in_table = false;
+  bool in_table = false;
   for (std::size_t n = 0; n < lines.size(); ++n) {
     const std::string& line = lines[n];
-    if (line.rfind("## ", 0) == 0) in_section = line == kSection;
-    if (!in_section) continue;
     if (line == kHeader) {
       in_table = true;
       continue;
@@ -82,7 +80,7 @@ std::vector<CatalogueRow> ReadCatalogue(const std::string& readme) {
     }
     if (!in_table || line.rfind("| ---", 0) == 0) continue;
     const std::vector<std::string> cells = Cells(line);
-    INFO("README.md line " << n + 1 << ": " << line);
+    INFO(kCatalogue << " line " << n + 1 << ": " << line);
     REQUIRE(cells.size() == 4);
     CatalogueRow row;
     row.status = std::stoi(cells[0]);
@@ -125,12 +123,13 @@ std::filesystem::path RepositoryRoot() {
   return std::filesystem::canonical(std::filesystem::path(SERVOKIT_MODELS_DIR) / "..");
 }
 
-TEST_CASE("every error in the README's catalogue is what its example command prints", "[reports]") {
+TEST_CASE("every error in the catalogue of docs/errors.md is what its example command prints",
+          "[reports]") {
   std::filesystem::current_path(RepositoryRoot());  // the examples' paths are relative to it
-  const std::vector<CatalogueRow> rows = ReadCatalogue(testing::ReadFile("README.md"));
+  const std::vector<CatalogueRow> rows = ReadCatalogue(testing::ReadFile(std::string(kCatalogue)));
   CHECK(rows.size() >= kCatalogueRows);
   for (const CatalogueRow& row : rows) {
-    DYNAMIC_SECTION("README.md line " << row.line << ": " << row.command) {
+    DYNAMIC_SECTION(kCatalogue << " line " << row.line << ": " << row.command) {
       INFO("situation: " << row.situation);
       CHECK(kDocumentedStatuses.count(row.status) == 1);
       if (row.command.empty()) {

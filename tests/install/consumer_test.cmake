@@ -1,5 +1,6 @@
 # Installs this build into a fresh prefix, builds tests/install/consumer (a shared library on the
-# public API and a program that calls it) against it and runs it,
+# public API, a program that calls it, and the first C++ session of README.md) against it and
+# runs them,
 # then runs the installed `servokit` on an installed model (issue #7: cmake --install and
 # find_package), and imports the installed Python module (issue #17). Called by CTest:
 #   cmake -DBINARY_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DCXX_COMPILER=... -DPYTHON=...
@@ -33,6 +34,25 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/install/consumer -B ${WORK_DIR}/buil
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_BUILD_TYPE=Release)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer)
+# The first C++ session of README.md and docs/cpp.md prints what they show: the block after
+# the comment <!-- output: tests/install/consumer/first_session.cpp --> (issue #30).
+run(${WORK_DIR}/build/first_session)
+set(marker "<!-- output: tests/install/consumer/first_session.cpp -->\n```text\n")
+string(LENGTH "${marker}" marker_length)
+foreach(page README.md docs/cpp.md)
+  file(READ ${SOURCE_DIR}/${page} text)
+  string(FIND "${text}" "${marker}" start)
+  if(start EQUAL -1)
+    message(FATAL_ERROR "${page} shows no output of first_session.cpp (${marker})")
+  endif()
+  math(EXPR start "${start} + ${marker_length}")
+  string(SUBSTRING "${text}" ${start} -1 shown)
+  string(FIND "${shown}" "```" end)
+  string(SUBSTRING "${shown}" 0 ${end} shown)
+  if(NOT output STREQUAL shown)
+    message(FATAL_ERROR "first_session printed\n${output}\nbut ${page} shows\n${shown}")
+  endif()
+endforeach()
 
 run(${prefix}/bin/servokit --version)
 run(${prefix}/bin/servokit analyze ${prefix}/share/servokit/models/mass_on_car.yaml --format json)

@@ -207,7 +207,7 @@ def test_several_methods_are_overlaid_each_from_its_own_csv(servokit_binary, mas
         for (_, y), x, s in zip(output, table["x"], table["s"]):
             assert y == pytest.approx(x + s * math.cos(alpha), rel=1e-14, abs=1e-14)
     # The two methods agree on the force (a second method's check; radau's u_d of this index-3
-    # problem is of low order, see README, so to 1e-3 of the force's size, not the tolerances).
+    # problem is of low order, see docs/solve.md, so to 1e-3 of the force's size, not the tolerances).
     largest = max(abs(f) for f in columns[1]["F"])
     assert max(abs(a - b) for a, b in zip(columns[0]["F"], columns[1]["F"])) < 1e-3 * largest
     assert "radau, bdf" in (figures / "u_d-F.gp").read_text()
