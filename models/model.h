@@ -157,6 +157,23 @@ Model LoadModelFromString(const std::string& yaml_text,
                           const std::string& source,
                           const std::vector<ParameterOverride>& overrides = {});
 
+/// A model whose equations are linear with constant matrices, M q'' + K q + D q' = B u and
+/// y = H q: a linearization written as a model of its own (solvers/linearized_inverse.h).
+struct LinearEquations {
+  std::string name, description, source;
+  std::vector<std::string> coordinates, inputs;
+  Eigen::MatrixXd mass_matrix;      // M, dof x dof
+  Eigen::MatrixXd stiffness;        // K, dof x dof
+  Eigen::MatrixXd damping;          // D, dof x dof
+  Eigen::MatrixXd input_matrix;     // B, dof x inputs
+  Eigen::MatrixXd output_jacobian;  // H, outputs x dof
+};
+
+/// Builds and compiles the model of `equations` as LoadModel would the same equations written
+/// in a file, from the numbers themselves (each coefficient exactly the double given), without
+/// a file or its text. No parameters. Throws ModelError when the sizes do not agree.
+Model ModelFromLinearEquations(const LinearEquations& equations);
+
 /// Per-thread buffers and results of Evaluate(). Build one per thread from the model it serves.
 class Workspace {
  public:

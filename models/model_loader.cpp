@@ -28,6 +28,7 @@
 #include "models/loader_support.h"
 #include "models/model.h"
 #include "models/planar_bodies.h"
+#include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 #include "models/units.h"
 
@@ -169,6 +170,86 @@ class ModelBuilder {
     detail::ContentHasher hasher;
     hasher.Add(document.text);
     model_.content_hash_ = hasher.Hex();
+  }
+
+  // A model given by its equations, not a file (ModelFromLinearEquations).
+  explicit ModelBuilder(const LinearEquations& equations) : form_(Form::kExplicit) {
+    model_.name_ = equations.name;
+    model_.description_ = equations.description;
+    model_.source_ = equations.source;
+    model_.coordinates_ = equations.coordinates;
+    model_.inputs_ = equations.inputs;
+    model_.parameters_.resize(0);
+    // The identity of the numbers themselves: the algebraic inverse's cache is keyed by it.
+    detail::ContentHasher hasher;
+    const auto add_names = [&hasher](const std::vector<std::string>& names) {
+      for (const std::string& name : names) hasher.Add(name + '\n');
+    };
+    add_names(equations.coordinates);
+    add_names(equations.inputs);
+    for (const Eigen::MatrixXd* matrix :
+         {&equations.mass_matrix, &equations.stiffness, &equations.damping, &equations.input_matrix,
+          &equations.output_jacobian}) {
+      hasher.Add(std::to_string(matrix->rows()) + "x" + std::to_string(matrix->cols()));
+      hasher.Add(std::string_view(reinterpret_cast<const char*>(matrix->data()),
+                                  sizeof(double) * std::size_t(matrix->size())));
+    }
+    model_.content_hash_ = hasher.Hex();
+  }
+
+  Model BuildLinear(const LinearEquations& equations) && {
+    const auto dof = Eigen::Index(model_.coordinates_.size());
+    const auto inputs = Eigen::Index(model_.inputs_.size());
+    const auto outputs = equations.output_jacobian.rows();
+    const auto require = [&](const Eigen::MatrixXd& matrix, Eigen::Index rows, Eigen::Index cols,
+                             const char* what) {
+      if (matrix.rows() != rows || matrix.cols() != cols || !matrix.allFinite()) {
+        throw ModelError(model_.source_ + ": " + what + ": expected " + std::to_string(rows) +
+                         " x " + std::to_string(cols) + " finite numbers");
+      }
+    };
+    require(equations.mass_matrix, dof, dof, "M");
+    require(equations.stiffness, dof, dof, "K");
+    require(equations.damping, dof, dof, "D");
+    require(equations.input_matrix, dof, inputs, "B");
+    require(equations.output_jacobian, inputs, dof, "H (one output per input)");
+    MakeSymbols();
+    // Whole numbers exact, as the parser reads "0" or "2" in a file (a zero then drops its term,
+    // as GiNaC drops a term with an exact zero factor); every other one exactly the double.
+    const auto number = [](double value) {
+      constexpr double kExactIntegers = 9007199254740992.0;  // 2^53
+      if (value == std::floor(value) && std::abs(value) < kExactIntegers) {
+        return GiNaC::ex(GiNaC::numeric(static_cast<long>(value)));
+      }
+      return GiNaC::ex(GiNaC::numeric(value));
+    };
+    const auto size = [](Eigen::Index count) { return static_cast<unsigned>(count); };
+    GiNaC::matrix mass_matrix(size(dof), size(dof));
+    GiNaC::matrix forces(size(dof), 1);
+    GiNaC::matrix input_matrix(size(dof), size(inputs));
+    GiNaC::matrix output(size(outputs), 1);
+    for (Eigen::Index i = 0; i < dof; ++i) {
+      for (Eigen::Index j = 0; j < dof; ++j) {
+        mass_matrix(unsigned(i), unsigned(j)) = number(equations.mass_matrix(i, j));
+        forces(unsigned(i), 0) += number(equations.stiffness(i, j)) * coordinate_symbols_[j] +
+                                  number(equations.damping(i, j)) * velocity_symbols_[j];
+      }
+      for (Eigen::Index k = 0; k < inputs; ++k) {
+        input_matrix(unsigned(i), unsigned(k)) = number(equations.input_matrix(i, k));
+      }
+    }
+    for (Eigen::Index i = 0; i < outputs; ++i) {
+      for (Eigen::Index j = 0; j < dof; ++j) {
+        output(unsigned(i), 0) += number(equations.output_jacobian(i, j)) * coordinate_symbols_[j];
+      }
+    }
+    model_.num_outputs_ = std::size_t(outputs);
+    auto symbolic = std::make_shared<const SymbolicModel>(
+        parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
+        std::move(forces), std::move(input_matrix), std::move(output));
+    Compile(*symbolic);
+    model_.symbolic_ = std::move(symbolic);
+    return std::move(model_);
   }
 
   Model Build(const std::vector<ParameterOverride>& overrides) && {
@@ -762,6 +843,11 @@ class ModelBuilder {
   GiNaC::symtab symbol_table_;
   std::vector<GiNaC::realsymbol> parameter_symbols_, coordinate_symbols_, velocity_symbols_;
 };
+
+Model ModelFromLinearEquations(const LinearEquations& equations) {
+  const SymbolicLock lock;
+  return ModelBuilder(equations).BuildLinear(equations);
+}
 
 namespace detail {
 

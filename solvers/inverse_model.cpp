@@ -686,6 +686,57 @@ void SolveForward(const Model& model,
   }
 }
 
+// The rest of a solve once its method (never kLinearized) is chosen and its settings checked:
+// the span, the method's run, the rows on the sample grid, the servo residual.
+void SolveByChosenMethod(const Model& model,
+                         const OutputTrajectory& trajectory,
+                         const Classification& classification,
+                         const InverseModelOptions& options,
+                         MethodChooser& chooser,
+                         FeedforwardSolution& solution) {
+  solution.accuracy = AccuracyOf(solution.method, options);
+  ResolveSpan(trajectory, options, solution);
+  const double grid_anchor = solution.t_start;
+
+  const auto problem = std::make_shared<ServoConstraintProblem>(
+      model, trajectory, classification.operating_point.q, options.problem);
+  if (solution.method == SolverMethod::kStableInversion) {
+    SolveByStableInversion(model, trajectory, classification, options, chooser.output_normal_form(),
+                           solution);
+  } else {
+    SolveForward(model, trajectory, classification, options, chooser, problem, solution);
+  }
+  if (options.sample_time && solution.method != SolverMethod::kAlgebraic) {
+    SampleRows(GridCovering(solution.t_start, solution.t_end, grid_anchor, *options.sample_time),
+               solution);
+    if (!solution.times.empty()) solution.t_start = solution.times.front();
+  }
+  solution.max_servo_residual = MaxServoResidual(*problem, solution);
+}
+
+// The method `linearized`: the deviation problem solved by the exact linear method that fits
+// it, shifted back to the operating point; its servo residual is the nonlinear model's.
+FeedforwardSolution SolveLinearization(const Model& model,
+                                       const OutputTrajectory& trajectory,
+                                       const Classification& classification,
+                                       const InverseModelOptions& options) {
+  std::shared_ptr<DeviationProblem> deviation =
+      MakeDeviationProblem(model, trajectory, classification);
+  InverseModelOptions linear_options = options;
+  linear_options.method = ExactLinearInverseMethod(deviation->classification);
+  MethodChooser chooser(deviation->model, deviation->classification, options.force);
+  FeedforwardSolution solution;
+  std::tie(solution.method, solution.method_reason) = chooser.Choose(linear_options.method);
+  CheckSettingsFor(solution, linear_options, deviation->classification);
+  SolveByChosenMethod(deviation->model, *deviation->trajectory, deviation->classification,
+                      linear_options, chooser, solution);
+  ShiftToOperatingPoint(std::move(deviation), classification, solution);
+  ServoConstraintProblem problem(model, trajectory, classification.operating_point.q,
+                                 options.problem);
+  solution.max_servo_residual = MaxServoResidual(problem, solution);
+  return solution;
+}
+
 }  // namespace
 
 void InverseModelOptions::Validate() const {
@@ -752,30 +803,9 @@ FeedforwardSolution SolveInverseModel(const Model& model,
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);
   CheckSettingsFor(solution, options, classification);
   if (solution.method == SolverMethod::kLinearized) {
-    solution = SolveLinearizedInverse(model, trajectory, classification, options);
-    ServoConstraintProblem problem(model, trajectory, classification.operating_point.q,
-                                   options.problem);
-    solution.max_servo_residual = MaxServoResidual(problem, solution);
-    return solution;
+    return SolveLinearization(model, trajectory, classification, options);
   }
-  solution.accuracy = AccuracyOf(solution.method, options);
-  ResolveSpan(trajectory, options, solution);
-  const double grid_anchor = solution.t_start;
-
-  const auto problem = std::make_shared<ServoConstraintProblem>(
-      model, trajectory, classification.operating_point.q, options.problem);
-  if (solution.method == SolverMethod::kStableInversion) {
-    SolveByStableInversion(model, trajectory, classification, options, chooser.output_normal_form(),
-                           solution);
-  } else {
-    SolveForward(model, trajectory, classification, options, chooser, problem, solution);
-  }
-  if (options.sample_time && solution.method != SolverMethod::kAlgebraic) {
-    SampleRows(GridCovering(solution.t_start, solution.t_end, grid_anchor, *options.sample_time),
-               solution);
-    if (!solution.times.empty()) solution.t_start = solution.times.front();
-  }
-  solution.max_servo_residual = MaxServoResidual(*problem, solution);
+  SolveByChosenMethod(model, trajectory, classification, options, chooser, solution);
   return solution;
 }
 

@@ -1,6 +1,5 @@
 #include "solvers/linearized_inverse.h"
 
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <utility>
@@ -9,38 +8,6 @@
 
 namespace servokit {
 namespace {
-
-// A number as the model file reads it back exactly (17 significant digits).
-std::string Exact(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
-}
-
-// sum_j matrix(i, j) names[j] (+ the velocities' terms), "0" when all vanish.
-std::string LinearCombination(const Eigen::RowVectorXd& row,
-                              const std::vector<std::string>& names,
-                              const std::string& suffix) {
-  std::string text;
-  for (Eigen::Index j = 0; j < row.size(); ++j) {
-    if (row[j] == 0.0) continue;
-    text += (text.empty() ? "" : " + ") + std::string("(") + Exact(row[j]) + ")*" +
-            names[static_cast<std::size_t>(j)] + suffix;
-  }
-  return text;
-}
-
-std::string MatrixRows(const Eigen::MatrixXd& matrix) {
-  std::string text;
-  for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
-    text += "  - [";
-    for (Eigen::Index j = 0; j < matrix.cols(); ++j) {
-      text += (j ? ", " : "") + Exact(matrix(i, j));
-    }
-    text += "]\n";
-  }
-  return text;
-}
 
 // y_d - y0: the desired output of the deviation model.
 class ShiftedTrajectory final : public OutputTrajectory {
@@ -63,12 +30,6 @@ class ShiftedTrajectory final : public OutputTrajectory {
  private:
   const OutputTrajectory& trajectory_;
   Eigen::VectorXd offset_;
-};
-
-// What the deviation solution's extension refers to, kept alive with it.
-struct DeviationProblem {
-  Model model;
-  std::unique_ptr<ShiftedTrajectory> trajectory;
 };
 
 // The deviation solution's motion shifted back by (q0, u0).
@@ -100,70 +61,38 @@ class ShiftedMotion final : public MotionExtension {
   Eigen::VectorXd q0_, u0_;
 };
 
-// `text` as a double-quoted YAML scalar: the model's name is free text (quotes, colons, '#').
-std::string YamlString(const std::string& text) {
-  std::string quoted = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      quoted += '\\';
-      quoted += c;
-    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
-      quoted += ' ';  // refused in names at load; never a line break in this text
-    } else {
-      quoted += c;
-    }
-  }
-  return quoted + "\"";
-}
-
 }  // namespace
 
 Model LinearizedModel(const Model& model, const Classification& classification) {
   const Linearization& linear = classification.linearization;
-  const std::vector<std::string>& coordinates = model.coordinates();
-  std::string text = "name: " + YamlString(model.name() + "_linearized") + "\n";
-  text += "description: " +
-          YamlString(model.name() + " linearized at its operating point (deviations)") + "\n";
-  text += "parameters: {}\ncoordinates: [";
-  for (std::size_t j = 0; j < coordinates.size(); ++j) text += (j ? ", " : "") + coordinates[j];
-  text += "]\ninputs: [";
-  for (std::size_t k = 0; k < model.inputs().size(); ++k) {
-    text += (k ? ", " : "") + model.inputs()[k];
-  }
-  text += "]\nmass_matrix:\n" + MatrixRows(linear.mass_matrix) + "forces:\n";
-  for (Eigen::Index i = 0; i < linear.dof(); ++i) {
-    std::string force = LinearCombination(linear.stiffness.row(i), coordinates, "");
-    const std::string damping = LinearCombination(linear.damping.row(i), coordinates, "_dot");
-    if (!damping.empty()) force += (force.empty() ? "" : " + ") + damping;
-    text += "  - " + (force.empty() ? std::string("0") : force) + "\n";
-  }
-  text += "input_matrix:\n" + MatrixRows(linear.input_matrix) + "outputs:\n";
-  for (Eigen::Index i = 0; i < linear.output_jacobian.rows(); ++i) {
-    const std::string output = LinearCombination(linear.output_jacobian.row(i), coordinates, "");
-    text += "  - " + (output.empty() ? std::string("0") : output) + "\n";
-  }
-  return LoadModelFromString(text, model.source() + " (linearized)");
+  LinearEquations equations;
+  equations.name = model.name() + "_linearized";
+  equations.description = model.name() + " linearized at its operating point (deviations)";
+  equations.source = model.source() + " (linearized)";
+  equations.coordinates = model.coordinates();
+  equations.inputs = model.inputs();
+  equations.mass_matrix = linear.mass_matrix;
+  equations.stiffness = linear.stiffness;
+  equations.damping = linear.damping;
+  equations.input_matrix = linear.input_matrix;
+  equations.output_jacobian = linear.output_jacobian;
+  return ModelFromLinearEquations(equations);
 }
 
-FeedforwardSolution SolveLinearizedInverse(const Model& model,
-                                           const OutputTrajectory& trajectory,
-                                           const Classification& classification,
-                                           const InverseModelOptions& options) {
-  auto deviation = std::make_shared<DeviationProblem>(
-      DeviationProblem{LinearizedModel(model, classification), nullptr});
-  deviation->trajectory =
-      std::make_unique<ShiftedTrajectory>(trajectory, classification.operating_point.y);
-  Workspace workspace(deviation->model);
-  const Classification linear_class = Classify(deviation->model, workspace);
-  InverseModelOptions linear_options = options;
-  // Exact inverses of the linearization: algebraic when flat, else the bounded (stable
-  // inversion) one; critical zero dynamics have no bounded inverse, the normal form serves.
-  linear_options.method = linear_class.flat ? SolverMethod::kAlgebraic
-                          : linear_class.zero_dynamics.stability == Stability::kCritical
-                              ? SolverMethod::kNormalForm
-                              : SolverMethod::kStableInversion;
-  FeedforwardSolution solution =
-      SolveInverseModel(deviation->model, *deviation->trajectory, linear_class, linear_options);
+std::shared_ptr<DeviationProblem> MakeDeviationProblem(const Model& model,
+                                                       const OutputTrajectory& trajectory,
+                                                       const Classification& classification) {
+  Model linearized = LinearizedModel(model, classification);
+  Workspace workspace(linearized);
+  Classification linear_class = Classify(linearized, workspace);
+  return std::make_shared<DeviationProblem>(DeviationProblem{
+      std::move(linearized), std::move(linear_class),
+      std::make_unique<ShiftedTrajectory>(trajectory, classification.operating_point.y)});
+}
+
+void ShiftToOperatingPoint(std::shared_ptr<const DeviationProblem> deviation,
+                           const Classification& classification,
+                           FeedforwardSolution& solution) {
   const Eigen::VectorXd& q0 = classification.operating_point.q;
   const Eigen::VectorXd& u0 = classification.operating_point.u;
   for (std::size_t i = 0; i < solution.times.size(); ++i) {
@@ -171,8 +100,8 @@ FeedforwardSolution SolveLinearizedInverse(const Model& model,
     solution.u[i] += u0;
   }
   if (solution.extension) {
-    solution.extension = std::make_shared<const ShiftedMotion>(
-        std::shared_ptr<const DeviationProblem>(std::move(deviation)), solution.extension, q0, u0);
+    solution.extension =
+        std::make_shared<const ShiftedMotion>(std::move(deviation), solution.extension, q0, u0);
   }
   solution.method_reason =
       "asked for: the exact inverse of the linearization at the operating "
@@ -182,7 +111,6 @@ FeedforwardSolution SolveLinearizedInverse(const Model& model,
   solution.warnings.push_back(
       "linearized: u_d inverts the linearization at the operating point, not the model; "
       "the forward check measures how far the model's output strays from y_d");
-  return solution;
 }
 
 }  // namespace servokit

@@ -249,4 +249,10 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
                       {}, forceable);
 }
 
+SolverMethod ExactLinearInverseMethod(const Classification& linear) {
+  if (linear.flat) return SolverMethod::kAlgebraic;
+  return linear.zero_dynamics.stability == Stability::kCritical ? SolverMethod::kNormalForm
+                                                                : SolverMethod::kStableInversion;
+}
+
 }  // namespace servokit

@@ -50,6 +50,11 @@ class MethodRefused : public NoSolution {
 /// backward, the paper's low-order comparison, is never auto's choice).
 const std::vector<SolverMethod>& MethodsInOrderOfPreference();
 
+/// The exact inverse of a linear problem (the method `linearized` solves its linearization by
+/// it): algebraic when it is flat; else the bounded one, stable inversion; the normal form when
+/// its zero dynamics are critical, which have no bounded inverse.
+SolverMethod ExactLinearInverseMethod(const Classification& linear);
+
 class MethodChooser {
  public:
   /// `classification` of `model` at its operating point; both must outlive the chooser.
