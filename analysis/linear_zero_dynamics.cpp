@@ -797,6 +797,198 @@ void RefuseIllConditioned(const LinearSystem& system,
                    "1e4), or a shift nearer the zeros of interest");
 }
 
+namespace {
+
+// The eigenpairs of OP behind the zeros: the computed nu, the indices of those kept as finite
+// zeros, their eigenvectors z = (q, v) of OP (one per kept nu), ARPACK's residuals
+// |OP z - nu z| / |z|, and the scale of |nu| for the error bounds.
+struct OperatorEigenpairs {
+  std::vector<std::complex<double>> nus;
+  std::vector<std::size_t> kept;
+  std::vector<Eigen::VectorXcd> vectors;
+  std::vector<double> residuals;
+  double largest_nu = 0.0;
+};
+
+// k is capped at the number of finite zeros.
+Eigen::Index WantedZeros(const LinearZeroDynamicsOptions& options, Eigen::Index zero_count) {
+  Eigen::Index wanted = options.arpack.eigenvalues;
+  if (zero_count >= 0) wanted = std::min(wanted, zero_count);
+  return wanted;
+}
+
+// ARPACK needs k <= 2n - 2, else dense.
+bool UseDenseSolver(const LinearZeroDynamicsOptions& options, Eigen::Index n, Eigen::Index wanted) {
+  const Eigen::Index operator_size = 2 * n;
+  return options.solver == LinearEigenSolver::kDense ||
+         (options.solver == LinearEigenSolver::kAuto && n <= options.dense_threshold) ||
+         wanted > operator_size - 2;
+}
+
+// Every eigenvalue of OP, densely, and the eigenvectors of the finite zeros among them.
+OperatorEigenpairs DenseEigenpairs(const LinearSystem& system,
+                                   const LinearZeroDynamicsWorkspace& workspace,
+                                   Eigen::Index zero_count,
+                                   const LinearZeroDynamicsOptions& options) {
+  OperatorEigenpairs pairs;
+  const Eigen::VectorXcd values = DenseOperatorEigenvalues(system, workspace);
+  pairs.nus.assign(values.data(), values.data() + values.size());
+  pairs.kept = FiniteZeroIndices(pairs.nus, zero_count, 0.0, options);
+  for (const std::size_t i : pairs.kept) {
+    // The zero's eigenvector q (the head of OP's (q, lambda q)); empty (no bound) where
+    // R(lambda) cannot be factorised at all.
+    pairs.vectors.push_back(
+        ZeroNullVector(system, options.shift + 1.0 / pairs.nus[i], NullSide::kRight));
+    pairs.residuals.push_back(0.0);  // the Schur residual is round-off: in the bound's eps term
+  }
+  return pairs;
+}
+
+// ARPACK's shift-invert run for `wanted` eigenvalues of OP, with Ritz vectors.
+ArpackResult RunShiftInvertArpack(const LinearZeroDynamicsWorkspace& workspace,
+                                  Eigen::Index operator_size,
+                                  Eigen::Index wanted,
+                                  const Eigen::VectorXd& start,
+                                  const LinearZeroDynamicsOptions& options) {
+  ArpackOptions arpack = options.arpack;
+  arpack.eigenvalues = static_cast<int>(wanted);
+  arpack.ritz_vectors = true;
+  const auto apply = [&workspace](const double* x, double* y) { workspace.ApplyShiftInvert(x, y); };
+  const ArpackTarget target = options.target == EigenvalueTarget::kNearest
+                                  ? ArpackTarget::kLargestMagnitude
+                                  : ArpackTarget::kLargestRealPart;
+  try {
+    return ArpackEigenvalues(operator_size, apply, target, arpack, start);
+  } catch (const NoSolution& error) {
+    if (options.target != EigenvalueTarget::kRightmost) throw;
+    // Limit (2) of EigenvalueTarget::kRightmost: say what to do about it.
+    throw NoSolution(std::string(error.what()) +
+                     "; the rightmost route converges slowly when every zero is left of "
+                     "the shift (lightly damped modes crowd near Re 1/(lambda - shift) = 0): "
+                     "use the nearest route, or a shift right of the zeros of interest");
+  }
+}
+
+// The Ritz vectors of the kept nu and their residuals |OP z - nu z| / |z|.
+void AddRitzPairs(const ArpackResult& arpack,
+                  const LinearZeroDynamicsWorkspace& workspace,
+                  Eigen::Index operator_size,
+                  OperatorEigenpairs& pairs) {
+  Eigen::VectorXd real_image(operator_size), imaginary_image(operator_size);
+  for (const std::size_t i : pairs.kept) {
+    Eigen::VectorXcd z = RitzVector(arpack, i);
+    const Eigen::VectorXd real_part = z.real(), imaginary_part = z.imag();
+    workspace.ApplyShiftInvert(real_part.data(), real_image.data());
+    workspace.ApplyShiftInvert(imaginary_part.data(), imaginary_image.data());
+    Eigen::VectorXcd image(operator_size);
+    image.real() = real_image;
+    image.imag() = imaginary_image;
+    const double size = z.norm();
+    pairs.residuals.push_back(size > 0.0 ? (image - pairs.nus[i] * z).norm() / size
+                                         : std::numeric_limits<double>::infinity());
+    pairs.vectors.push_back(std::move(z));
+  }
+}
+
+// The eigenpairs of OP nearest the target, by ARPACK; the run is kept in `result` (without its
+// Ritz vectors, which `pairs` holds).
+OperatorEigenpairs ArpackEigenpairs(const LinearSystem& system,
+                                    const LinearZeroDynamicsWorkspace& workspace,
+                                    Eigen::Index wanted,
+                                    const LinearZeroDynamicsOptions& options,
+                                    LinearZeroDynamics& result) {
+  OperatorEigenpairs pairs;
+  const Eigen::Index operator_size = 2 * system.dof();
+  const Eigen::VectorXd start = StartVector(workspace, operator_size);
+  RefuseIllConditioned(system, workspace, start, options);
+  result.arpack = RunShiftInvertArpack(workspace, operator_size, wanted, start, options);
+  // The scale of |nu| for the infinite-eigenvalue test: 'LM' returns the largest |nu| itself;
+  // 'LR' need not, so estimate it by power iteration.
+  const double scale = options.target == EigenvalueTarget::kNearest
+                           ? 0.0
+                           : EstimateLargestMagnitude(workspace, start);
+  pairs.largest_nu = scale;
+  pairs.nus = result.arpack.ritz_values;
+  pairs.kept = FiniteZeroIndices(pairs.nus, kUnknownZeroCount, scale, options);
+  if (pairs.kept.size() > std::size_t(wanted)) {
+    pairs.kept.resize(std::size_t(wanted));  // dneupd: nev + 1
+  }
+  AddRitzPairs(result.arpack, workspace, operator_size, pairs);
+  result.arpack.ritz_vectors.clear();
+  result.arpack.ritz_vectors.shrink_to_fit();
+  return pairs;
+}
+
+// The zeros lambda = shift + 1/nu of the kept eigenpairs, in `result`, and the error bound of
+// each. A symmetric collocated system refines each zero by its Rayleigh quotient.
+std::vector<double> ZerosWithBounds(const LinearSystem& system,
+                                    const OperatorEigenpairs& pairs,
+                                    bool symmetric_collocated,
+                                    double shift,
+                                    LinearZeroDynamics& result) {
+  const std::array<double, 3> norms = {InfinityNorm(system.mass), InfinityNorm(system.damping),
+                                       InfinityNorm(system.stiffness)};
+  std::vector<double> bounds;
+  for (std::size_t j = 0; j < pairs.kept.size(); ++j) {
+    const std::complex<double> nu = pairs.nus[pairs.kept[j]];
+    std::complex<double> lambda = shift + 1.0 / nu;
+    if (pairs.vectors[j].size() == 0) {  // no vector (dense route, R(lambda) not factorisable)
+      bounds.push_back(std::numeric_limits<double>::infinity());
+      result.eigenvalues.push_back(lambda);
+      continue;
+    }
+    const Eigen::VectorXcd q = symmetric_collocated
+                                   ? ZeroVector(system, pairs.vectors[j])
+                                   : Eigen::VectorXcd(pairs.vectors[j].head(system.dof()));
+    // A symmetric collocated system: Q(lambda)^T = Q(lambda) and q^T B = (C q)^T diag = 0, so
+    // the left vector is q itself.
+    const Eigen::VectorXcd left =
+        symmetric_collocated ? q : ZeroNullVector(system, lambda, NullSide::kLeft);
+    bounds.push_back(
+        ZeroErrorBound(system, norms, lambda, nu, pairs.largest_nu, pairs.residuals[j], q, left));
+    if (symmetric_collocated) {
+      lambda = RayleighZero(HermitianForm(system.mass, q), HermitianForm(system.damping, q),
+                            HermitianForm(system.stiffness, q), lambda);
+    }
+    result.eigenvalues.push_back(lambda);
+  }
+  return bounds;
+}
+
+// The finite zeros (zero_count != 0), by the dense or the ARPACK route, with their bounds,
+// stability and modes.
+void ComputeFiniteZeros(const LinearSystem& system,
+                        LinearZeroDynamicsWorkspace& workspace,
+                        Eigen::Index zero_count,
+                        Eigen::Index wanted,
+                        const LinearZeroDynamicsOptions& options,
+                        LinearZeroDynamics& result) {
+  workspace.Factorize(system, options.shift);
+  OperatorEigenpairs pairs;
+  if (result.solver_used == LinearEigenSolver::kDense) {
+    pairs = DenseEigenpairs(system, workspace, zero_count, options);
+    result.complete = true;
+  } else {
+    pairs = ArpackEigenpairs(system, workspace, wanted, options, result);
+    result.complete = zero_count >= 0 && Eigen::Index(pairs.kept.size()) == zero_count;
+  }
+  for (const auto& nu : pairs.nus) pairs.largest_nu = std::max(pairs.largest_nu, std::abs(nu));
+  const bool symmetric_collocated = Symmetric(system.mass) && Symmetric(system.damping) &&
+                                    Symmetric(system.stiffness) && Collocated(system);
+  std::vector<double> bounds =
+      ZerosWithBounds(system, pairs, symmetric_collocated, options.shift, result);
+  ClusterBounds(result.eigenvalues, bounds);
+  FinishZeroDynamicsWithBounds(result, std::move(bounds), options.imaginary_axis_tolerance);
+  const std::string certificate = LeftHalfPlaneCertificate(system, symmetric_collocated);
+  if (!certificate.empty() && !result.eigenvalues.empty()) {
+    result.stability = Stability::kAsymptoticallyStable;
+    result.minimum_phase = true;
+    result.stability_note = certificate;
+  }
+}
+
+}  // namespace
+
 LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
                                              LinearZeroDynamicsWorkspace& workspace,
                                              Eigen::Index zero_count,
@@ -807,120 +999,11 @@ LinearZeroDynamics ComputeLinearZeroDynamics(const LinearSystem& system,
   result.zero_count = zero_count;
   result.target = options.target;
   result.shift = options.shift;
-  const Eigen::Index n = system.dof();
-  const Eigen::Index operator_size = 2 * n;
-  // k is capped at the number of finite zeros; ARPACK needs k <= 2n - 2, else dense.
-  Eigen::Index wanted = options.arpack.eigenvalues;
-  if (zero_count >= 0) wanted = std::min(wanted, zero_count);
-  bool dense = options.solver == LinearEigenSolver::kDense ||
-               (options.solver == LinearEigenSolver::kAuto && n <= options.dense_threshold) ||
-               wanted > operator_size - 2;
-  result.solver_used = dense ? LinearEigenSolver::kDense : LinearEigenSolver::kArpack;
-
+  const Eigen::Index wanted = WantedZeros(options, zero_count);
+  result.solver_used = UseDenseSolver(options, system.dof(), wanted) ? LinearEigenSolver::kDense
+                                                                     : LinearEigenSolver::kArpack;
   if (zero_count != 0) {
-    workspace.Factorize(system, options.shift);
-    // The computed nu, their eigenvectors z = (q, v) of OP, ARPACK's residuals |OP z - nu z|.
-    std::vector<std::complex<double>> nus;
-    std::vector<std::size_t> kept;
-    std::vector<Eigen::VectorXcd> vectors;
-    std::vector<double> residuals;
-    double largest_nu = 0.0;
-    if (dense) {
-      const Eigen::VectorXcd values = DenseOperatorEigenvalues(system, workspace);
-      nus.assign(values.data(), values.data() + values.size());
-      kept = FiniteZeroIndices(nus, zero_count, 0.0, options);
-      for (const std::size_t i : kept) {
-        // The zero's eigenvector q (the head of OP's (q, lambda q)); empty (no bound) where
-        // R(lambda) cannot be factorised at all.
-        vectors.push_back(ZeroNullVector(system, options.shift + 1.0 / nus[i], NullSide::kRight));
-        residuals.push_back(0.0);  // the Schur residual is round-off: in the bound's eps term
-      }
-      result.complete = true;
-    } else {
-      ArpackOptions arpack = options.arpack;
-      arpack.eigenvalues = static_cast<int>(wanted);
-      arpack.ritz_vectors = true;
-      const Eigen::VectorXd start = StartVector(workspace, operator_size);
-      RefuseIllConditioned(system, workspace, start, options);
-      const auto apply = [&workspace](const double* x, double* y) {
-        workspace.ApplyShiftInvert(x, y);
-      };
-      const ArpackTarget target = options.target == EigenvalueTarget::kNearest
-                                      ? ArpackTarget::kLargestMagnitude
-                                      : ArpackTarget::kLargestRealPart;
-      try {
-        result.arpack = ArpackEigenvalues(operator_size, apply, target, arpack, start);
-      } catch (const NoSolution& error) {
-        if (options.target != EigenvalueTarget::kRightmost) throw;
-        // Limit (2) of EigenvalueTarget::kRightmost: say what to do about it.
-        throw NoSolution(std::string(error.what()) +
-                         "; the rightmost route converges slowly when every zero is left of "
-                         "the shift (lightly damped modes crowd near Re 1/(lambda - shift) = 0): "
-                         "use the nearest route, or a shift right of the zeros of interest");
-      }
-      // The scale of |nu| for the infinite-eigenvalue test: 'LM' returns the largest |nu| itself;
-      // 'LR' need not, so estimate it by power iteration.
-      const double scale = options.target == EigenvalueTarget::kNearest
-                               ? 0.0
-                               : EstimateLargestMagnitude(workspace, start);
-      largest_nu = scale;
-      nus = result.arpack.ritz_values;
-      kept = FiniteZeroIndices(nus, kUnknownZeroCount, scale, options);
-      if (kept.size() > std::size_t(wanted)) kept.resize(std::size_t(wanted));  // dneupd: nev + 1
-      Eigen::VectorXd real_image(operator_size), imaginary_image(operator_size);
-      for (const std::size_t i : kept) {
-        Eigen::VectorXcd z = RitzVector(result.arpack, i);
-        const Eigen::VectorXd real_part = z.real(), imaginary_part = z.imag();
-        workspace.ApplyShiftInvert(real_part.data(), real_image.data());
-        workspace.ApplyShiftInvert(imaginary_part.data(), imaginary_image.data());
-        Eigen::VectorXcd image(operator_size);
-        image.real() = real_image;
-        image.imag() = imaginary_image;
-        const double size = z.norm();
-        residuals.push_back(size > 0.0 ? (image - nus[i] * z).norm() / size
-                                       : std::numeric_limits<double>::infinity());
-        vectors.push_back(std::move(z));
-      }
-      result.arpack.ritz_vectors.clear();
-      result.arpack.ritz_vectors.shrink_to_fit();
-      result.complete = zero_count >= 0 && Eigen::Index(kept.size()) == zero_count;
-    }
-    for (const auto& nu : nus) largest_nu = std::max(largest_nu, std::abs(nu));
-    const bool symmetric_collocated = Symmetric(system.mass) && Symmetric(system.damping) &&
-                                      Symmetric(system.stiffness) && Collocated(system);
-    const std::array<double, 3> norms = {InfinityNorm(system.mass), InfinityNorm(system.damping),
-                                         InfinityNorm(system.stiffness)};
-    std::vector<double> bounds;
-    for (std::size_t j = 0; j < kept.size(); ++j) {
-      const std::complex<double> nu = nus[kept[j]];
-      std::complex<double> lambda = options.shift + 1.0 / nu;
-      if (vectors[j].size() == 0) {  // no vector (dense route, R(lambda) not factorisable)
-        bounds.push_back(std::numeric_limits<double>::infinity());
-        result.eigenvalues.push_back(lambda);
-        continue;
-      }
-      const Eigen::VectorXcd q = symmetric_collocated ? ZeroVector(system, vectors[j])
-                                                      : Eigen::VectorXcd(vectors[j].head(n));
-      // A symmetric collocated system: Q(lambda)^T = Q(lambda) and q^T B = (C q)^T diag = 0, so
-      // the left vector is q itself.
-      const Eigen::VectorXcd left =
-          symmetric_collocated ? q : ZeroNullVector(system, lambda, NullSide::kLeft);
-      bounds.push_back(
-          ZeroErrorBound(system, norms, lambda, nu, largest_nu, residuals[j], q, left));
-      if (symmetric_collocated) {
-        lambda = RayleighZero(HermitianForm(system.mass, q), HermitianForm(system.damping, q),
-                              HermitianForm(system.stiffness, q), lambda);
-      }
-      result.eigenvalues.push_back(lambda);
-    }
-    ClusterBounds(result.eigenvalues, bounds);
-    FinishZeroDynamicsWithBounds(result, std::move(bounds), options.imaginary_axis_tolerance);
-    const std::string certificate = LeftHalfPlaneCertificate(system, symmetric_collocated);
-    if (!certificate.empty() && !result.eigenvalues.empty()) {
-      result.stability = Stability::kAsymptoticallyStable;
-      result.minimum_phase = true;
-      result.stability_note = certificate;
-    }
+    ComputeFiniteZeros(system, workspace, zero_count, wanted, options, result);
   } else {
     result.complete = true;
     FinishZeroDynamics(result, options.imaginary_axis_tolerance);

@@ -296,34 +296,33 @@ int Severity(ExitCode code) {
   }
 }
 
-int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
-  const std::vector<std::string> methods = ParseMethods(arguments.method);
-  if (arguments.summary != "json" && arguments.summary != "text") {
-    throw UsageError("--summary " + arguments.summary + ": expected json or text");
+// --plot DIR: made before any work, so that the figures of a long solve have somewhere to go.
+void MakePlotDirectory(const std::string& plot) {
+  std::error_code error;
+  std::filesystem::create_directories(plot, error);
+  if (error || !std::filesystem::is_directory(plot)) {
+    throw UsageError("--plot " + plot + ": cannot make the directory" +
+                     (error ? " (" + error.message() + ")" : std::string()));
   }
-  // Before any work: a solve whose answer cannot be written is wasted.
-  const SolveFileFormat format = ChooseFormat(arguments);
-  if (!arguments.plot.empty()) {
-    std::error_code error;
-    std::filesystem::create_directories(arguments.plot, error);
-    if (error || !std::filesystem::is_directory(arguments.plot)) {
-      throw UsageError("--plot " + arguments.plot + ": cannot make the directory" +
-                       (error ? " (" + error.message() + ")" : std::string()));
-    }
-  }
-  if (arguments.out == "-") {
+}
+
+// --out names a file in an existing directory.
+void CheckOutArgument(const std::string& out) {
+  if (out == "-") {
     // stdout carries the summary (JSON or text); the table would be mixed into it.
     throw UsageError("--out -: standard output holds the summary; name a file for the table");
   }
-  const std::filesystem::path out_directory = std::filesystem::path(arguments.out).parent_path();
+  const std::filesystem::path out_directory = std::filesystem::path(out).parent_path();
   if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
-    throw UsageError("--out " + arguments.out + ": no directory " + out_directory.string());
+    throw UsageError("--out " + out + ": no directory " + out_directory.string());
   }
-  const api::Model model =
-      api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
-  const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
-  // One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
-  // --yf of different lengths) or naming the samples file.
+}
+
+// One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
+// --yf of different lengths) or naming the samples file.
+void CheckTrajectoryFitsModel(const SolveArguments& arguments,
+                              const api::Model& model,
+                              const api::OutputTrajectory& trajectory) {
   const std::size_t outputs = model.num_outputs();
   const std::string per_output = ", but the model has " + std::to_string(outputs) +
                                  (outputs == 1 ? " output" : " outputs") + " (one per output)";
@@ -337,11 +336,10 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
     throw UsageError(arguments.trajectory + ": " + std::to_string(trajectory.sample_values.cols()) +
                      " output columns after t" + per_output);
   }
+}
 
-  // The inputs are read: no output may be one of them, a link, a FIFO or a directory.
-  for (std::size_t k = 0; k < methods.size(); ++k)
-    CheckOutputPath(OutFileOf(arguments.out, methods, k));
-
+// The options every listed method shares (method and file are set per method).
+api::SolveOptions SharedSolveOptions(const SolveArguments& arguments, SolveFileFormat format) {
   api::SolveOptions options;
   options.force = arguments.force;
   options.t_start = arguments.t_start;
@@ -354,33 +352,56 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
   options.file_format = ToString(format);
-  const bool several = methods.size() > 1;
-  // Each method in turn on the same model and trajectory. With one method a refusal is the
-  // command's error as before; in a list it is that method's, and the others still run.
+  return options;
+}
+
+// The solves of the listed methods, each with the file it wrote.
+struct MethodSolves {
   std::vector<api::Feedforward> solves;
   std::vector<std::string> files;
-  ExitCode status = ExitCode::kSuccess;
+  ExitCode status = ExitCode::kSuccess;  // kNoSolution when a listed method was refused
+};
+
+// Each method in turn on the same model and trajectory, with its notes on `err`. With one
+// method a refusal is the command's error as before; in a list it is that method's, and the
+// others still run.
+MethodSolves SolveEachMethod(const std::vector<std::string>& methods,
+                             const std::string& out_file,
+                             const api::Model& model,
+                             const api::OutputTrajectory& trajectory,
+                             api::SolveOptions options,
+                             std::ostream& err) {
+  const bool several = methods.size() > 1;
+  MethodSolves result;
   for (std::size_t k = 0; k < methods.size(); ++k) {
     options.method = methods[k];
-    options.out_file = OutFileOf(arguments.out, methods, k);
+    options.out_file = OutFileOf(out_file, methods, k);
     if (!several) {
-      solves.push_back(SolveTellingFlags(model, trajectory, options));
+      result.solves.push_back(SolveTellingFlags(model, trajectory, options));
     } else {
       try {
-        solves.push_back(SolveTellingFlags(model, trajectory, options));
+        result.solves.push_back(SolveTellingFlags(model, trajectory, options));
       } catch (const NoSolution& error) {
         err << "servokit: error: --method " << methods[k] << ": " << error.what() << "\n";
-        status = ExitCode::kNoSolution;
+        result.status = ExitCode::kNoSolution;
         continue;
       }
     }
-    files.push_back(options.out_file);
-    const std::string label = several ? solves.back().method + ": " : "";
-    for (const std::string& note : solves.back().notes) {
+    result.files.push_back(options.out_file);
+    const std::string label = several ? result.solves.back().method + ": " : "";
+    for (const std::string& note : result.solves.back().notes) {
       err << "servokit: note: " << label << note << "\n";
     }
   }
-  if (arguments.summary == "text") {
+  return result;
+}
+
+// stdout: the summaries as text, one JSON object, or a JSON array of several.
+void WriteSummaries(const std::vector<api::Feedforward>& solves,
+                    const std::string& summary,
+                    bool several,
+                    std::ostream& out) {
+  if (summary == "text") {
     for (std::size_t k = 0; k < solves.size(); ++k) {
       out << (k > 0 ? "\n" : "") << SummaryText(nlohmann::ordered_json::parse(solves[k].json));
     }
@@ -393,14 +414,24 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
     }
     out << array.dump(2) << "\n";
   }
-  // Also for a solve that stopped early or failed its check: the figures show where and how.
+}
+
+// Also for a solve that stopped early or failed its check: the figures show where and how.
+void DrawSolvesWithRows(const std::string& plot,
+                        const api::Model& model,
+                        const std::vector<api::Feedforward>& solves) {
   std::vector<const api::Feedforward*> drawn;
   for (const api::Feedforward& solve : solves) {
     if (!solve.t.empty()) drawn.push_back(&solve);
   }
-  if (!arguments.plot.empty() && !drawn.empty()) DrawFigures(arguments.plot, model, drawn);
-  for (std::size_t k = 0; k < solves.size(); ++k) {
-    const api::Feedforward& feedforward = solves[k];
+  if (!plot.empty() && !drawn.empty()) DrawFigures(plot, model, drawn);
+}
+
+// Each solve's warnings and failure on `err`; the worst status of all the listed methods.
+ExitCode ReportOutcomes(const MethodSolves& method_solves, bool several, std::ostream& err) {
+  ExitCode status = method_solves.status;
+  for (std::size_t k = 0; k < method_solves.solves.size(); ++k) {
+    const api::Feedforward& feedforward = method_solves.solves[k];
     const std::string label = several ? feedforward.method + ": " : "";
     for (const std::string& warning : feedforward.warnings) {
       err << "servokit: warning: " << label << warning << "\n";
@@ -411,12 +442,38 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
       code = ExitCode::kVerificationFailed;
     } else if (!feedforward.usable) {
       err << "servokit: error: " << feedforward.method << " stopped: " << feedforward.message
-          << " (the rows up to there are in " << files[k] << ")\n";
+          << " (the rows up to there are in " << method_solves.files[k] << ")\n";
       code = ExitCode::kNoSolution;
     }
     if (Severity(code) > Severity(status)) status = code;
   }
-  return static_cast<int>(status);
+  return status;
+}
+
+int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& err) {
+  const std::vector<std::string> methods = ParseMethods(arguments.method);
+  if (arguments.summary != "json" && arguments.summary != "text") {
+    throw UsageError("--summary " + arguments.summary + ": expected json or text");
+  }
+  // Before any work: a solve whose answer cannot be written is wasted.
+  const SolveFileFormat format = ChooseFormat(arguments);
+  if (!arguments.plot.empty()) MakePlotDirectory(arguments.plot);
+  CheckOutArgument(arguments.out);
+  const api::Model model =
+      api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
+  const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
+  CheckTrajectoryFitsModel(arguments, model, trajectory);
+
+  // The inputs are read: no output may be one of them, a link, a FIFO or a directory.
+  for (std::size_t k = 0; k < methods.size(); ++k)
+    CheckOutputPath(OutFileOf(arguments.out, methods, k));
+
+  const bool several = methods.size() > 1;
+  const MethodSolves method_solves = SolveEachMethod(methods, arguments.out, model, trajectory,
+                                                     SharedSolveOptions(arguments, format), err);
+  WriteSummaries(method_solves.solves, arguments.summary, several, out);
+  DrawSolvesWithRows(arguments.plot, model, method_solves.solves);
+  return static_cast<int>(ReportOutcomes(method_solves, several, err));
 }
 
 }  // namespace

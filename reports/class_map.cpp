@@ -42,6 +42,254 @@ std::vector<double> AxisValues(const GridAxis& axis) {
   return values;
 }
 
+struct AxisRange {
+  double low = 0.0, high = 0.0;
+};
+
+AxisRange RangeOf(const std::vector<double>& values) {
+  const auto [low, high] = std::minmax_element(values.begin(), values.end());
+  return {*low, *high};
+}
+
+// Throws UsageError unless `axis` has at least two distinct values.
+void RequireTwoValues(const GridAxis& axis, const std::vector<double>& values) {
+  if (*std::max_element(values.begin(), values.end()) ==
+      *std::min_element(values.begin(), values.end())) {
+    throw UsageError("--vary " + axis.name + ": a map needs at least two values of it");
+  }
+}
+
+// The grid's points (in display units), by class name.
+using ClassPoints = std::map<std::string, std::vector<std::pair<double, double>>>;
+
+// The grid, classified: the class of each point (`stored_classes`, when given, else
+// MapClassName with `point_options`), and the points of each class.
+ClassPoints ClassifyGrid(const Model& model,
+                         const GridAxis& x,
+                         const GridAxis& y,
+                         const std::vector<double>& x_values,
+                         const std::vector<double>& y_values,
+                         const ClassificationOptions& point_options,
+                         const std::vector<std::string>* stored_classes) {
+  if (stored_classes && stored_classes->size() != x_values.size() * y_values.size()) {
+    throw Error("a map of " + std::to_string(x_values.size() * y_values.size()) + " points given " +
+                std::to_string(stored_classes->size()) + " classes");
+  }
+  Workspace workspace(model);
+  ClassPoints classes;
+  std::size_t grid_point = 0;
+  for (const double x_value : x_values) {
+    for (const double y_value : y_values) {
+      workspace.parameters = model.parameters();
+      workspace.parameters(Eigen::Index(x.parameter)) = x_value;
+      workspace.parameters(Eigen::Index(y.parameter)) = y_value;
+      classes[stored_classes ? (*stored_classes)[grid_point]
+                             : MapClassName(model, workspace, point_options)]
+          .emplace_back(x.DisplayValue(x_value), y.DisplayValue(y_value));
+      ++grid_point;
+    }
+  }
+  return classes;
+}
+
+// The stability, oscillation and realization curves within the grid's ranges, by continuation
+// of the threshold finder.
+std::vector<ThresholdCurve> TraceMapCurves(const Model& model,
+                                           const GridAxis& x,
+                                           const AxisRange& x_range,
+                                           const GridAxis& y,
+                                           const AxisRange& y_range,
+                                           const ClassificationOptions& options) {
+  ThresholdCurveOptions curve_options;
+  curve_options.thresholds.classification = options;
+  curve_options.lines = kCurveLines;
+  return TraceThresholdCurves(
+      model, {x.parameter, x_range.low, x_range.high}, {y.parameter, y_range.low, y_range.high},
+      {ThresholdEvent::kStability, ThresholdEvent::kOscillation, ThresholdEvent::kRealization},
+      curve_options);
+}
+
+std::string AxisLabel(const GridAxis& axis) {
+  return PlotSymbol(axis.name) + (axis.display_unit == DisplayUnit::kDegree ? " [deg]" : "");
+}
+
+std::string DisplayRange(const GridAxis& axis, const AxisRange& range) {
+  return "[" + FormatExact(axis.DisplayValue(range.low)) + ":" +
+         FormatExact(axis.DisplayValue(range.high)) + "]";
+}
+
+// The map's figure, titled and ranged, without series.
+PlotSpec MapPlot(const std::string& stem,
+                 const GridAxis& x,
+                 const AxisRange& x_range,
+                 const GridAxis& y,
+                 const AxisRange& y_range) {
+  return PlotSpec{stem,
+                  "Classes over " + PlotSymbol(x.name) + " and " + PlotSymbol(y.name),
+                  AxisLabel(x),
+                  AxisLabel(y),
+                  DisplayRange(x, x_range),
+                  DisplayRange(y, y_range),
+                  {},
+                  {}};
+}
+
+// The point size of a grid square (see kPlotWidthInPoints).
+double GridSquareSize(std::size_t x_count, std::size_t y_count) {
+  return std::clamp(
+      std::max(kPlotWidthInPoints / double(x_count), kPlotHeightInPoints / double(y_count)),
+      kSmallestSquare, kLargestSquare);
+}
+
+// One series of squares per class, in the next class colour; returns the table of the classes,
+// their colours and numbers of points.
+Table PlotClasses(const ClassPoints& classes, double square, PlotSpec& plot) {
+  std::size_t colour = 0;
+  Table class_table;
+  class_table.header = {"class", "colour", "grid points"};
+  for (const auto& [name, points] : classes) {
+    const char* rgb = kClassColours[colour++ % std::size(kClassColours)];
+    plot.series.push_back(
+        {name, points,
+         "points pointtype 5 pointsize " + FormatExact(square) + " linecolor rgb '" + rgb + "'"});
+    class_table.rows.push_back({name, rgb, std::to_string(points.size())});
+  }
+  return class_table;
+}
+
+// A curve's points in display units.
+std::vector<std::pair<double, double>> DisplayPoints(const ThresholdCurve& curve,
+                                                     const GridAxis& x,
+                                                     const GridAxis& y) {
+  std::vector<std::pair<double, double>> points;
+  for (const CurvePoint& point : curve.points) {
+    points.emplace_back(x.DisplayValue(point.x), y.DisplayValue(point.y));
+  }
+  return points;
+}
+
+// The axis along which `curve` was traced.
+const GridAxis& TracedAxis(const ThresholdCurve& curve, const GridAxis& x, const GridAxis& y) {
+  return curve.traced_axis == 0 ? x : y;
+}
+
+// The rows of the `number`-th curve in the curves' CSV file, one per traced point.
+void WriteCurveRows(std::ostream& csv,
+                    std::size_t number,
+                    const ThresholdCurve& curve,
+                    const GridAxis& traced,
+                    const std::vector<std::pair<double, double>>& points) {
+  for (std::size_t k = 0; k < curve.points.size(); ++k) {
+    const CurvePoint& point = curve.points[k];
+    csv << number << "," << ToString(curve.event) << "," << CsvQuote(curve.from) << ","
+        << CsvQuote(curve.to) << "," << CsvQuote(curve.via) << "," << traced.name << ","
+        << FormatExact(points[k].first) << "," << FormatExact(points[k].second) << ","
+        << FormatExact(traced.display_unit == DisplayUnit::kDegree
+                           ? RadiansToDegrees(point.bracket_width)
+                           : point.bracket_width)
+        << "\n";
+  }
+}
+
+// map_<x>_<y>_curves.csv: one row per traced point of every curve.
+void WriteCurvesCsv(const std::filesystem::path& path,
+                    const std::vector<ThresholdCurve>& curves,
+                    const GridAxis& x,
+                    const GridAxis& y) {
+  OutputFile csv_file(path.string());
+  std::ostream& csv = csv_file.stream();
+  csv << "curve,event,from,to,via,traced_along," << x.ColumnName() << "," << y.ColumnName()
+      << ",bracket_width\n";
+  for (std::size_t i = 0; i < curves.size(); ++i) {
+    WriteCurveRows(csv, i + 1, curves[i], TracedAxis(curves[i], x, y),
+                   DisplayPoints(curves[i], x, y));
+  }
+  csv_file.Commit();
+}
+
+// The key's name of a curve's change: from -> to is read in the traced parameter's ascent, so
+// the direction is part of the label.
+std::string ChangeLabel(const ThresholdCurve& curve, const GridAxis& x, const GridAxis& y) {
+  return CurveLabel(curve) + " (along " + PlotSymbol(TracedAxis(curve, x, y).name) + ")";
+}
+
+// The gnuplot style of a curve of the `change`-th change: its colour and dash type; a curve of
+// one point is a marker.
+std::string CurveStyle(std::size_t point_count, std::size_t change) {
+  return std::string(point_count == 1 ? "points pointtype 6 pointsize 1.5"
+                                      : "lines linewidth 2.5") +
+         " linecolor rgb '" + kCurveColours[change % std::size(kCurveColours)] + "' dashtype " +
+         std::to_string(1 + int(change % kDashTypes));
+}
+
+// The curves' table row of the `number`-th curve: what changes, along which parameter, its
+// number of points and the ranges it spans.
+std::vector<std::string> CurveTableRow(std::size_t number,
+                                       const std::string& label,
+                                       const GridAxis& traced,
+                                       const std::vector<std::pair<double, double>>& points) {
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  double low_x = kInfinity, high_x = -kInfinity, low_y = kInfinity, high_y = -kInfinity;
+  for (const auto& [point_x, point_y] : points) {
+    low_x = std::min(low_x, point_x);
+    high_x = std::max(high_x, point_x);
+    low_y = std::min(low_y, point_y);
+    high_y = std::max(high_y, point_y);
+  }
+  return {std::to_string(number) + ". " + label, traced.name, std::to_string(points.size()),
+          FormatShort(low_x) + " to " + FormatShort(high_x),
+          FormatShort(low_y) + " to " + FormatShort(high_y)};
+}
+
+// One series per curve, with one colour and dash type per change (the key names each change
+// once); returns the curves' table.
+Table PlotCurves(const std::vector<ThresholdCurve>& curves,
+                 const GridAxis& x,
+                 const GridAxis& y,
+                 PlotSpec& plot) {
+  std::vector<std::string> changes;
+  Table curve_table;
+  curve_table.header = {"curve", "traced along", "points", PlotSymbol(x.name) + " range",
+                        PlotSymbol(y.name) + " range"};
+  for (std::size_t i = 0; i < curves.size(); ++i) {
+    const ThresholdCurve& curve = curves[i];
+    const std::string label = ChangeLabel(curve, x, y);
+    const auto found = std::find(changes.begin(), changes.end(), label);
+    const std::size_t change = std::size_t(found - changes.begin());
+    const bool first_of_change = found == changes.end();
+    if (first_of_change) changes.push_back(label);
+    const std::vector<std::pair<double, double>> points = DisplayPoints(curve, x, y);
+    plot.series.push_back(
+        {first_of_change ? label : "", points, CurveStyle(curve.points.size(), change)});
+    curve_table.rows.push_back(CurveTableRow(i + 1, label, TracedAxis(curve, x, y), points));
+  }
+  return curve_table;
+}
+
+// The map's section: heading, figure, the classes' table and the curves' (or that there are
+// none).
+void AddMapSection(Document& document,
+                   const std::string& stem,
+                   const GridAxis& x,
+                   const GridAxis& y,
+                   std::size_t grid_points,
+                   const Table& class_table,
+                   const Table& curve_table) {
+  document.Add(Heading{2, "Map over " + x.name + " and " + y.name});
+  document.Add(FigureOf(
+      stem, "Class of each of the " + std::to_string(grid_points) +
+                " grid points (realization, stability, oscillatory), with the threshold curves "
+                "traced by the threshold finder on " +
+                std::to_string(kCurveLines + 1) + " lines along each axis (" + stem +
+                "_curves.csv)"));
+  document.Add(class_table);
+  if (curve_table.rows.empty()) {
+    document.Add(Paragraph{"No stability, oscillation or realization threshold in this range."});
+  } else {
+    document.Add(curve_table);
+  }
+}
+
 }  // namespace
 
 std::string MapClassName(const Model& model,
@@ -71,137 +319,24 @@ void AddClassMap(Document& document,
                  const ClassificationOptions& options,
                  const std::vector<std::string>* stored_classes) {
   const std::vector<double> x_values = AxisValues(x), y_values = AxisValues(y);
-  const auto [x_low, x_high] = std::minmax_element(x_values.begin(), x_values.end());
-  const auto [y_low, y_high] = std::minmax_element(y_values.begin(), y_values.end());
-  for (const GridAxis* axis : {&x, &y}) {
-    const std::vector<double>& values = axis == &x ? x_values : y_values;
-    if (*std::max_element(values.begin(), values.end()) ==
-        *std::min_element(values.begin(), values.end())) {
-      throw UsageError("--vary " + axis->name + ": a map needs at least two values of it");
-    }
-  }
+  const AxisRange x_range = RangeOf(x_values), y_range = RangeOf(y_values);
+  RequireTwoValues(x, x_values);
+  RequireTwoValues(y, y_values);
   ClassificationOptions point_options = options;
   point_options.cross_check = false;
   point_options.Validate(model);
-
-  // The grid, classified: the class of each point, and the points of each class.
-  if (stored_classes && stored_classes->size() != x_values.size() * y_values.size()) {
-    throw Error("a map of " + std::to_string(x_values.size() * y_values.size()) + " points given " +
-                std::to_string(stored_classes->size()) + " classes");
-  }
-  Workspace workspace(model);
-  std::map<std::string, std::vector<std::pair<double, double>>> classes;
-  std::size_t grid_point = 0;
-  for (const double x_value : x_values) {
-    for (const double y_value : y_values) {
-      workspace.parameters = model.parameters();
-      workspace.parameters(Eigen::Index(x.parameter)) = x_value;
-      workspace.parameters(Eigen::Index(y.parameter)) = y_value;
-      classes[stored_classes ? (*stored_classes)[grid_point]
-                             : MapClassName(model, workspace, point_options)]
-          .emplace_back(x.DisplayValue(x_value), y.DisplayValue(y_value));
-      ++grid_point;
-    }
-  }
-
-  // The curves, by continuation of the threshold finder.
-  ThresholdCurveOptions curve_options;
-  curve_options.thresholds.classification = options;
-  curve_options.lines = kCurveLines;
-  const std::vector<ThresholdCurve> curves = TraceThresholdCurves(
-      model, {x.parameter, *x_low, *x_high}, {y.parameter, *y_low, *y_high},
-      {ThresholdEvent::kStability, ThresholdEvent::kOscillation, ThresholdEvent::kRealization},
-      curve_options);
+  const ClassPoints classes =
+      ClassifyGrid(model, x, y, x_values, y_values, point_options, stored_classes);
+  const std::vector<ThresholdCurve> curves = TraceMapCurves(model, x, x_range, y, y_range, options);
 
   const std::string stem = "map_" + x.name + "_" + y.name;
-  const auto label_of = [](const GridAxis& axis) {
-    return PlotSymbol(axis.name) + (axis.display_unit == DisplayUnit::kDegree ? " [deg]" : "");
-  };
-  PlotSpec plot{
-      stem,
-      "Classes over " + PlotSymbol(x.name) + " and " + PlotSymbol(y.name),
-      label_of(x),
-      label_of(y),
-      "[" + FormatExact(x.DisplayValue(*x_low)) + ":" + FormatExact(x.DisplayValue(*x_high)) + "]",
-      "[" + FormatExact(y.DisplayValue(*y_low)) + ":" + FormatExact(y.DisplayValue(*y_high)) + "]",
-      {},
-      {}};
-  const double square = std::clamp(std::max(kPlotWidthInPoints / double(x_values.size()),
-                                            kPlotHeightInPoints / double(y_values.size())),
-                                   kSmallestSquare, kLargestSquare);
-  std::size_t colour = 0;
-  Table class_table;
-  class_table.header = {"class", "colour", "grid points"};
-  for (const auto& [name, points] : classes) {
-    const char* rgb = kClassColours[colour++ % std::size(kClassColours)];
-    plot.series.push_back(
-        {name, points,
-         "points pointtype 5 pointsize " + FormatExact(square) + " linecolor rgb '" + rgb + "'"});
-    class_table.rows.push_back({name, rgb, std::to_string(points.size())});
-  }
-  // One colour and dash type per change; the key names each change once.
-  std::vector<std::string> changes;
-  OutputFile csv_file((directory / (stem + "_curves.csv")).string());
-  std::ostream& csv = csv_file.stream();
-  csv << "curve,event,from,to,via,traced_along," << x.ColumnName() << "," << y.ColumnName()
-      << ",bracket_width\n";
-  Table curve_table;
-  curve_table.header = {"curve", "traced along", "points", PlotSymbol(x.name) + " range",
-                        PlotSymbol(y.name) + " range"};
-  for (std::size_t i = 0; i < curves.size(); ++i) {
-    const ThresholdCurve& curve = curves[i];
-    // from -> to is read in the traced parameter's ascent: the direction is part of the label.
-    const std::string label =
-        CurveLabel(curve) + " (along " + PlotSymbol(curve.traced_axis == 0 ? x.name : y.name) + ")";
-    const auto found = std::find(changes.begin(), changes.end(), label);
-    const std::size_t change = std::size_t(found - changes.begin());
-    const bool first_of_change = found == changes.end();
-    if (first_of_change) changes.push_back(label);
-    std::vector<std::pair<double, double>> points;
-    constexpr double kInfinity = std::numeric_limits<double>::infinity();
-    double low_x = kInfinity, high_x = -kInfinity, low_y = kInfinity, high_y = -kInfinity;
-    const GridAxis& traced = curve.traced_axis == 0 ? x : y;
-    for (const CurvePoint& point : curve.points) {
-      points.emplace_back(x.DisplayValue(point.x), y.DisplayValue(point.y));
-      low_x = std::min(low_x, points.back().first);
-      high_x = std::max(high_x, points.back().first);
-      low_y = std::min(low_y, points.back().second);
-      high_y = std::max(high_y, points.back().second);
-      csv << i + 1 << "," << ToString(curve.event) << "," << CsvQuote(curve.from) << ","
-          << CsvQuote(curve.to) << "," << CsvQuote(curve.via) << "," << traced.name << ","
-          << FormatExact(points.back().first) << "," << FormatExact(points.back().second) << ","
-          << FormatExact(traced.display_unit == DisplayUnit::kDegree
-                             ? RadiansToDegrees(point.bracket_width)
-                             : point.bracket_width)
-          << "\n";
-    }
-    plot.series.push_back({first_of_change ? label : "", points,
-                           std::string(curve.points.size() == 1 ? "points pointtype 6 pointsize 1.5"
-                                                                : "lines linewidth 2.5") +
-                               " linecolor rgb '" +
-                               kCurveColours[change % std::size(kCurveColours)] + "' dashtype " +
-                               std::to_string(1 + int(change % kDashTypes))});
-    curve_table.rows.push_back({std::to_string(i + 1) + ". " + label, traced.name,
-                                std::to_string(curve.points.size()),
-                                FormatShort(low_x) + " to " + FormatShort(high_x),
-                                FormatShort(low_y) + " to " + FormatShort(high_y)});
-  }
-  csv_file.Commit();
+  PlotSpec plot = MapPlot(stem, x, x_range, y, y_range);
+  const Table class_table =
+      PlotClasses(classes, GridSquareSize(x_values.size(), y_values.size()), plot);
+  WriteCurvesCsv(directory / (stem + "_curves.csv"), curves, x, y);
+  const Table curve_table = PlotCurves(curves, x, y, plot);
   DrawPlot(directory.string(), plot);
-
-  document.Add(Heading{2, "Map over " + x.name + " and " + y.name});
-  document.Add(FigureOf(
-      stem, "Class of each of the " + std::to_string(x_values.size() * y_values.size()) +
-                " grid points (realization, stability, oscillatory), with the threshold curves "
-                "traced by the threshold finder on " +
-                std::to_string(kCurveLines + 1) + " lines along each axis (" + stem +
-                "_curves.csv)"));
-  document.Add(class_table);
-  if (curves.empty()) {
-    document.Add(Paragraph{"No stability, oscillation or realization threshold in this range."});
-  } else {
-    document.Add(curve_table);
-  }
+  AddMapSection(document, stem, x, y, x_values.size() * y_values.size(), class_table, curve_table);
 }
 
 }  // namespace servokit

@@ -280,6 +280,75 @@ std::vector<ex> ClosedForms(const NonlinearStructure& structure) {
   return formulas;
 }
 
+// Throws UsageError unless reference_q is empty (q = 0) or has one value per coordinate.
+void RequireReferenceQFits(const Model& model, const AlgebraicInverseOptions& options) {
+  if (options.reference_q.size() != 0 &&
+      options.reference_q.size() != static_cast<Eigen::Index>(model.dof())) {
+    throw UsageError("AlgebraicInverseOptions::reference_q has " +
+                     std::to_string(options.reference_q.size()) + " values, the model " +
+                     std::to_string(model.dof()) + " coordinates");
+  }
+}
+
+NonlinearStructureOptions StructureOptions(const AlgebraicInverseOptions& options) {
+  NonlinearStructureOptions structure_options;
+  structure_options.rank_tolerance = options.rank_tolerance;
+  structure_options.reference_q = options.reference_q;
+  return structure_options;
+}
+
+// The programs' inputs at the reference state: q as given (default 0), q_dot = 0, y_d at rest
+// there. `derivative_counts`: how many derivatives of each output the inputs hold.
+std::vector<double> NominalProgramInputs(const Model& model,
+                                         const Eigen::VectorXd& reference_q,
+                                         const std::vector<ex>& program_inputs,
+                                         const std::vector<int>& derivative_counts) {
+  std::vector<double> nominal_inputs(program_inputs.size(), 0.0);
+  std::copy(model.parameters().begin(), model.parameters().end(), nominal_inputs.begin());
+  std::copy(reference_q.begin(), reference_q.end(),
+            nominal_inputs.begin() + static_cast<long>(model.num_parameters()));
+  const GiNaC::matrix& output = model.symbolic().output();
+  std::vector<ex> output_expressions;
+  for (unsigned i = 0; i < output.rows(); ++i) output_expressions.push_back(output(i, 0));
+  const ExpressionProgram outputs = CompileExpressions(output_expressions, program_inputs);
+  std::vector<double> registers(outputs.num_registers()), values(outputs.num_outputs());
+  outputs.Evaluate(nominal_inputs.data(), registers.data(), values.data());
+  std::size_t slot = model.num_parameters() + 2 * model.dof();
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    nominal_inputs[slot] = values[i];
+    slot += static_cast<std::size_t>(derivative_counts[i]);
+  }
+  return nominal_inputs;
+}
+
+// Whether an expression varies along the motion: it reads q, q' or y_d, not only the
+// parameters (the programs' first inputs).
+bool VariesAlongMotion(const ex& expression,
+                       const NonlinearStructure& structure,
+                       const std::vector<ex>& program_inputs) {
+  for (std::size_t k = structure.parameters.size(); k < program_inputs.size(); ++k) {
+    if (expression.has(program_inputs[k])) return true;
+  }
+  return false;
+}
+
+// Whether every constraint is affine in the state with a Jacobian free of y_d (linear models,
+// the mass on car at alpha = 0).
+bool ConstraintsAffineInState(const NonlinearStructure& structure,
+                              const std::vector<ex>& program_inputs) {
+  return std::none_of(
+      structure.constraints.begin(), structure.constraints.end(), [&](const ex& constraint) {
+        for (const auto* symbols : {&structure.coordinates, &structure.velocities}) {
+          for (const auto& variable : *symbols) {
+            if (VariesAlongMotion(constraint.diff(variable), structure, program_inputs)) {
+              return true;
+            }
+          }
+        }
+        return false;
+      });
+}
+
 }  // namespace
 
 // Per-call scratch: the programs' inputs, registers and outputs, Newton's vectors and
@@ -329,6 +398,29 @@ struct AlgebraicInverse::Programs {
   Eigen::FullPivLU<Eigen::MatrixXd> coefficient_lu;
 
   using Scratch = AlgebraicInverseScratch;
+  // The sizes of `model` and of the outputs' derivatives in `structure`.
+  void SetSizes(const Model& model, const NonlinearStructure& structure);
+  // Compiles the input equations and takes their u-coefficient matrix's units at the reference
+  // state; returns that matrix. Throws NoSolution where it is singular (`orders`: the outputs'
+  // highest derivatives, for the message).
+  Eigen::MatrixXd CompileInputEquations(const NonlinearStructure& structure,
+                                        const std::vector<ex>& program_inputs,
+                                        const std::vector<double>& nominal_inputs,
+                                        const std::vector<int>& orders);
+  // Compiles the constraints, completes them with the internal directions and takes Newton's
+  // matrix's units at the reference state; returns that matrix. Throws NoSolution unless it is
+  // regular.
+  Eigen::MatrixXd CompileConstraints(const NonlinearStructure& structure,
+                                     const std::vector<ex>& program_inputs,
+                                     const std::vector<double>& nominal_inputs);
+  // Factors once the matrices that stay constant along the motion for the nominal parameters.
+  void FactorConstantMatrices(const Model& model,
+                              const NonlinearStructure& structure,
+                              const std::vector<ex>& program_inputs,
+                              const Eigen::MatrixXd& nominal_coefficients,
+                              const Eigen::MatrixXd& newton_matrix);
+  // Records the parameters the derivation relies on at their nominal values.
+  void PinParameters(const Model& model, const NonlinearStructure& structure);
   void PrepareScratch(const Eigen::VectorXd& parameters,
                       const Eigen::MatrixXd& output_derivatives,
                       Scratch& scratch) const;
@@ -348,120 +440,117 @@ struct AlgebraicInverse::Programs {
                    std::string& why) const;
 };
 
+void AlgebraicInverse::Programs::SetSizes(const Model& model, const NonlinearStructure& structure) {
+  dof = model.dof();
+  num_inputs = model.num_inputs();
+  num_parameters = model.num_parameters();
+  parameter_names = model.parameter_names();
+  for (const auto& symbols : structure.output_derivatives) {
+    derivative_counts.push_back(static_cast<int>(symbols.size()));
+    num_derivatives += symbols.size();
+  }
+}
+
+Eigen::MatrixXd AlgebraicInverse::Programs::CompileInputEquations(
+    const NonlinearStructure& structure,
+    const std::vector<ex>& program_inputs,
+    const std::vector<double>& nominal_inputs,
+    const std::vector<int>& orders) {
+  input_equations = CompileExpressions(InputEquations(structure), program_inputs);
+  const auto m = static_cast<Eigen::Index>(num_inputs);
+  const Eigen::MatrixXd nominal_coefficients =
+      EvaluateMatrix(input_equations, nominal_inputs, m, m, 0);
+  std::tie(coefficient_row_scale, coefficient_column_scale) =
+      EquilibrationScales(nominal_coefficients);
+  RequireRegularCoefficients(nominal_coefficients, coefficient_row_scale, coefficient_column_scale,
+                             orders);
+  return nominal_coefficients;
+}
+
+Eigen::MatrixXd AlgebraicInverse::Programs::CompileConstraints(
+    const NonlinearStructure& structure,
+    const std::vector<ex>& program_inputs,
+    const std::vector<double>& nominal_inputs) {
+  constraints = CompileExpressions(ConstraintPrograms(structure), program_inputs);
+  num_constraints = structure.constraints.size();
+  const auto states = static_cast<Eigen::Index>(2 * dof);
+  const auto rows = static_cast<Eigen::Index>(structure.constraints.size());
+  const Eigen::MatrixXd nominal_jacobian =
+      EvaluateMatrix(constraints, nominal_inputs, rows, states, static_cast<std::size_t>(rows));
+  internal_directions = InternalDirections(nominal_jacobian);
+  Eigen::MatrixXd newton_matrix(states, states);
+  newton_matrix << nominal_jacobian, internal_directions.transpose();
+  std::tie(jacobian_row_scale, jacobian_column_scale) = EquilibrationScales(newton_matrix);
+  RequireStateFixed(newton_matrix, jacobian_row_scale, jacobian_column_scale);
+  return newton_matrix;
+}
+
+void AlgebraicInverse::Programs::FactorConstantMatrices(const Model& model,
+                                                        const NonlinearStructure& structure,
+                                                        const std::vector<ex>& program_inputs,
+                                                        const Eigen::MatrixXd& nominal_coefficients,
+                                                        const Eigen::MatrixXd& newton_matrix) {
+  // Constraints affine in the state with a Jacobian free of y_d: Newton's matrix is constant
+  // for the nominal parameters, so it is factored once here and one step from any start is
+  // exact.
+  affine = ConstraintsAffineInState(structure, program_inputs);
+  nominal_parameters = model.parameters();
+  // A u-coefficient matrix free of the state and of y_d is factored once as well.
+  const auto m = static_cast<Eigen::Index>(num_inputs);
+  const std::vector<ex> equations = InputEquations(structure);
+  constant_coefficients =
+      std::none_of(equations.begin(), equations.begin() + m * m, [&](const ex& expression) {
+        return VariesAlongMotion(expression, structure, program_inputs);
+      });
+  if (constant_coefficients) {
+    coefficient_lu =
+        ScaledLu(nominal_coefficients, coefficient_row_scale, coefficient_column_scale);
+  }
+  if (affine) {
+    constraint_values = CompileExpressions(structure.constraints, program_inputs);
+    affine_lu = ScaledLu(newton_matrix, jacobian_row_scale, jacobian_column_scale);
+  }
+}
+
+void AlgebraicInverse::Programs::PinParameters(const Model& model,
+                                               const NonlinearStructure& structure) {
+  for (std::size_t p : structure.pinned_parameters) {
+    pinned.emplace_back(p, model.parameters()[static_cast<Eigen::Index>(p)]);
+  }
+}
+
 AlgebraicInverse::AlgebraicInverse(const Model& model, const AlgebraicInverseOptions& options) {
   assert(model.num_outputs() == model.num_inputs());  // the loader insists
-  if (options.reference_q.size() != 0 &&
-      options.reference_q.size() != static_cast<Eigen::Index>(model.dof())) {
-    throw UsageError("AlgebraicInverseOptions::reference_q has " +
-                     std::to_string(options.reference_q.size()) + " values, the model " +
-                     std::to_string(model.dof()) + " coordinates");
-  }
+  RequireReferenceQFits(model, options);
   // Everything symbolic below (the structure, its programs' expressions, the closed forms) is
   // made and destroyed in this scope.
   const SymbolicLock lock;
   try {
-    NonlinearStructureOptions structure_options;
-    structure_options.rank_tolerance = options.rank_tolerance;
-    structure_options.reference_q = options.reference_q;
-    NonlinearStructure structure = DeriveNonlinearStructure(model, structure_options);
+    NonlinearStructure structure = DeriveNonlinearStructure(model, StructureOptions(options));
     orders_ = structure.highest_derivative;
     relative_degree_ = structure.relative_degree;
     extension_steps_ = structure.extension_steps;
     integrators_ = structure.integrators();
 
     auto programs = std::make_unique<Programs>();
-    programs->dof = model.dof();
-    programs->num_inputs = model.num_inputs();
-    programs->num_parameters = model.num_parameters();
-    programs->parameter_names = model.parameter_names();
-    for (const auto& symbols : structure.output_derivatives) {
-      programs->derivative_counts.push_back(static_cast<int>(symbols.size()));
-      programs->num_derivatives += symbols.size();
-    }
+    programs->SetSizes(model, structure);
     const std::vector<ex> program_inputs = structure.ProgramInputs();
-    // The reference state: q as given (default 0), q_dot = 0, y_d at rest there.
-    std::vector<double> nominal_inputs(program_inputs.size(), 0.0);
-    std::copy(model.parameters().begin(), model.parameters().end(), nominal_inputs.begin());
-    std::copy(options.reference_q.begin(), options.reference_q.end(),
-              nominal_inputs.begin() + static_cast<long>(model.num_parameters()));
-    {
-      const GiNaC::matrix& output = model.symbolic().output();
-      std::vector<ex> output_expressions;
-      for (unsigned i = 0; i < output.rows(); ++i) output_expressions.push_back(output(i, 0));
-      const ExpressionProgram outputs = CompileExpressions(output_expressions, program_inputs);
-      std::vector<double> registers(outputs.num_registers()), values(outputs.num_outputs());
-      outputs.Evaluate(nominal_inputs.data(), registers.data(), values.data());
-      std::size_t slot = model.num_parameters() + 2 * model.dof();
-      for (std::size_t i = 0; i < values.size(); ++i) {
-        nominal_inputs[slot] = values[i];
-        slot += static_cast<std::size_t>(programs->derivative_counts[i]);
-      }
-    }
-
+    const std::vector<double> nominal_inputs = NominalProgramInputs(
+        model, options.reference_q, program_inputs, programs->derivative_counts);
     // The input equations first: their matrix decides whether the outputs fix u at all.
-    programs->input_equations = CompileExpressions(InputEquations(structure), program_inputs);
-    const auto m = static_cast<Eigen::Index>(model.num_inputs());
     const Eigen::MatrixXd nominal_coefficients =
-        EvaluateMatrix(programs->input_equations, nominal_inputs, m, m, 0);
-    std::tie(programs->coefficient_row_scale, programs->coefficient_column_scale) =
-        EquilibrationScales(nominal_coefficients);
-    RequireRegularCoefficients(nominal_coefficients, programs->coefficient_row_scale,
-                               programs->coefficient_column_scale, orders_);
+        programs->CompileInputEquations(structure, program_inputs, nominal_inputs, orders_);
     RequireOrders(structure, options.internal_dynamics);
-
-    programs->constraints = CompileExpressions(ConstraintPrograms(structure), program_inputs);
-    programs->num_constraints = structure.constraints.size();
-    const auto states = static_cast<Eigen::Index>(2 * model.dof());
-    const auto rows = static_cast<Eigen::Index>(structure.constraints.size());
-    const Eigen::MatrixXd nominal_jacobian = EvaluateMatrix(
-        programs->constraints, nominal_inputs, rows, states, static_cast<std::size_t>(rows));
-    programs->internal_directions = InternalDirections(nominal_jacobian);
-    Eigen::MatrixXd newton_matrix(states, states);
-    newton_matrix << nominal_jacobian, programs->internal_directions.transpose();
-    std::tie(programs->jacobian_row_scale, programs->jacobian_column_scale) =
-        EquilibrationScales(newton_matrix);
-    RequireStateFixed(newton_matrix, programs->jacobian_row_scale, programs->jacobian_column_scale);
-    // Constraints affine in the state with a Jacobian free of y_d (linear models, the
-    // mass on car at alpha = 0): Newton's matrix is constant for the nominal parameters, so it
-    // is factored once here and one step from any start is exact.
-    // Whether an expression varies along the motion: it reads q, q' or y_d, not only the
-    // parameters (the programs' first inputs).
-    const auto varies = [&](const ex& expression) {
-      for (std::size_t k = structure.parameters.size(); k < program_inputs.size(); ++k) {
-        if (expression.has(program_inputs[k])) return true;
-      }
-      return false;
-    };
-    programs->affine = std::none_of(
-        structure.constraints.begin(), structure.constraints.end(), [&](const ex& constraint) {
-          for (const auto* symbols : {&structure.coordinates, &structure.velocities}) {
-            for (const auto& variable : *symbols) {
-              if (varies(constraint.diff(variable))) return true;
-            }
-          }
-          return false;
-        });
-    programs->nominal_parameters = model.parameters();
-    // A u-coefficient matrix free of the state and of y_d is factored once as well.
-    const std::vector<ex> equations = InputEquations(structure);
-    programs->constant_coefficients =
-        std::none_of(equations.begin(), equations.begin() + m * m, varies);
-    if (programs->constant_coefficients) {
-      programs->coefficient_lu = ScaledLu(nominal_coefficients, programs->coefficient_row_scale,
-                                          programs->coefficient_column_scale);
-    }
-    if (programs->affine) {
-      programs->constraint_values = CompileExpressions(structure.constraints, program_inputs);
-      programs->affine_lu =
-          ScaledLu(newton_matrix, programs->jacobian_row_scale, programs->jacobian_column_scale);
-    }
-
-    for (std::size_t p : structure.pinned_parameters) {
-      programs->pinned.emplace_back(p, model.parameters()[static_cast<Eigen::Index>(p)]);
-    }
+    const Eigen::MatrixXd newton_matrix =
+        programs->CompileConstraints(structure, program_inputs, nominal_inputs);
+    programs->FactorConstantMatrices(model, structure, program_inputs, nominal_coefficients,
+                                     newton_matrix);
+    programs->PinParameters(model, structure);
     auto formulas = SymbolicPtr<Formulas>(new Formulas());
     formulas->derivative_symbols = structure.output_derivatives;
-    if (rows == states) formulas->input_formulas = ClosedForms(structure);
+    if (structure.constraints.size() == 2 * model.dof()) {
+      formulas->input_formulas = ClosedForms(structure);
+    }
     formulas_ = std::move(formulas);
     programs_ = std::move(programs);
   } catch (const Error&) {

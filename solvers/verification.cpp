@@ -49,6 +49,8 @@ class Plant {
  public:
   explicit Plant(const Model& model) : model_(model), workspace_(model) {}
 
+  Eigen::Index dof() const { return Eigen::Index(model_.dof()); }
+
   bool Acceleration(const Eigen::VectorXd& q,
                     const Eigen::VectorXd& q_dot,
                     const Eigen::VectorXd& u,
@@ -132,6 +134,302 @@ std::string Number(double value) {
   return buffer;
 }
 
+// An exact solve (the algebraic inverse) has no tolerance of its own.
+bool IsExact(const SolveAccuracy& accuracy) { return std::isnan(accuracy.rtol); }
+
+// CVODE's tolerances in the forward runs, from the solve's own.
+void SetForwardTolerances(const SolveAccuracy& accuracy, Verification& verification) {
+  verification.forward_rtol = IsExact(accuracy) ? kExactForwardRtol
+                                                : std::clamp(kForwardToleranceRatio * accuracy.rtol,
+                                                             kMinForwardRtol, kMaxForwardRtol);
+  verification.forward_atol = kForwardAbsoluteScale * verification.forward_rtol;
+}
+
+// How the resolution floor of the bound was derived, with the numbers.
+std::string ResolutionRule(const FeedforwardSolution& solution,
+                           const Scales& scales,
+                           const VerificationOptions& options,
+                           const Verification& verification) {
+  return Number(options.resolution_factor) +
+         " x (the forward check's own resolution, rtol max|y_d| + "
+         "atol = " +
+         Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
+         Number(verification.forward_atol) +
+         (solution.method == SolverMethod::kLinearized
+              ? "; the bound of an exact inverse: the linearization's inverse passes only where it "
+                "is exact to that resolution)"
+          : IsExact(solution.accuracy) ? "; the inverse is exact)"
+                                       : ")");
+}
+
+// The bound from the solve's own accuracy: about one step of delay for a fixed-step method, else
+// its tolerances in output units. An exact solve has neither: SetBound gives it the resolution.
+void SetAccuracyBound(const SolveAccuracy& accuracy,
+                      const Scales& scales,
+                      const VerificationOptions& options,
+                      Verification& verification) {
+  if (accuracy.step) {
+    verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
+    verification.bound_rule = Number(options.step_bound_factor) +
+                              " x step max|y_d'| = " + Number(options.step_bound_factor) + " x " +
+                              Number(*accuracy.step) + " * " + Number(scales.velocity) +
+                              " (first order: about one step of delay)";
+  } else if (!IsExact(accuracy)) {
+    verification.bound = options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
+    verification.bound_rule = Number(options.bound_factor) +
+                              " x (rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " +
+                              Number(scales.output) + " + " + Number(accuracy.atol) + ")";
+  }
+}
+
+// The bound and its explanation, from the solve's tolerances and the output's size, never below
+// what the forward runs themselves resolve.
+void SetBound(const OutputTrajectory& trajectory,
+              const FeedforwardSolution& solution,
+              const VerificationOptions& options,
+              Verification& verification) {
+  const Scales scales = OutputScales(trajectory, solution);
+  SetForwardTolerances(solution.accuracy, verification);
+  const double forward_term = verification.forward_rtol * scales.output + verification.forward_atol;
+  const double resolution = options.resolution_factor * forward_term;
+  SetAccuracyBound(solution.accuracy, scales, options, verification);
+  if (IsExact(solution.accuracy) || !(verification.bound >= resolution)) {
+    verification.bound = resolution;
+    verification.bound_rule = ResolutionRule(solution, scales, options, verification);
+  }
+}
+
+// A state of the plant, (q, q'), and the input u there.
+struct PlantState {
+  Eigen::VectorXd q, q_dot, u;
+};
+
+// The solution's own state at t_start; throws NoSolution where its extension cannot give it.
+PlantState SolutionStateAtStart(const MotionExtension& motion, double t_start) {
+  PlantState state;
+  std::string why;
+  if (!motion.Evaluate(t_start, state.q, state.q_dot, state.u, why)) {
+    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) +
+                     " s: " + why);
+  }
+  return state;
+}
+
+// The equilibrium at rest with h(q) = y_d(t_start), found from the solution's own q there.
+PlantState RestStateAtStart(const Model& model,
+                            const OutputTrajectory& trajectory,
+                            double t_start,
+                            const Eigen::VectorXd& q_guess) {
+  Workspace workspace(model);
+  OperatingPointOptions rest;
+  rest.y0 = trajectory.Derivative(t_start, 0);
+  rest.q_guess = q_guess;
+  const OperatingPoint rest_point = FindOperatingPoint(model, workspace, rest);
+  PlantState state;
+  state.q = rest_point.q;
+  state.u = rest_point.u;
+  state.q_dot = Eigen::VectorXd::Zero(state.q.size());
+  return state;
+}
+
+// max |q'| over the solution's rows.
+double LargestVelocity(const FeedforwardSolution& solution) {
+  double largest_velocity = 0.0;
+  for (const Eigen::VectorXd& velocity : solution.q_dot) {
+    largest_velocity = std::max(largest_velocity, velocity.lpNorm<Eigen::Infinity>());
+  }
+  return largest_velocity;
+}
+
+// Records how far the solution's own start is from the rest state, and warns when that is beyond
+// the solve's tolerance (e.g. a pre-actuation cut short).
+void CompareStartWithRest(const PlantState& solution_start,
+                          const PlantState& rest,
+                          const FeedforwardSolution& solution,
+                          Verification& verification) {
+  verification.start_position_deviation = (solution_start.q - rest.q).lpNorm<Eigen::Infinity>();
+  verification.start_velocity_deviation = solution_start.q_dot.lpNorm<Eigen::Infinity>();
+  const double largest_velocity = LargestVelocity(solution);
+  const bool exact = IsExact(solution.accuracy);
+  const double rtol = exact ? verification.forward_rtol : solution.accuracy.rtol;
+  const double atol = exact ? verification.forward_atol : solution.accuracy.atol;
+  verification.solution_starts_at_rest =
+      verification.start_position_deviation <=
+          kRestFactor * (rtol * std::max(1.0, rest.q.lpNorm<Eigen::Infinity>()) + atol) &&
+      verification.start_velocity_deviation <=
+          kRestFactor * (rtol * std::max(1.0, largest_velocity) + atol);
+  if (!verification.solution_starts_at_rest) {
+    verification.warnings.push_back(
+        "the solution does not start at rest at t_start = " + Number(solution.t_start) +
+        " s (|q - q_rest| = " + Number(verification.start_position_deviation) +
+        ", |q'| = " + Number(verification.start_velocity_deviation) +
+        "); the forward check starts from rest, where the physical system is");
+  }
+}
+
+// Where the physical system is at t_start: at rest when y_d rests there, else on the solution.
+PlantState StartState(const Model& model,
+                      const OutputTrajectory& trajectory,
+                      const FeedforwardSolution& solution,
+                      Verification& verification) {
+  const PlantState solution_start = SolutionStateAtStart(*solution.extension, solution.t_start);
+  if (!TrajectoryAtRest(trajectory, solution.t_start)) {
+    verification.start = "solution";
+    return solution_start;
+  }
+  PlantState rest = RestStateAtStart(model, trajectory, solution.t_start, solution_start.q);
+  verification.start = "rest";
+  CompareStartWithRest(solution_start, rest, solution, verification);
+  return rest;
+}
+
+// The plant's fastest growth, at the start and at growth_samples states along the solution
+// (0 where it cannot be taken at the start).
+double FastestGrowthRate(Plant& plant,
+                         const PlantState& start,
+                         const FeedforwardSolution& solution,
+                         const VerificationOptions& options) {
+  const double rate_at_rest = plant.GrowthRate(start.q, start.q_dot, start.u);
+  double fastest = std::isfinite(rate_at_rest) ? rate_at_rest : 0.0;
+  const std::size_t rows = solution.times.size();
+  const std::size_t samples = std::min<std::size_t>(rows, std::size_t(options.growth_samples));
+  for (std::size_t k = 0; k < samples; ++k) {
+    const std::size_t i = samples == 1 ? 0 : k * (rows - 1) / (samples - 1);
+    const double rate = plant.GrowthRate(solution.q[i], solution.q_dot[i], solution.u[i]);
+    if (std::isfinite(rate)) fastest = std::max(fastest, rate);
+  }
+  return fastest;
+}
+
+// Cuts `span` into segments within which errors grow by at most segment_growth.
+void ChooseSegments(double span, const VerificationOptions& options, Verification& verification) {
+  if (verification.plant_growth_rate > options.stable_growth_rate) {
+    verification.segment_length = std::log(options.segment_growth) / verification.plant_growth_rate;
+  }
+  if (verification.segment_length >= span) {
+    verification.segments = 1;
+  } else if (span / verification.segment_length > kMaxSegments) {
+    verification.segments = kMaxSegments;
+    verification.warnings.push_back(
+        "the plant grows so fast (" + Number(verification.plant_growth_rate) +
+        " /s) that the forward check's " + std::to_string(kMaxSegments) +
+        " segments let errors grow by more than " + Number(options.segment_growth) + " within one");
+  } else {
+    verification.segments =
+        int(std::ceil(span / verification.segment_length - kWholeSegmentsTolerance));
+  }
+}
+
+IntegratorOptions ForwardIntegratorOptions(const Verification& verification) {
+  IntegratorOptions integrator;
+  integrator.rtol = verification.forward_rtol;
+  integrator.atol = verification.forward_atol;
+  integrator.max_steps = kMaxForwardSteps;
+  return integrator;
+}
+
+// The solution's state and input at t, and the plant's q'': buffers all forward runs share.
+struct ForwardBuffers {
+  Eigen::VectorXd q, q_dot, u, q_ddot;
+};
+
+// One forward run from `state` at `from` to `to`: u_d from the solution's extension drives the
+// plant, and the output at each step is recorded and compared with y_d.
+SolveSummary RunForwardSegment(Plant& plant,
+                               const MotionExtension& motion,
+                               const OutputTrajectory& trajectory,
+                               double from,
+                               const Eigen::VectorXd& state,
+                               double to,
+                               const IntegratorOptions& integrator,
+                               ForwardBuffers& buffers,
+                               Verification& verification) {
+  const Eigen::Index f = plant.dof();
+  return IntegrateBdf(
+      [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& reason) {
+        if (!motion.Evaluate(t, buffers.q, buffers.q_dot, buffers.u, reason)) return false;
+        if (!plant.Acceleration(y.head(f), y.tail(f), buffers.u, buffers.q_ddot, reason)) {
+          return false;
+        }
+        y_dot.resize(2 * f);
+        y_dot << y.tail(f), buffers.q_ddot;
+        return true;
+      },
+      from, state, to, trajectory.breakpoints(), integrator,
+      [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+        Eigen::VectorXd output = plant.Output(y.head(f));
+        const double error = (output - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
+        verification.output_times.push_back(t);
+        verification.outputs.push_back(std::move(output));
+        if (error > verification.max_tracking_error) {
+          verification.max_tracking_error = error;
+          verification.time_of_max_error = t;
+        }
+        return true;
+      });
+}
+
+// Adds a forward run's counters to the total, which ends where the run ended.
+void AccumulateRun(const SolveSummary& run, SolveSummary& total) {
+  total.steps += run.steps;
+  total.rejected_steps += run.rejected_steps;
+  total.newton_iterations += run.newton_iterations;
+  total.function_evaluations += run.function_evaluations;
+  total.jacobian_evaluations += run.jacobian_evaluations;
+  total.stop_time = run.stop_time;
+}
+
+// The forward runs, segment by segment: the first from `start`, each later one restarted from the
+// solution's own state. Stops at the first run that fails.
+void RunForwardSegments(Plant& plant,
+                        const OutputTrajectory& trajectory,
+                        const FeedforwardSolution& solution,
+                        const PlantState& start,
+                        double t_stop,
+                        Verification& verification) {
+  const MotionExtension& motion = *solution.extension;
+  const double t_start = solution.t_start;
+  const double span = t_stop - t_start;
+  const IntegratorOptions integrator = ForwardIntegratorOptions(verification);
+  const Eigen::Index f = plant.dof();
+  verification.max_tracking_error = 0.0;
+  verification.time_of_max_error = t_start;
+  ForwardBuffers buffers;
+  std::string why;
+  verification.summary.status = SolveStatus::kConverged;
+  for (int segment = 0; segment < verification.segments; ++segment) {
+    const double from = t_start + segment * (span / verification.segments);
+    const double to = segment + 1 == verification.segments
+                          ? t_stop
+                          : t_start + (segment + 1) * (span / verification.segments);
+    Eigen::VectorXd state(2 * f);
+    if (segment == 0) {
+      state << start.q, start.q_dot;
+    } else {
+      if (!motion.Evaluate(from, buffers.q, buffers.q_dot, buffers.u, why)) {
+        verification.summary.status = SolveStatus::kNoConvergence;
+        verification.summary.message = "at t = " + Number(from) + " s: " + why;
+        break;
+      }
+      state << buffers.q, buffers.q_dot;
+    }
+    const SolveSummary run = RunForwardSegment(plant, motion, trajectory, from, state, to,
+                                               integrator, buffers, verification);
+    AccumulateRun(run, verification.summary);
+    if (!run.IsUsable()) {
+      verification.summary.status = run.status;
+      verification.summary.message = run.message;
+      break;
+    }
+  }
+}
+
+std::string ForwardRunsMessage(double t_stop, const Verification& verification) {
+  return "reached t = " + Number(t_stop) + " s in " + std::to_string(verification.segments) +
+         (verification.segments == 1 ? " run" : " runs") + ", " +
+         std::to_string(verification.summary.steps) + " steps";
+}
+
 }  // namespace
 
 void VerificationOptions::Validate() const {
@@ -158,184 +456,16 @@ Verification VerifyFeedforward(const Model& model,
   if (!solution.extension || solution.times.empty()) {
     throw UsageError("nothing to verify: the solution has no continuous extension");
   }
-  const MotionExtension& motion = *solution.extension;
-  const double t_start = solution.t_start;
-  const double t_stop = std::min(solution.t_end, motion.end());
+  const double t_stop = std::min(solution.t_end, solution.extension->end());
   Verification verification;
   Plant plant(model);
-
-  // The bound, from the solve's tolerances and the output's size.
-  const SolveAccuracy& accuracy = solution.accuracy;
-  const Scales scales = OutputScales(trajectory, solution);
-  const bool exact = std::isnan(accuracy.rtol);
-  verification.forward_rtol =
-      exact ? kExactForwardRtol
-            : std::clamp(kForwardToleranceRatio * accuracy.rtol, kMinForwardRtol, kMaxForwardRtol);
-  verification.forward_atol = kForwardAbsoluteScale * verification.forward_rtol;
-  const double forward_term = verification.forward_rtol * scales.output + verification.forward_atol;
-  const double resolution = options.resolution_factor * forward_term;
-  const std::string resolution_rule =
-      Number(options.resolution_factor) +
-      " x (the forward check's own resolution, rtol max|y_d| + "
-      "atol = " +
-      Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
-      Number(verification.forward_atol) +
-      (solution.method == SolverMethod::kLinearized
-           ? "; the bound of an exact inverse: the linearization's inverse passes only where it "
-             "is exact to that resolution)"
-       : exact ? "; the inverse is exact)"
-               : ")");
-  if (accuracy.step) {
-    verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
-    verification.bound_rule = Number(options.step_bound_factor) +
-                              " x step max|y_d'| = " + Number(options.step_bound_factor) + " x " +
-                              Number(*accuracy.step) + " * " + Number(scales.velocity) +
-                              " (first order: about one step of delay)";
-  } else if (!exact) {
-    verification.bound = options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
-    verification.bound_rule = Number(options.bound_factor) +
-                              " x (rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " +
-                              Number(scales.output) + " + " + Number(accuracy.atol) + ")";
-  }
-  if (exact || !(verification.bound >= resolution)) {
-    verification.bound = resolution;
-    verification.bound_rule = resolution_rule;
-  }
-
-  // Where the physical system is at t_start.
-  Eigen::VectorXd q_solution, q_dot_solution, u_solution;
-  std::string why;
-  if (!motion.Evaluate(t_start, q_solution, q_dot_solution, u_solution, why)) {
-    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) +
-                     " s: " + why);
-  }
-  Eigen::VectorXd q_start = q_solution, q_dot_start = q_dot_solution, u_start = u_solution;
-  if (TrajectoryAtRest(trajectory, t_start)) {
-    Workspace workspace(model);
-    OperatingPointOptions rest;
-    rest.y0 = trajectory.Derivative(t_start, 0);
-    rest.q_guess = q_solution;
-    const OperatingPoint rest_point = FindOperatingPoint(model, workspace, rest);
-    q_start = rest_point.q;
-    u_start = rest_point.u;
-    q_dot_start = Eigen::VectorXd::Zero(q_start.size());
-    verification.start = "rest";
-    verification.start_position_deviation = (q_solution - q_start).lpNorm<Eigen::Infinity>();
-    verification.start_velocity_deviation = q_dot_solution.lpNorm<Eigen::Infinity>();
-    double largest_velocity = 0.0;
-    for (const Eigen::VectorXd& velocity : solution.q_dot) {
-      largest_velocity = std::max(largest_velocity, velocity.lpNorm<Eigen::Infinity>());
-    }
-    const double rtol = exact ? verification.forward_rtol : accuracy.rtol;
-    const double atol = exact ? verification.forward_atol : accuracy.atol;
-    verification.solution_starts_at_rest =
-        verification.start_position_deviation <=
-            kRestFactor * (rtol * std::max(1.0, q_start.lpNorm<Eigen::Infinity>()) + atol) &&
-        verification.start_velocity_deviation <=
-            kRestFactor * (rtol * std::max(1.0, largest_velocity) + atol);
-    if (!verification.solution_starts_at_rest) {
-      verification.warnings.push_back(
-          "the solution does not start at rest at t_start = " + Number(t_start) +
-          " s (|q - q_rest| = " + Number(verification.start_position_deviation) +
-          ", |q'| = " + Number(verification.start_velocity_deviation) +
-          "); the forward check starts from rest, where the physical system is");
-    }
-  } else {
-    verification.start = "solution";
-  }
-
-  // The plant's fastest growth, at rest and along the solution.
-  const double rate_at_rest = plant.GrowthRate(q_start, q_dot_start, u_start);
-  verification.plant_growth_rate = std::isfinite(rate_at_rest) ? rate_at_rest : 0.0;
-  const std::size_t rows = solution.times.size();
-  const std::size_t samples = std::min<std::size_t>(rows, std::size_t(options.growth_samples));
-  for (std::size_t k = 0; k < samples; ++k) {
-    const std::size_t i = samples == 1 ? 0 : k * (rows - 1) / (samples - 1);
-    const double rate = plant.GrowthRate(solution.q[i], solution.q_dot[i], solution.u[i]);
-    if (std::isfinite(rate)) {
-      verification.plant_growth_rate = std::max(verification.plant_growth_rate, rate);
-    }
-  }
-  const double span = t_stop - t_start;
-  if (verification.plant_growth_rate > options.stable_growth_rate) {
-    verification.segment_length = std::log(options.segment_growth) / verification.plant_growth_rate;
-  }
-  if (verification.segment_length >= span) {
-    verification.segments = 1;
-  } else if (span / verification.segment_length > kMaxSegments) {
-    verification.segments = kMaxSegments;
-    verification.warnings.push_back(
-        "the plant grows so fast (" + Number(verification.plant_growth_rate) +
-        " /s) that the forward check's " + std::to_string(kMaxSegments) +
-        " segments let errors grow by more than " + Number(options.segment_growth) + " within one");
-  } else {
-    verification.segments =
-        int(std::ceil(span / verification.segment_length - kWholeSegmentsTolerance));
-  }
-
-  // The forward runs, segment by segment.
-  IntegratorOptions integrator;
-  integrator.rtol = verification.forward_rtol;
-  integrator.atol = verification.forward_atol;
-  integrator.max_steps = kMaxForwardSteps;
-  const Eigen::Index f = Eigen::Index(model.dof());
-  verification.max_tracking_error = 0.0;
-  verification.time_of_max_error = t_start;
-  Eigen::VectorXd q, q_dot, u, q_ddot;
-  verification.summary.status = SolveStatus::kConverged;
-  for (int segment = 0; segment < verification.segments; ++segment) {
-    const double from = t_start + segment * (span / verification.segments);
-    const double to = segment + 1 == verification.segments
-                          ? t_stop
-                          : t_start + (segment + 1) * (span / verification.segments);
-    Eigen::VectorXd state(2 * f);
-    if (segment == 0) {
-      state << q_start, q_dot_start;
-    } else {
-      if (!motion.Evaluate(from, q, q_dot, u, why)) {
-        verification.summary.status = SolveStatus::kNoConvergence;
-        verification.summary.message = "at t = " + Number(from) + " s: " + why;
-        break;
-      }
-      state << q, q_dot;
-    }
-    const SolveSummary run = IntegrateBdf(
-        [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& reason) {
-          if (!motion.Evaluate(t, q, q_dot, u, reason)) return false;
-          if (!plant.Acceleration(y.head(f), y.tail(f), u, q_ddot, reason)) return false;
-          y_dot.resize(2 * f);
-          y_dot << y.tail(f), q_ddot;
-          return true;
-        },
-        from, state, to, trajectory.breakpoints(), integrator,
-        [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
-          Eigen::VectorXd output = plant.Output(y.head(f));
-          const double error = (output - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
-          verification.output_times.push_back(t);
-          verification.outputs.push_back(std::move(output));
-          if (error > verification.max_tracking_error) {
-            verification.max_tracking_error = error;
-            verification.time_of_max_error = t;
-          }
-          return true;
-        });
-    verification.summary.steps += run.steps;
-    verification.summary.rejected_steps += run.rejected_steps;
-    verification.summary.newton_iterations += run.newton_iterations;
-    verification.summary.function_evaluations += run.function_evaluations;
-    verification.summary.jacobian_evaluations += run.jacobian_evaluations;
-    verification.summary.stop_time = run.stop_time;
-    if (!run.IsUsable()) {
-      verification.summary.status = run.status;
-      verification.summary.message = run.message;
-      break;
-    }
-  }
+  SetBound(trajectory, solution, options, verification);
+  const PlantState start = StartState(model, trajectory, solution, verification);
+  verification.plant_growth_rate = FastestGrowthRate(plant, start, solution, options);
+  ChooseSegments(t_stop - solution.t_start, options, verification);
+  RunForwardSegments(plant, trajectory, solution, start, t_stop, verification);
   if (verification.summary.IsUsable()) {
-    verification.summary.message = "reached t = " + Number(t_stop) + " s in " +
-                                   std::to_string(verification.segments) +
-                                   (verification.segments == 1 ? " run" : " runs") + ", " +
-                                   std::to_string(verification.summary.steps) + " steps";
+    verification.summary.message = ForwardRunsMessage(t_stop, verification);
   }
   verification.passed =
       verification.summary.IsUsable() && verification.max_tracking_error <= verification.bound;
