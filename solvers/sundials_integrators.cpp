@@ -296,8 +296,60 @@ class OneStepIntegrator {
   WorkCounters baseline_;  // the package's counters right after the last restart
 };
 
+// What ARKODE's ERKStep and CVODE share as integrators of y' = g(t, y): the state vector, the
+// step's result, the exact derivative there and the callbacks' guard. Each package's own calls
+// stay in its class.
+class OdeStepIntegrator : public OneStepIntegrator {
+ public:
+  // The exact y' = g(t, y) rather than the derivative of the package's interpolant, which
+  // differs from it by the local error.
+  bool UpdateDerivative(double t) override {
+    return ode_.EvaluateAtStep(t, solution_, derivative_) == kCallbackSucceeded;
+  }
+
+  const CallbackGuard& guard() const override { return ode_.guard; }
+  CallbackGuard& guard() override { return ode_.guard; }
+
+ protected:
+  OdeStepIntegrator(SundialsFlagNamer namer,
+                    const char* package,
+                    const OdeRightHandSide& rhs,
+                    const Eigen::VectorXd& y_start)
+      : OneStepIntegrator(namer, package),
+        ode_(rhs, y_start.size()),
+        state_(MakeSerialVector(y_start.size(), context_)) {
+    solution_ = y_start;
+    derivative_.resize(y_start.size());
+    AsEigen(state_.get()) = y_start;
+  }
+
+  // One step by the package's one-step call `evolve(&reached)`, which returns its flag.
+  template <typename Evolve>
+  int StepWith(Evolve evolve, double& t) {
+    double reached = t;
+    const int flag = evolve(&reached);
+    if (flag >= 0) {
+      t = reached;
+      solution_ = AsEigen(state_.get());
+    }
+    return flag;
+  }
+
+  // The package's interpolant of the last step at t by `get_dky(t, 0, vector)`.
+  template <typename GetDky>
+  void InterpolateWith(GetDky get_dky, const char* call, double t, Eigen::VectorXd& value) {
+    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
+    Check(get_dky(t, 0, interpolated_.get()), call);
+    value = AsEigen(interpolated_.get());
+  }
+
+  OdeCallbacks ode_;
+  NVectorPtr state_;
+  NVectorPtr interpolated_;
+};
+
 // ARKODE's ERKStep with the Dormand-Prince 5(4) pair.
-class DormandPrinceIntegrator final : public OneStepIntegrator {
+class DormandPrinceIntegrator final : public OdeStepIntegrator {
  public:
   static constexpr int kHermiteDegree = 4;
 
@@ -305,12 +357,7 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
                           double t_start,
                           const Eigen::VectorXd& y_start,
                           const IntegratorOptions& options)
-      : OneStepIntegrator(ERKStepGetReturnFlagName, "ARKODE"),
-        ode_(rhs, y_start.size()),
-        state_(MakeSerialVector(y_start.size(), context_)) {
-    solution_ = y_start;
-    derivative_.resize(y_start.size());
-    AsEigen(state_.get()) = y_start;
+      : OdeStepIntegrator(ERKStepGetReturnFlagName, "ARKODE", rhs, y_start) {
     memory_.reset(ERKStepCreate(OdeRightHandSideCallback, t_start, state_.get(), context_));
     CheckSundialsPointer(memory_.get(), "ERKStepCreate");
     void* erk = memory_.get();
@@ -336,29 +383,20 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
   }
 
   int TakeStep(double stop_time, double& t) override {
-    double reached = t;
-    const int flag = ERKStepEvolve(memory_.get(), stop_time, state_.get(), &reached, ARK_ONE_STEP);
-    if (flag >= 0) {
-      t = reached;
-      solution_ = AsEigen(state_.get());
-    }
-    return flag;
+    return StepWith(
+        [&](double* reached) {
+          return ERKStepEvolve(memory_.get(), stop_time, state_.get(), reached, ARK_ONE_STEP);
+        },
+        t);
   }
 
   bool ReachedStopTime(int flag) const override { return flag == ARK_TSTOP_RETURN; }
 
-  bool UpdateDerivative(double t) override {
-    return ode_.EvaluateAtStep(t, solution_, derivative_) == kCallbackSucceeded;
-  }
-
-  const CallbackGuard& guard() const override { return ode_.guard; }
-  CallbackGuard& guard() override { return ode_.guard; }
-
   // ARKODE's Hermite interpolant of the step (degree up to 5).
   void Interpolate(double t, Eigen::VectorXd& value) override {
-    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
-    Check(ERKStepGetDky(memory_.get(), t, 0, interpolated_.get()), "ERKStepGetDky");
-    value = AsEigen(interpolated_.get());
+    InterpolateWith([&](double at, int order,
+                        N_Vector into) { return ERKStepGetDky(memory_.get(), at, order, into); },
+                    "ERKStepGetDky", t, value);
   }
 
  private:
@@ -373,25 +411,17 @@ class DormandPrinceIntegrator final : public OneStepIntegrator {
     return counters;
   }
 
-  OdeCallbacks ode_;
-  NVectorPtr state_;
-  NVectorPtr interpolated_;
   ErkStepMemory memory_;
 };
 
 // CVODE's BDF with Newton iterations on a dense difference-quotient Jacobian.
-class BdfIntegrator final : public OneStepIntegrator {
+class BdfIntegrator final : public OdeStepIntegrator {
  public:
   BdfIntegrator(const OdeRightHandSide& rhs,
                 double t_start,
                 const Eigen::VectorXd& y_start,
                 const IntegratorOptions& options)
-      : OneStepIntegrator(CVodeGetReturnFlagName, "CVODE"),
-        ode_(rhs, y_start.size()),
-        state_(MakeSerialVector(y_start.size(), context_)) {
-    solution_ = y_start;
-    derivative_.resize(y_start.size());
-    AsEigen(state_.get()) = y_start;
+      : OdeStepIntegrator(CVodeGetReturnFlagName, "CVODE", rhs, y_start) {
     const auto size = static_cast<sunindextype>(y_start.size());
     matrix_.reset(SUNDenseMatrix(size, size, context_));
     CheckSundialsPointer(matrix_.get(), "SUNDenseMatrix");
@@ -421,31 +451,20 @@ class BdfIntegrator final : public OneStepIntegrator {
   }
 
   int TakeStep(double stop_time, double& t) override {
-    double reached = t;
-    const int flag = CVode(memory_.get(), stop_time, state_.get(), &reached, CV_ONE_STEP);
-    if (flag >= 0) {
-      t = reached;
-      solution_ = AsEigen(state_.get());
-    }
-    return flag;
+    return StepWith(
+        [&](double* reached) {
+          return CVode(memory_.get(), stop_time, state_.get(), reached, CV_ONE_STEP);
+        },
+        t);
   }
 
   bool ReachedStopTime(int flag) const override { return flag == CV_TSTOP_RETURN; }
 
-  // The exact y' = g(t, y) rather than CVodeGetDky's derivative of the BDF polynomial, which
-  // differs from it by the local error.
-  bool UpdateDerivative(double t) override {
-    return ode_.EvaluateAtStep(t, solution_, derivative_) == kCallbackSucceeded;
-  }
-
-  const CallbackGuard& guard() const override { return ode_.guard; }
-  CallbackGuard& guard() override { return ode_.guard; }
-
   // CVODE's Nordsieck polynomial of the step (degree = the order used, at most 5).
   void Interpolate(double t, Eigen::VectorXd& value) override {
-    if (!interpolated_) interpolated_ = MakeSerialVector(solution_.size(), context_);
-    Check(CVodeGetDky(memory_.get(), t, 0, interpolated_.get()), "CVodeGetDky");
-    value = AsEigen(interpolated_.get());
+    InterpolateWith([&](double at, int order,
+                        N_Vector into) { return CVodeGetDky(memory_.get(), at, order, into); },
+                    "CVodeGetDky", t, value);
   }
 
  private:
@@ -466,9 +485,6 @@ class BdfIntegrator final : public OneStepIntegrator {
     return counters;
   }
 
-  OdeCallbacks ode_;
-  NVectorPtr state_;
-  NVectorPtr interpolated_;
   SUNMatrixPtr matrix_;
   SUNLinearSolverPtr linear_solver_;
   CvodeMemory memory_;
