@@ -252,38 +252,43 @@ struct StepFailure {
   std::string why;  // Evaluate()'s reason, for kEvaluation
 };
 
+// What a run is given, as IntegrateRadau received it: the same for both methods.
+struct RunSetup {
+  LinearlyImplicitDae& dae;
+  double t_start;
+  const VectorXd& x_start;
+  double t_end;
+  const std::vector<double>& breakpoints;
+  const RadauOptions& options;
+  const StepObserver& observer;
+  DenseOutput* dense_output;
+};
+
 // What Radau IIA and Euler backward share: the current point, the breakpoints, the error
 // scale, the bookkeeping of the summary and the observer.
 class IntegrationRun {
  protected:
-  IntegrationRun(LinearlyImplicitDae& dae,
-                 double t_start,
-                 const VectorXd& x_start,
-                 double t_end,
-                 const std::vector<double>& breakpoints,
-                 const RadauOptions& options,
-                 Tolerances tolerances,
-                 const StepObserver& observer,
-                 DenseOutput* dense_output)
-      : dae_(dae),
-        options_(options),
+  // `tolerances`: those the error scale is made of (Radau IIA calibrates the asked ones).
+  IntegrationRun(const RunSetup& setup, Tolerances tolerances)
+      : dae_(setup.dae),
+        options_(setup.options),
         tolerances_(tolerances),
-        observer_(observer),
-        dense_output_(dense_output),
-        size_(dae.size()),
-        t_start_(t_start),
-        t_end_(t_end),
-        t_(t_start),
-        x_(x_start),
-        new_x_(x_start),
+        observer_(setup.observer),
+        dense_output_(setup.dense_output),
+        size_(setup.dae.size()),
+        t_start_(setup.t_start),
+        t_end_(setup.t_end),
+        t_(setup.t_start),
+        x_(setup.x_start),
+        new_x_(setup.x_start),
         scale_(size_),
         mass_(size_, size_),
         rhs_(size_) {
-    for (const double time : breakpoints) {
-      if (time > t_start && time < t_end) breakpoints_.push_back(time);
+    for (const double time : setup.breakpoints) {
+      if (time > t_start_ && time < t_end_) breakpoints_.push_back(time);
     }
     std::sort(breakpoints_.begin(), breakpoints_.end());
-    for (const int index : dae.ComponentIndices()) index_exponents_.push_back(index - 1);
+    for (const int index : setup.dae.ComponentIndices()) index_exponents_.push_back(index - 1);
   }
 
   // A and phi at the start point, then the observer; false (summary_ filled) when either fails.
@@ -438,23 +443,8 @@ class IntegrationRun {
 // Radau IIA of order 5 with RADAU5's error estimate and step-size control.
 class RadauIIARun : private IntegrationRun {
  public:
-  RadauIIARun(LinearlyImplicitDae& dae,
-              double t_start,
-              const VectorXd& x_start,
-              double t_end,
-              const std::vector<double>& breakpoints,
-              const RadauOptions& options,
-              const StepObserver& observer,
-              DenseOutput* dense_output)
-      : IntegrationRun(dae,
-                       t_start,
-                       x_start,
-                       t_end,
-                       breakpoints,
-                       options,
-                       CalibratedTolerances(options),
-                       observer,
-                       dense_output),
+  explicit RadauIIARun(const RunSetup& setup)
+      : IntegrationRun(setup, CalibratedTolerances(setup.options)),
         tableau_(Tableau()),
         newton_tolerance_(NewtonTolerance(tolerances_.rtol)),
         jacobian_(size_, size_),
@@ -821,24 +811,9 @@ SolveSummary RadauIIARun::Run() {
 // solved by Newton with A and J evaluated anew at every iteration.
 class EulerBackwardRun : private IntegrationRun {
  public:
-  EulerBackwardRun(LinearlyImplicitDae& dae,
-                   double t_start,
-                   const VectorXd& x_start,
-                   double t_end,
-                   const std::vector<double>& breakpoints,
-                   const RadauOptions& options,
-                   const StepObserver& observer,
-                   DenseOutput* dense_output)
-      : IntegrationRun(dae,
-                       t_start,
-                       x_start,
-                       t_end,
-                       breakpoints,
-                       options,
-                       {options.rtol, options.atol},
-                       observer,
-                       dense_output),
-        newton_tolerance_(NewtonTolerance(options.rtol)),
+  explicit EulerBackwardRun(const RunSetup& setup)
+      : IntegrationRun(setup, {setup.options.rtol, setup.options.atol}),
+        newton_tolerance_(NewtonTolerance(setup.options.rtol)),
         slope_(VectorXd::Zero(size_)),
         increment_(size_),
         correction_(size_),
@@ -997,13 +972,9 @@ SolveSummary IntegrateRadau(LinearlyImplicitDae& dae,
   if (dense_output && (!dense_output->empty() || dense_output->size() != dae.size())) {
     throw UsageError("IntegrateRadau: the dense output must be empty and of the DAE's size");
   }
-  if (options.stages == 1) {
-    return EulerBackwardRun(dae, t_start, x_start, t_end, breakpoints, options, observer,
-                            dense_output)
-        .Run();
-  }
-  return RadauIIARun(dae, t_start, x_start, t_end, breakpoints, options, observer, dense_output)
-      .Run();
+  const RunSetup setup{dae, t_start, x_start, t_end, breakpoints, options, observer, dense_output};
+  if (options.stages == 1) return EulerBackwardRun(setup).Run();
+  return RadauIIARun(setup).Run();
 }
 
 }  // namespace servokit
