@@ -249,6 +249,28 @@ void SolveAlgebraic(const Model& model,
   }
 }
 
+// An accepted step of a DAE method (state x = [q, q', u]) recorded as a row. With a watch, det P
+// is first checked against the last step's sign, from the normal form of the same state: a pole
+// of u_d between two steps is otherwise stepped over, writing F ~ 1e18 N. False stops the
+// integrator.
+bool RecordWatchedStep(ServoConstraintProblem& problem,
+                       DecouplingWatch* watch,
+                       double t,
+                       const Eigen::VectorXd& x,
+                       FeedforwardSolution& solution) {
+  const Eigen::Index f = problem.dof();
+  if (watch) {
+    Eigen::VectorXd input, q_ddot;
+    std::string reason;
+    if (!problem.NormalForm(t, x.head(f), x.segment(f, f), input, q_ddot, reason) ||
+        !watch->Check(t, problem.decoupling_determinant())) {
+      return false;
+    }
+  }
+  Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
+  return true;
+}
+
 void SolveProjected(ServoConstraintProblem& problem,
                     const Classification& classification,
                     const StartState& start,
@@ -270,19 +292,9 @@ void SolveProjected(ServoConstraintProblem& problem,
   DenseOutput states(dae.size());
   solution.summary = IntegrateRadau(
       dae, solution.t_start, x_start, solution.t_end, problem.trajectory().breakpoints(), radau,
+      // With P regular at the operating point, u is index 2 and det P must keep its sign.
       [&](double t, const Eigen::VectorXd& x) {
-        // With P regular at the operating point, u is index 2 and det P must keep its sign:
-        // a pole of u_d between two steps is otherwise stepped over, writing F ~ 1e18 N.
-        if (decoupling_regular) {
-          Eigen::VectorXd input, q_ddot;
-          std::string reason;
-          if (!problem.NormalForm(t, x.head(f), x.segment(f, f), input, q_ddot, reason) ||
-              !watch.Check(t, problem.decoupling_determinant())) {
-            return false;
-          }
-        }
-        Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
-        return true;
+        return RecordWatchedStep(problem, decoupling_regular ? &watch : nullptr, t, x, solution);
       },
       keep_extension ? &states : nullptr);
   watch.Finish(solution.summary);
@@ -318,15 +330,7 @@ void SolveBdf(ServoConstraintProblem& problem,
       // (Eq. 65 has 4 continuous derivatives), so BDF steps across.
       solution.t_start, x_start, x_dot_start, differential, solution.t_end, {}, integrator,
       [&](double t, const Eigen::VectorXd& x, const Eigen::VectorXd&) {
-        // det P at the step, from the normal form of the same state.
-        Eigen::VectorXd input, q_ddot_at_step;
-        std::string reason;
-        if (!problem.NormalForm(t, x.head(f), x.segment(f, f), input, q_ddot_at_step, reason) ||
-            !watch.Check(t, problem.decoupling_determinant())) {
-          return false;
-        }
-        Record(solution, t, x.head(f), x.segment(f, f), x.tail(problem.num_inputs()));
-        return true;
+        return RecordWatchedStep(problem, &watch, t, x, solution);
       },
       keep_extension ? &states : nullptr);
   watch.Finish(solution.summary);
