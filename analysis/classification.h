@@ -1,6 +1,6 @@
 #pragma once
 // What kind of servo-constraint problem a model is at an operating point: the answer of
-// `servokit analyze` (DESIGN.md), assembled from the analyses of this folder.
+// `servokit analyze` (docs/analyze.md), assembled from the analyses of this folder.
 #include <complex>
 #include <optional>
 #include <string>

@@ -1,5 +1,5 @@
 #pragma once
-// The equilibrium at which servokit linearizes (DESIGN.md "Operating point"):
+// The equilibrium at which servokit linearizes (docs/analyze.md "How it is computed", step 1):
 // q_dot = 0,  f(q, 0) = B(q) u,  h(q) = y0.
 #include <Eigen/Dense>
 #include <optional>

@@ -5,7 +5,7 @@
 namespace servokit {
 
 struct ClassificationOptions {
-  // Where to linearize (DESIGN.md "Operating point").
+  // Where to linearize (docs/analyze.md "How it is computed", step 1: the operating point).
   OperatingPointOptions operating_point;
   // A singular value (or a row of a Markov parameter C A^k B) counts as zero when it is at most
   // rank_tolerance times the product of its factors' norms, e.g. sigma_i(P) <= 1e-10 |H| |M^-1 B|.

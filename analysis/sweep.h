@@ -1,5 +1,5 @@
 #pragma once
-// The sweep engine (DESIGN.md, `servokit sweep`): AnalyzeSweepPoint at every point of a
+// The sweep engine (`servokit sweep`, docs/sweep.md): AnalyzeSweepPoint at every point of a
 // ParameterGrid, for a model of either kind, on all cores, handed to a consumer block by block
 // in index order.
 //

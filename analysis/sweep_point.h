@@ -1,11 +1,11 @@
 #pragma once
 // The analysis of one parameter point of a model of either kind (AnalyzePoint, for `servokit
-// analyze`) and what a parameter sweep records of it (DESIGN.md: points.csv and
-// eigenvalues.csv). The multibody numerics (dense, GiNaC-compiled, Newton) and the linear ones
+// analyze`) and what a parameter sweep records of it (docs/sweep.md, "The files": points.csv
+// and eigenvalues.csv). The multibody numerics (dense, GiNaC-compiled, Newton) and the linear ones
 // (sparse LU, ARPACK) are different algorithms; this is the one place that picks between them.
 // A sweep point is computed with the parameters in the workspace and never throws for a point
-// without a solution: the failure is recorded in the point and the sweep carries on (STYLE.md,
-// errors).
+// without a solution: the failure is recorded in the point and the sweep carries on (style:
+// errors, docs/development.md).
 #include <Eigen/Dense>
 #include <complex>
 #include <memory>

@@ -1,6 +1,7 @@
 #pragma once
 // The named classes of servokit's analysis and their strings. Each enum has one table that maps
-// it to the string DESIGN.md uses (JSON, CSV, Markdown and the command line all go through it).
+// it to the string the docs use (docs/analyze.md; JSON, CSV, Markdown and the command line all go
+// through it).
 #include <cstddef>
 #include <optional>
 #include <string_view>

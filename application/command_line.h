@@ -1,5 +1,6 @@
 #pragma once
-// The `servokit` command line (DESIGN.md "Command line"), callable from tests.
+// The `servokit` command line (one docs/ page per command: docs/analyze.md, docs/sweep.md, ...),
+// callable from tests.
 #include <iosfwd>
 
 namespace servokit {

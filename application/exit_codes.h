@@ -1,5 +1,5 @@
 #pragma once
-// The documented exit statuses of `servokit` (DESIGN.md, README "Errors") and the one function
+// The documented exit statuses of `servokit` (docs/errors.md, "Exit statuses") and the one function
 // that maps an error to its status.
 #include <exception>
 

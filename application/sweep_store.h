@@ -1,6 +1,6 @@
 #pragma once
-// Where `servokit sweep --out DIR` keeps its work (DESIGN.md "Command line", README "servokit
-// sweep"): the tables of reports/sweep_tables.h, and
+// Where `servokit sweep --out DIR` keeps its work (docs/sweep.md, "The files" and "Interruption
+// and resume"): the tables of reports/sweep_tables.h, and
 //
 //   sweep.json          what was swept (model, grid, options, command line) and `completed`
 //

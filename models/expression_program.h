@@ -1,6 +1,6 @@
 #pragma once
-// A compiled numeric evaluator for a list of GiNaC expressions (DESIGN.md, "Symbolic once,
-// numeric many times"). GiNaC is slow per call and not thread-safe, so expressions are compiled
+// A compiled numeric evaluator for a list of GiNaC expressions (docs/model-files.md, "How
+// servokit reads a model"). GiNaC is slow per call and not thread-safe, so expressions are compiled
 // once into a flat list of register instructions in which every common subexpression is computed
 // once; evaluating that list needs neither GiNaC nor memory allocation.
 #include <ginac/ginac.h>

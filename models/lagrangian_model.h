@@ -1,6 +1,6 @@
 #pragma once
-// The Lagrangian form of a model (`kind: lagrangian` and `kind: planar-bodies`, DESIGN.md and
-// README "The model file"): the equations of motion M(q) q'' + f(q, q') = B(q) u derived from
+// The Lagrangian form of a model (`kind: lagrangian` and `kind: planar-bodies`,
+// docs/model-files.md): the equations of motion M(q) q'' + f(q, q') = B(q) u derived from
 // the kinetic energy T, the potential energy V, the Rayleigh dissipation function R and the
 // generalized forces Q. The one place these formulas are written; models/model_loader.cpp reads
 // the file, checks the result and hands M and f to the same SymbolicModel as the explicit form.

@@ -1,7 +1,7 @@
 #pragma once
 // Large linear(ized) models (issue #6): M q'' + D q' + K q = B u,  y = C q, with sparse M, D, K
 // (dof x dof), B (dof x inputs) and C (outputs x dof) read from Matrix Market files. They skip
-// the symbolic layer (DESIGN.md, "Symbolic once, numeric many times"): no GiNaC, no expressions
+// the symbolic layer (docs/model-files.md, "How servokit reads a model"): no GiNaC, no expressions
 // per entry, only a few scalar factors.
 //
 // The model file (YAML, `kind: linear`; file names relative to the model file):

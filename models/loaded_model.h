@@ -1,7 +1,7 @@
 #pragma once
 // One reader for every model file: it reads and parses the YAML once and dispatches on its
-// `kind` key. No `kind` (or `kind: multibody`) is a multibody model (models/model.h, DESIGN.md
-// "The model file"), and so are `kind: lagrangian` (energies, models/lagrangian_model.h) and
+// `kind` key. No `kind` (or `kind: multibody`) is a multibody model (models/model.h,
+// docs/model-files.md), and so are `kind: lagrangian` (energies, models/lagrangian_model.h) and
 // `kind: planar-bodies` (models/planar_bodies.h), whose M and f are derived; `kind: linear` is a
 // large linear model (models/linear_model.h).
 #include <Eigen/Dense>

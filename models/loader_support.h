@@ -2,9 +2,9 @@
 // What the model-file reader shares between the two kinds (models/loaded_model.cpp reads and
 // parses the file once and dispatches on `kind`; models/model_loader.cpp builds multibody
 // models, models/linear_model.cpp `kind: linear`): reading and parsing the file, the expression
-// language of DESIGN.md ("The model file"), the checks that keep GiNaC's parser from reading a
-// mistake as something else, names, and the content hash that sweep.json records. Internal to
-// models/ (namespace detail).
+// language of docs/model-files.md ("The explicit form"), the checks that keep GiNaC's parser from
+// reading a mistake as something else, names, and the content hash that sweep.json records.
+// Internal to models/ (namespace detail).
 #include <ginac/ginac.h>
 #include <yaml-cpp/yaml.h>
 
@@ -59,7 +59,7 @@ Model BuildModel(const ModelDocument& document, const std::vector<ParameterOverr
 LinearModel BuildLinearModel(const ModelDocument& document,
                              const std::vector<ParameterOverride>& overrides);
 
-/// DESIGN.md, "The model file": the functions an expression may call.
+/// docs/model-files.md, "The explicit form": the functions an expression may call.
 inline constexpr std::array<std::string_view, 14> kModelFunctions = {
     "sin", "cos", "tan",  "asin", "acos", "atan", "atan2",
     "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs"};
@@ -147,7 +147,7 @@ using NameCheck = std::function<std::optional<std::string>(const std::string& na
 std::optional<std::string> FindLexicalProblem(const std::string& text, const NameCheck& check_name);
 
 /// The first construct a parsed expression may not contain, or nullopt. The parser only builds
-/// what DESIGN.md allows from the names it is given, but GiNaC evaluates while it parses:
+/// what docs/model-files.md allows from the names it is given, but GiNaC evaluates while it parses:
 /// sqrt(-1) becomes I and 1e400 a float no double holds.
 std::optional<std::string> FindUnsupported(const GiNaC::ex& expression);
 

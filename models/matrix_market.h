@@ -16,8 +16,8 @@
 namespace servokit {
 
 /// Most rows or columns a Matrix Market file may declare. A matrix of servokit's has one row
-/// and column per coordinate: 10^6 coordinates take 1 GB to analyse (README, "Large linear
-/// models"), so 10^7 is well above any model one machine can analyse. Without a limit a
+/// and column per coordinate: 10^6 coordinates take 1 GB to analyse (docs/benchmarks.md), so
+/// 10^7 is well above any model one machine can analyse. Without a limit a
 /// three-line file declaring 4e8 columns took 1.6 GB and seconds to read, since the compressed
 /// column format costs 4 bytes per row and column (found by fuzzing, issue #7).
 inline constexpr long long kMaxMatrixDimension = 10'000'000;

@@ -97,7 +97,7 @@ class Model {
   const std::vector<std::string>& coordinates() const { return coordinates_; }
   const std::vector<std::string>& inputs() const { return inputs_; }
   const std::vector<std::string>& parameter_names() const { return parameter_names_; }
-  /// Output names y1, y2, ... (DESIGN.md CSV columns).
+  /// Output names y1, y2, ... (the columns y1_d, ... of docs/solve.md).
   std::vector<std::string> output_names() const;
   /// Nominal parameter values in SI units, in the order of parameter_names(), after overrides.
   const Eigen::VectorXd& parameters() const { return parameters_; }
@@ -144,7 +144,7 @@ class Model {
   std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>> combined_programs_;
 };
 
-/// Reads a model file (YAML, DESIGN.md "The model file"), checks it, derives H, h_bar and the
+/// Reads a model file (YAML, docs/model-files.md), checks it, derives H, h_bar and the
 /// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
 /// for a bad file (a linear model's too; LoadModelFile, models/loaded_model.h, reads a file of
 /// either kind) and ParameterOverrideError for a bad override (unknown name, bad value). Uses

@@ -1,4 +1,4 @@
-// LoadModel: model file (DESIGN.md, "The model file") -> checked SymbolicModel -> compiled
+// LoadModel: model file (docs/model-files.md) -> checked SymbolicModel -> compiled
 // programs. M and f come from the file (`mass_matrix`, `forces`) or are derived from energies
 // (`kind: lagrangian`) or bodies (`kind: planar-bodies`); from there every form is the same. Every
 // problem with the file is one ModelError "file: key[entry]: problem", raised where it is found, so

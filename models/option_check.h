@@ -1,8 +1,8 @@
 #pragma once
 // The one way servokit checks an options struct and writes a number in a message. Every
 // Validate() calls RequireOption, so that each message reads "Owner::field = value: rule"
-// (STYLE.md: the message names the field, its value and the rule it breaks), and every message
-// that shows a number, in any folder, writes it with FormatNumber.
+// (style: the message names the field, its value and the rule it breaks, docs/development.md),
+// and every message that shows a number, in any folder, writes it with FormatNumber.
 #include <Eigen/Core>
 #include <string>
 #include <string_view>

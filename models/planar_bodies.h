@@ -1,10 +1,10 @@
 #pragma once
-// `kind: planar-bodies` (README "Planar bodies"): rigid bodies in a plane, each with a mass, an
-// inertia about its centre, a centre position r(q) and an angle theta(q); gravity; springs and
-// dampers between two points or on a coordinate; inputs as forces or torques. Read into the
-// energies T, V, R of models/lagrangian_model.h and the input matrix B, which then go the
-// Lagrangian way. Internal to models/ (namespace detail); runs under the loader's SymbolicLock
-// (models/symbolic_lock.h).
+// `kind: planar-bodies` (docs/model-files.md "Bodies: `kind: planar-bodies`"): rigid bodies in
+// a plane, each with a mass, an inertia about its centre, a centre position r(q) and an angle
+// theta(q); gravity; springs and dampers between two points or on a coordinate; inputs as forces or
+// torques. Read into the energies T, V, R of models/lagrangian_model.h and the input matrix B,
+// which then go the Lagrangian way. Internal to models/ (namespace detail); runs under the loader's
+// SymbolicLock (models/symbolic_lock.h).
 #include <ginac/ginac.h>
 #include <yaml-cpp/yaml.h>
 

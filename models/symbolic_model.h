@@ -1,5 +1,5 @@
 #pragma once
-// The symbolic view of a model (DESIGN.md, "Symbolic once, numeric many times"): the GiNaC
+// The symbolic view of a model (docs/model-files.md, "How servokit reads a model"): the GiNaC
 // expressions of M, f, B, h as read from the model file, and everything derived from them once
 // at load time. Numeric code uses the compiled programs instead (models/model.h); this view is
 // for closed forms (characteristic polynomials, normal forms) and for reports. GiNaC is not

@@ -1,6 +1,7 @@
 #pragma once
-// SI in, SI out: the one place where "<number> deg" becomes radians (STYLE.md, units), and where a
-// parameter given in degrees is turned back into degrees for display.
+// SI in, SI out: the one place where "<number> deg" becomes radians (style: units,
+// docs/development.md), and where a parameter given in degrees is turned back into degrees for
+// display.
 #include <optional>
 #include <string_view>
 

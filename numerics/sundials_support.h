@@ -1,9 +1,9 @@
 #pragma once
 // Everything that talks to SUNDIALS goes through here: RAII owners for the context, serial
 // N_Vectors, dense matrices, linear solvers and solver memory, one Eigen view of an N_Vector,
-// and one check for return flags. It lives in analysis/ (not solvers/, as STYLE.md first
-// placed it) because the operating point (analysis) already needs KINSOL, and layers only
-// link downwards; solvers/ includes it from here.
+// and one check for return flags. It lives in numerics/, below analysis/ (not in solvers/, where
+// it was first placed), because the operating point (analysis) already needs KINSOL, and layers
+// only link downwards (docs/development.md, "Layout: the folders are the layers").
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sundials/sundials_linearsolver.h>

@@ -1,5 +1,5 @@
 #pragma once
-// `servokit analyze` output: the JSON object of DESIGN.md, and text and Markdown for people.
+// `servokit analyze` output: the JSON object of docs/analyze.md, and text and Markdown for people.
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -18,8 +18,8 @@ enum class ReportFormat { kText, kJson, kMarkdown };
 std::string_view ToString(ReportFormat format);  // "text", "json", "md"
 std::optional<ReportFormat> ReportFormatFromString(std::string_view text);
 
-/// The analyze object (DESIGN.md "analyze --format json"), plus explanatory extras:
-/// coordinates, infinite_zero_orders, decoupling_matrix_regular, P_rank_threshold,
+/// The analyze object (docs/analyze.md, "Synopsis and options": `--format json`), plus explanatory
+/// extras: coordinates, infinite_zero_orders, decoupling_matrix_regular, P_rank_threshold,
 /// zero_dynamics.cross_check and the tolerances used.
 nlohmann::ordered_json ClassificationToJson(const Model& model,
                                             const Classification& classification,

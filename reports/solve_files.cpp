@@ -32,7 +32,8 @@ constexpr std::array<std::pair<SolveFileFormat, std::string_view>, 3> kSolveFile
     {SolveFileFormat::kModelica, "modelica"},
 }};
 
-// The name of the MAT file's summary struct and of the Modelica table (README "servokit solve").
+// The name of the MAT file's summary struct and of the Modelica table (docs/solve.md, "The file:
+// CSV, MAT or a Modelica table").
 constexpr const char* kMatSummaryName = "solve";
 constexpr const char* kModelicaTableName = "u_d";
 
@@ -271,7 +272,7 @@ nlohmann::ordered_json SolveToJson(const Model& model,
       {"samples", solution.times.size()},
       {"max_servo_residual", NumberOrNull(solution.max_servo_residual)},
   };
-  if (solution.window) {  // stable inversion (DESIGN.md)
+  if (solution.window) {  // stable inversion (docs/solve.md)
     const StableInversionWindow& window = *solution.window;
     json["pre_actuation_start"] = NumberOrNull(window.pre_actuation_start);
     json["post_actuation_end"] = NumberOrNull(window.post_actuation_end);

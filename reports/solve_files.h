@@ -1,5 +1,5 @@
 #pragma once
-// What `servokit solve` writes (DESIGN.md "solve"): the file of the feedforward (CSV, MAT or a
+// What `servokit solve` writes (docs/solve.md): the file of the feedforward (CSV, MAT or a
 // Modelica table) and the JSON object on stdout.
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -35,7 +35,8 @@ SolveFileFormat SolveFileFormatOfName(const std::string& path);
 std::optional<std::string> SolveFileNameProblem(const std::string& path, SolveFileFormat format);
 
 /// The columns of a solve's file: t, each coordinate, each <coordinate>_dot, each input, y1_d,
-/// ... (DESIGN.md "solve"); the one list every format writes.
+/// ... (docs/solve.md, "The file: CSV, MAT or a Modelica table"); the one list every format
+/// writes.
 std::vector<std::string> FeedforwardColumns(const Model& model);
 
 /// Why the columns of `model` cannot be MAT variables (a name that is not a MATLAB name, a

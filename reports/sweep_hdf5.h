@@ -1,6 +1,6 @@
 #pragma once
-// sweep.h5, the HDF5 file of `servokit sweep --format hdf5` (README "servokit sweep"): the two
-// tables of reports/sweep_tables.h, one group each, one 1-D dataset per column:
+// sweep.h5, the HDF5 file of `servokit sweep --format hdf5` (docs/sweep.md, "Files other tools
+// read"): the two tables of reports/sweep_tables.h, one group each, one 1-D dataset per column:
 //
 //   /points/<column>        grid.num_points() rows     number columns: 64-bit IEEE doubles,
 //   /eigenvalues/<column>   one row per eigenvalue     NaN where the CSV field is empty;

@@ -1,7 +1,7 @@
 #pragma once
-// sweep.mat, the MAT-file of `servokit sweep --format mat` (README "servokit sweep"): MAT
-// version 5 (MATLAB's `load`, SciPy's scipy.io.loadmat), written with matio through
-// reports/mat_file.h (the one MAT writer, shared with a solve's MAT file). Two 1x1 struct
+// sweep.mat, the MAT-file of `servokit sweep --format mat` (docs/sweep.md, "Files other
+// tools read"): MAT version 5 (MATLAB's `load`, SciPy's scipy.io.loadmat), written with matio
+// through reports/mat_file.h (the one MAT writer, shared with a solve's MAT file). Two 1x1 struct
 // variables, `points` and `eigenvalues`, whose fields are the columns of reports/sweep_tables.h in
 // table order: a number column as an N x 1 double vector (NaN where the CSV field is empty), a
 // text column as an N x 1 cell array of char row vectors. A third variable, `sweep`, is a struct

@@ -1,5 +1,5 @@
 #pragma once
-// The tables of a sweep (DESIGN.md "Command line", README "servokit sweep"): their columns and
+// The tables of a sweep (docs/sweep.md, "The files"): their columns and
 // rows, formatted the same by `servokit sweep` (whose durable store, application/sweep_store.h,
 // writes them) and by the library's api::SweepToFiles.
 //

@@ -49,7 +49,7 @@ enum class ModelKind { kMultibody, kLinear };
 /// several threads at once.
 class Model {
  public:
-  /// Reads a model file (YAML; DESIGN.md "The model file", or `kind: linear`). Throws ModelError
+  /// Reads a model file (YAML; docs/model-files.md, `kind: linear` included). Throws ModelError
   /// naming the file, key and entry of a bad file, UsageError for a bad override.
   static Model FromFile(const std::string& path, const ParameterValues& overrides = {});
   /// The same from YAML text; `source` names it in error messages, and a linear model's matrix
@@ -129,8 +129,8 @@ struct ZeroDynamics {
   std::vector<OscillatoryMode> modes;
 };
 
-/// The classification of a servo-constraint problem at its operating point (DESIGN.md, the
-/// keys of `analyze --format json`), and the three reports `servokit analyze` prints.
+/// The classification of a servo-constraint problem at its operating point (docs/analyze.md,
+/// the keys of `analyze --format json`), and the three reports `servokit analyze` prints.
 struct Analysis {
   Eigen::VectorXd q, u, y;  // the operating point
   Eigen::MatrixXd P;        // H M^-1 B (paper Eq. 10); empty for a linear model

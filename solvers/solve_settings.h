@@ -49,9 +49,9 @@ struct MethodSettings {
   bool uses_tolerances = false;  // rtol and atol
   bool uses_actuation = false;   // pre- and post-actuation (stable inversion)
   bool forward = false;          // integrates the internal dynamics forward (can be forced)
-  // Defaults, the solvers' own (see the README's table): Radau IIA and Euler backward 1e-8 /
-  // 1e-10 (RadauOptions), Dormand-Prince and BDF 1e-10 / 1e-12 (IntegratorOptions), stable
-  // inversion 1e-8 / 1e-10 (StableInversionOptions).
+  // Defaults, the solvers' own (the table of docs/solve.md "Tolerances and steps"): Radau
+  // IIA and Euler backward 1e-8 / 1e-10 (RadauOptions), Dormand-Prince and BDF 1e-10 / 1e-12
+  // (IntegratorOptions), stable inversion 1e-8 / 1e-10 (StableInversionOptions).
   double default_rtol = 0.0;
   double default_atol = 0.0;
   // The smallest relative tolerance the method reaches (kRadauMinRelativeTolerance,

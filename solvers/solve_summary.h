@@ -1,6 +1,6 @@
 #pragma once
-// What a solver reports (STYLE.md: Ceres' Solver::Summary): a status with its one-line
-// message, the time at which it stopped, and counters. Solvers do not throw when they fail
+// What a solver reports (style: Ceres' Solver::Summary, docs/development.md): a status with its
+// one-line message, the time at which it stopped, and counters. Solvers do not throw when they fail
 // numerically; the caller decides (`servokit solve` turns an unusable summary into exit 3).
 #include <limits>
 #include <string>

@@ -54,7 +54,7 @@ using testing::TemporaryDirectory;
 using testing::TestDataPath;
 using testing::WaitForProcess;
 
-// Table 2 (the arm) and the mass on car's parameters (README "Shipped models").
+// Table 2 (the arm) and the mass on car's parameters (docs/model-files.md "Shipped models").
 constexpr double kL = 1.0, kArmMass = 3.438, kC = 50.0, kArmDamping = 0.25;
 constexpr double kM1 = 1.0, kM2 = 2.0, kK = 5.0;
 const double kAlpha = 5.0 * std::numbers::pi / 180.0;
@@ -109,13 +109,14 @@ std::vector<std::string> Fields(const std::string& row) {
 }
 
 // Checks a points.csv row of a sweep of the mass on car (alpha = 5 deg) over one parameter
-// (README "points.csv": the parameter, realization, P_rank, relative_degree,
+// (docs/sweep.md "The files", points.csv: the parameter, realization, P_rank, relative_degree,
 // differentiation_index, internal_dynamics_order, stability, max_real_part, error). The class
 // columns follow from the model's matrices (file comment), whatever k and d:
 //  - P = sin^2(alpha) / (m1 + m2 sin^2(alpha)) != 0: rank 1 = m, and F first appears in y''
 //    (relative degree 2);
 //  - ker H, H = [1, cos(alpha)], is spanned by D = [-cos(alpha), 1] / |.|, and
-//    D^T B = -cos(alpha) / |.| != 0: non-ideal orthogonal (README "Realization");
+//    D^T B = -cos(alpha) / |.| != 0: non-ideal orthogonal (docs/analyze.md "How it is computed",
+//    Realization);
 //  - index = relative degree + 1 = 3; internal dynamics order 2 n - r = 4 - 2 = 2.
 // `max_real_part` is compared with the closed form within round-off (1e-12) relative to
 // `magnitude`, the largest |lambda|; the error column is empty.
@@ -593,10 +594,10 @@ TEST_CASE("a sweep records edge points that fail with their message and writes n
     // critical.
     const double omega = std::sqrt(k) / std::sqrt(kM2 * kSin2);
     CheckMassOnCarRow(rows[2 + i], k, "critical", 0.0, omega);
-    // Rows k, re, im, frequency_hz = |lambda| / 2 pi, damping_ratio = -re / |lambda| (README
-    // "eigenvalues.csv"): the pair +-i omega, the positive imaginary part first (real parts
-    // equal, imaginary parts descending). Tolerance: round-off of the eigenvalue solver,
-    // relative to |lambda| = omega.
+    // Rows k, eigenvalue_index, re, im, frequency_hz = |lambda| / 2 pi, damping_ratio = -re /
+    // |lambda| (docs/sweep.md "The files", eigenvalues.csv): the pair +-i omega, the positive
+    // imaginary part first (real parts equal, imaginary parts descending). Tolerance: round-off of
+    // the eigenvalue solver, relative to |lambda| = omega.
     for (std::size_t j = 0; j < 2; ++j) {
       const std::vector<std::string> fields = Fields(eigenvalue_rows[1 + 2 * i + j]);
       INFO(eigenvalue_rows[1 + 2 * i + j]);

@@ -4,7 +4,7 @@
 // Chain (GenerateChain): N masses, force and output at mass 1, M = m I, K = k T, D = d T. The
 // zero dynamics are the chain beyond mass 1 held at rest (N' = N - 1 masses, fixed-free), so
 // the zeros are the roots of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))),
-// i = 1..N': 2N' zeros (DESIGN.md / README "Large linear models").
+// i = 1..N': 2N' zeros (docs/generate.md "Synopsis").
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>

@@ -641,8 +641,8 @@ TEST_CASE("bounds decide each eigenvalue's side; within its bound it is undeterm
 // dominant positive definite, the output collocated, so every zero solves m s^2 + d s + k = 0
 // with m, d, k > 0 (a structural proof of asymptotic stability). Its slowest zero has
 // Re = -d mu_1 / (2 m) ~ -6e-13 beside |lambda| ~ 2e-5 at N = 1e5 (damping ratio 3e-8): the
-// case whose Re came out as exactly 0, or positive, at N = 1e6. The run at N = 1e6 is in the
-// README (the test stays at 1e5 for time).
+// case whose Re came out as exactly 0, or positive, at N = 1e6. The run at N = 1e6 is in
+// docs/analyze.md, "Large linear models" (the test stays at 1e5 for time).
 TEST_CASE("a damped chain of 1e5 masses is asymptotically stable, each zero as the closed form",
           "[analysis]") {
   const long masses = 100000;

@@ -1,4 +1,5 @@
-// Mass on car, paper Sect. 3 and 4.1 (Eqs. 26-47, Fig. 6), with m1 = 1, m2 = 2, k = 5 (DESIGN.md).
+// Mass on car, paper Sect. 3 and 4.1 (Eqs. 26-47, Fig. 6), with m1 = 1, m2 = 2, k = 5
+// (docs/model-files.md, "Shipped models").
 // Closed forms, derived again by hand:
 //  - P = sin^2(a) / (m1 + m2 sin^2(a)) (Eq. 30): H M^-1 B with det M = m2 (m1 + m2 sin^2 a).
 //  - Zero dynamics = zeros of det [[M s^2 + D s + K, -B], [H, 0]] = m2 sin^2(a) s^2 + d s + k,

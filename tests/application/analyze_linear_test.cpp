@@ -1,6 +1,6 @@
-// `servokit analyze` on a generated large linear model (issue #6): the JSON keys of DESIGN.md
-// where they apply, the options --eigenvalues, --shift, --eigen-solver, --which, and their
-// errors.
+// `servokit analyze` on a generated large linear model (issue #6): the JSON keys of
+// docs/analyze.md where they apply, the options --eigenvalues, --shift, --eigen-solver, --which,
+// and their errors.
 //
 // Chain of 300 masses (m = k = 1, d = 0.01), force and output at mass 1: P = 1/m = 1, ideal
 // orthogonal, relative degree 2, index 3, internal order 2 * 300 - 2 = 598. Holding mass 1 leaves

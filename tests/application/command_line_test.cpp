@@ -1,5 +1,5 @@
-// `servokit analyze` from the command line: the JSON contract of DESIGN.md, the formats, and the
-// documented exit statuses with their one-line messages.
+// `servokit analyze` from the command line: the JSON contract of docs/analyze.md, the formats,
+// and the documented exit statuses with their one-line messages.
 #include "application/command_line.h"
 
 #include <catch2/catch.hpp>
@@ -20,7 +20,8 @@ using testing::TestDataPath;
 using testing::Run;
 using testing::RunServokit;
 
-TEST_CASE("analyze --format json prints one object with every key of DESIGN.md", "[reports]") {
+TEST_CASE("analyze --format json prints one object with every key of docs/analyze.md",
+          "[reports]") {
   const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--format", "json"});
   REQUIRE(run.status == 0);
   const auto object = nlohmann::json::parse(run.out);

@@ -1,4 +1,4 @@
-// `servokit solve` (DESIGN.md "solve"): the CSV columns and the JSON keys of the contract, the
+// `servokit solve` (docs/solve.md): the CSV columns and the JSON keys of the contract, the
 // forward check, the refusal of unstable internal dynamics, and one clear error per bad input.
 // The numbers themselves are tested against the paper in tests/solvers/inverse_model_test.cpp;
 // here the case-4 force is checked once more against Eq. (47) through the files a user reads.
@@ -51,7 +51,7 @@ std::vector<std::string> With(std::vector<std::string> arguments,
   return arguments;
 }
 
-TEST_CASE("solve writes the CSV columns and JSON keys of DESIGN.md", "[reports]") {
+TEST_CASE("solve writes the CSV columns and JSON keys of docs/solve.md", "[reports]") {
   const auto csv = TemporaryFile("case4.csv");
   const auto run = RunServokit(With(kCase4, {"--step", "0.01", "--verify", "--out", csv.string()}));
   INFO(run.err);
@@ -113,7 +113,8 @@ TEST_CASE(
   REQUIRE(automatic.status == 0);
   const auto inverted = nlohmann::json::parse(automatic.out);
   CHECK(inverted["method"] == "stable-inversion");
-  // DESIGN.md: stable inversion gives where the input departs from rest; it starts early.
+  // docs/solve.md "Stable inversion": it gives where the input departs from rest; it starts
+  // early.
   CHECK(inverted["pre_actuation_start"].get<double>() < 1.0);
   CHECK(inverted["post_actuation_end"].get<double>() > 3.0);
   CHECK(inverted["boundary_value_residual"].get<double>() <= 1e-8);

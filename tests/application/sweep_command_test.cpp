@@ -1,4 +1,4 @@
-// `servokit sweep`: the files of DESIGN.md (points.csv, eigenvalues.csv, sweep.json), the usage
+// `servokit sweep`: the files of docs/sweep.md (points.csv, eigenvalues.csv, sweep.json), the usage
 // errors, bytes independent of the number of threads, and interruption: the real binary
 // (SERVOKIT_BINARY) killed with SIGKILL at random moments, or stopped with SIGINT, then run again
 // to completion, must leave the same bytes as an uninterrupted run.
@@ -152,7 +152,7 @@ std::optional<int> WaitForProgress(pid_t child,
 
 // ---- files -----------------------------------------------------------------------------------
 
-TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIGN.md",
+TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of docs/sweep.md",
           "[reports]") {
   const TemporaryDirectory work;
   const Run run = RunServokit(
@@ -166,8 +166,8 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   CHECK(points[0] ==
         "alpha_deg,d,realization,P_rank,relative_degree,differentiation_index,"
         "internal_dynamics_order,stability,max_real_part,error");
-  // The classes of the paper's mass-on-car cases (Sect. 3; README "Structure": index 3, 3, 4, 5
-  // for cases 1-4), P = sin^2(alpha) / (m1 + m2 sin^2(alpha)):
+  // The classes of the paper's mass-on-car cases (Sect. 3; index 3, 3, 4, 5 for cases 1-4:
+  // docs/analyze.md "How it is computed"), P = sin^2(alpha) / (m1 + m2 sin^2(alpha)):
   //  - alpha = 0, d = 0 (case 4): P = 0, tangential; F first appears in the fourth derivative
   //    of y (relative degree 4, index 5), no internal dynamics (flat), so no eigenvalues:
   //    stability "none", max_real_part empty;
@@ -177,7 +177,7 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of DESIG
   //    orthogonal, rank 1, relative degree 2, index 3, internal order 2 n - 2 = 2; the undamped
   //    vibration +-i sqrt(k / m2) is critical.
   // alpha was given in degrees (by the model file and by --vary): its column is alpha_deg and
-  // 90 deg reads 90, not pi/2 (README "Units of the parameter columns").
+  // 90 deg reads 90, not pi/2 (docs/sweep.md "The files": Units of the parameter columns).
   const std::string right_angle = "90";
   CHECK(points[1] == "0,0,tangential,0,4,5,0,none,,");
   CHECK_THAT(points[2], Catch::StartsWith("0,1,tangential,0,3,4,1,asymptotically-stable,-"));

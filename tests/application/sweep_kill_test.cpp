@@ -43,8 +43,8 @@ constexpr std::mt19937::result_type kSeed = 20261121;
 
 // The sweep: the six-mass chain observed at its third mass (six zero-dynamics eigenvalues a
 // point) over 200 x 240 = 48 000 points on one thread, 2-4 s on this machine (about 25 000
-// points/s, README "servokit sweep"), in blocks of 500 with a checkpoint every 0.05 s, so that
-// there are many checkpoints to be killed before, between and after. The output directory is
+// points/s; sweep rates: docs/benchmarks.md), in blocks of 500 with a checkpoint every 0.05 s, so
+// that there are many checkpoints to be killed before, between and after. The output directory is
 // relative ("out") and the model path absolute, so sweep.json (which records the command line)
 // is the same bytes in the reference directory and in the killed one.
 constexpr std::size_t kPoints = 200 * 240;

@@ -4,9 +4,9 @@
 // interrupted and resumed.
 //
 // Chain: N masses, force and output at mass 1, M = m I, K = k T, D = d T. The zeros are the roots
-// of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))), N' = N − 1 (README,
-// "Large linear models"): 2N' of them; with ARPACK the `--eigenvalues K` nearest 0 are the K/2
-// slowest pairs (μ_1, μ_2, ...).
+// of m λ² + d μ_i λ + k μ_i = 0, μ_i = 4 sin²((2i − 1)π / (2(2N' + 1))), N' = N − 1
+// (docs/generate.md, "Synopsis"): 2N' of them; with ARPACK the `--eigenvalues K` nearest 0 are the
+// K/2 slowest pairs (μ_1, μ_2, ...).
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
@@ -235,7 +235,8 @@ TEST_CASE("servokit sweep on a 1000-mass linear chain: ARPACK's zeros nearest 0"
 TEST_CASE("servokit sweep on a fine beam: undetermined relative degrees are empty columns",
           "[reports][linear_sweep]") {
   // The beam's tip is observed far from the hub's torque: its Markov rows are round-off at 100
-  // elements (README, "Large linear models"), so the structure at infinity is not determined.
+  // elements (docs/analyze.md, "Large linear models"), so the structure at infinity is not
+  // determined.
   const TemporaryDirectory work;
   const Job generated = RunIn(work / "model", {SERVOKIT_BINARY, "generate", "beam", "--elements",
                                                "100", "--out", (work / "model").string()});

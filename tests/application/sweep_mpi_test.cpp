@@ -190,8 +190,8 @@ TEST_CASE("more ranks than blocks: the ranks without a block wait and exit 0", "
 
 TEST_CASE("a grid warning under mpirun is printed once, by rank 0", "[reports][mpi]") {
   const TemporaryDirectory work;
-  // d=0:1:2 could be MATLAB's 0, 1, 2 (README "Not MATLAB's colon"): every rank parses it, rank
-  // 0 alone warns.
+  // d=0:1:2 could be MATLAB's 0, 1, 2 (docs/sweep.md "The grid": Not MATLAB's colon): every
+  // rank parses it, rank 0 alone warns.
   const std::vector<std::string> sweep = {
       SERVOKIT_BINARY, "sweep", ModelPath("mass_on_car.yaml"), "--vary", "d=0:1:2", "--out", "out"};
   const Job job = RunIn(work / "warn", Concatenate(MpiRun(2), sweep));

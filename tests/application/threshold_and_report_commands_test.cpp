@@ -1,5 +1,5 @@
-// `servokit threshold` (the JSON contract of DESIGN.md) and `servokit report MODEL` from the
-// command line. The numbers themselves are tested in tests/analysis/thresholds_test.cpp.
+// `servokit threshold` (the JSON contract of docs/threshold.md) and `servokit report MODEL` from
+// the command line. The numbers themselves are tested in tests/analysis/thresholds_test.cpp.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>

@@ -345,7 +345,8 @@ TEST_CASE("bad bodies, springs and actuators are named", "[models]") {
   CHECK(LoadError(kBodiesHead + body) == "bad.yaml: actuators: missing required key");
   CHECK(LoadError(kBodiesHead + body + "bodies:\n  wagon: {mass: m, position: [x, 0]}\n" +
                   actuator) == "bad.yaml: bodies: duplicate key");
-  // `springs:` with comments only (as in the README's example) is no springs.
+  // `springs:` with comments only (as in the example of docs/model-files.md "Bodies") is no
+  // springs.
   CHECK_NOTHROW(
       LoadModelFromString(kBodiesHead + body + "springs:\n  # none\n" + actuator, "empty.yaml"));
 }

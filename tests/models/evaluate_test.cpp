@@ -1,4 +1,5 @@
-// Threading rule (STYLE.md, section 2): all threads share one Model, each owns a Workspace.
+// Threading rule (style: model and workspace, docs/development.md): all threads share one Model,
+// each owns a Workspace.
 #include <catch2/catch.hpp>
 #include <thread>
 #include <vector>

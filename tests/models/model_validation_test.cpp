@@ -1,5 +1,6 @@
 // Every malformed model file gives one ModelError that names the file, the key and the entry
-// (DESIGN.md, "The model file"). Each case edits one line of a valid model (the mass on a car).
+// (docs/model-files.md, "The explicit form"). Each case edits one line of a valid model
+// (the mass on a car).
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-// The golden report (STYLE.md, "answer files"): `servokit report paper` against the reviewed
+// The answer file (docs/development.md, "Testing"): `servokit report paper` against the reviewed
 // copy tests/data/paper_report.md. The copy's numbers were checked against the paper and the
 // closed forms (the table of the four cases: Eqs. 30, 34, 36, 40, 47; the quoted 0.25 Hz,
 // 2.88 Hz and 9.1 deg; s/l = 2/3 and the discriminant of Eq. 56) and, for the solver figures
