@@ -379,7 +379,7 @@ class IntegrationRun {
     return summary_;
   }
   SolveSummary& FinishConverged() {
-    return Finish(SolveStatus::kConverged, "reached t = " + FormatNumber(t_) + " in " +
+    return Finish(SolveStatus::kConverged, "reached t = " + FormatNumber(t_) + " s in " +
                                                std::to_string(summary_.steps) + " steps");
   }
   SolveSummary& FinishTooManySteps() {

@@ -178,7 +178,7 @@ TEST_CASE("Radau IIA follows x' = -x within the tolerance", "[solvers]") {
       IntegrateRadau(decay, 0.0, Vector({1.0}), 10.0, {}, options, RecordInto(recording));
   REQUIRE(summary.IsUsable());
   CHECK(summary.status == SolveStatus::kConverged);
-  CHECK(summary.message == "reached t = 10 in " + std::to_string(summary.steps) + " steps");
+  CHECK(summary.message == "reached t = 10 s in " + std::to_string(summary.steps) + " steps");
   CHECK(summary.stop_time == 10.0);
   CHECK(recording.times.back() == 10.0);
   // The local error is held near rtol |x| (RADAU5's calibration); on a decaying solution the
