@@ -344,4 +344,14 @@ OperatingPoint FindOperatingPoint(const Model& model,
   return point;
 }
 
+OperatingPoint FindRestPoint(const Model& model,
+                             const Eigen::VectorXd& y0,
+                             const Eigen::VectorXd& q_guess) {
+  Workspace workspace(model);
+  OperatingPointOptions options;
+  options.y0 = y0;
+  options.q_guess = q_guess;
+  return FindOperatingPoint(model, workspace, options);
+}
+
 }  // namespace servokit

@@ -56,4 +56,11 @@ OperatingPoint FindOperatingPoint(const Model& model,
                                   Workspace& workspace,
                                   const OperatingPointOptions& options = {});
 
+/// The equilibrium at rest that holds the output at y0, by FindOperatingPoint from q_guess
+/// with the default tolerances and a workspace of its own: where a motion from rest to rest
+/// starts and ends (the solvers' start, the forward check's rest state).
+OperatingPoint FindRestPoint(const Model& model,
+                             const Eigen::VectorXd& y0,
+                             const Eigen::VectorXd& q_guess);
+
 }  // namespace servokit

@@ -528,11 +528,7 @@ OperatingPoint RestAt(const Model& model,
                       const OutputTrajectory& trajectory,
                       double t,
                       const Eigen::VectorXd& q_guess) {
-  Workspace workspace(model);
-  OperatingPointOptions options;
-  options.y0 = trajectory.Derivative(t, 0);
-  options.q_guess = q_guess;
-  return FindOperatingPoint(model, workspace, options);
+  return FindRestPoint(model, trajectory.Derivative(t, 0), q_guess);
 }
 
 // The stable inversion's settings: the method's accuracy, and the window's sides the user fixed.

@@ -220,11 +220,8 @@ PlantState RestStateAtStart(const Model& model,
                             const OutputTrajectory& trajectory,
                             double t_start,
                             const Eigen::VectorXd& q_guess) {
-  Workspace workspace(model);
-  OperatingPointOptions rest;
-  rest.y0 = trajectory.Derivative(t_start, 0);
-  rest.q_guess = q_guess;
-  const OperatingPoint rest_point = FindOperatingPoint(model, workspace, rest);
+  const OperatingPoint rest_point =
+      FindRestPoint(model, trajectory.Derivative(t_start, 0), q_guess);
   PlantState state;
   state.q = rest_point.q;
   state.u = rest_point.u;
