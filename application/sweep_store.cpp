@@ -556,23 +556,11 @@ void SweepOutput::RemoveStaleTemporaries() const {
       throw Error(TemporaryPath(path).string() + ": cannot remove: " + error.message());
     }
   }
-  // The same for the temporaries of files/output_file (".NAME.XXXXXX", a regular file beside
-  // NAME) of the table file written whole at the end and of its ".tmp" stage.
+  // The same for OutputFile's temporaries of the table file written whole at the end
+  // (sweep.mat) and of its ".tmp" stage.
   if (paths_.table_file.empty()) return;
-  const std::string table = "." + paths_.table_file.filename().string() + ".";
-  const std::string stage = "." + TemporaryPath(paths_.table_file).filename().string() + ".";
-  const auto is_temporary = [](const std::string& name, const std::string& prefix) {
-    return name.size() == prefix.size() + 6 && name.compare(0, prefix.size(), prefix) == 0;
-  };
-  for (const auto& entry : std::filesystem::directory_iterator(directory_)) {
-    const std::string name = entry.path().filename().string();
-    if ((is_temporary(name, table) || is_temporary(name, stage)) && entry.is_regular_file() &&
-        !entry.is_symlink()) {
-      std::error_code error;
-      std::filesystem::remove(entry.path(), error);
-      if (error) throw Error(entry.path().string() + ": cannot remove: " + error.message());
-    }
-  }
+  RemoveStaleOutputTemporaries(paths_.table_file.string());
+  RemoveStaleOutputTemporaries(TemporaryPath(paths_.table_file).string());
 }
 
 void SweepOutput::StartAfresh() {

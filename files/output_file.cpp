@@ -57,6 +57,23 @@ std::string DirectoryOf(const std::string& path) {
 
 }  // namespace
 
+void RemoveStaleOutputTemporaries(const std::string& path) {
+  // TemporaryPattern's name without its six X's, which mkostemp filled in.
+  const std::string pattern = std::filesystem::path(TemporaryPattern(path)).filename().string();
+  const std::string prefix = pattern.substr(0, pattern.size() - 6);
+  const std::filesystem::path folder = std::filesystem::path(DirectoryOf(path));
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() != pattern.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+        entry.is_symlink() || !entry.is_regular_file()) {
+      continue;
+    }
+    std::error_code error;
+    std::filesystem::remove(entry.path(), error);
+    if (error) throw Error(entry.path().string() + ": cannot remove: " + error.message());
+  }
+}
+
 // The stream's buffer: 64 KiB, written through WriteAll when full or flushed.
 class OutputFile::Buffer final : public std::streambuf {
  public:

@@ -21,6 +21,12 @@ namespace servokit {
 /// process has read as an input (files/input_file.h). A missing file is a good output name.
 void CheckOutputPath(const std::string& path);
 
+/// Removes what a process killed while writing `path` through OutputFile left behind: the
+/// regular files beside it named as OutputFile names its temporaries. Only for a caller that
+/// knows no other process writes there (it holds a lock on the folder). Throws Error naming a
+/// file it cannot remove.
+void RemoveStaleOutputTemporaries(const std::string& path);
+
 /// True when the file system holding `path` has no block left for this process (a library
 /// writing by name may have been refused a write without saying so).
 bool FileSystemFull(const std::string& path);
