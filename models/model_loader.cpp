@@ -231,8 +231,9 @@ class ModelBuilder {
     for (Eigen::Index i = 0; i < dof; ++i) {
       for (Eigen::Index j = 0; j < dof; ++j) {
         mass_matrix(unsigned(i), unsigned(j)) = number(equations.mass_matrix(i, j));
-        forces(unsigned(i), 0) += number(equations.stiffness(i, j)) * coordinate_symbols_[j] +
-                                  number(equations.damping(i, j)) * velocity_symbols_[j];
+        forces(unsigned(i), 0) +=
+            number(equations.stiffness(i, j)) * coordinate_symbols_[std::size_t(j)] +
+            number(equations.damping(i, j)) * velocity_symbols_[std::size_t(j)];
       }
       for (Eigen::Index k = 0; k < inputs; ++k) {
         input_matrix(unsigned(i), unsigned(k)) = number(equations.input_matrix(i, k));
@@ -240,7 +241,8 @@ class ModelBuilder {
     }
     for (Eigen::Index i = 0; i < outputs; ++i) {
       for (Eigen::Index j = 0; j < dof; ++j) {
-        output(unsigned(i), 0) += number(equations.output_jacobian(i, j)) * coordinate_symbols_[j];
+        output(unsigned(i), 0) +=
+            number(equations.output_jacobian(i, j)) * coordinate_symbols_[std::size_t(j)];
       }
     }
     model_.num_outputs_ = std::size_t(outputs);
