@@ -12,8 +12,8 @@
 #include "analysis/operating_point.h"
 #include "analysis/options.h"
 #include "analysis/output_structure.h"
-#include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "base/vocabulary.h"
 #include "models/model.h"
 
 namespace servokit {

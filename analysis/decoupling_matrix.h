@@ -4,7 +4,7 @@
 
 #include "analysis/linearization.h"
 #include "analysis/options.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 
 namespace servokit {
 

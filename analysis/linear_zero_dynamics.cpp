@@ -19,17 +19,6 @@
 namespace servokit {
 namespace {
 
-constexpr std::pair<LinearEigenSolver, std::string_view> kSolverNames[] = {
-    {LinearEigenSolver::kAuto, "auto"},
-    {LinearEigenSolver::kDense, "dense"},
-    {LinearEigenSolver::kArpack, "arpack"},
-};
-
-constexpr std::pair<EigenvalueTarget, std::string_view> kTargetNames[] = {
-    {EigenvalueTarget::kNearest, "nearest"},
-    {EigenvalueTarget::kRightmost, "rightmost"},
-};
-
 constexpr std::pair<RosenbrockFactorization, std::string_view> kFactorizationNames[] = {
     {RosenbrockFactorization::kNone, "none"},
     {RosenbrockFactorization::kSymmetricSchur, "symmetric-schur"},
@@ -540,39 +529,11 @@ std::string Short(double value) {
 
 }  // namespace
 
-std::string_view ToString(LinearEigenSolver solver) {
-  for (const auto& [key, name] : kSolverNames) {
-    if (key == solver) return name;
-  }
-  return "auto";
-}
-
-std::string_view ToString(EigenvalueTarget target) {
-  for (const auto& [key, name] : kTargetNames) {
-    if (key == target) return name;
-  }
-  return "nearest";
-}
-
 std::string_view ToString(RosenbrockFactorization factorization) {
   for (const auto& [key, name] : kFactorizationNames) {
     if (key == factorization) return name;
   }
   return "none";
-}
-
-std::optional<LinearEigenSolver> LinearEigenSolverFromString(std::string_view text) {
-  for (const auto& [key, name] : kSolverNames) {
-    if (name == text) return key;
-  }
-  return std::nullopt;
-}
-
-std::optional<EigenvalueTarget> EigenvalueTargetFromString(std::string_view text) {
-  for (const auto& [key, name] : kTargetNames) {
-    if (name == text) return key;
-  }
-  return std::nullopt;
 }
 
 LinearSystem AssembleLinearSystem(const LinearModel& model,

@@ -45,8 +45,8 @@
 #include <string_view>
 #include <vector>
 
-#include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "base/vocabulary.h"
 #include "models/linear_model.h"
 #include "numerics/arpack_eigen.h"
 
@@ -69,38 +69,6 @@ struct LinearSystem {
 /// AssembleLinearMatrices, with the model's B and C.
 LinearSystem AssembleLinearSystem(const LinearModel& model,
                                   const Eigen::Ref<const Eigen::VectorXd>& parameters);
-
-/// Which eigensolver computes the zeros.
-enum class LinearEigenSolver {
-  kAuto,    // dense for dof <= LinearZeroDynamicsOptions::dense_threshold, ARPACK above
-  kDense,   // every finite zero (cost ~ (2n)^3: 0.2 s at n = 200, ~35 s at n = 1000)
-  kArpack,  // k zeros by ARPACK shift-invert (cost ~ n per iteration)
-};
-
-/// Which k zeros the ARPACK route computes (the dense route always computes all).
-enum class EigenvalueTarget {
-  // The k zeros nearest the shift sigma (ARPACK 'LM' on nu = 1/(lambda - sigma)). With sigma = 0:
-  // the slowest zero-dynamics modes, the ones that decide the behaviour users care about.
-  kNearest,
-  // The k zeros with the largest Re nu = Re(lambda - sigma) / |lambda - sigma|^2 (ARPACK 'LR').
-  // Re nu > 0 exactly when Re lambda > sigma, so with sigma = 0 every zero in the open right half
-  // plane ranks before every other: if one exists it is found first, which decides stability
-  // (the sign test is exact; only ARPACK's convergence can fail, and then it says so). Limits:
-  // (1) among the zeros right of sigma, and among those left of it, the order is by the disks
-  // Re nu = c (circles through sigma), not by Re lambda, so the list is not "the k of largest
-  // real part" in general; (2) for a stable model the wanted nu crowd near 0, next to the nu = 0
-  // of the infinite eigenvalues and of high, lightly damped modes, where Arnoldi converges slowly
-  // (raise max_iterations or the basis size); (3) Ritz values with |nu| at most
-  // infinite_tolerance times the largest |nu| are taken as infinite and dropped, which also drops
-  // finite zeros that far from sigma. A Cayley transform (A - a E)^-1 (A + a E) has the same
-  // right-half-plane test (|.| > 1) and the same crowding at the unit circle, so it buys nothing.
-  kRightmost,
-};
-
-std::string_view ToString(LinearEigenSolver solver);  // "auto", "dense", "arpack"
-std::string_view ToString(EigenvalueTarget target);   // "nearest", "rightmost"
-std::optional<LinearEigenSolver> LinearEigenSolverFromString(std::string_view text);
-std::optional<EigenvalueTarget> EigenvalueTargetFromString(std::string_view text);
 
 struct LinearZeroDynamicsOptions {
   LinearEigenSolver solver = LinearEigenSolver::kAuto;

@@ -18,7 +18,7 @@
 #include "analysis/linear_analysis.h"
 #include "analysis/linear_zero_dynamics.h"
 #include "analysis/options.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/loaded_model.h"
 #include "models/model.h"
 

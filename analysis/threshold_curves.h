@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "analysis/thresholds.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/model.h"
 
 namespace servokit {

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "analysis/options.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/model.h"
 
 namespace servokit {

@@ -15,7 +15,7 @@
 #include "analysis/linearization.h"
 #include "analysis/options.h"
 #include "analysis/output_structure.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 
 namespace servokit {
 

@@ -5,17 +5,10 @@
 #include <memory>
 #include <optional>
 #include <ostream>
-#include <variant>
 
-#include "analysis/classification.h"
-#include "analysis/linear_analysis.h"
-#include "analysis/sweep_point.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "models/errors.h"
-#include "models/linear_model.h"
-#include "models/loaded_model.h"
-#include "reports/classification_report.h"
+#include "servokit/servokit.h"
 
 namespace servokit {
 namespace {
@@ -26,7 +19,7 @@ struct AnalyzeArguments {
   std::vector<std::string> y0;         // each may hold several values separated by commas
   std::vector<std::string> q0;
   std::string format = "text";
-  ClassificationOptions options;
+  api::AnalyzeOptions options;
   LinearModelArguments linear;  // linear models only
 };
 
@@ -35,31 +28,28 @@ int RunAnalyze(const AnalyzeArguments& arguments, const CLI::App& analyze, std::
   if (!format) {
     throw UsageError("--format " + arguments.format + ": expected text, json or md");
   }
-  const LoadedModel model =
-      LoadModelFile(arguments.model_path, ParseOverrides(arguments.overrides));
-  AnalysisOptions options;
-  if (model.linear()) {
-    options.linear = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
-                                               !arguments.y0.empty(), !arguments.q0.empty());
+  const api::Model model =
+      api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
+  api::AnalyzeOptions options = arguments.options;
+  if (model.kind() == ModelKind::kLinear) {
+    ApplyLinearModelArguments(arguments.linear, !arguments.y0.empty(), !arguments.q0.empty(),
+                              options);
   } else {
     RefuseLinearModelOptions(analyze);
-    options.classification = arguments.options;
-    if (!arguments.y0.empty()) {
-      options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
-    }
-    if (!arguments.q0.empty()) {
-      options.classification.operating_point.q_guess = ParseValues("--q0", arguments.q0);
-    }
+    if (!arguments.y0.empty()) options.y0 = ParseValues("--y0", arguments.y0);
+    if (!arguments.q0.empty()) options.q_guess = ParseValues("--q0", arguments.q0);
   }
-  PointWorkspace workspace(model);
-  ModelAnalysis analysis = AnalyzePoint(model, workspace, options);
-  if (Classification* classification = std::get_if<Classification>(&analysis)) {
-    DeriveNonlinearStructure(*model.multibody(), *classification);
-    out << FormatClassification(*model.multibody(), *classification, options.classification,
-                                *format);
-  } else {
-    out << FormatLinearAnalysis(*model.linear(), std::get<LinearAnalysis>(analysis), options.linear,
-                                *format);
+  const api::Analysis analysis = api::Analyze(model, options);
+  switch (*format) {
+    case ReportFormat::kText:
+      out << analysis.text;
+      break;
+    case ReportFormat::kJson:
+      out << analysis.json;
+      break;
+    case ReportFormat::kMarkdown:
+      out << analysis.markdown;
+      break;
   }
   return static_cast<int>(ExitCode::kSuccess);
 }

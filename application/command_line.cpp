@@ -82,8 +82,8 @@ std::string_view FlagForOption(std::string_view owner, std::string_view field) {
 // "... must be > 0 and < 1 (--rank-tolerance)" for an option).
 std::string CommandLineMessage(const std::exception& error) {
   if (const auto* bad_override = dynamic_cast<const ParameterOverrideError*>(&error)) {
-    const ParameterOverride& given = bad_override->parameter_override();
-    return "--set " + given.name + "=" + given.value + ": " + bad_override->problem();
+    return "--set " + bad_override->name() + "=" + bad_override->value() + ": " +
+           bad_override->problem();
   }
   if (const auto* bad_option = dynamic_cast<const OptionError*>(&error)) {
     const std::string_view flag = FlagForOption(bad_option->owner(), bad_option->field());

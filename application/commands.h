@@ -53,6 +53,14 @@ void AddLinearModelOptions(CLI::App& command,
                            LinearModelArguments& arguments,
                            const std::string& what);
 
+/// Sets the linear-model fields of `options` from `arguments`. Throws UsageError naming a bad
+/// --eigen-solver or --which, or --y0/--q0 when given (a linear model is analysed at q = 0,
+/// y = 0); the library checks the values themselves when it analyses.
+void ApplyLinearModelArguments(const LinearModelArguments& arguments,
+                               bool y0_given,
+                               bool q0_given,
+                               api::AnalyzeOptions& options);
+
 /// The linear analysis options from `arguments` and the tolerances the commands share. Throws
 /// UsageError naming a bad --eigen-solver or --which, or --y0/--q0 when given (a linear model is
 /// analysed at q = 0, y = 0), and the options' own Validate() errors.

@@ -32,29 +32,39 @@ void AddLinearModelOptions(CLI::App& command,
       ->capture_default_str();
 }
 
-LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& arguments,
-                                                const ClassificationOptions& tolerances,
-                                                bool y0_given,
-                                                bool q0_given) {
-  // The flags' own words first; the conversion itself is the library's (one place for it).
+void ApplyLinearModelArguments(const LinearModelArguments& arguments,
+                               bool y0_given,
+                               bool q0_given,
+                               api::AnalyzeOptions& options) {
+  // The flags' own words first; the options' rules are the library's (one place for them).
   if (y0_given || q0_given) {
     throw UsageError(std::string(y0_given ? "--y0" : "--q0") +
                      ": a linear model is analysed at q = 0, y = 0; the option does not apply");
   }
-  if (!LinearEigenSolverFromString(arguments.eigen_solver)) {
+  const std::optional<LinearEigenSolver> solver =
+      LinearEigenSolverFromString(arguments.eigen_solver);
+  if (!solver) {
     throw UsageError("--eigen-solver " + arguments.eigen_solver +
                      ": expected auto, dense or arpack");
   }
-  if (!EigenvalueTargetFromString(arguments.which)) {
+  const std::optional<EigenvalueTarget> target = EigenvalueTargetFromString(arguments.which);
+  if (!target) {
     throw UsageError("--which " + arguments.which + ": expected nearest or rightmost");
   }
+  options.eigenvalues = arguments.eigenvalues;
+  options.shift = arguments.shift;
+  options.eigen_solver = *solver;
+  options.which = *target;
+}
+
+LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& arguments,
+                                                const ClassificationOptions& tolerances,
+                                                bool y0_given,
+                                                bool q0_given) {
   api::AnalyzeOptions options;
   options.rank_tolerance = tolerances.rank_tolerance;
   options.imaginary_axis_tolerance = tolerances.imaginary_axis_tolerance;
-  options.eigenvalues = arguments.eigenvalues;
-  options.shift = arguments.shift;
-  options.eigen_solver = arguments.eigen_solver;
-  options.which = arguments.which;
+  ApplyLinearModelArguments(arguments, y0_given, q0_given, options);
   return api::ToLinearAnalysisOptions(options);
 }
 

@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
 #include <sstream>
@@ -137,7 +136,7 @@ api::Feedforward SolveTellingFlags(const api::Model& model,
     std::string hint;
     if (!error.forceable().empty()) {
       hint = "; --force integrates forward anyway";
-      if (options.method == "auto") {
+      if (options.method == SolverMethod::kAuto) {
         hint += " (with " + std::string(ToString(error.forceable().front())) + ")";
       }
     }
@@ -159,49 +158,45 @@ SolveFileFormat ChooseFormat(const SolveArguments& arguments) {
   return *format;
 }
 
-// The JSON's number at `key`, nullopt when absent or null (NaN).
-std::optional<double> NumberAt(const nlohmann::ordered_json& json, const char* key) {
-  const auto found = json.find(key);
-  if (found == json.end() || !found->is_number()) return std::nullopt;
-  return found->get<double>();
+// A number of the summary in a few digits, "none" where the JSON has null (not finite).
+std::string ShortOrNone(double value) {
+  if (!std::isfinite(value)) return "none";
+  return FormatShort(value == 0.0 ? 0.0 : value);  // as the JSON: no negative zero
 }
 
-std::string ShortOrNone(const nlohmann::ordered_json& json, const char* key) {
-  const std::optional<double> value = NumberAt(json, key);
-  return value ? FormatShort(*value) : "none";
-}
-
-// --summary text: the JSON object told in a few lines, every number taken from it.
-std::string SummaryText(const nlohmann::ordered_json& json) {
+// --summary text: the summary told in a few lines, the same numbers as its JSON object.
+std::string SummaryText(const api::SolveSummary& summary) {
   std::ostringstream text;
-  text << "method: " << json.value("method", "") << " (" << json.value("method_reason", "")
-       << ")\n";
-  text << "status: " << json.value("status", "");
-  if (const std::string message = json.value("message", ""); !message.empty()) {
-    text << ": " << message;
-  }
-  text << "\nsteps: " << json.value("steps", 0) << " (" << json.value("rejected_steps", 0)
-       << " rejected, " << json.value("newton_iterations", 0) << " Newton iterations), "
-       << json.value("samples", 0) << " samples from t = " << ShortOrNone(json, "t_start")
-       << " s to " << ShortOrNone(json, "t_end") << " s\n";
-  text << "max servo residual: " << ShortOrNone(json, "max_servo_residual") << "\n";
-  if (const auto verification = json.find("verification"); verification != json.end()) {
-    text << "verification: " << (verification->value("passed", false) ? "passed" : "FAILED")
-         << ", max output error " << ShortOrNone(*verification, "max_tracking_error")
-         << " at t = " << ShortOrNone(*verification, "time_of_max_error") << " s, bound "
-         << ShortOrNone(*verification, "bound") << "\n";
+  text << "method: " << ToString(summary.method) << " (" << summary.method_reason << ")\n";
+  text << "status: " << ToString(summary.status);
+  if (!summary.message.empty()) text << ": " << summary.message;
+  text << "\nsteps: " << summary.steps << " (" << summary.rejected_steps << " rejected, "
+       << summary.newton_iterations << " Newton iterations), " << summary.samples
+       << " samples from t = " << ShortOrNone(summary.t_start) << " s to "
+       << ShortOrNone(summary.t_end) << " s\n";
+  text << "max servo residual: " << ShortOrNone(summary.max_servo_residual) << "\n";
+  if (const std::optional<api::Verification>& verification = summary.verification) {
+    text << "verification: " << (verification->passed ? "passed" : "FAILED")
+         << ", max output error " << ShortOrNone(verification->max_tracking_error)
+         << " at t = " << ShortOrNone(verification->time_of_max_error) << " s, bound "
+         << ShortOrNone(verification->bound) << "\n";
   } else {
     text << "verification: not run (--verify)\n";
   }
-  if (json.contains("pre_actuation_start")) {
-    text << "pre-actuation from t = " << ShortOrNone(json, "pre_actuation_start")
-         << " s, post-actuation to t = " << ShortOrNone(json, "post_actuation_end") << " s\n";
+  if (summary.window) {
+    text << "pre-actuation from t = " << ShortOrNone(summary.window->pre_actuation_start)
+         << " s, post-actuation to t = " << ShortOrNone(summary.window->post_actuation_end)
+         << " s\n";
   }
-  if (const auto warnings = json.find("warnings"); warnings != json.end()) {
-    for (const auto& warning : *warnings) text << "warning: " << warning.get<std::string>() << "\n";
-  }
-  text << "file: " << json.value("out", "") << "\n";
+  for (const std::string& warning : summary.warnings) text << "warning: " << warning << "\n";
+  text << "file: " << summary.out_file << "\n";
   return text.str();
+}
+
+// A time of the window, none where the JSON has null.
+std::optional<double> FiniteOrNone(double value) {
+  if (!std::isfinite(value)) return std::nullopt;
+  return value == 0.0 ? 0.0 : value;
 }
 
 // --plot DIR: the figures of these solves, one curve per method (reports/solve_figures.h).
@@ -212,25 +207,27 @@ void DrawFigures(const std::string& directory,
                          model.output_names(), solves.front()->breakpoints};
   std::vector<SolveFigureRun> runs;
   for (const api::Feedforward* feedforward : solves) {
-    const nlohmann::ordered_json json = nlohmann::ordered_json::parse(feedforward->json);
+    const api::SolveSummary& summary = feedforward->summary;
     SolveFigureRun& run = runs.emplace_back();
-    run.method = feedforward->method;
+    run.method = std::string(ToString(summary.method));
     run.t = feedforward->t;
     run.q = feedforward->q;
     run.q_dot = feedforward->q_dot;
     run.u = feedforward->u;
     run.y_d = feedforward->y_d;
-    if (feedforward->verification && !feedforward->verification->t.empty()) {
-      run.output_times = feedforward->verification->t;
-      run.output = feedforward->verification->y;
+    if (summary.verification && !summary.verification->t.empty()) {
+      run.output_times = summary.verification->t;
+      run.output = summary.verification->y;
       run.output_source = "forward simulation";
     } else {
       run.output_times = feedforward->t;
       run.output = feedforward->y;
       run.output_source = "h(q_d)";
     }
-    run.pre_actuation_start = NumberAt(json, "pre_actuation_start");
-    run.post_actuation_end = NumberAt(json, "post_actuation_end");
+    if (summary.window) {
+      run.pre_actuation_start = FiniteOrNone(summary.window->pre_actuation_start);
+      run.post_actuation_end = FiniteOrNone(summary.window->post_actuation_end);
+    }
   }
   DrawSolveFigures(directory, frame, runs);
 }
@@ -351,7 +348,7 @@ api::SolveOptions SharedSolveOptions(const SolveArguments& arguments, SolveFileF
   options.pre_actuation = arguments.pre_actuation;
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
-  options.file_format = ToString(format);
+  options.file_format = format;
   return options;
 }
 
@@ -374,7 +371,7 @@ MethodSolves SolveEachMethod(const std::vector<std::string>& methods,
   const bool several = methods.size() > 1;
   MethodSolves result;
   for (std::size_t k = 0; k < methods.size(); ++k) {
-    options.method = methods[k];
+    options.method = *SolverMethodFromString(methods[k]);  // ParseMethods checked each
     options.out_file = OutFileOf(out_file, methods, k);
     if (!several) {
       result.solves.push_back(SolveTellingFlags(model, trajectory, options));
@@ -388,7 +385,8 @@ MethodSolves SolveEachMethod(const std::vector<std::string>& methods,
       }
     }
     result.files.push_back(options.out_file);
-    const std::string label = several ? result.solves.back().method + ": " : "";
+    const std::string label =
+        several ? std::string(ToString(result.solves.back().summary.method)) + ": " : "";
     for (const std::string& note : result.solves.back().notes) {
       err << "servokit: note: " << label << note << "\n";
     }
@@ -403,16 +401,14 @@ void WriteSummaries(const std::vector<api::Feedforward>& solves,
                     std::ostream& out) {
   if (summary == "text") {
     for (std::size_t k = 0; k < solves.size(); ++k) {
-      out << (k > 0 ? "\n" : "") << SummaryText(nlohmann::ordered_json::parse(solves[k].json));
+      out << (k > 0 ? "\n" : "") << SummaryText(solves[k].summary);
     }
   } else if (!several) {
-    out << solves.front().json << "\n";
+    out << solves.front().summary.json << "\n";
   } else {
-    nlohmann::ordered_json array = nlohmann::ordered_json::array();
-    for (const api::Feedforward& solve : solves) {
-      array.push_back(nlohmann::ordered_json::parse(solve.json));
-    }
-    out << array.dump(2) << "\n";
+    std::vector<api::SolveSummary> summaries;
+    for (const api::Feedforward& solve : solves) summaries.push_back(solve.summary);
+    out << api::SolveSummariesJson(summaries) << "\n";
   }
 }
 
@@ -432,16 +428,18 @@ ExitCode ReportOutcomes(const MethodSolves& method_solves, bool several, std::os
   ExitCode status = method_solves.status;
   for (std::size_t k = 0; k < method_solves.solves.size(); ++k) {
     const api::Feedforward& feedforward = method_solves.solves[k];
-    const std::string label = several ? feedforward.method + ": " : "";
-    for (const std::string& warning : feedforward.warnings) {
+    const api::SolveSummary& summary = feedforward.summary;
+    const std::string method(ToString(summary.method));
+    const std::string label = several ? method + ": " : "";
+    for (const std::string& warning : summary.warnings) {
       err << "servokit: warning: " << label << warning << "\n";
     }
     ExitCode code = ExitCode::kSuccess;
-    if (feedforward.status == ToString(SolveStatus::kVerificationFailed)) {
-      err << "servokit: error: " << label << feedforward.message << "\n";
+    if (summary.status == SolveStatus::kVerificationFailed) {
+      err << "servokit: error: " << label << summary.message << "\n";
       code = ExitCode::kVerificationFailed;
     } else if (!feedforward.usable) {
-      err << "servokit: error: " << feedforward.method << " stopped: " << feedforward.message
+      err << "servokit: error: " << method << " stopped: " << summary.message
           << " (the rows up to there are in " << method_solves.files[k] << ")\n";
       code = ExitCode::kNoSolution;
     }

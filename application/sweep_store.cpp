@@ -21,8 +21,8 @@
 #include <system_error>
 #include <utility>
 
-#include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "base/vocabulary.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
 #include "models/errors.h"
@@ -216,12 +216,6 @@ CheckpointRecord ReadCheckpoint(const std::filesystem::path& path) {
 }
 
 // The one table of SweepFileFormat's names.
-constexpr std::pair<SweepFileFormat, std::string_view> kFormatNames[] = {
-    {SweepFileFormat::kCsv, "csv"},
-    {SweepFileFormat::kHdf5, "hdf5"},
-    {SweepFileFormat::kMat, "mat"},
-};
-
 UsageError AnotherSweep(const std::filesystem::path& directory) {
   return UsageError("--out " + directory.string() +
                     " holds another sweep (a different model, grid or options); use another " +
@@ -301,20 +295,6 @@ std::string OptionalVectorText(const std::optional<Eigen::VectorXd>& values) {
 }
 
 }  // namespace
-
-std::string_view ToString(SweepFileFormat format) {
-  for (const auto& [value, name] : kFormatNames) {
-    if (value == format) return name;
-  }
-  return "unknown";
-}
-
-std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text) {
-  for (const auto& [value, name] : kFormatNames) {
-    if (name == text) return value;
-  }
-  return std::nullopt;
-}
 
 TableEncoding TableEncodingOf(SweepFileFormat format) {
   switch (format) {

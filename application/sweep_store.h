@@ -36,6 +36,7 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
+#include "base/vocabulary.h"
 #include "models/loaded_model.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_records.h"
@@ -43,14 +44,6 @@
 
 namespace servokit {
 
-/// The files a sweep writes its tables to (`--format`).
-enum class SweepFileFormat {
-  kCsv,   // points.csv, eigenvalues.csv
-  kHdf5,  // sweep.h5
-  kMat,   // sweep.mat (MAT 5)
-};
-std::string_view ToString(SweepFileFormat format);
-std::optional<SweepFileFormat> SweepFileFormatFromString(std::string_view text);
 /// The names of the table files of `format`: "points.csv, eigenvalues.csv", "sweep.h5" or
 /// "sweep.mat" (the file's name for HDF5 and MAT).
 std::string SweepTableFileNames(SweepFileFormat format);

@@ -5,7 +5,7 @@
 # Installed layout under the prefix:
 #   bin/servokit
 #   lib/servokit/libservokit_{data_files,mpi}.so                 (plugins, reports/plugins.h)
-#   include/servokit/{servokit,errors}.h                      (the public API, nothing else)
+#   include/servokit/{servokit,errors}.h, base/vocabulary.h  (the public API, nothing else)
 #   lib/libservokit_*.a                                       (position-independent)
 #   share/servokit/models/*.yaml                              (the shipped models)
 #   lib/cmake/servokit/servokit{Config,ConfigVersion,Targets}.cmake
@@ -14,7 +14,7 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(SERVOKIT_LIBRARIES files models numerics analysis trajectories solvers reports servokit application)
+set(SERVOKIT_LIBRARIES base files models numerics analysis trajectories solvers reports servokit application)
 set(SERVOKIT_PACKAGE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/servokit)
 
 foreach(folder IN LISTS SERVOKIT_LIBRARIES)
@@ -23,6 +23,9 @@ foreach(folder IN LISTS SERVOKIT_LIBRARIES)
 endforeach()
 install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h ${PROJECT_SOURCE_DIR}/servokit/errors.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit)
+# The vocabulary the API exports; servokit.h includes it as "base/vocabulary.h", found beside it.
+install(FILES ${PROJECT_SOURCE_DIR}/base/vocabulary.h
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit/base)
 list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
 install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

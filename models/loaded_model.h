@@ -12,13 +12,13 @@
 #include <variant>
 #include <vector>
 
+#include "base/vocabulary.h"
 #include "models/linear_model.h"
 #include "models/model.h"
 
 namespace servokit {
 
 /// The kinds of model file, by their `kind` value.
-enum class ModelKind { kMultibody, kLinear };
 
 /// A model of either kind, as read from a model file. Immutable and thread-shareable, as the
 /// model it holds.

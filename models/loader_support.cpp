@@ -442,14 +442,16 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
     const auto found = std::find(parameter_names.begin(), parameter_names.end(), override_.name);
     if (found == parameter_names.end()) {
       throw ParameterOverrideError(
-          override_, "unknown parameter '" + override_.name + "' (" +
-                         (parameter_names.empty() ? std::string("the model has no parameters")
-                                                  : "known: " + Join(parameter_names)) +
-                         ")");
+          override_.name, override_.value,
+          "unknown parameter '" + override_.name + "' (" +
+              (parameter_names.empty() ? std::string("the model has no parameters")
+                                       : "known: " + Join(parameter_names)) +
+              ")");
     }
     const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(override_.value);
     if (!value) {
-      throw ParameterOverrideError(override_, "not a number " + std::string(kQuantityHint));
+      throw ParameterOverrideError(override_.name, override_.value,
+                                   "not a number " + std::string(kQuantityHint));
     }
     const auto index = static_cast<std::size_t>(found - parameter_names.begin());
     parameters[static_cast<Eigen::Index>(index)] = value->value;

@@ -60,24 +60,6 @@ struct ParameterOverride {
   std::string value;
 };
 
-/// A parameter override the model cannot take: an unknown name or a value that is not a number.
-/// what() is "parameter override <name>=<value>: <problem>"; parameter_override() and problem()
-/// let an application say it in its own words (servokit: "--set <name>=<value>: <problem>").
-class ParameterOverrideError : public UsageError {
- public:
-  ParameterOverrideError(ParameterOverride parameter_override, const std::string& problem)
-      : UsageError("parameter override " + parameter_override.name + "=" +
-                   parameter_override.value + ": " + problem),
-        parameter_override_(std::move(parameter_override)),
-        problem_(problem) {}
-  const ParameterOverride& parameter_override() const { return parameter_override_; }
-  const std::string& problem() const { return problem_; }
-
- private:
-  ParameterOverride parameter_override_;
-  std::string problem_;
-};
-
 /// An immutable, thread-shareable model: names, nominal parameters (SI), the symbolic
 /// expressions and their compiled evaluators.
 class Model {

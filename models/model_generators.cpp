@@ -24,12 +24,6 @@ constexpr long kMaxElements = (kMaxMatrixDimension - 1) / 2;
 constexpr const char* kFinitePositive = "must be a finite number > 0";
 constexpr const char* kFiniteNonNegative = "must be a finite number >= 0";
 
-constexpr std::pair<ChainOutputWeights, std::string_view> kOutputWeightNames[] = {
-    {ChainOutputWeights::kMass, "mass"},
-    {ChainOutputWeights::kLinear, "linear"},
-    {ChainOutputWeights::kUniform, "uniform"},
-};
-
 SparseMatrix FromTriplets(long rows, long cols, const std::vector<Triplet>& triplets) {
   SparseMatrix matrix(rows, cols);
   matrix.setFromTriplets(triplets.begin(), triplets.end());  // sums the elements' overlaps
@@ -162,20 +156,6 @@ std::string ChainOutputText(const ChainOptions& options) {
 }
 
 }  // namespace
-
-std::string_view ToString(ChainOutputWeights weights) {
-  for (const auto& [key, name] : kOutputWeightNames) {
-    if (key == weights) return name;
-  }
-  return "mass";
-}
-
-std::optional<ChainOutputWeights> ChainOutputWeightsFromString(std::string_view text) {
-  for (const auto& [key, name] : kOutputWeightNames) {
-    if (name == text) return key;
-  }
-  return std::nullopt;
-}
 
 void ChainOptions::Validate() const {
   constexpr const char* kOptions = "ChainOptions";

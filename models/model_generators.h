@@ -4,18 +4,10 @@
 #include <optional>
 #include <string_view>
 
+#include "base/vocabulary.h"
 #include "models/linear_model.h"
 
 namespace servokit {
-
-/// The chain's output y = C q, one row C.
-enum class ChainOutputWeights {
-  kMass,     // y = q_j, the position of ChainOptions::output_mass = j (C has one entry)
-  kLinear,   // y = sum_i (i / N) q_i: every mass, weighted by its place (a dense row of C)
-  kUniform,  // y = sum_i q_i / N: the mean position, the centre of mass (a dense row of C)
-};
-std::string_view ToString(ChainOutputWeights weights);  // "mass", "linear", "uniform"
-std::optional<ChainOutputWeights> ChainOutputWeightsFromString(std::string_view text);
 
 /// A chain of N equal masses m: the ground, a spring k with a damper d in parallel, mass 1,
 /// spring and damper, mass 2, ..., mass N (free end). A force on `input_mass` is the input; the

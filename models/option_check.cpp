@@ -4,18 +4,7 @@
 #include <cmath>
 
 namespace servokit {
-namespace {
-
-std::string OptionMessage(std::string_view owner,
-                          std::string_view field,
-                          std::string_view value,
-                          std::string_view rule) {
-  std::string message(owner);
-  message.append("::").append(field).append(" = ").append(value).append(": ").append(rule);
-  return message;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 std::string FormatNumber(double value) {
   if (std::isnan(value)) return "nan";
@@ -32,11 +21,5 @@ std::string OptionValueText(const Eigen::VectorXd& values) {
   }
   return text + "]";
 }
-
-OptionError::OptionError(std::string_view owner,
-                         std::string_view field,
-                         std::string_view value,
-                         std::string_view rule)
-    : UsageError(OptionMessage(owner, field, value, rule)), owner_(owner), field_(field) {}
 
 }  // namespace servokit

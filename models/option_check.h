@@ -19,20 +19,6 @@ std::string FormatNumber(double value);
 
 /// An option that breaks its rule. what() is "<owner>::<field> = <value>: <rule>"; owner() and
 /// field() let an application name its own option (a command-line flag) for the field.
-class OptionError : public UsageError {
- public:
-  OptionError(std::string_view owner,
-              std::string_view field,
-              std::string_view value,
-              std::string_view rule);
-  const std::string& owner() const { return owner_; }
-  const std::string& field() const { return field_; }
-
- private:
-  std::string owner_;
-  std::string field_;
-};
-
 /// A vector of values as an option message writes it, each by FormatNumber: "[1, 0.25]".
 std::string OptionValueText(const Eigen::VectorXd& values);
 

@@ -152,29 +152,7 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
   return rows;
 }
 
-namespace {
-
-constexpr std::pair<ReportFormat, std::string_view> kReportFormatNames[] = {
-    {ReportFormat::kText, "text"},
-    {ReportFormat::kJson, "json"},
-    {ReportFormat::kMarkdown, "md"},
-};
-
-}  // namespace
-
-std::string_view ToString(ReportFormat format) {
-  for (const auto& [key, name] : kReportFormatNames) {
-    if (key == format) return name;
-  }
-  return "text";
-}
-
-std::optional<ReportFormat> ReportFormatFromString(std::string_view text) {
-  for (const auto& [key, name] : kReportFormatNames) {
-    if (name == text) return key;
-  }
-  return std::nullopt;
-}
+namespace {}  // namespace
 
 namespace {
 

@@ -9,14 +9,11 @@
 
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
+#include "base/vocabulary.h"
 #include "models/linear_model.h"
 #include "models/model.h"
 
 namespace servokit {
-
-enum class ReportFormat { kText, kJson, kMarkdown };
-std::string_view ToString(ReportFormat format);  // "text", "json", "md"
-std::optional<ReportFormat> ReportFormatFromString(std::string_view text);
 
 /// The analyze object (docs/analyze.md, "Synopsis and options": `--format json`), plus explanatory
 /// extras: coordinates, infinite_zero_orders, decoupling_matrix_regular, P_rank_threshold,

@@ -1,6 +1,6 @@
 // The front of the data-files plugin (reports/data_files_plugin.h): loads it on first use and
 // hands it what it needs as plain data, so that it links none of the analysis.
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "reports/data_files_plugin.h"
 #include "reports/plugins.h"
 #include "reports/sweep_tables.h"

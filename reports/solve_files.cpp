@@ -26,12 +26,6 @@ nlohmann::ordered_json NumberOrNull(double value) {
 }
 
 // The formats' names (--format, SolveOptions::file_format), one table both ways.
-constexpr std::array<std::pair<SolveFileFormat, std::string_view>, 3> kSolveFileFormatNames{{
-    {SolveFileFormat::kCsv, "csv"},
-    {SolveFileFormat::kMat, "mat"},
-    {SolveFileFormat::kModelica, "modelica"},
-}};
-
 // The name of the MAT file's summary struct and of the Modelica table (docs/solve.md, "The file:
 // CSV, MAT or a Modelica table").
 constexpr const char* kMatSummaryName = "solve";
@@ -70,20 +64,6 @@ void WriteAndRename(const std::string& path, WriteText write_text) {
 }
 
 }  // namespace
-
-std::string_view ToString(SolveFileFormat format) {
-  for (const auto& [key, name] : kSolveFileFormatNames) {
-    if (key == format) return name;
-  }
-  return "unknown";
-}
-
-std::optional<SolveFileFormat> SolveFileFormatFromString(std::string_view text) {
-  for (const auto& [key, name] : kSolveFileFormatNames) {
-    if (name == text) return key;
-  }
-  return std::nullopt;
-}
 
 SolveFileFormat SolveFileFormatOfName(const std::string& path) {
   return LowerCaseExtension(path) == ".mat" ? SolveFileFormat::kMat : SolveFileFormat::kCsv;

@@ -8,22 +8,13 @@
 #include <vector>
 
 #include "analysis/classification.h"
+#include "base/vocabulary.h"
 #include "models/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/verification.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {
-
-/// The formats of a solve's file.
-enum class SolveFileFormat {
-  kCsv,       // "csv": every column, one row per sample (the default)
-  kMat,       // "mat": MAT v5, one double column vector per CSV column and a struct `solve`
-  kModelica,  // "modelica": CombiTimeTable text of t and the inputs, the table `u_d`
-};
-
-std::string_view ToString(SolveFileFormat format);
-std::optional<SolveFileFormat> SolveFileFormatFromString(std::string_view text);
 
 /// The format a file name asks for when none is given: a name ending in .mat (any case) is a MAT
 /// file, any other CSV (what every name meant before there were formats).

@@ -15,8 +15,8 @@
 #include <string_view>
 #include <utility>
 
-#include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "base/vocabulary.h"
 #include "models/errors.h"
 
 namespace servokit {

@@ -8,8 +8,8 @@
 #include <initializer_list>
 
 #include "analysis/sweep.h"
-#include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
+#include "base/vocabulary.h"
 #include "models/errors.h"
 #include "reports/number_format.h"
 #include "reports/sweep_records.h"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Byte-identical outputs, before and after a change that must not change behaviour (issue #16):
 # runs the same commands (analyze, sweep, threshold, solve, report, generate) on the shipped
-# models with two servokit executables and compares what each prints on stdout and every file
-# it writes, byte for byte. Exits 0 when all agree, 1 naming each difference.
+# models with two servokit executables and compares what each prints on stdout and stderr,
+# its exit status and every file it writes, byte for byte. Exits 0 when all agree, 1 naming
+# each difference.
 #   scripts/compare-outputs.sh OLD_SERVOKIT NEW_SERVOKIT
 # e.g. build the commit before the change into another folder and compare with this build:
 #   git worktree add /tmp/before <commit> && make -C /tmp/before build
@@ -55,6 +56,14 @@ commands() {
   echo "solve $models/gantry_crane.yaml --trajectory rest-to-rest --y0 0,2 --yf 1,2 --t0 0 --tf 3 --t-end 4 --sample-time 0.01 --verify --out OUT/crane.csv"
   echo "solve $models/mass_spring_chain.yaml --trajectory rest-to-rest --y0 0 --yf 1 --t0 0 --tf 5 --t-end 6 --verify --out OUT/chain.csv"
   echo "solve $data/three_mass_chain_unstable_output.yaml --trajectory rest-to-rest --y0 0 --yf 1 --t0 0 --tf 4 --t-end 5 --verify --out OUT/tangential.csv"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 $rest --method radau,bdf --verify --summary text --out OUT/overlay.csv"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 $rest --method bdf,radau --out OUT/overlay-json.csv"
+  echo "solve $models/rotational_arm.yaml --set s=1 --trajectory rest-to-rest --y0 0 --yf 270deg --t0 1 --tf 3 --t-end 4 --method stable-inversion --verify --summary text --out OUT/arm-text.csv"
+  echo "solve $models/rotational_arm.yaml --set s=1 --trajectory rest-to-rest --y0 0 --yf 1 --t0 1 --tf 3 --t-end 4 --method normal-form --out OUT/refused.csv"
+  echo "analyze $models/mass_on_car.yaml --set nope=1"
+  echo "analyze GEN/chain/chain_300.yaml --which leftmost"
+  echo "analyze GEN/chain/chain_300.yaml --eigenvalues 0"
+  echo "analyze $models/mass_on_car.yaml --rank-tolerance 2"
   echo "report paper --out OUT/paper --models $models"
 }
 
@@ -88,10 +97,12 @@ while read -r line; do
   # The report's timings and the sweep's record of how long it ran are not results.
   if ! diff -r -q -x 'timing*' "$work/old/$id" "$work/new/$id" >/dev/null ||
      ! cmp -s "$work/old/$id.stdout" "$work/new/$id.stdout" ||
+     ! cmp -s "$work/old/$id.stderr" "$work/new/$id.stderr" ||
      ! cmp -s "$work/old/$id.status" "$work/new/$id.status"; then
     echo "DIFFERS: servokit $line"
     diff -r "$work/old/$id" "$work/new/$id" | head -5
     diff "$work/old/$id.stdout" "$work/new/$id.stdout" | head -5
+    diff "$work/old/$id.stderr" "$work/new/$id.stderr" | head -5
     status=1
   fi
   if [ "$(cat "$work/old/$id.status")" != 0 ]; then

@@ -15,13 +15,15 @@ template <typename ZeroDynamicsResult>
 ZeroDynamics ToZeroDynamics(const ZeroDynamicsResult& result) {
   ZeroDynamics zero_dynamics;
   zero_dynamics.eigenvalues = result.eigenvalues;
-  zero_dynamics.stability = std::string(ToString(result.stability));
+  zero_dynamics.stability = result.stability;
   zero_dynamics.minimum_phase = result.minimum_phase;
   for (const Mode& mode : result.modes) {
     zero_dynamics.modes.push_back({mode.frequency_hz, mode.damping_ratio});
   }
   return zero_dynamics;
 }
+
+}  // namespace
 
 Analysis FromClassification(const servokit::Model& model,
                             const Classification& classification,
@@ -32,19 +34,21 @@ Analysis FromClassification(const servokit::Model& model,
   analysis.y = classification.operating_point.y;
   analysis.P = classification.decoupling.decoupling_matrix;
   analysis.P_rank = int(classification.decoupling.rank);
-  analysis.realization = std::string(ToString(classification.decoupling.realization));
+  analysis.realization = classification.decoupling.realization;
   analysis.relative_degree = classification.structure.relative_degree;
   analysis.differentiation_index = classification.structure.differentiation_index;
   analysis.projected_index = classification.structure.projected_index;
   analysis.internal_dynamics_order = classification.structure.internal_dynamics_order;
   analysis.flat = classification.flat;
   analysis.zero_dynamics = ToZeroDynamics(classification.zero_dynamics);
-  analysis.recommended_solver = std::string(ToString(classification.recommended_solver));
+  analysis.recommended_solver = classification.recommended_solver;
   analysis.text = FormatClassification(model, classification, options, ReportFormat::kText);
   analysis.json = FormatClassification(model, classification, options, ReportFormat::kJson);
   analysis.markdown = FormatClassification(model, classification, options, ReportFormat::kMarkdown);
   return analysis;
 }
+
+namespace {
 
 Analysis FromLinearAnalysis(const LinearModel& model,
                             const LinearAnalysis& result,
@@ -53,8 +57,9 @@ Analysis FromLinearAnalysis(const LinearModel& model,
   analysis.q = Eigen::VectorXd::Zero(Eigen::Index(model.dof()));
   analysis.u = Eigen::VectorXd::Zero(Eigen::Index(model.num_inputs()));
   analysis.y = Eigen::VectorXd::Zero(Eigen::Index(model.num_outputs()));
+  analysis.P = result.decoupling.decoupling_matrix;
   analysis.P_rank = int(result.decoupling.rank);
-  analysis.realization = std::string(ToString(result.decoupling.realization));
+  analysis.realization = result.decoupling.realization;
   if (result.relative_degrees.determined) {
     analysis.relative_degree = result.relative_degrees.relative_degree;
     analysis.differentiation_index = result.differentiation_index;
@@ -66,7 +71,7 @@ Analysis FromLinearAnalysis(const LinearModel& model,
   analysis.internal_dynamics_order = int(result.internal_dynamics_order);
   analysis.flat = result.flat;
   analysis.zero_dynamics = ToZeroDynamics(result.zero_dynamics);
-  analysis.recommended_solver = std::string(ToString(result.recommended_solver));
+  analysis.recommended_solver = result.recommended_solver;
   analysis.text = FormatLinearAnalysis(model, result, options, ReportFormat::kText);
   analysis.json = FormatLinearAnalysis(model, result, options, ReportFormat::kJson);
   analysis.markdown = FormatLinearAnalysis(model, result, options, ReportFormat::kMarkdown);
@@ -95,14 +100,8 @@ LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options) {
   linear.zero_dynamics.imaginary_axis_tolerance = options.imaginary_axis_tolerance;
   linear.zero_dynamics.arpack.eigenvalues = options.eigenvalues;
   linear.zero_dynamics.shift = options.shift;
-  const auto solver = LinearEigenSolverFromString(options.eigen_solver);
-  RequireOption(solver.has_value(), kOwner, "eigen_solver", options.eigen_solver,
-                "expected auto, dense or arpack");
-  linear.zero_dynamics.solver = *solver;
-  const auto target = EigenvalueTargetFromString(options.which);
-  RequireOption(target.has_value(), kOwner, "which", options.which,
-                "expected nearest or rightmost");
-  linear.zero_dynamics.target = *target;
+  linear.zero_dynamics.solver = options.eigen_solver;
+  linear.zero_dynamics.target = options.which;
   linear.Validate();
   return linear;
 }

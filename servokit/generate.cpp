@@ -29,13 +29,7 @@ std::string Generate(const ChainModel& chain,
   options.damping = chain.damping;
   options.input_mass = chain.input_mass;
   options.output_mass = chain.output_mass;
-  const std::optional<ChainOutputWeights> weights =
-      ChainOutputWeightsFromString(chain.output_weights);
-  if (!weights) {
-    throw UsageError("output_weights '" + chain.output_weights +
-                     "': expected mass, linear or uniform");
-  }
-  options.output_weights = *weights;
+  options.output_weights = chain.output_weights;
   return Write(GenerateChain(options), directory, name);
 }
 

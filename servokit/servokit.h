@@ -5,7 +5,8 @@
 //   namespace sk = servokit::api;
 //   const sk::Model model = sk::Model::FromFile("mass_on_car.yaml", {{"alpha", "5 deg"}});
 //   const sk::Analysis analysis = sk::Analyze(model);
-//   // analysis.realization == "non-ideal-orthogonal", analysis.zero_dynamics.eigenvalues ...
+//   // analysis.realization == sk::Realization::kNonIdealOrthogonal,
+//   // analysis.zero_dynamics.eigenvalues ...
 //
 // Everything the `servokit` command does is here, in the toolkit's own words: load a model (a
 // file or a string, either kind), analyze it at an operating point, sweep parameters (in memory
@@ -31,19 +32,46 @@
 #include <utility>
 #include <vector>
 
+#include "base/vocabulary.h"
 #include "servokit/errors.h"
 
 namespace servokit::api {
+
+// ---- the toolkit's named classes (base/vocabulary.h) ----------------------------------------
+// Each is an enum with one table of its words: ToString(value) gives the word the docs and the
+// files use ("non-ideal-orthogonal", "radau", "converged"), <Enum>FromString(word) the value
+// (nullopt for a word that names none).
+using servokit::ChainOutputWeights;
+using servokit::ChainOutputWeightsFromString;
+using servokit::EigenvalueTarget;
+using servokit::EigenvalueTargetFromString;
+using servokit::LinearEigenSolver;
+using servokit::LinearEigenSolverFromString;
+using servokit::ModelKind;
+using servokit::ModelKindFromString;
+using servokit::Realization;
+using servokit::RealizationFromString;
+using servokit::ReportFormat;
+using servokit::ReportFormatFromString;
+using servokit::SolveFileFormat;
+using servokit::SolveFileFormatFromString;
+using servokit::SolverMethod;
+using servokit::SolverMethodFromString;
+using servokit::SolveStatus;
+using servokit::SolveStatusFromString;
+using servokit::Stability;
+using servokit::StabilityFromString;
+using servokit::SweepFileFormat;
+using servokit::SweepFileFormatFromString;
+using servokit::ThresholdEvent;
+using servokit::ThresholdEventFromString;
+using servokit::ToString;
 
 // ---- models ---------------------------------------------------------------------------------
 
 /// Parameter values that replace a model file's own: (name, value), where the value is a number
 /// in SI units or "<number> deg" (converted to radians), as in the model file.
 using ParameterValues = std::vector<std::pair<std::string, std::string>>;
-
-/// A model file's kind: a multibody model (M(q) q'' + f = B u, y = h(q), with expressions) or a
-/// large linear one (`kind: linear`, sparse matrices from Matrix Market files).
-enum class ModelKind { kMultibody, kLinear };
 
 /// A loaded model, either kind: immutable, cheap to copy (copies share it) and safe to use from
 /// several threads at once.
@@ -104,13 +132,13 @@ struct AnalyzeOptions {
   // along the motion, dynamic extension), as `servokit analyze` does; it costs a symbolic
   // derivation per call, which sweeps skip (and which runs one thread at a time).
   bool nonlinear_structure = true;
-  // Linear models: "auto" (dense up to 200 coordinates, ARPACK above), "dense" or "arpack";
-  // how many zeros ARPACK computes; its real shift (1/s); which zeros, "nearest" the shift or
-  // "rightmost".
-  std::string eigen_solver = "auto";
+  // Linear models: the eigensolver (auto: dense up to 200 coordinates, ARPACK above); how many
+  // zeros ARPACK computes; its real shift (1/s); which zeros, those nearest the shift or the
+  // rightmost.
+  LinearEigenSolver eigen_solver = LinearEigenSolver::kAuto;
   int eigenvalues = 10;
   double shift = 0.0;
-  std::string which = "nearest";
+  EigenvalueTarget which = EigenvalueTarget::kNearest;
 };
 
 /// One lightly damped or undamped mode of the zero dynamics.
@@ -122,9 +150,9 @@ struct OscillatoryMode {
 /// The zero dynamics at the operating point (paper Eq. 48).
 struct ZeroDynamics {
   std::vector<std::complex<double>> eigenvalues;
-  // "asymptotically-stable", "unstable", "critical", "none" (no zero dynamics) or, for a large
-  // linear model only, "undetermined" (the precision does not decide an eigenvalue's side).
-  std::string stability;
+  // kNone: no zero dynamics; kUndetermined (a large linear model only): the precision does not
+  // decide an eigenvalue's side.
+  Stability stability = Stability::kNone;
   bool minimum_phase = false;
   std::vector<OscillatoryMode> modes;
 };
@@ -133,17 +161,16 @@ struct ZeroDynamics {
 /// the keys of `analyze --format json`), and the three reports `servokit analyze` prints.
 struct Analysis {
   Eigen::VectorXd q, u, y;  // the operating point
-  Eigen::MatrixXd P;        // H M^-1 B (paper Eq. 10); empty for a linear model
+  Eigen::MatrixXd P;        // H M^-1 B (paper Eq. 10); C M^-1 B for a linear model
   int P_rank = 0;
-  // "ideal-orthogonal", "non-ideal-orthogonal", "tangential" or "mixed-orthogonal-tangential".
-  std::string realization;
+  Realization realization = Realization::kIdealOrthogonal;
   std::vector<int> relative_degree;  // one per output; empty when not determined
   int differentiation_index = 0;     // of the DAE (8)-(9); -1 when not determined
   int projected_index = 0;           // of the projected DAE (15)-(18); -1 when not determined
   int internal_dynamics_order = 0;   // first-order dimension; -1 when not determined
   bool flat = false;
   ZeroDynamics zero_dynamics;
-  std::string recommended_solver;  // empty for a linear model
+  SolverMethod recommended_solver = SolverMethod::kAuto;
   // The same bytes as `servokit analyze --format text|json|md`.
   std::string text, json, markdown;
 };
@@ -175,14 +202,14 @@ struct SweepPoint {
   // The same in the unit each parameter is shown in (SweepTableColumns): degrees for a parameter
   // given in degrees (the shortest value that converts back exactly, so "5 deg" gives 5).
   std::vector<double> parameter_display_values;
-  bool solved = false;  // false: `error` says why this point has no answer
-  std::string error;
-  std::string realization;
+  bool solved = false;  // false: `error` says why this point has no answer, and the class
+  std::string error;    // fields below are their defaults
+  Realization realization = Realization::kIdealOrthogonal;
   int P_rank = 0;
   std::vector<int> relative_degree;
   int differentiation_index = 0;
   int internal_dynamics_order = 0;
-  std::string stability;
+  Stability stability = Stability::kNone;
   std::vector<std::complex<double>> eigenvalues;
   // The largest real part of `eigenvalues`, NaN when there are none (points.csv's
   // max_real_part), and the frequency and damping ratio of each eigenvalue, in their order
@@ -221,8 +248,7 @@ std::size_t SweepToFiles(const Model& model,
 struct ThresholdQuery {
   std::string parameter;
   double low = 0.0, high = 0.0;  // SI units
-  // "stability", "oscillation", "realization" or "structure" (relative degree, index).
-  std::string event = "stability";
+  ThresholdEvent event = ThresholdEvent::kStability;
   AnalyzeOptions analysis;  // the tolerances of each classification
 };
 
@@ -273,9 +299,7 @@ struct OutputTrajectory {
 
 /// How to solve (defaults: those of `servokit solve`; an unset value is the method's default).
 struct SolveOptions {
-  // "auto", "algebraic", "euler", "radau", "bdf", "normal-form", "stable-inversion" or
-  // "linearized".
-  std::string method = "auto";
+  SolverMethod method = SolverMethod::kAuto;
   bool force = false;  // integrate unstable internal dynamics forward anyway
   std::optional<double> t_start;
   double t_end = 0.0;
@@ -287,32 +311,77 @@ struct SolveOptions {
   // ...), and `json` names it. Written also when the solve stops early or
   // fails its check, with the rows up to where it stopped.
   std::string out_file;
-  // The format of out_file: "csv", "mat" (MAT v5 for MATLAB and scipy.io.loadmat: a column
-  // vector per CSV column and the struct `solve` of the summary) or "modelica" (the
-  // CombiTimeTable `u_d` of t and the inputs). Empty: from the name, "mat" for a name ending
-  // in .mat, else "csv". A name of the other format's ending (.mat for CSV or Modelica, .csv
-  // for Modelica, anything but .mat for MAT) is a UsageError, as is a model whose columns are
-  // not MATLAB names for "mat"; both are checked before solving.
-  std::string file_format;
+  // The format of out_file: CSV, MAT (v5, for MATLAB and scipy.io.loadmat: a column vector per
+  // CSV column and the struct `solve` of the summary) or Modelica (the CombiTimeTable `u_d` of
+  // t and the inputs). Unset: from the name, MAT for a name ending in .mat, else CSV. A name of
+  // the other format's ending (.mat for CSV or Modelica, .csv for Modelica, anything but .mat
+  // for MAT) is a UsageError, as is a model whose columns are not MATLAB names for MAT; both
+  // are checked before solving.
+  std::optional<SolveFileFormat> file_format;
 };
 
-/// The forward check of a solve.
+/// The forward check of a solve (docs/solve.md, "--verify"): u_d drives the model from the
+/// solution's start, and its output must stay within `bound` of y_d.
 struct Verification {
-  double max_tracking_error = 0.0;
-  double bound = 0.0;
   bool passed = false;
+  double max_tracking_error = 0.0;
+  double time_of_max_error = std::numeric_limits<double>::quiet_NaN();
+  double bound = 0.0;
+  std::string bound_rule;  // how the bound follows from the solve's tolerances
+  // How the forward runs went: one run, or restarts from the solution's state at the start of
+  // each of `segments` segments (an unstable plant).
+  int segments = 1;
+  SolveStatus status = SolveStatus::kConverged;
+  std::string message;
+  long steps = 0;
   // The forward runs' output h(q) at each of their steps (rows of y: times; columns: outputs);
   // where the check restarts on an unstable plant, a segment's first time repeats the last.
   std::vector<double> t;
   Eigen::MatrixXd y;
 };
 
+/// Stable inversion's window (paper Sect. 5.3): where the feedforward starts before the motion
+/// (pre-actuation) and ends after it (post-actuation).
+struct ActuationWindow {
+  double start = 0.0, end = 0.0;  // the span the boundary value problem was solved on
+  double pre_actuation_start = 0.0, post_actuation_end = 0.0;
+  int widenings = 0;                     // how often the window was widened to converge
+  double boundary_value_residual = 0.0;  // of the collocation solution
+  long mesh_points = 0;
+};
+
+/// How a solve went (style: Ceres' Solver::Summary): what `servokit solve` prints, as values.
+struct SolveSummary {
+  SolverMethod method = SolverMethod::kAuto;  // the method that ran
+  std::string method_reason;                  // why it was chosen
+  // kConverged, or why the solve stopped (kVerificationFailed: it converged but failed its
+  // forward check, so its answer is not within its tolerances).
+  SolveStatus status = SolveStatus::kIntegratorFailure;
+  std::string message;
+  double stop_time = std::numeric_limits<double>::quiet_NaN();
+  double t_start = std::numeric_limits<double>::quiet_NaN();
+  double t_end = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> sample_time;
+  double rtol = std::numeric_limits<double>::quiet_NaN();
+  double atol = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> step;
+  long steps = 0, rejected_steps = 0, newton_iterations = 0, function_evaluations = 0;
+  std::size_t samples = 0;
+  double max_servo_residual = std::numeric_limits<double>::quiet_NaN();
+  std::optional<ActuationWindow> window;  // stable inversion only
+  std::string trajectory_note;            // how y_d was made smooth enough, when it was
+  Analysis classification;                // at the operating point the solve started from
+  std::optional<Verification> verification;
+  std::vector<std::string> warnings;
+  std::string out_file;  // the feedforward's file, empty when none was written
+  // These values (and a few more: each tolerance's source, the verification's start state) as
+  // the JSON object `servokit solve` prints (docs/solve.md).
+  std::string json;
+};
+
 /// The feedforward u_d(t) and motion q_d(t): one row per time.
 struct Feedforward {
-  std::string method;  // the method that ran
-  // "converged", or why the solve stopped ("no-convergence", "verification-failed", ...).
-  std::string status;
-  std::string message;
+  SolveSummary summary;
   bool usable = false;  // converged, and passed the check when one was asked for
   std::vector<double> t;
   Eigen::MatrixXd q, q_dot, u, y_d;  // rows: times; columns: coordinates, inputs, outputs
@@ -320,12 +389,11 @@ struct Feedforward {
   // Where the desired output's motion starts and ends (the trajectory's breakpoints: t0 and tf
   // of rest-to-rest, each waypoint, the first and last sample), increasing.
   std::vector<double> breakpoints;
-  std::optional<Verification> verification;
-  std::vector<std::string> warnings;
   std::vector<std::string> notes;
-  // The object `servokit solve` prints.
-  std::string json;
 };
+
+/// The JSON array `servokit solve --method a,b` prints: each summary's object, in order.
+std::string SolveSummariesJson(const std::vector<SolveSummary>& summaries);
 
 /// Solves the inverse model of `model` (multibody) for `trajectory`. Throws UsageError for bad
 /// options, NoSolution when the method refuses the problem; a solve that stops early returns
@@ -345,9 +413,9 @@ struct ChainModel {
   double damping = 0.01;   // N s/m
   long input_mass = 1;     // 1..masses
   long output_mass = 1;    // 1..masses (only with output_weights "mass")
-  // The output y: "mass" (the position of output_mass), "linear" (sum of (i/N) q_i over every
-  // mass) or "uniform" (the mean position, sum of q_i / N); Generate throws UsageError otherwise.
-  std::string output_weights = "mass";
+  // The output y: the position of output_mass, sum of (i/N) q_i over every mass (kLinear) or
+  // the mean position, sum of q_i / N (kUniform).
+  ChainOutputWeights output_weights = ChainOutputWeights::kMass;
 };
 
 /// A hub-driven Euler-Bernoulli beam in finite elements, tip position as output.

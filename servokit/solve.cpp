@@ -2,6 +2,8 @@
 // request: trajectory, classification, inverse model, forward check and the files of a solve.
 #include <algorithm>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <vector>
 
 #include "analysis/classification.h"
@@ -129,12 +131,8 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
 }
 
 InverseModelOptions ToInverseModelOptions(const SolveOptions& options) {
-  const std::optional<SolverMethod> method = SolverMethodFromString(options.method);
-  RequireOption(method.has_value(), "SolveOptions", "method", options.method,
-                "expected auto, algebraic, euler, radau, bdf, normal-form, stable-inversion or "
-                "linearized");
   InverseModelOptions inverse;
-  inverse.method = *method;
+  inverse.method = options.method;
   inverse.force = options.force;
   inverse.t_start = options.t_start;
   inverse.t_end = options.t_end;
@@ -158,21 +156,72 @@ Eigen::MatrixXd Rows(const std::vector<Eigen::VectorXd>& values, std::size_t col
 // The format of options.out_file, checked against its name and, for MAT, the model's columns
 // (before any work: a solve whose answer cannot be written is wasted).
 SolveFileFormat ChooseFileFormat(const servokit::Model& model, const SolveOptions& options) {
-  std::optional<SolveFileFormat> format = SolveFileFormatFromString(options.file_format);
-  RequireOption(options.file_format.empty() || format.has_value(), "SolveOptions", "file_format",
-                options.file_format, "expected csv, mat or modelica (or empty: from out_file)");
-  if (options.out_file.empty()) return format.value_or(SolveFileFormat::kCsv);
-  if (!format) format = SolveFileFormatOfName(options.out_file);
-  if (const std::optional<std::string> problem = SolveFileNameProblem(options.out_file, *format)) {
-    throw UsageError("SolveOptions::file_format = " + options.file_format +
-                     ", out_file = " + options.out_file + ": " + *problem);
+  if (options.out_file.empty()) return options.file_format.value_or(SolveFileFormat::kCsv);
+  const SolveFileFormat format =
+      options.file_format.value_or(SolveFileFormatOfName(options.out_file));
+  if (const std::optional<std::string> problem = SolveFileNameProblem(options.out_file, format)) {
+    throw UsageError(
+        "SolveOptions::file_format = " + std::string(options.file_format ? ToString(format) : "") +
+        ", out_file = " + options.out_file + ": " + *problem);
   }
-  if (*format == SolveFileFormat::kMat) {
+  if (format == SolveFileFormat::kMat) {
     if (const std::optional<std::string> problem = MatColumnsProblem(model)) {
       throw UsageError(options.out_file + ": " + *problem);
     }
   }
-  return *format;
+  return format;
+}
+
+// The API's view of the forward check.
+Verification FromVerification(const servokit::Verification& verification, std::size_t outputs) {
+  Verification result;
+  result.passed = verification.passed;
+  result.max_tracking_error = verification.max_tracking_error;
+  result.time_of_max_error = verification.time_of_max_error;
+  result.bound = verification.bound;
+  result.bound_rule = verification.bound_rule;
+  result.segments = verification.segments;
+  result.status = verification.summary.status;
+  result.message = verification.summary.message;
+  result.steps = verification.summary.steps;
+  result.t = verification.output_times;
+  result.y = Rows(verification.outputs, outputs);
+  return result;
+}
+
+// The summary's values of the solve itself (the verification and the file come after it).
+SolveSummary FromSolution(const FeedforwardSolution& solution, std::string trajectory_note) {
+  SolveSummary summary;
+  summary.method = solution.method;
+  summary.method_reason = solution.method_reason;
+  summary.status = solution.summary.status;
+  summary.message = solution.summary.message;
+  summary.stop_time = solution.summary.stop_time;
+  summary.t_start = solution.t_start;
+  summary.t_end = solution.t_end;
+  summary.sample_time = solution.sample_time;
+  summary.rtol = solution.accuracy.rtol;
+  summary.atol = solution.accuracy.atol;
+  summary.step = solution.accuracy.step;
+  summary.steps = solution.summary.steps;
+  summary.rejected_steps = solution.summary.rejected_steps;
+  summary.newton_iterations = solution.summary.newton_iterations;
+  summary.function_evaluations = solution.summary.function_evaluations;
+  summary.samples = solution.times.size();
+  summary.max_servo_residual = solution.max_servo_residual;
+  if (solution.window) {
+    const StableInversionWindow& window = *solution.window;
+    summary.window = ActuationWindow{window.start,
+                                     window.end,
+                                     window.pre_actuation_start,
+                                     window.post_actuation_end,
+                                     window.widenings,
+                                     window.boundary_value_residual,
+                                     long(window.mesh_points)};
+  }
+  summary.trajectory_note = std::move(trajectory_note);
+  summary.warnings = solution.warnings;
+  return summary;
 }
 
 }  // namespace
@@ -206,35 +255,33 @@ Feedforward Solve(const Model& model,
       SolveInverseModel(multibody, *desired, classification, inverse_options);
   nlohmann::ordered_json report =
       SolveToJson(multibody, classification, classification_options, solution, note);
-  result.method = std::string(ToString(solution.method));
-  result.status = std::string(ToString(solution.summary.status));
-  result.message = solution.summary.message;
+  SolveSummary& summary = result.summary;
+  summary = FromSolution(solution, note);
+  summary.classification = FromClassification(multibody, classification, classification_options);
   result.usable = solution.summary.IsUsable();
-  result.warnings = solution.warnings;
   if (options.verify && solution.extension) {
     const servokit::Verification verification = VerifyFeedforward(multibody, *desired, solution);
     report["verification"] = VerificationToJson(verification);
-    result.verification = Verification{verification.max_tracking_error, verification.bound,
-                                       verification.passed, verification.output_times,
-                                       Rows(verification.outputs, multibody.num_outputs())};
-    result.warnings.insert(result.warnings.end(), verification.warnings.begin(),
-                           verification.warnings.end());
+    summary.verification = FromVerification(verification, multibody.num_outputs());
+    summary.warnings.insert(summary.warnings.end(), verification.warnings.begin(),
+                            verification.warnings.end());
     // An answer that fails its check is not within its tolerances: it is not "converged".
     if (result.usable && !verification.passed) {
-      result.status = std::string(ToString(SolveStatus::kVerificationFailed));
-      result.message = "the verification failed: " + VerificationFailure(verification);
+      summary.status = SolveStatus::kVerificationFailed;
+      summary.message = "the verification failed: " + VerificationFailure(verification);
       result.usable = false;
-      report["status"] = result.status;
-      report["message"] = result.message;
+      report["status"] = ToString(summary.status);
+      report["message"] = summary.message;
     }
   }
-  report["warnings"] = result.warnings;
+  report["warnings"] = summary.warnings;
   if (!options.out_file.empty()) {
+    summary.out_file = options.out_file;
     report["out"] = options.out_file;
     // After the check: the MAT file's summary holds its verdict.
     WriteFeedforwardFile(options.out_file, file_format, multibody, *desired, solution, report);
   }
-  result.json = report.dump(2);
+  summary.json = report.dump(2);
 
   result.t = solution.times;
   result.q = Rows(solution.q, multibody.dof());
@@ -250,6 +297,25 @@ Feedforward Solve(const Model& model,
   }
   result.breakpoints = desired->breakpoints();
   return result;
+}
+
+}  // namespace servokit::api
+
+namespace servokit::api {
+
+std::string SolveSummariesJson(const std::vector<SolveSummary>& summaries) {
+  // Each object indented one level into the array: the text nlohmann's dump(2) gives an array of
+  // the objects (a JSON string never holds a raw line break, so every line break is layout).
+  std::string array = "[";
+  for (std::size_t k = 0; k < summaries.size(); ++k) {
+    array += k == 0 ? "\n" : ",\n";
+    std::istringstream lines(summaries[k].json);
+    std::string line;
+    for (bool first = true; std::getline(lines, line); first = false) {
+      array += (first ? "  " : "\n  ") + line;
+    }
+  }
+  return array + (summaries.empty() ? "]" : "\n]");
 }
 
 }  // namespace servokit::api

@@ -65,12 +65,12 @@ SweepPoint ToSweepPoint(const ParameterGrid& grid,
   result.solved = point.ok;
   result.error = point.error;
   if (!point.ok) return result;
-  result.realization = std::string(ToString(point.realization));
+  result.realization = point.realization;
   result.P_rank = int(point.rank);
   result.relative_degree = point.relative_degree;
   result.differentiation_index = point.differentiation_index;
   result.internal_dynamics_order = point.internal_dynamics_order;
-  result.stability = std::string(ToString(point.stability));
+  result.stability = point.stability;
   result.eigenvalues = point.eigenvalues;
   result.max_real_part = point.max_real_part;
   result.eigenvalue_modes.reserve(point.eigenvalues.size());

@@ -9,16 +9,13 @@ namespace servokit::api {
 
 std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery& query) {
   const servokit::Model& multibody = MultibodyModel(model, "LocateThresholds");
-  const std::optional<ThresholdEvent> event = ThresholdEventFromString(query.event);
-  RequireOption(event.has_value(), "ThresholdQuery", "event", query.event,
-                "expected stability, oscillation, realization or structure");
   const auto parameter = multibody.FindParameter(query.parameter);
   RequireOption(parameter.has_value(), "ThresholdQuery", "parameter", query.parameter,
                 "the model " + multibody.name() + " has no such parameter");
   ThresholdOptions options;
   options.classification = ToClassificationOptions(query.analysis);
   const ThresholdSearch search =
-      FindThresholds(multibody, *parameter, query.low, query.high, *event, options);
+      FindThresholds(multibody, *parameter, query.low, query.high, query.event, options);
   const bool degrees = multibody.parameter_display_units()[*parameter] == DisplayUnit::kDegree;
   std::vector<Threshold> thresholds;
   for (const ThresholdCrossing& crossing : search.events) {

@@ -18,6 +18,11 @@ inline const LoadedModel& ToolkitModel(const Model& model) { return Unwrap(model
 /// The multibody model behind `model`; throws UsageError naming `operation` for a linear model.
 const servokit::Model& MultibodyModel(const Model& model, const char* operation);
 
+/// The API's view of a multibody model's classification, with its three reports.
+Analysis FromClassification(const servokit::Model& model,
+                            const Classification& classification,
+                            const ClassificationOptions& options);
+
 /// The classification options of AnalyzeOptions (its tolerances and operating point).
 ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options);
 

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "analysis/nonlinear_structure.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/canonical_expression.h"
 #include "models/errors.h"
 #include "models/expression_program.h"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/model.h"
 #include "solvers/motion_extension.h"
 #include "solvers/servo_constraint_problem.h"

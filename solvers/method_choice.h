@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/errors.h"
 #include "models/model.h"
 #include "solvers/algebraic_inversion.h"
@@ -28,24 +28,6 @@ struct MethodVerdict {
 
 /// A method that does not fit the problem. what() gives the reason and the methods that fit,
 /// or says that none of servokit's methods does and why each refuses.
-class MethodRefused : public NoSolution {
- public:
-  MethodRefused(const std::string& message,
-                std::vector<SolverMethod> alternatives,
-                std::vector<SolverMethod> forceable)
-      : NoSolution(message),
-        alternatives_(std::move(alternatives)),
-        forceable_(std::move(forceable)) {}
-  /// Methods that accept the problem.
-  const std::vector<SolverMethod>& alternatives() const { return alternatives_; }
-  /// Methods that would accept it if forced (unstable zero dynamics integrated forward).
-  const std::vector<SolverMethod>& forceable() const { return forceable_; }
-
- private:
-  std::vector<SolverMethod> alternatives_;
-  std::vector<SolverMethod> forceable_;
-};
-
 /// The methods in the order auto tries them after the class's recommended one (Euler
 /// backward, the paper's low-order comparison, is never auto's choice).
 const std::vector<SolverMethod>& MethodsInOrderOfPreference();

@@ -11,32 +11,6 @@
 
 namespace servokit {
 
-std::string_view ToString(SolveSetting setting) {
-  switch (setting) {
-    case SolveSetting::kMethod:
-      return "method";
-    case SolveSetting::kForce:
-      return "forcing";
-    case SolveSetting::kStartTime:
-      return "start time";
-    case SolveSetting::kEndTime:
-      return "end time";
-    case SolveSetting::kStep:
-      return "step";
-    case SolveSetting::kRelativeTolerance:
-      return "relative tolerance";
-    case SolveSetting::kAbsoluteTolerance:
-      return "absolute tolerance";
-    case SolveSetting::kSampleTime:
-      return "sample time";
-    case SolveSetting::kPreActuation:
-      return "pre-actuation";
-    case SolveSetting::kPostActuation:
-      return "post-actuation";
-  }
-  return "setting";
-}
-
 const MethodSettings& SettingsOf(SolverMethod method) {
   // The defaults are the solvers' own (their options structs say why); the table only collects
   // them. SUNDIALS' BDF and Dormand-Prince lose digits below Radau's floor for the same reason.

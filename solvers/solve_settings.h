@@ -9,40 +9,16 @@
 #include <string>
 #include <string_view>
 
-#include "analysis/types.h"
+#include "base/vocabulary.h"
 #include "models/errors.h"
 
 namespace servokit {
 
 /// What a user sets for a solve (InverseModelOptions).
-enum class SolveSetting {
-  kMethod,
-  kForce,              // integrate unstable internal dynamics forward anyway
-  kStartTime,          // t_start
-  kEndTime,            // t_end
-  kStep,               // Euler backward's fixed step; the algebraic inverse's sample spacing
-  kRelativeTolerance,  // rtol
-  kAbsoluteTolerance,  // atol
-  kSampleTime,         // the output grid t_start + k sample_time
-  kPreActuation,       // stable inversion: time covered before the motion
-  kPostActuation,      // stable inversion: time covered after it
-};
-
-/// The setting in words ("relative tolerance", "sample time").
 std::string_view ToString(SolveSetting setting);
 
 /// A setting out of its range, or one that the chosen method does not use. what() speaks the
 /// toolkit's words; setting() tells an application which of its own options it was.
-class SettingError : public UsageError {
- public:
-  SettingError(SolveSetting setting, const std::string& message)
-      : UsageError(message), setting_(setting) {}
-  SolveSetting setting() const { return setting_; }
-
- private:
-  SolveSetting setting_;
-};
-
 /// What a method reads and what it accepts.
 struct MethodSettings {
   bool uses_step = false;        // Euler backward's step; the algebraic inverse's spacing

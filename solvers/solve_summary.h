@@ -6,25 +6,9 @@
 #include <string>
 #include <string_view>
 
+#include "base/vocabulary.h"
+
 namespace servokit {
-
-enum class SolveStatus {
-  kConverged,           // reached the end time
-  kNoConvergence,       // Newton failed even at the smallest step
-  kSingularDecoupling,  // P = H M^-1 B became singular along the motion
-  kSingularMass,        // M(q) became singular or ill-conditioned
-  kStepSizeTooSmall,    // the step size fell below round-off of t
-  kTooManySteps,        // the step limit was reached before the end time
-  kIntegratorFailure,   // a SUNDIALS integrator failed (its flag is in the message)
-  kNotApplicable,       // the method does not fit the problem's class (message says which does)
-  kInterrupted,         // the observer asked to stop (e.g. Ctrl-C)
-  // The solver reached the end, but its u_d, driving the model, leaves y_d by more than the
-  // bound its tolerances allow (solvers/verification.h): the answer is not within them.
-  kVerificationFailed,
-};
-
-/// The status as a word for JSON ("converged", "singular-decoupling", ...).
-std::string_view ToString(SolveStatus status);
 
 struct SolveSummary {
   SolveStatus status = SolveStatus::kIntegratorFailure;

@@ -23,9 +23,10 @@ foreach(path bin/servokit include/servokit/servokit.h include/servokit/errors.h
     message(FATAL_ERROR "not installed: ${path}")
   endif()
 endforeach()
-# Only the public API: no internal header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
+# Only the public API (with the vocabulary of classes it exports, base/vocabulary.h): no internal
+# header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
 file(GLOB_RECURSE installed_headers RELATIVE ${prefix}/include ${prefix}/include/*)
-if(NOT installed_headers STREQUAL "servokit/errors.h;servokit/servokit.h")
+if(NOT installed_headers STREQUAL "servokit/base/vocabulary.h;servokit/errors.h;servokit/servokit.h")
   message(FATAL_ERROR "installed headers beyond the public API: ${installed_headers}")
 endif()
 

@@ -65,6 +65,29 @@ def test_bad_arguments_are_usage_errors(mass_on_car):
         servokit.generate.chain(masses=0, out="/nonexistent")
 
 
+@pytest.mark.parametrize("call, message", [
+    (lambda model: model.solve(y0=0, yf=1, tf=1, t_end=2, method="ode45"),
+     "SolveOptions::method = ode45: expected auto, algebraic, euler, radau, bdf, normal-form, "
+     "stable-inversion or linearized"),
+    (lambda model: model.solve(y0=0, yf=1, tf=1, t_end=2, format="hdf5"),
+     "SolveOptions::file_format = hdf5: expected csv, mat or modelica (or empty: from out_file)"),
+    (lambda model: model.threshold("alpha", 0.1, 1.0, event="weather"),
+     "ThresholdQuery::event = weather: expected stability, oscillation, realization or "
+     "structure"),
+    (lambda model: model.analyze(eigen_solver="qr"),
+     "AnalyzeOptions::eigen_solver = qr: expected auto, dense or arpack"),
+    (lambda model: model.analyze(which="leftmost"),
+     "AnalyzeOptions::which = leftmost: expected nearest or rightmost"),
+])
+def test_a_word_that_names_nothing_is_a_usage_error_naming_the_option(mass_on_car, call,
+                                                                      message):
+    # Python passes the toolkit's words; the module reads them with the vocabulary's tables
+    # (servokit/servokit.h) and says what the library's option check says.
+    with pytest.raises(servokit.UsageError) as raised:
+        call(servokit.load(mass_on_car))
+    assert str(raised.value) == message
+
+
 def test_a_missing_file_is_an_error(tmp_path):
     with pytest.raises(servokit.Error):
         servokit.load(str(tmp_path / "missing.yaml"))

@@ -36,7 +36,7 @@ def analysis_answer(analysis):
 
 def solution_answer(solution):
     """Everything a solve gives: its summary, messages and every row's bytes."""
-    return (solution.summary, solution.status, solution.message, solution.warnings,
+    return (solution.summary.json, solution.status, solution.message, solution.warnings,
             solution.notes, np.asarray(solution.t).tobytes(), solution.q.tobytes(),
             solution.q_dot.tobytes(), solution.u.tobytes(), solution.y_d.tobytes())
 

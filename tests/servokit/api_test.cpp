@@ -54,8 +54,8 @@ TEST_CASE("the API's default options are the toolkit's", "[servokit]") {
   const servokit::LinearZeroDynamicsOptions linear;
   CHECK(analyze.eigenvalues == linear.arpack.eigenvalues);
   CHECK(analyze.shift == linear.shift);
-  CHECK(servokit::LinearEigenSolverFromString(analyze.eigen_solver) == linear.solver);
-  CHECK(servokit::EigenvalueTargetFromString(analyze.which) == linear.target);
+  CHECK(analyze.eigen_solver == linear.solver);
+  CHECK(analyze.which == linear.target);
   const sk::ChainModel chain;
   const servokit::ChainOptions chain_options;
   CHECK(chain.masses == chain_options.masses);
@@ -85,9 +85,10 @@ TEST_CASE("analyze through the API: the undamped mass on car at 5 deg vibrates a
   CHECK(model.input_names() == std::vector<std::string>{"F"});
   CHECK(model.output_names() == std::vector<std::string>{"y1"});
   const sk::Analysis analysis = sk::Analyze(model);
-  CHECK(analysis.realization == "non-ideal-orthogonal");
+  CHECK(analysis.realization == sk::Realization::kNonIdealOrthogonal);
+  CHECK(sk::ToString(analysis.realization) == "non-ideal-orthogonal");
   CHECK(analysis.relative_degree == std::vector<int>{2});
-  CHECK(analysis.zero_dynamics.stability == "critical");
+  CHECK(analysis.zero_dynamics.stability == sk::Stability::kCritical);
   REQUIRE(analysis.zero_dynamics.eigenvalues.size() == 2);
   const double omega = UndampedFrequency(5.0 * kPi / 180.0);
   for (const auto& eigenvalue : analysis.zero_dynamics.eigenvalues) {
@@ -129,7 +130,7 @@ TEST_CASE("API errors carry their kind", "[servokit]") {
   query.parameter = "alpha";
   query.low = 0.1;
   query.high = 1.0;
-  query.event = "weather";
+  query.parameter = "weather";
   CHECK(kind_of([&] { sk::LocateThresholds(model, query); }) == servokit::ErrorKind::kUsage);
 }
 
@@ -140,7 +141,7 @@ TEST_CASE("sweep through the API, in memory and to files, follows the closed for
   REQUIRE(points.size() == 4);
   for (const sk::SweepPoint& point : points) {
     REQUIRE(point.solved);
-    CHECK(point.stability == "critical");
+    CHECK(point.stability == sk::Stability::kCritical);
     REQUIRE(point.eigenvalues.size() == 2);
     const double omega = UndampedFrequency(point.parameter_values[0]);
     CHECK(std::abs(point.eigenvalues[0].imag()) == Approx(omega).epsilon(1e-10));
@@ -194,7 +195,7 @@ TEST_CASE("thresholds through the API: over-damped below 9.1 deg at d = 1", "[se
   query.parameter = "alpha";
   query.low = 1.0 * kPi / 180.0;
   query.high = 80.0 * kPi / 180.0;
-  query.event = "oscillation";
+  query.event = sk::ThresholdEvent::kOscillation;
   const std::vector<sk::Threshold> thresholds = sk::LocateThresholds(model, query);
   REQUIRE(thresholds.size() == 1);
   CHECK(thresholds[0].value == Approx(std::asin(std::sqrt(1.0 / 40.0))).epsilon(1e-9));
@@ -244,11 +245,18 @@ sk::Feedforward CheckFlatForce(const sk::OutputTrajectory& trajectory,
   options.sample_time = sample_time;
   options.verify = true;
   const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
-  CHECK(feedforward.method == "algebraic");
-  CHECK(feedforward.status == "converged");
+  const sk::SolveSummary& summary = feedforward.summary;
+  CHECK(summary.method == sk::SolverMethod::kAlgebraic);
+  CHECK(summary.status == sk::SolveStatus::kConverged);
   CHECK(feedforward.usable);
-  REQUIRE(feedforward.verification);
-  CHECK(feedforward.verification->passed);
+  REQUIRE(summary.verification);
+  CHECK(summary.verification->passed);
+  CHECK(summary.verification->max_tracking_error <= summary.verification->bound);
+  CHECK(summary.samples == feedforward.t.size());
+  CHECK(summary.t_end == 8.0);
+  CHECK(summary.sample_time == sample_time);
+  CHECK(summary.classification.flat);  // what made auto choose the algebraic inverse
+  CHECK_FALSE(summary.window);         // no stable inversion
   REQUIRE(feedforward.t.size() == std::size_t(std::lround(8.0 / sample_time)) + 1);
   const RestToRest desired{0.5, 2.5, 6.0};
   for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
@@ -303,15 +311,16 @@ TEST_CASE("solve through the API writes its file in the format asked for or name
   sk::Solve(model, trajectory, options);
   CHECK(ReadFile(options.out_file).rfind("MATLAB 5.0 MAT-file, written by servokit", 0) == 0);
   options.out_file = (directory / "u.txt").string();
-  options.file_format = "modelica";
+  options.file_format = sk::SolveFileFormat::kModelica;
   sk::Solve(model, trajectory, options);
   CHECK(first_line(options.out_file) == "#1");
-  options.file_format = "";
+  options.file_format.reset();
   sk::Solve(model, trajectory, options);
   CHECK(first_line(options.out_file) == "t,x,s,x_dot,s_dot,F,y1_d");
 
   options.out_file = (directory / "v.csv").string();
-  for (const char* refused : {"mat", "modelica", "hdf5"}) {
+  for (const sk::SolveFileFormat refused :
+       {sk::SolveFileFormat::kMat, sk::SolveFileFormat::kModelica}) {
     options.file_format = refused;
     CHECK_THROWS_MATCHES(sk::Solve(model, trajectory, options), servokit::Error,
                          Catch::Predicate<servokit::Error>([](const servokit::Error& error) {

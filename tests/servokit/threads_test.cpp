@@ -76,8 +76,10 @@ std::string Fingerprint(const sk::Analysis& analysis) {
 
 // Everything a solve gives: its summary, messages and every row's bits.
 std::string Fingerprint(const sk::Feedforward& feedforward) {
-  std::string out = feedforward.json + feedforward.status + "|" + feedforward.message + "|";
-  for (const std::string& line : feedforward.warnings) out += line + "|";
+  const sk::SolveSummary& summary = feedforward.summary;
+  std::string out =
+      summary.json + std::string(sk::ToString(summary.status)) + "|" + summary.message + "|";
+  for (const std::string& line : summary.warnings) out += line + "|";
   for (const std::string& line : feedforward.notes) out += line + "|";
   AppendBytes(out, feedforward.t.data(), static_cast<Eigen::Index>(feedforward.t.size()));
   for (const Eigen::MatrixXd* rows :
@@ -168,7 +170,7 @@ sk::OutputTrajectory RestToRest(std::vector<double> y0,
   return trajectory;
 }
 
-sk::SolveOptions Method(const std::string& method, double t_end) {
+sk::SolveOptions Method(sk::SolverMethod method, double t_end) {
   sk::SolveOptions options;
   options.method = method;
   options.t_end = t_end;
@@ -180,7 +182,7 @@ Call SolveCall(const std::string& name,
                const sk::Model& model,
                const sk::OutputTrajectory& trajectory,
                const sk::SolveOptions& options) {
-  return {name + " by " + options.method, [model, trajectory, options] {
+  return {name + " by " + std::string(sk::ToString(options.method)), [model, trajectory, options] {
             return Fingerprint(sk::Solve(model, trajectory, options));
           }};
 }
@@ -214,24 +216,26 @@ TEST_CASE("solve from 8 threads at once gives the single-threaded feedforward fo
   const sk::OutputTrajectory car_move = RestToRest({0.0}, {1.0}, 0.0, 2.0);
   const sk::OutputTrajectory arm_move = RestToRest({0.0}, {0.1}, 1.0, 3.0);
 
-  sk::SolveOptions algebraic = Method("algebraic", 4.0);
+  sk::SolveOptions algebraic = Method(sk::SolverMethod::kAlgebraic, 4.0);
   algebraic.step = 0.01;
   algebraic.verify = true;
   std::vector<Call> calls = {
       SolveCall("gantry_crane", crane, crane_move, algebraic),
-      SolveCall("mass_on_car", car, car_move, Method("bdf", 3.0)),
-      SolveCall("mass_on_car", car, car_move, Method("radau", 3.0)),
-      SolveCall("mass_on_car", car, car_move, Method("euler", 3.0)),
-      SolveCall("rotational_arm s = 0.5", arm_minimum_phase, arm_move, Method("normal-form", 3.5)),
-      SolveCall("rotational_arm s = 0.9", arm, arm_move, Method("stable-inversion", 3.5)),
+      SolveCall("mass_on_car", car, car_move, Method(sk::SolverMethod::kBdf, 3.0)),
+      SolveCall("mass_on_car", car, car_move, Method(sk::SolverMethod::kRadau, 3.0)),
+      SolveCall("mass_on_car", car, car_move, Method(sk::SolverMethod::kEuler, 3.0)),
+      SolveCall("rotational_arm s = 0.5", arm_minimum_phase, arm_move,
+                Method(sk::SolverMethod::kNormalForm, 3.5)),
+      SolveCall("rotational_arm s = 0.9", arm, arm_move,
+                Method(sk::SolverMethod::kStableInversion, 3.5)),
       // The linearized model is loaded from text in every solve and dropped after it.
-      SolveCall("gantry_crane", crane, crane_move, Method("linearized", 4.0)),
+      SolveCall("gantry_crane", crane, crane_move, Method(sk::SolverMethod::kLinearized, 4.0)),
   };
   // The algebraic inverse is derived once per model, parameters and options, and the last 8
   // are kept: 10 car masses make the threads derive, share and evict inverses at once. The flat
   // mass on car (alpha = 0, d = 0), whose derivation takes 2 ms: the crane's takes 100 ms, and
   // as many derivations of it took minutes under ThreadSanitizer.
-  sk::SolveOptions flat = Method("algebraic", 3.0);
+  sk::SolveOptions flat = Method(sk::SolverMethod::kAlgebraic, 3.0);
   flat.step = 0.01;
   for (int k = 0; k < 10; ++k) {
     const std::string mass = std::to_string(1 + k);

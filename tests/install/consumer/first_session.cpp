@@ -29,6 +29,7 @@ int main() {
   const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
   std::printf("u_d at %zu times, largest |F| %.4g N; output error %.2g m, bound %.2g m\n",
               feedforward.t.size(), feedforward.u.cwiseAbs().maxCoeff(),
-              feedforward.verification->max_tracking_error, feedforward.verification->bound);
+              feedforward.summary.verification->max_tracking_error,
+              feedforward.summary.verification->bound);
   return feedforward.usable ? 0 : 1;
 }

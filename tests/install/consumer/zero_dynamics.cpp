@@ -6,6 +6,7 @@
 
 #include <complex>
 #include <cstdio>
+#include <string>
 
 extern "C" double ZeroDynamicsError() {
   namespace sk = servokit::api;
@@ -21,8 +22,8 @@ extern "C" double ZeroDynamicsError() {
       error = std::max(error, std::abs(eigenvalue - expected));
     }
     std::printf("zero dynamics of %s (%s): %.12g %+.12gi, %.12g %+.12gi\n", model.name().c_str(),
-                analysis.realization.c_str(), eigenvalues[0].real(), eigenvalues[0].imag(),
-                eigenvalues[1].real(), eigenvalues[1].imag());
+                std::string(sk::ToString(analysis.realization)).c_str(), eigenvalues[0].real(),
+                eigenvalues[0].imag(), eigenvalues[1].real(), eigenvalues[1].imag());
     return error;
   } catch (const servokit::Error& error) {
     std::fprintf(stderr, "consumer: %s\n", error.what());
