@@ -12,7 +12,7 @@
 #include "analysis/sweep_point.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/linear_model.h"
 #include "models/loaded_model.h"
 #include "reports/classification_report.h"

@@ -5,7 +5,7 @@
 # Installed layout under the prefix:
 #   bin/servokit
 #   lib/servokit/libservokit_{data_files,mpi}.so                 (plugins, reports/plugins.h)
-#   include/servokit/{servokit,errors}.h                      (the public API, nothing else)
+#   include/servokit/servokit.h, include/base/errors.h        (the public API, nothing else)
 #   lib/libservokit_*.a                                       (position-independent)
 #   share/servokit/models/*.yaml                              (the shipped models)
 #   lib/cmake/servokit/servokit{Config,ConfigVersion,Targets}.cmake
@@ -14,15 +14,18 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(SERVOKIT_LIBRARIES files models numerics analysis trajectories solvers reports servokit application)
+set(SERVOKIT_LIBRARIES base files models numerics analysis trajectories solvers reports servokit application)
 set(SERVOKIT_PACKAGE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/servokit)
 
 foreach(folder IN LISTS SERVOKIT_LIBRARIES)
   # Exported as servokit::<folder>, the same name as the alias inside this build.
   set_target_properties(servokit_${folder} PROPERTIES EXPORT_NAME ${folder})
 endforeach()
-install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h ${PROJECT_SOURCE_DIR}/servokit/errors.h
+# servokit.h includes "base/errors.h": the errors live in the lowest layer, so they are installed
+# at the same path under include/.
+install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit)
+install(FILES ${PROJECT_SOURCE_DIR}/base/errors.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/base)
 list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
 install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}

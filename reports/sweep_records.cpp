@@ -17,7 +17,7 @@
 
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

@@ -10,8 +10,8 @@
 #include "analysis/sweep.h"
 #include "analysis/types.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
-#include "reports/number_format.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "reports/sweep_records.h"
 
 namespace servokit {

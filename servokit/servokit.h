@@ -11,7 +11,7 @@
 // file or a string, either kind), analyze it at an operating point, sweep parameters (in memory
 // or to the files `servokit sweep` writes), locate thresholds, solve for the feedforward, and
 // generate large linear models. Options are structs whose defaults are servokit's; results are
-// plain values. Errors are the exceptions of servokit/errors.h, each with a kind (usage, model,
+// plain values. Errors are the exceptions of base/errors.h, each with a kind (usage, model,
 // no solution). The header needs only Eigen and the standard library: GiNaC, SUNDIALS and the
 // rest stay inside the compiled library.
 //
@@ -31,7 +31,7 @@
 #include <utility>
 #include <vector>
 
-#include "servokit/errors.h"
+#include "base/errors.h"
 
 namespace servokit::api {
 

@@ -18,8 +18,8 @@
 
 #include "analysis/nonlinear_structure.h"
 #include "analysis/types.h"
+#include "base/errors.h"
 #include "models/canonical_expression.h"
-#include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/symbolic_model.h"
 

@@ -10,7 +10,7 @@
 
 #include "analysis/classification.h"
 #include "analysis/types.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 #include "solvers/algebraic_inversion.h"
 

@@ -10,7 +10,7 @@
 #include <string_view>
 
 #include "analysis/types.h"
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

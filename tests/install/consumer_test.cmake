@@ -17,7 +17,7 @@ endfunction()
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix})
-foreach(path bin/servokit include/servokit/servokit.h include/servokit/errors.h
+foreach(path bin/servokit include/servokit/servokit.h include/base/errors.h
         share/servokit/models/mass_on_car.yaml lib/cmake/servokit/servokitConfig.cmake)
   if(NOT EXISTS ${prefix}/${path})
     message(FATAL_ERROR "not installed: ${path}")
@@ -25,7 +25,7 @@ foreach(path bin/servokit include/servokit/servokit.h include/servokit/errors.h
 endforeach()
 # Only the public API: no internal header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
 file(GLOB_RECURSE installed_headers RELATIVE ${prefix}/include ${prefix}/include/*)
-if(NOT installed_headers STREQUAL "servokit/errors.h;servokit/servokit.h")
+if(NOT installed_headers STREQUAL "base/errors.h;servokit/servokit.h")
   message(FATAL_ERROR "installed headers beyond the public API: ${installed_headers}")
 endif()
 
