@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "analysis/operating_point.h"
+#include "base/errors.h"
 #include "models/canonical_expression.h"
-#include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"

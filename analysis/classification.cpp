@@ -5,7 +5,7 @@
 #include <sstream>
 #include <string>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "analysis/subspaces.h"
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

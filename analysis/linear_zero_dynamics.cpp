@@ -12,8 +12,8 @@
 #include <string>
 #include <utility>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "numerics/sparse_structure.h"
 
 namespace servokit {

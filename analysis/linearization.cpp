@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "analysis/subspaces.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "numerics/finite.h"
 
 namespace servokit {

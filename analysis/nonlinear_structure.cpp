@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.h"
 #include "models/canonical_expression.h"
-#include "models/errors.h"
 #include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 

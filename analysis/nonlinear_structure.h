@@ -34,7 +34,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 
 namespace servokit {

@@ -1,6 +1,6 @@
 #include "analysis/options.h"
 
-#include "models/option_check.h"
+#include "base/option_check.h"
 
 namespace servokit {
 

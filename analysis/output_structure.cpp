@@ -7,7 +7,7 @@
 #include <string>
 
 #include "analysis/subspaces.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "numerics/finite.h"
 
 namespace servokit {

@@ -6,7 +6,7 @@
 #include <limits>
 #include <utility>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

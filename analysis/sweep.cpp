@@ -16,8 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 namespace servokit {
 namespace {

@@ -14,7 +14,7 @@
 #include "analysis/classification.h"
 #include "analysis/linearization.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "numerics/finite.h"
 #include "numerics/gsl_support.h"
 

@@ -5,8 +5,8 @@
 #include <tuple>
 
 #include "analysis/sweep.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 namespace servokit {
 namespace {

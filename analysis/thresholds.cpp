@@ -16,8 +16,8 @@
 
 #include "analysis/classification.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "numerics/gsl_support.h"
 
 namespace servokit {

@@ -8,7 +8,7 @@
 #include <limits>
 #include <numbers>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "numerics/finite.h"
 
 namespace servokit {

@@ -12,9 +12,9 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "models/model.h"
-#include "models/option_check.h"
 #include "models/units.h"
 
 #ifndef SERVOKIT_VERSION

@@ -1,6 +1,6 @@
 #include "application/exit_codes.h"
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

@@ -13,10 +13,10 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
-#include "models/option_check.h"
 
 namespace servokit {
 namespace {

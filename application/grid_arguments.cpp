@@ -9,7 +9,7 @@
 #include <system_error>
 #include <utility>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/units.h"
 #include "reports/sweep_tables.h"
 

@@ -1,7 +1,7 @@
 #include <string>
 
 #include "application/commands.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit {

@@ -9,7 +9,7 @@
 
 #include "application/mpi_plugin.h"
 #include "application/mpi_sweep.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/plugins.h"
 
 namespace servokit {

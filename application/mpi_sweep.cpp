@@ -30,7 +30,7 @@
 
 #include "application/exit_codes.h"
 #include "application/mpi_plugin.h"
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

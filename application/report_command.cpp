@@ -18,12 +18,12 @@
 #include "application/exit_codes.h"
 #include "application/grid_arguments.h"
 #include "application/sweep_store.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "files/input_file.h"
-#include "models/errors.h"
 #include "models/model.h"
 #include "reports/class_map.h"
 #include "reports/model_report.h"
-#include "reports/number_format.h"
 #include "reports/paper_report.h"
 
 #ifndef SERVOKIT_MODELS_DIR

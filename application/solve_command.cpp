@@ -17,10 +17,10 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
+#include "base/errors.h"
+#include "base/number_format.h"
+#include "base/option_check.h"
 #include "files/output_file.h"
-#include "models/errors.h"
-#include "models/option_check.h"
-#include "reports/number_format.h"
 #include "reports/solve_figures.h"
 #include "reports/solve_files.h"
 #include "servokit/servokit.h"

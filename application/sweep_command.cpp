@@ -33,10 +33,10 @@
 #include "application/mpi_sweep.h"
 #include "application/progress.h"
 #include "application/sweep_store.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "models/linear_model.h"
 #include "models/loaded_model.h"
-#include "reports/number_format.h"
 
 namespace servokit {
 namespace {

@@ -22,11 +22,11 @@
 #include <utility>
 
 #include "analysis/zero_dynamics.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "base/vocabulary.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
-#include "models/errors.h"
-#include "reports/number_format.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_mat.h"
 #include "reports/sweep_records.h"

@@ -11,9 +11,9 @@
 #include "application/commands.h"
 #include "application/exit_codes.h"
 #include "application/grid_arguments.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "models/units.h"
-#include "reports/number_format.h"
 
 namespace servokit {
 namespace {

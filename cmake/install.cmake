@@ -5,7 +5,7 @@
 # Installed layout under the prefix:
 #   bin/servokit
 #   lib/servokit/libservokit_{data_files,mpi}.so                 (plugins, reports/plugins.h)
-#   include/servokit/{servokit,errors}.h, base/vocabulary.h  (the public API, nothing else)
+#   include/servokit/servokit.h, servokit/base/{errors,vocabulary}.h  (the public API only)
 #   lib/libservokit_*.a                                       (position-independent)
 #   share/servokit/models/*.yaml                              (the shipped models)
 #   lib/cmake/servokit/servokit{Config,ConfigVersion,Targets}.cmake
@@ -21,10 +21,12 @@ foreach(folder IN LISTS SERVOKIT_LIBRARIES)
   # Exported as servokit::<folder>, the same name as the alias inside this build.
   set_target_properties(servokit_${folder} PROPERTIES EXPORT_NAME ${folder})
 endforeach()
-install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h ${PROJECT_SOURCE_DIR}/servokit/errors.h
+install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit)
-# The vocabulary the API exports; servokit.h includes it as "base/vocabulary.h", found beside it.
-install(FILES ${PROJECT_SOURCE_DIR}/base/vocabulary.h
+# servokit.h includes "base/errors.h" and "base/vocabulary.h": they live in the lowest layer, and
+# are installed under include/servokit (on the installed targets' include path too), so that the
+# prefix's include/ holds nothing but servokit/.
+install(FILES ${PROJECT_SOURCE_DIR}/base/errors.h ${PROJECT_SOURCE_DIR}/base/vocabulary.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit/base)
 list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
 install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets

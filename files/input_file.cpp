@@ -11,7 +11,7 @@
 #include <mutex>
 #include <utility>
 
-#include "servokit/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

@@ -8,7 +8,7 @@
 #include <optional>
 #include <string>
 
-#include "servokit/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

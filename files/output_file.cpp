@@ -15,8 +15,8 @@
 #include <streambuf>
 #include <vector>
 
+#include "base/errors.h"
 #include "files/input_file.h"
-#include "servokit/errors.h"
 
 namespace servokit {
 namespace {

@@ -20,9 +20,9 @@
 #include <sstream>
 #include <utility>
 
+#include "base/errors.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/loader_support.h"
 #include "models/matrix_market.h"

@@ -15,8 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.h"
 #include "files/input_file.h"
-#include "models/errors.h"
 #include "models/units.h"
 #include "models/yaml_document.h"
 

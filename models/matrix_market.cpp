@@ -16,8 +16,8 @@
 #include <system_error>
 #include <vector>
 
+#include "base/errors.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 
 namespace servokit {
 namespace {

@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/units.h"
 
 namespace servokit {

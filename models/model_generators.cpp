@@ -5,9 +5,9 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "models/matrix_market.h"
-#include "models/option_check.h"
 
 namespace servokit {
 namespace {

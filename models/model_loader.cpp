@@ -21,8 +21,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.h"
 #include "models/canonical_expression.h"
-#include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/lagrangian_model.h"
 #include "models/loader_support.h"

@@ -5,7 +5,7 @@
 #include <optional>
 #include <utility>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/loader_support.h"
 
 namespace servokit::detail {

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

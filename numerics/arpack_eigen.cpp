@@ -8,8 +8,8 @@
 #include <ctime>
 #include <string>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 namespace servokit {
 namespace {

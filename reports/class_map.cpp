@@ -8,10 +8,10 @@
 
 #include "analysis/classification.h"
 #include "analysis/threshold_curves.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "models/units.h"
-#include "reports/number_format.h"
 #include "reports/plots.h"
 #include "reports/report_support.h"
 #include "reports/sweep_tables.h"

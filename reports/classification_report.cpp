@@ -2,8 +2,8 @@
 
 #include <sstream>
 
+#include "base/number_format.h"
 #include "reports/escaping.h"
-#include "reports/number_format.h"
 
 namespace servokit {
 namespace {

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/escaping.h"
 
 namespace servokit {

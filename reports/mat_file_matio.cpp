@@ -12,8 +12,8 @@
 #include <variant>
 #include <vector>
 
+#include "base/errors.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "reports/data_files_plugin.h"
 
 namespace servokit {

@@ -4,12 +4,12 @@
 #include <filesystem>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "models/units.h"
 #include "reports/class_map.h"
 #include "reports/classification_report.h"
 #include "reports/escaping.h"
-#include "reports/number_format.h"
 #include "reports/report_support.h"
 
 namespace servokit {

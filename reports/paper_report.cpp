@@ -7,10 +7,10 @@
 #include <optional>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "models/units.h"
 #include "reports/classification_report.h"
-#include "reports/number_format.h"
 #include "reports/report_support.h"
 #include "solvers/inverse_model.h"
 #include "solvers/method_choice.h"

@@ -15,10 +15,10 @@
 #include <limits>
 #include <sstream>
 
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "reports/escaping.h"
-#include "reports/number_format.h"
 
 extern char** environ;
 

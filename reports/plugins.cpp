@@ -8,7 +8,7 @@
 #include <mutex>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

@@ -2,9 +2,9 @@
 
 #include <fstream>
 
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "files/output_file.h"
-#include "models/errors.h"
-#include "reports/number_format.h"
 
 namespace servokit {
 

@@ -9,12 +9,12 @@
 #include <set>
 #include <utility>
 
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "reports/classification_report.h"
 #include "reports/escaping.h"
 #include "reports/mat_file.h"
-#include "reports/number_format.h"
 
 namespace servokit {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {

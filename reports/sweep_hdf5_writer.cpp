@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/data_files_plugin.h"
 #include "reports/sweep_hdf5.h"
 

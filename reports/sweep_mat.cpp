@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/mat_file.h"
 
 namespace servokit {

@@ -16,8 +16,8 @@
 #include <utility>
 
 #include "analysis/zero_dynamics.h"
+#include "base/errors.h"
 #include "base/vocabulary.h"
-#include "models/errors.h"
 
 namespace servokit {
 namespace {

@@ -9,9 +9,9 @@
 
 #include "analysis/sweep.h"
 #include "analysis/zero_dynamics.h"
+#include "base/errors.h"
+#include "base/number_format.h"
 #include "base/vocabulary.h"
-#include "models/errors.h"
-#include "reports/number_format.h"
 #include "reports/sweep_records.h"
 
 namespace servokit {

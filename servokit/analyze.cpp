@@ -4,7 +4,7 @@
 #include "analysis/linear_analysis.h"
 #include "analysis/linear_zero_dynamics.h"
 #include "analysis/sweep_point.h"
-#include "models/option_check.h"
+#include "base/option_check.h"
 #include "reports/classification_report.h"
 #include "servokit/toolkit_bridge.h"
 

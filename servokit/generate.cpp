@@ -2,7 +2,7 @@
 #include <filesystem>
 #include <optional>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model_generators.h"
 #include "servokit/servokit.h"
 

@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {

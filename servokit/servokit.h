@@ -12,7 +12,7 @@
 // file or a string, either kind), analyze it at an operating point, sweep parameters (in memory
 // or to the files `servokit sweep` writes), locate thresholds, solve for the feedforward, and
 // generate large linear models. Options are structs whose defaults are servokit's; results are
-// plain values. Errors are the exceptions of servokit/errors.h, each with a kind (usage, model,
+// plain values. Errors are the exceptions of base/errors.h, each with a kind (usage, model,
 // no solution). The header needs only Eigen and the standard library: GiNaC, SUNDIALS and the
 // rest stay inside the compiled library.
 //
@@ -32,8 +32,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.h"
 #include "base/vocabulary.h"
-#include "servokit/errors.h"
 
 namespace servokit::api {
 

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "reports/solve_files.h"
 #include "servokit/toolkit_bridge.h"
 #include "solvers/inverse_model.h"

@@ -8,9 +8,9 @@
 
 #include "analysis/parameter_grid.h"
 #include "analysis/zero_dynamics.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "files/output_file.h"
-#include "models/errors.h"
-#include "models/option_check.h"
 #include "reports/sweep_tables.h"
 #include "servokit/toolkit_bridge.h"
 

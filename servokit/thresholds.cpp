@@ -1,7 +1,7 @@
 // api::LocateThresholds: where the class of a multibody model changes along one parameter.
 #include "analysis/thresholds.h"
 
-#include "models/option_check.h"
+#include "base/option_check.h"
 #include "models/units.h"
 #include "servokit/toolkit_bridge.h"
 

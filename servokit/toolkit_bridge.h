@@ -1,6 +1,6 @@
 #pragma once
 // Inside the library: what an api::Model holds, and the translations from the API's options to
-// the toolkit's. Not installed (only servokit/servokit.h and servokit/errors.h are).
+// the toolkit's. Not installed (only servokit/servokit.h and base/errors.h are).
 #include "analysis/sweep_point.h"
 #include "models/loaded_model.h"
 #include "servokit/servokit.h"

@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "analysis/nonlinear_structure.h"
+#include "base/errors.h"
 #include "base/vocabulary.h"
 #include "models/canonical_expression.h"
-#include "models/errors.h"
 #include "models/expression_program.h"
 #include "models/symbolic_model.h"
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <utility>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 // Two collocation methods share the Newton iteration and the refinement loop
 // (CollocationSolver): bvp4c's Hermite-Simpson (HermiteSimpsonSolver, below) and Lobatto IIIA

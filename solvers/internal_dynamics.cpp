@@ -4,7 +4,7 @@
 #include <limits>
 #include <string>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "solvers/servo_constraint_problem.h"
 
 namespace servokit {

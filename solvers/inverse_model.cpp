@@ -6,8 +6,8 @@
 #include <string>
 
 #include "analysis/operating_point.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/dense_output.h"
 #include "solvers/linearized_inverse.h"

@@ -6,8 +6,8 @@
 
 #include "analysis/subspaces.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 namespace servokit {
 namespace {

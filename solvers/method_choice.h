@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "analysis/classification.h"
+#include "base/errors.h"
 #include "base/vocabulary.h"
-#include "models/errors.h"
 #include "models/model.h"
 #include "solvers/algebraic_inversion.h"
 

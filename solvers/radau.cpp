@@ -6,8 +6,8 @@
 #include <string>
 #include <utility>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 // Radau IIA after Hairer & Wanner, Solving ODEs II (2nd ed.), Sect. IV.8 (the method, its
 // simplified Newton iteration in the eigenbasis of the Butcher matrix, the error estimate and

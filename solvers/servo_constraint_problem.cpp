@@ -5,8 +5,8 @@
 #include <string>
 
 #include "analysis/decoupling_matrix.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "models/symbolic_lock.h"
 #include "models/symbolic_model.h"
 

@@ -3,7 +3,7 @@
 #include <cassert>
 #include <cmath>
 
-#include "models/option_check.h"
+#include "base/option_check.h"
 #include "solvers/boundary_value.h"
 #include "solvers/radau.h"
 #include "solvers/stable_inversion.h"

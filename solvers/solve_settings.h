@@ -9,8 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "base/errors.h"
 #include "base/vocabulary.h"
-#include "models/errors.h"
 
 namespace servokit {
 

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "solvers/boundary_value.h"
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"

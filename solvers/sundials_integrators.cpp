@@ -17,8 +17,8 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "numerics/sundials_support.h"
 
 namespace servokit {

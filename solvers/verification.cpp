@@ -6,8 +6,8 @@
 #include <utility>
 
 #include "analysis/operating_point.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "solvers/sundials_integrators.h"
 
 namespace servokit {

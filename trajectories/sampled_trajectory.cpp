@@ -8,9 +8,9 @@
 #include <string_view>
 #include <system_error>
 
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "files/input_file.h"
-#include "models/errors.h"
-#include "models/option_check.h"
 #include "trajectories/banded_least_squares.h"
 
 namespace servokit {

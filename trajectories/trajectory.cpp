@@ -4,8 +4,8 @@
 #include <cmath>
 #include <string>
 
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 
 namespace servokit {
 namespace {

@@ -8,8 +8,8 @@
 #include <optional>
 #include <sstream>
 
+#include "base/errors.h"
 #include "files/input_file.h"
-#include "models/errors.h"
 #include "models/units.h"
 #include "models/yaml_document.h"
 

@@ -35,7 +35,7 @@
 
 #include "analysis/sweep_point.h"
 #include "analysis/thresholds.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/analysis/classify_helpers.h"
 #include "tests/test_files.h"
 #include "tests/test_process.h"

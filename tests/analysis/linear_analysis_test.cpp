@@ -26,7 +26,7 @@
 #include <string>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/linear_model.h"
 #include "models/model.h"
 #include "models/model_generators.h"

@@ -54,7 +54,7 @@
 #include <vector>
 
 #include "analysis/linear_analysis.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/linear_model.h"
 #include "models/model_generators.h"
 #include "numerics/gsl_support.h"

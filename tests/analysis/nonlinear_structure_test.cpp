@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

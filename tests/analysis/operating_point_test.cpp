@@ -2,8 +2,8 @@
 #include <catch2/catch.hpp>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
-#include "models/option_check.h"
+#include "base/errors.h"
+#include "base/option_check.h"
 #include "tests/analysis/classify_helpers.h"
 
 namespace servokit {

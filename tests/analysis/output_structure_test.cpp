@@ -14,7 +14,7 @@
 
 #include "analysis/classification.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 #include "tests/test_paths.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 #include "tests/analysis/grid_helpers.h"
 #include "tests/test_paths.h"

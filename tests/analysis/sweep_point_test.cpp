@@ -13,7 +13,7 @@
 #include <variant>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/loaded_model.h"
 #include "tests/test_paths.h"
 

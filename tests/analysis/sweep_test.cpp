@@ -19,7 +19,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/analysis/classify_helpers.h"
 #include "tests/analysis/grid_helpers.h"
 

@@ -17,7 +17,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

@@ -27,7 +27,7 @@
 
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/zero_dynamics.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

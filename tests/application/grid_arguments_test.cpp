@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/linear_model.h"
 #include "models/model.h"
 #include "models/units.h"

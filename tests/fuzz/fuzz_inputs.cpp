@@ -23,9 +23,9 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
-#include "models/errors.h"
 #include "models/linear_model.h"
 #include "models/loaded_model.h"
 #include "models/matrix_market.h"

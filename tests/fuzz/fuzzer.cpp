@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/fuzz/fuzz_inputs.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

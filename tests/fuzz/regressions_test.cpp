@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/fuzz/fuzz_inputs.h"
 #include "tests/test_files.h"
 

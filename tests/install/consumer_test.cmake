@@ -17,7 +17,7 @@ endfunction()
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix})
-foreach(path bin/servokit include/servokit/servokit.h include/servokit/errors.h
+foreach(path bin/servokit include/servokit/servokit.h include/servokit/base/errors.h
         share/servokit/models/mass_on_car.yaml lib/cmake/servokit/servokitConfig.cmake)
   if(NOT EXISTS ${prefix}/${path})
     message(FATAL_ERROR "not installed: ${path}")
@@ -26,7 +26,7 @@ endforeach()
 # Only the public API (with the vocabulary of classes it exports, base/vocabulary.h): no internal
 # header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
 file(GLOB_RECURSE installed_headers RELATIVE ${prefix}/include ${prefix}/include/*)
-if(NOT installed_headers STREQUAL "servokit/base/vocabulary.h;servokit/errors.h;servokit/servokit.h")
+if(NOT installed_headers STREQUAL "servokit/base/errors.h;servokit/base/vocabulary.h;servokit/servokit.h")
   message(FATAL_ERROR "installed headers beyond the public API: ${installed_headers}")
 endif()
 

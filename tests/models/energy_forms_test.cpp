@@ -29,7 +29,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 #include "tests/test_paths.h"
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/loaded_model.h"
 #include "models/matrix_market.h"
 #include "tests/test_files.h"

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/linear_model.h"
 #include "tests/test_files.h"
 

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/model.h"
 #include "models/symbolic_model.h"
 #include "tests/test_paths.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "analysis/parameter_grid.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_mat.h"
 #include "reports/sweep_records.h"

@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "models/symbolic_model.h"
 #include "tests/test_paths.h"
 

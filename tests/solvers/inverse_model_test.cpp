@@ -9,7 +9,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "solvers/radau.h"
 #include "solvers/verification.h"
 #include "tests/test_files.h"

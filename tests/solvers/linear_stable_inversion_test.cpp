@@ -10,7 +10,7 @@
 #include <cmath>
 #include <complex>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "solvers/inverse_model.h"
 #include "tests/test_paths.h"
 

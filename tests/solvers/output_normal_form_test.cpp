@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/errors.h"
+#include "base/errors.h"
 #include "solvers/inverse_model.h"
 #include "solvers/method_choice.h"
 #include "solvers/verification.h"

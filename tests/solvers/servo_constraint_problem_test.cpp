@@ -7,7 +7,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

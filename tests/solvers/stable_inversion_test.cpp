@@ -6,7 +6,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "models/errors.h"
+#include "base/errors.h"
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"
 #include "tests/test_paths.h"

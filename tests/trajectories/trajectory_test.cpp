@@ -7,7 +7,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

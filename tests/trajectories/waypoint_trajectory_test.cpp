@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 namespace {

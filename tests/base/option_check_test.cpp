@@ -1,7 +1,7 @@
-// models/option_check.h: the one check of an options field and the one number formatter of
+// base/option_check.h: the one check of an options field and the one number formatter of
 // messages. The expected texts are written out by hand: the shortest decimal that reads back to
 // the same double (IEEE 754 round trip), integers exactly.
-#include "models/option_check.h"
+#include "base/option_check.h"
 
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -10,7 +10,7 @@
 namespace servokit {
 namespace {
 
-TEST_CASE("numbers in messages are the shortest text that reads back exactly", "[models]") {
+TEST_CASE("numbers in messages are the shortest text that reads back exactly", "[base]") {
   CHECK(FormatNumber(2.0) == "2");
   CHECK(FormatNumber(-1.0) == "-1");
   CHECK(FormatNumber(1e-15) == "1e-15");
@@ -23,11 +23,11 @@ TEST_CASE("numbers in messages are the shortest text that reads back exactly", "
   CHECK(FormatNumber(-std::numeric_limits<double>::denorm_min()) == "-5e-324");
 }
 
-TEST_CASE("a field that holds its rule passes", "[models]") {
+TEST_CASE("a field that holds its rule passes", "[base]") {
   CHECK_NOTHROW(RequireOption(true, "SomeOptions", "tolerance", -1.0, "must be > 0"));
 }
 
-TEST_CASE("a broken rule names the owner, the field, the value and the rule", "[models]") {
+TEST_CASE("a broken rule names the owner, the field, the value and the rule", "[base]") {
   CHECK_THROWS_WITH(RequireOption(false, "SomeOptions", "tolerance", 2.0, "must be < 1"),
                     "SomeOptions::tolerance = 2: must be < 1");
   CHECK_THROWS_WITH(RequireOption(false, "SomeOptions", "tolerance", 1e-15, "must be >= 1e-14"),
@@ -43,7 +43,7 @@ TEST_CASE("a broken rule names the owner, the field, the value and the rule", "[
                     "SomeOptions::start = [1, 0.25, -1e-300]: must have 2 values");
 }
 
-TEST_CASE("an option error is a usage error that keeps the owner and the field", "[models]") {
+TEST_CASE("an option error is a usage error that keeps the owner and the field", "[base]") {
   try {
     RequireOption(false, "SomeOptions", "rank_tolerance", 0.0, "must be > 0");
     FAIL("RequireOption did not throw");

@@ -1,6 +1,7 @@
 #pragma once
-// The errors servokit reports, part of its public API (servokit/servokit.h). Every layer throws
-// them: models/errors.h includes this header. Each error has a kind, which the command line
+// The errors servokit reports, part of its public API (servokit/servokit.h, which includes this
+// header). They sit in the lowest layer, base/, so that every layer throws them and a library
+// user catches the same classes. Each error has a kind, which the command line
 // maps to its documented exit status (application/exit_codes.h) and a C++ or Python caller may
 // switch on; what() is one line in the toolkit's words, without a "servokit: error:" prefix.
 #include <stdexcept>

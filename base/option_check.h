@@ -8,7 +8,7 @@
 #include <string_view>
 #include <type_traits>
 
-#include "models/errors.h"
+#include "base/errors.h"
 
 namespace servokit {
 

@@ -1,4 +1,4 @@
-#include "models/option_check.h"
+#include "base/option_check.h"
 
 #include <charconv>
 #include <cmath>
