@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "files/input_file.h"
 #include "models/units.h"
 #include "models/yaml_document.h"
@@ -24,6 +25,8 @@ namespace servokit::detail {
 namespace {
 
 constexpr std::uint64_t kFnvPrime = 1099511628211ull;
+// Significant digits of the numbers in the expression checks' messages.
+constexpr int kMessageDigits = 6;
 
 bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
 
@@ -140,15 +143,16 @@ class PowerChecker {
     if (!exponent.constant) {
       if (exponent.largest_log10 > std::log10(kMaxConstantExponent)) {
         problem_ = "a number in an exponent too large (about 10^" +
-                   Number(std::round(exponent.largest_log10)) + "; at most " +
-                   std::to_string(static_cast<int>(kMaxConstantExponent)) +
+                   FormatSignificant(std::round(exponent.largest_log10), kMessageDigits) +
+                   "; at most " + std::to_string(static_cast<int>(kMaxConstantExponent)) +
                    " in absolute value: GiNaC would compute a^(n + x) as a^n a^x, a^n exactly)";
       }
       return Symbolic(base, exponent);
     }
     if (!(std::abs(exponent.value) <= kMaxConstantExponent)) {
-      problem_ = "exponent too large (" + Number(exponent.value) + "; at most " +
-                 std::to_string(static_cast<int>(kMaxConstantExponent)) + " in absolute value)";
+      problem_ = "exponent too large (" + FormatSignificant(exponent.value, kMessageDigits) +
+                 "; at most " + std::to_string(static_cast<int>(kMaxConstantExponent)) +
+                 " in absolute value)";
       return Term{};
     }
     if (!base.constant) return Symbolic(base, exponent);
@@ -205,15 +209,9 @@ class PowerChecker {
   // outside what a double holds and costly for GiNaC to compute exactly.
   void Limit(const Term& term) {
     if (!Failed() && std::abs(term.log10_magnitude) > kMaxConstantDigits) {
-      problem_ = "number too large to compute (about 10^" + Number(term.log10_magnitude) + ")";
+      problem_ = "number too large to compute (about 10^" +
+                 FormatSignificant(term.log10_magnitude, kMessageDigits) + ")";
     }
-  }
-
-  static std::string Number(double value) {
-    std::ostringstream text;
-    text.precision(6);
-    text << value;
-    return text.str();
   }
 
   const std::string& text_;

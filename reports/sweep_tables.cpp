@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
@@ -34,13 +33,6 @@ std::string CsvHeader(const std::vector<std::string>& columns) {
     header += column;
   }
   return header + '\n';
-}
-
-template <typename Integer>
-void AppendInteger(std::string& csv, Integer value) {
-  char buffer[24];  // the longest 64-bit integer has 20 digits and a sign
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  csv.append(buffer, result.ptr);
 }
 
 // The shortest exact text of a number (AppendExact), remembered for the next row: writing
@@ -95,16 +87,16 @@ void AppendPointRow(const std::string& values,
   }
   csv += ToString(point.realization);
   csv += ',';
-  AppendInteger(csv, point.rank);
+  AppendShortest(csv, point.rank);
   csv += ',';
   // A negative internal order: the structure at infinity was not determined (a large linear
   // model whose Markov rows vanish numerically): its three columns are empty, not numbers.
   if (point.internal_dynamics_order >= 0) {
     AppendRelativeDegrees(csv, point.relative_degree);
     csv += ',';
-    AppendInteger(csv, point.differentiation_index);
+    AppendShortest(csv, point.differentiation_index);
     csv += ',';
-    AppendInteger(csv, point.internal_dynamics_order);
+    AppendShortest(csv, point.internal_dynamics_order);
     csv += ',';
   } else {
     csv += ",,,";
@@ -125,7 +117,7 @@ void AppendEigenvalueRows(const std::string& values,
     // ModeOf depends on |Re| and |Im| alone: a conjugate's mode is its partner's, bit for bit.
     const Mode mode = ModeOf(eigenvalue);
     csv += values;
-    AppendInteger(csv, k);
+    AppendShortest(csv, k);
     csv += ',';
     texts.real_part.Append(csv, eigenvalue.real());
     csv += ',';
@@ -143,7 +135,7 @@ void AppendEigenvalueRows(const std::string& values,
 void AppendRelativeDegrees(std::string& text, const std::vector<int>& relative_degree) {
   for (std::size_t i = 0; i < relative_degree.size(); ++i) {
     if (i > 0) text += ';';
-    AppendInteger(text, relative_degree[i]);
+    AppendShortest(text, relative_degree[i]);
   }
 }
 
