@@ -466,20 +466,4 @@ ModelDocument ReadModelDocument(const std::string& path) {
       ReadInputFile(path, "the model file", kModelFileLimit, ErrorKind::kModel), path);
 }
 
-ModelKind ReadModelKind(const ModelDocument& document) {
-  if (!document.root.IsMap()) return ModelKind::kMultibody;
-  const YAML::Node kind = std::as_const(document.root)[std::string(kKindKey)];
-  if (!kind) return ModelKind::kMultibody;
-  if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return ModelKind::kMultibody;
-  if (kind.IsScalar() && kind.Scalar() == kLinearKind) return ModelKind::kLinear;
-  if (kind.IsScalar() && (kind.Scalar() == kLagrangianKind || kind.Scalar() == kPlanarBodiesKind)) {
-    return ModelKind::kMultibody;
-  }
-  throw ModelError(document.source + ": " + std::string(kKindKey) + ": unknown kind '" +
-                   (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
-                   "' (expected " + std::string(kLinearKind) + ", " + std::string(kMultibodyKind) +
-                   ", " + std::string(kLagrangianKind) + " or " + std::string(kPlanarBodiesKind) +
-                   ")");
-}
-
 }  // namespace servokit::detail
