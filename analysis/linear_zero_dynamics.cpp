@@ -5,7 +5,6 @@
 #include <array>
 #include <cassert>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <optional>
 #include <random>
@@ -13,6 +12,7 @@
 #include <utility>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 #include "numerics/sparse_structure.h"
 
@@ -84,15 +84,10 @@ Eigen::VectorXd AbsoluteRowSums(const SparseMatrix& matrix) {
   return sums;
 }
 
-std::string ShiftText(double shift) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%g", shift);
-  return buffer;
-}
-
 std::string SingularRosenbrockMessage(double shift, const std::string& detail) {
   return "the Rosenbrock matrix [[-(K + s D + s^2 M), B], [C, 0]] is singular at the shift s = " +
-         ShiftText(shift) + " (s is an invariant zero, or the model is not invertible): " + detail +
+         FormatSignificant(shift, 6) +
+         " (s is an invariant zero, or the model is not invertible): " + detail +
          "; choose another shift";
 }
 
@@ -175,13 +170,13 @@ std::string Scope(const LinearZeroDynamics& result, Eigen::Index computed) {
   const std::string of =
       result.zero_count >= 0 ? " of " + Count(result.zero_count) : " (total unknown)";
   if (result.target == EigenvalueTarget::kNearest) {
-    return "the " + Count(computed) + " zeros nearest " + ShiftText(result.shift) + of +
+    return "the " + Count(computed) + " zeros nearest " + FormatSignificant(result.shift, 6) + of +
            " (ARPACK shift-invert); stability and modes of these only";
   }
   return "the " + Count(computed) + " zeros with largest Re 1/(lambda - " +
-         ShiftText(result.shift) + ")" + of +
-         " (ARPACK shift-invert): every zero with Re lambda > " + ShiftText(result.shift) +
-         " ranks first";
+         FormatSignificant(result.shift, 6) + ")" + of +
+         " (ARPACK shift-invert): every zero with Re lambda > " +
+         FormatSignificant(result.shift, 6) + " ranks first";
 }
 
 // The safety factor of the per-zero error bound (ZeroErrorBounds): LU growth and the
@@ -521,12 +516,6 @@ double MeshFrequencySquared(const LinearSystem& system) {
   return largest;
 }
 
-std::string Short(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.2g", value);
-  return buffer;
-}
-
 }  // namespace
 
 std::string_view ToString(RosenbrockFactorization factorization) {
@@ -749,9 +738,10 @@ void RefuseIllConditioned(const LinearSystem& system,
                           const LinearZeroDynamicsOptions& options) {
   const double estimate = ZeroConditioningEstimate(system, workspace, start, options.shift);
   if (estimate < kNoDigitConditioning) return;
-  throw NoSolution("the zeros nearest the shift " + ShiftText(options.shift) +
+  throw NoSolution("the zeros nearest the shift " + FormatSignificant(options.shift, 6) +
                    " would carry no correct digit: eps * max K_ii/M_ii / |lambda|^2 = " +
-                   Short(estimate) + " >= " + Short(kNoDigitConditioning) +
+                   FormatSignificant(estimate, 2) +
+                   " >= " + FormatSignificant(kNoDigitConditioning, 2) +
                    " (the mesh's highest frequency squared against the slowest zero's |lambda|^2, "
                    "times the machine precision): use fewer elements (it falls like N^-4 for "
                    "beam elements, N^-2 for a chain: 10 times fewer beam elements divide it by "

@@ -4,13 +4,13 @@
 #include <cmath>
 #include <limits>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "analysis/subspaces.h"
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "numerics/finite.h"
 
 namespace servokit {
@@ -20,13 +20,6 @@ namespace {
 // this: M^-1 then keeps fewer than three correct digits in double precision (relative error
 // about epsilon / rcond), so P = H M^-1 B and every rank decision after it would be round-off.
 constexpr double kMassMatrixReciprocalConditionLimit = 1e3 * std::numeric_limits<double>::epsilon();
-
-std::string ShortNumber(double value) {
-  std::ostringstream text;
-  text.precision(6);
-  text << value;
-  return text.str();
-}
 
 }  // namespace
 
@@ -69,8 +62,8 @@ std::optional<std::string> FindLinearizationProblem(Linearization& linearization
   if (!(reciprocal_condition > kMassMatrixReciprocalConditionLimit)) {
     return "the mass matrix is singular to working precision at the operating point: "
            "reciprocal condition number " +
-           ShortNumber(reciprocal_condition) +
-           " <= " + ShortNumber(kMassMatrixReciprocalConditionLimit);
+           FormatSignificant(reciprocal_condition, 6) +
+           " <= " + FormatSignificant(kMassMatrixReciprocalConditionLimit, 6);
   }
   // The analyses read these products (ToStateSpace, P); parameters near the end of the double
   // range (k = 1e308, say) overflow here although every entry above is finite.

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 #include "numerics/finite.h"
 #include "numerics/sundials_support.h"
@@ -91,14 +92,8 @@ void KeepKinsolMessage(int, const char*, const char*, char* message, void* last_
   *static_cast<std::string*>(last_message) = message;
 }
 
-std::string FormatVector(const Eigen::VectorXd& values) {
-  std::ostringstream out;
-  out.precision(6);
-  out << "[";
-  for (Eigen::Index i = 0; i < values.size(); ++i) out << (i ? ", " : "") << values(i);
-  out << "]";
-  return out.str();
-}
+// Digits of q and y0 in messages.
+constexpr int kVectorDigits = 6;
 
 // The rule of an options vector with one value per output or coordinate.
 std::string ValueCount(std::size_t count, const std::string& per) {
@@ -191,15 +186,15 @@ void RunKinsol(EquilibriumProblem& problem,
   if (flag < 0 && problem.non_finite_at) {
     // A step so large that q itself overflowed says nothing by its value: name the overflow.
     const std::string where = AllFinite(*problem.non_finite_at)
-                                  ? "at q = " + FormatVector(*problem.non_finite_at)
+                                  ? "at q = " + FormatList(*problem.non_finite_at, kVectorDigits)
                                   : "after a Newton step overflowed q";
     throw NoSolution(
-        "no equilibrium found for y0 = " + FormatVector(problem.y0) +
+        "no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
         ": the equilibrium equations became NaN or Inf " + where +
         " (is y0 within the model's range?); try a starting point q0 near the equilibrium");
   }
   if (flag < 0) {
-    throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
+    throw NoSolution("no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
                      ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
                      (last_message.empty() ? "" : " (" + last_message + ")") +
                      "; try a starting point q0 near the equilibrium");
@@ -303,9 +298,10 @@ OperatingPoint FindOperatingPoint(const Model& model,
           std::pair{"H = dh/dq", AllFinite(workspace.output_jacobian)}}) {
       if (!finite) quantities += (quantities.empty() ? "" : ", ") + std::string(name);
     }
-    throw NoSolution("the model is not finite at q0 = " + FormatVector(unknowns.head(dof)) +
-                     ": NaN or Inf in " + (quantities.empty() ? "the forces" : quantities) + " (" +
-                     DescribeParameters(model, workspace) + ")");
+    throw NoSolution(
+        "the model is not finite at q0 = " + FormatList(unknowns.head(dof), kVectorDigits) +
+        ": NaN or Inf in " + (quantities.empty() ? "the forces" : quantities) + " (" +
+        DescribeParameters(model, workspace) + ")");
   }
   Eigen::VectorXd scaling = ResidualScaling(jacobian);
   Eigen::VectorXd residual(dof + inputs);
@@ -321,7 +317,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
     RunKinsol(problem, unknowns, scaling, options, point.newton_iterations);
     problem.Residual(unknowns, residual);
     if (!AllFinite(unknowns) || !AllFinite(residual)) {
-      throw NoSolution("no equilibrium found for y0 = " + FormatVector(problem.y0) +
+      throw NoSolution("no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
                        ": the iteration left the domain where the model is finite");
     }
     problem.Jacobian(unknowns, jacobian);
@@ -332,7 +328,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
   const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
       workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian, scaling));
   if (!lu.isInvertible()) {
-    throw NoSolution("the equilibrium at q = " + FormatVector(unknowns.head(dof)) +
+    throw NoSolution("the equilibrium at q = " + FormatList(unknowns.head(dof), kVectorDigits) +
                      " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "
                      "singular (a free coordinate the output does not fix?)");
   }

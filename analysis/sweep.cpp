@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdlib>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 
 namespace servokit {
@@ -353,15 +353,10 @@ std::size_t RunSweep(const LoadedModel& model,
 
 std::string DescribeLinearSweepOptions(const LinearAnalysisOptions& options) {
   const LinearZeroDynamicsOptions& zeros = options.zero_dynamics;
-  auto exact = [](double value) {
-    char buffer[64];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::string(buffer, result.ptr);
-  };
-  return "rank_tolerance=" + exact(options.rank_tolerance) +
-         ",axis_tolerance=" + exact(zeros.imaginary_axis_tolerance) +
+  return "rank_tolerance=" + FormatShortest(options.rank_tolerance) +
+         ",axis_tolerance=" + FormatShortest(zeros.imaginary_axis_tolerance) +
          ",eigen_solver=" + std::string(ToString(zeros.solver)) +
-         ",which=" + std::string(ToString(zeros.target)) + ",shift=" + exact(zeros.shift) +
+         ",which=" + std::string(ToString(zeros.target)) + ",shift=" + FormatShortest(zeros.shift) +
          ",eigenvalues=" + std::to_string(zeros.arpack.eigenvalues) +
          ",dense_threshold=" + std::to_string(zeros.dense_threshold);
 }

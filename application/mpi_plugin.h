@@ -1,5 +1,5 @@
 #pragma once
-// The MPI plugin (reports/plugins.h), libservokit_mpi.so: application/mpi_sweep.cpp, the code
+// The MPI plugin (reports/plugins.h), libservokit_mpi.so: application/mpi_plugin.cpp, the code
 // that calls MPI. application/mpi_processes.cpp loads it only when servokit was started by an
 // MPI launcher, so that no other run loads MPI's libraries (Open MPI brings a dozen, and hwloc
 // probes the machine's topology when they load).

@@ -14,7 +14,7 @@
 //   - a stop request (SIGINT, SIGTERM) on any rank stops all of them at a block boundary, with
 //     the checkpoint written by rank 0; every rank exits with status 130.
 //
-// The MPI code lives in mpi_sweep.cpp, built as the MPI plugin (application/mpi_plugin.h) when
+// The MPI code lives in mpi_plugin.cpp, built as the MPI plugin (application/mpi_plugin.h) when
 // CMake finds MPI (SERVOKIT_HAVE_MPI); mpi_processes.cpp loads it only under an MPI launcher and
 // otherwise gives the same functions for one process.
 #include <cstddef>

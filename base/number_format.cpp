@@ -1,27 +1,21 @@
 #include "base/number_format.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 
 namespace servokit {
-namespace {
 
-std::string Printf(const char* format, double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, value);
-  return buffer;
+std::string FormatShortest(double value) {
+  std::string text;
+  AppendShortest(text, value);
+  return text;
 }
-
-}  // namespace
 
 void AppendExact(std::string& out, double value) {
   // The shortest text that reads back to the same double (std::to_chars without a precision):
   // exact like "%.17g", without its noise digits, and several times faster, which matters for
   // sweeps that write tens of millions of numbers.
-  char buffer[32];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, WithoutNegativeZero(value));
-  out.append(buffer, result.ptr);
+  AppendShortest(out, WithoutNegativeZero(value));
 }
 
 std::string FormatExact(double value) {
@@ -30,19 +24,45 @@ std::string FormatExact(double value) {
   return text;
 }
 
+std::string FormatNumber(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  return FormatShortest(value);
+}
+
+std::string FormatSignificant(double value, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+  return buffer;
+}
+
+std::string FormatList(const Eigen::VectorXd& values, int digits) {
+  std::string text = "[";
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    text += (i ? ", " : "") + FormatSignificant(values(i), digits);
+  }
+  return text + "]";
+}
+
 std::string FormatShort(double value) {
   // Below this the value is round-off of an exact zero; printing "-1.2e-317" helps no one.
   constexpr double kPrintedAsZero = 1e-300;
   if (std::abs(value) < kPrintedAsZero) return "0";
-  return Printf("%.6g", value);
+  return FormatSignificant(value, 6);
 }
 
-std::string FormatPrecise(double value) { return Printf("%.12g", WithoutNegativeZero(value)); }
+std::string FormatPrecise(double value) {
+  return FormatSignificant(WithoutNegativeZero(value), 12);
+}
+
+std::string FormatComplexWith(std::complex<double> value, std::string (*format)(double)) {
+  return format(value.real()) + (value.imag() < 0 ? " - " : " + ") +
+         format(std::abs(value.imag())) + "i";
+}
 
 std::string FormatComplex(std::complex<double> value) {
   if (value.imag() == 0.0) return FormatShort(value.real());
-  return FormatShort(value.real()) + (value.imag() < 0 ? " - " : " + ") +
-         FormatShort(std::abs(value.imag())) + "i";
+  return FormatComplexWith(value, FormatShort);
 }
 
 }  // namespace servokit

@@ -2,20 +2,17 @@
 // The one way servokit checks an options struct and writes a number in a message. Every
 // Validate() calls RequireOption, so that each message reads "Owner::field = value: rule"
 // (style: the message names the field, its value and the rule it breaks, docs/development.md),
-// and every message that shows a number, in any folder, writes it with FormatNumber.
+// and every message that shows a number, in any folder, writes it with FormatNumber
+// (base/number_format.h).
 #include <Eigen/Core>
 #include <string>
 #include <string_view>
 #include <type_traits>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 
 namespace servokit {
-
-/// A number in a message, in its shortest form that reads back to the same double: 2 as "2",
-/// 1e-15 as "1e-15" (as the user wrote it), a time to every digit that tells it apart; "nan",
-/// "inf" and "-inf" for the non-finite values.
-std::string FormatNumber(double value);
 
 /// An option that breaks its rule. what() is "<owner>::<field> = <value>: <rule>"; owner() and
 /// field() let an application name its own option (a command-line flag) for the field.

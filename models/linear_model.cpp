@@ -10,7 +10,6 @@
 #include <array>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -21,6 +20,7 @@
 #include <utility>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
 #include "models/expression_program.h"
@@ -60,12 +60,6 @@ std::string Shape(Eigen::Index rows, Eigen::Index cols) {
   return std::to_string(rows) + " x " + std::to_string(cols);
 }
 
-std::string ShortNumber(double value) {
-  std::array<char, 32> text;
-  const auto result = std::to_chars(text.data(), text.data() + text.size(), value);
-  return std::string(text.data(), result.ptr);
-}
-
 // Same pattern and the same bits in every stored value.
 bool Identical(const SparseMatrix& a, const SparseMatrix& b) {
   if (a.rows() != b.rows() || a.cols() != b.cols() || a.nonZeros() != b.nonZeros()) return false;
@@ -99,7 +93,7 @@ SparseMatrix SumTerms(const std::vector<LinearModelTerm>& terms,
     term.factor->Evaluate(values.data(), registers.data(), &factor);
     if (!std::isfinite(factor)) {
       throw ModelError(model.source() + ": " + Indexed(key, k) + "." + std::string(kFactorKey) +
-                       ": " + term.factor_text + " = " + ShortNumber(factor) +
+                       ": " + term.factor_text + " = " + FormatShortest(factor) +
                        " at these parameter values");
     }
     if (k == 0) {
@@ -344,7 +338,7 @@ class LinearModelBuilder {
     double value = 0.0;
     program->Evaluate(model_.parameters_.data(), registers.data(), &value);
     if (!std::isfinite(value)) {
-      Fail(where, text + " = " + ShortNumber(value) + " at the nominal parameter values");
+      Fail(where, text + " = " + FormatShortest(value) + " at the nominal parameter values");
     }
     return program;
   }
@@ -481,7 +475,7 @@ class ModelWriter {
     if (!files_.parameters.empty()) {
       yaml << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
       for (const auto& [name, value] : files_.parameters) {
-        yaml << YAML::Key << name << YAML::Value << ShortNumber(value);
+        yaml << YAML::Key << name << YAML::Value << FormatShortest(value);
       }
       yaml << YAML::EndMap;
     }

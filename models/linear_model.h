@@ -126,4 +126,15 @@ struct LinearModelFiles {
 /// as a plain file name. NAME must be letters, digits, _, - and . (not first), else UsageError.
 std::string WriteLinearModel(const LinearModelFiles& files, const std::string& directory);
 
+namespace detail {
+
+struct ModelDocument;  // models/loader_support.h
+
+/// The reader of linear models, from a parsed document of that kind (LoadModelFile dispatches
+/// to it, models/loaded_model.cpp). Throws as LoadLinearModel does.
+LinearModel BuildLinearModel(const ModelDocument& document,
+                             const std::vector<ParameterOverride>& overrides);
+
+}  // namespace detail
+
 }  // namespace servokit

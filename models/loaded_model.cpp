@@ -7,6 +7,7 @@
 #include "models/loaded_model.h"
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "base/errors.h"
@@ -18,10 +19,31 @@
 namespace servokit {
 namespace {
 
+// The document's kind: `kind` absent (or a top level that is no map, which the multibody reader
+// reports) is multibody, and so are lagrangian and planar-bodies (the multibody reader tells them
+// apart). Throws ModelError "source: kind: unknown kind 'x' (expected linear, multibody,
+// lagrangian or planar-bodies)" for any other value.
+ModelKind ReadModelKind(const detail::ModelDocument& document) {
+  if (!document.root.IsMap()) return ModelKind::kMultibody;
+  const YAML::Node kind = std::as_const(document.root)[std::string(detail::kKindKey)];
+  if (!kind) return ModelKind::kMultibody;
+  if (kind.IsScalar() && kind.Scalar() == detail::kMultibodyKind) return ModelKind::kMultibody;
+  if (kind.IsScalar() && kind.Scalar() == detail::kLinearKind) return ModelKind::kLinear;
+  if (kind.IsScalar() &&
+      (kind.Scalar() == detail::kLagrangianKind || kind.Scalar() == detail::kPlanarBodiesKind)) {
+    return ModelKind::kMultibody;
+  }
+  throw ModelError(
+      document.source + ": " + std::string(detail::kKindKey) + ": unknown kind '" +
+      (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) + "' (expected " +
+      std::string(detail::kLinearKind) + ", " + std::string(detail::kMultibodyKind) + ", " +
+      std::string(detail::kLagrangianKind) + " or " + std::string(detail::kPlanarBodiesKind) + ")");
+}
+
 LoadedModel LoadDocument(const detail::ModelDocument& document,
                          const std::vector<ParameterOverride>& overrides) {
   const SymbolicLock lock;
-  switch (detail::ReadModelKind(document)) {
+  switch (ReadModelKind(document)) {
     case ModelKind::kLinear:
       return LoadedModel(detail::BuildLinearModel(document, overrides));
     case ModelKind::kMultibody:
@@ -33,7 +55,7 @@ LoadedModel LoadDocument(const detail::ModelDocument& document,
 // LoadModel and LoadModelFromString: a multibody model only.
 Model LoadMultibodyDocument(const detail::ModelDocument& document,
                             const std::vector<ParameterOverride>& overrides) {
-  if (detail::ReadModelKind(document) == ModelKind::kLinear) {
+  if (ReadModelKind(document) == ModelKind::kLinear) {
     throw ModelError(document.source + ": " + std::string(detail::kKindKey) +
                      ": a linear model (Matrix Market matrices), which only the linear analysis "
                      "and its sweep read; this needs a multibody model");
@@ -68,7 +90,7 @@ Model LoadModelFromString(const std::string& yaml_text,
 LinearModel LoadLinearModel(const std::string& path,
                             const std::vector<ParameterOverride>& overrides) {
   const detail::ModelDocument document = detail::ReadModelDocument(path);
-  if (detail::ReadModelKind(document) != ModelKind::kLinear) {
+  if (ReadModelKind(document) != ModelKind::kLinear) {
     throw ModelError(path + ": " + std::string(detail::kKindKey) + ": expected " +
                      std::string(detail::kLinearKind) +
                      " (this is a multibody model; load it with LoadModel)");

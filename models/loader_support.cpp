@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "files/input_file.h"
 #include "models/units.h"
 #include "models/yaml_document.h"
@@ -24,6 +25,8 @@ namespace servokit::detail {
 namespace {
 
 constexpr std::uint64_t kFnvPrime = 1099511628211ull;
+// Significant digits of the numbers in the expression checks' messages.
+constexpr int kMessageDigits = 6;
 
 bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
 
@@ -140,15 +143,16 @@ class PowerChecker {
     if (!exponent.constant) {
       if (exponent.largest_log10 > std::log10(kMaxConstantExponent)) {
         problem_ = "a number in an exponent too large (about 10^" +
-                   Number(std::round(exponent.largest_log10)) + "; at most " +
-                   std::to_string(static_cast<int>(kMaxConstantExponent)) +
+                   FormatSignificant(std::round(exponent.largest_log10), kMessageDigits) +
+                   "; at most " + std::to_string(static_cast<int>(kMaxConstantExponent)) +
                    " in absolute value: GiNaC would compute a^(n + x) as a^n a^x, a^n exactly)";
       }
       return Symbolic(base, exponent);
     }
     if (!(std::abs(exponent.value) <= kMaxConstantExponent)) {
-      problem_ = "exponent too large (" + Number(exponent.value) + "; at most " +
-                 std::to_string(static_cast<int>(kMaxConstantExponent)) + " in absolute value)";
+      problem_ = "exponent too large (" + FormatSignificant(exponent.value, kMessageDigits) +
+                 "; at most " + std::to_string(static_cast<int>(kMaxConstantExponent)) +
+                 " in absolute value)";
       return Term{};
     }
     if (!base.constant) return Symbolic(base, exponent);
@@ -205,15 +209,9 @@ class PowerChecker {
   // outside what a double holds and costly for GiNaC to compute exactly.
   void Limit(const Term& term) {
     if (!Failed() && std::abs(term.log10_magnitude) > kMaxConstantDigits) {
-      problem_ = "number too large to compute (about 10^" + Number(term.log10_magnitude) + ")";
+      problem_ = "number too large to compute (about 10^" +
+                 FormatSignificant(term.log10_magnitude, kMessageDigits) + ")";
     }
-  }
-
-  static std::string Number(double value) {
-    std::ostringstream text;
-    text.precision(6);
-    text << value;
-    return text.str();
   }
 
   const std::string& text_;
@@ -468,22 +466,6 @@ ModelDocument ParseModelDocument(std::string yaml_text, std::string source) {
 ModelDocument ReadModelDocument(const std::string& path) {
   return ParseModelDocument(
       ReadInputFile(path, "the model file", kModelFileLimit, ErrorKind::kModel), path);
-}
-
-ModelKind ReadModelKind(const ModelDocument& document) {
-  if (!document.root.IsMap()) return ModelKind::kMultibody;
-  const YAML::Node kind = std::as_const(document.root)[std::string(kKindKey)];
-  if (!kind) return ModelKind::kMultibody;
-  if (kind.IsScalar() && kind.Scalar() == kMultibodyKind) return ModelKind::kMultibody;
-  if (kind.IsScalar() && kind.Scalar() == kLinearKind) return ModelKind::kLinear;
-  if (kind.IsScalar() && (kind.Scalar() == kLagrangianKind || kind.Scalar() == kPlanarBodiesKind)) {
-    return ModelKind::kMultibody;
-  }
-  throw ModelError(document.source + ": " + std::string(kKindKey) + ": unknown kind '" +
-                   (kind.IsScalar() ? kind.Scalar() : std::string("(not a name)")) +
-                   "' (expected " + std::string(kLinearKind) + ", " + std::string(kMultibodyKind) +
-                   ", " + std::string(kLagrangianKind) + " or " + std::string(kPlanarBodiesKind) +
-                   ")");
 }
 
 }  // namespace servokit::detail

@@ -18,8 +18,6 @@
 #include <string_view>
 #include <vector>
 
-#include "models/linear_model.h"
-#include "models/loaded_model.h"
 #include "models/model.h"
 
 namespace servokit::detail {
@@ -47,17 +45,9 @@ ModelDocument ParseModelDocument(std::string yaml_text, std::string source);
 /// (reason)" when it cannot be read, and as ParseModelDocument.
 ModelDocument ReadModelDocument(const std::string& path);
 
-/// The document's kind: `kind` absent (or a top level that is no map, which the multibody
-/// reader reports) is multibody, and so are lagrangian and planar-bodies (the multibody reader
-/// tells them apart). Throws ModelError "source: kind: unknown kind 'x' (expected linear,
-/// multibody, lagrangian or planar-bodies)" for any other value.
-ModelKind ReadModelKind(const ModelDocument& document);
-
-/// The readers of each kind, from a parsed document of that kind (models/model_loader.cpp and
-/// models/linear_model.cpp). Throw as LoadModel and LoadLinearModel do.
+/// The reader of multibody models, from a parsed document of that kind (models/model_loader.cpp;
+/// that of linear models is BuildLinearModel, models/linear_model.h). Throws as LoadModel does.
 Model BuildModel(const ModelDocument& document, const std::vector<ParameterOverride>& overrides);
-LinearModel BuildLinearModel(const ModelDocument& document,
-                             const std::vector<ParameterOverride>& overrides);
 
 /// docs/model-files.md, "The explicit form": the functions an expression may call.
 inline constexpr std::array<std::string_view, 14> kModelFunctions = {

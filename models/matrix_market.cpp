@@ -1,7 +1,6 @@
 #include "models/matrix_market.h"
 
 #include <algorithm>
-#include <array>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "files/output_file.h"
 
 namespace servokit {
@@ -334,11 +334,11 @@ class ChunkedWriter {
     if (buffer_.size() >= kWriteChunk) Flush();
   }
   void AppendEntry(int row, int col, double value) {
-    AppendNumber(row + 1);
+    AppendShortest(buffer_, row + 1);
     buffer_.push_back(' ');
-    AppendNumber(col + 1);
+    AppendShortest(buffer_, col + 1);
     buffer_.push_back(' ');
-    AppendNumber(value);
+    AppendShortest(buffer_, value);  // "-0" kept: the file reads back bit for bit
     buffer_.push_back('\n');
     if (buffer_.size() >= kWriteChunk) Flush();
   }
@@ -348,13 +348,6 @@ class ChunkedWriter {
   }
 
  private:
-  template <typename Number>
-  void AppendNumber(Number number) {
-    std::array<char, kMaxNumberChars> text;
-    const auto result = std::to_chars(text.data(), text.data() + text.size(), number);
-    buffer_.append(text.data(), result.ptr);
-  }
-
   std::function<void(std::string_view)> flush_;
   std::string buffer_;
 };

@@ -4,11 +4,11 @@
 #include <arpack.hpp>
 #include <cassert>
 #include <cmath>
-#include <cstdio>
 #include <ctime>
 #include <string>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 
 namespace servokit {
@@ -128,11 +128,9 @@ ArpackResult ArpackEigenvalues(Eigen::Index n,
   for (;;) {
     if (options.time_limit > 0.0 &&
         double(std::clock() - started) / CLOCKS_PER_SEC > options.time_limit) {
-      char limit[32];
-      std::snprintf(limit, sizeof limit, "%g", options.time_limit);
-      throw NoSolution("ARPACK dnaupd stopped at its time limit of " + std::string(limit) +
-                       " s CPU after " + std::to_string(applications) +
-                       " operator applications, not converged " +
+      throw NoSolution("ARPACK dnaupd stopped at its time limit of " +
+                       FormatSignificant(options.time_limit, 6) + " s CPU after " +
+                       std::to_string(applications) + " operator applications, not converged " +
                        "(the shift-invert operator may be too inaccurate for Arnoldi; raise " +
                        "ArpackOptions::time_limit, or make the problem better conditioned)");
     }

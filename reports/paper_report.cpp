@@ -1,7 +1,6 @@
 #include "reports/paper_report.h"
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <numbers>
 #include <optional>
@@ -315,7 +314,6 @@ double Amplitude(const FeedforwardSolution& solution, double omega, double from,
   return sum / count;
 }
 
-// Three significant digits: what a fixed-step result reproduces across round-off.
 // max |u - reference(t)| and max |reference(t)| over the solution's rows (the first input).
 template <typename Reference>
 std::pair<double, double> InputErrorAndScale(const FeedforwardSolution& solution,
@@ -329,11 +327,8 @@ std::pair<double, double> InputErrorAndScale(const FeedforwardSolution& solution
   return {error, scale};
 }
 
-std::string ThreeDigits(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.3g", value);
-  return buffer;
-}
+// Three significant digits: what a fixed-step result reproduces across round-off.
+constexpr int kFixedStepDigits = 3;
 
 // A difference at round-off or tolerance level: the bound is compared by the answer-file test,
 // the measured value (backquoted) is shown but not compared, since its last digits depend on
@@ -416,7 +411,7 @@ void AddFlatCaseFigures(Document& document,
               std::string(coarse ? "100" : "200") + " (`" + steps + "`)";
       relative_error = Below(error / scale, coarse ? 2e-3 : 3e-4);
     } else {
-      relative_error = ThreeDigits(error / scale);
+      relative_error = FormatSignificant(error / scale, kFixedStepDigits);
     }
     accuracy.rows.push_back({run.label, steps, relative_error, run.paper});
     if (run.method == SolverMethod::kEuler && run.step == 1e-3) continue;  // drawn as 10 ms
@@ -670,12 +665,13 @@ void AddStableInversionFigures(Document& document,
   // (the tests check boundedness and the agreement with linear stable inversion instead).
   numbers.rows.push_back({"largest torque",
                           std::string(std::isfinite(largest_torque) ? "bounded" : "NOT bounded") +
-                              " (`" + ThreeDigits(largest_torque) + " N m`)",
+                              " (`" + FormatSignificant(largest_torque, kFixedStepDigits) +
+                              " N m`)",
                           "bounded"});
   numbers.rows.push_back(
       {"largest passive angle",
        std::string(largest_beta < std::numbers::pi / 2 ? "below 90 deg" : "NOT below 90 deg") +
-           " (`" + ThreeDigits(ToDegrees(largest_beta)) + " deg`)",
+           " (`" + FormatSignificant(ToDegrees(largest_beta), kFixedStepDigits) + " deg`)",
        "bounded"});
   numbers.rows.push_back(
       {"collocation residual", Below(window.boundary_value_residual, 1e-8), "bvp5c"});

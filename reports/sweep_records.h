@@ -1,8 +1,9 @@
 #pragma once
-// The binary records of a sweep's tables (reports/sweep_tables.h), written while a sweep runs
-// with `--format hdf5|mat` and read back once at its end to build sweep.h5 or sweep.mat. No
-// number is formatted as text on the way (that is what makes these formats faster than CSV), and
-// a record holds exactly the doubles the CSV would print, so both routes give the same values.
+// The binary records of a sweep's tables (reports/sweep_tables.h, columns in
+// reports/sweep_columns.h), written while a sweep runs with `--format hdf5|mat` and read back once
+// at its end to build sweep.h5 or sweep.mat. No number is formatted as text on the way (that is
+// what makes these formats faster than CSV), and a record holds exactly the doubles the CSV would
+// print, so both routes give the same values.
 //
 //   points records       one per grid point, in index order: a fixed 40-byte head
 //                        (max_real_part, P_rank, differentiation_index, internal_dynamics_order,
@@ -24,7 +25,8 @@
 
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep_point.h"
-#include "reports/sweep_tables.h"
+#include "reports/sweep_columns.h"
+#include "reports/table_rows.h"
 
 namespace servokit {
 

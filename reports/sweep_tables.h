@@ -10,7 +10,8 @@
 //
 // The same two tables go into sweep.h5 and sweep.mat (reports/sweep_hdf5.h, reports/sweep_mat.h),
 // built at the end of a sweep from binary records (reports/sweep_records.h) that FormatBlock
-// writes instead of CSV text.
+// writes instead of CSV text. The columns, which every format shares, are in
+// reports/sweep_columns.h.
 #include <array>
 #include <cstddef>
 #include <memory>
@@ -22,44 +23,12 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
+#include "reports/sweep_columns.h"
 #include "reports/table_rows.h"
 
 namespace servokit {
 
 class RecordDecoder;  // reports/sweep_records.h
-
-/// The name of eigenvalues.csv's column that numbers a point's eigenvalues from 0 (not "k", which
-/// a stiffness parameter is often called).
-inline constexpr std::string_view kEigenvalueIndexColumn = "eigenvalue_index";
-
-/// The columns of the points table with their kinds and units (names as PointsColumns).
-std::vector<TableColumn> PointsTableColumns(const ParameterGrid& grid);
-/// The columns of the eigenvalues table with their kinds and units (names as EigenvaluesColumns).
-std::vector<TableColumn> EigenvaluesTableColumns(const ParameterGrid& grid);
-
-/// Throws UsageError "parameter 'name': its column 'column' ..." when a varied parameter's column
-/// (GridAxis::ColumnName) is also a fixed column of points.csv or eigenvalues.csv, or another
-/// varied parameter's column: a table cannot have two columns of one name, in any format (CSV
-/// header, HDF5 datasets, MAT struct fields). The column lists below call it; commands call it
-/// first, to refuse before writing anything.
-void CheckSweepColumns(const ParameterGrid& grid);
-
-/// The columns of the points table, in order: the varied parameters (GridAxis::ColumnName), then
-/// realization, P_rank, relative_degree, differentiation_index, internal_dynamics_order,
-/// stability, max_real_part, error. Every format of the table (CSV, HDF5, MAT) uses these names.
-std::vector<std::string> PointsColumns(const ParameterGrid& grid);
-/// The columns of the eigenvalues table: the varied parameters, then kEigenvalueIndexColumn, re,
-/// im, frequency_hz, damping_ratio.
-std::vector<std::string> EigenvaluesColumns(const ParameterGrid& grid);
-
-/// The header line of points.csv (with its newline): the varied parameters, then
-/// realization,P_rank,relative_degree,differentiation_index,internal_dynamics_order,stability,
-/// max_real_part,error.
-std::string PointsCsvHeader(const ParameterGrid& grid);
-
-/// The header line of eigenvalues.csv: the varied parameters, then
-/// eigenvalue_index,re,im,frequency_hz,damping_ratio.
-std::string EigenvaluesCsvHeader(const ParameterGrid& grid);
 
 /// Appends the rows of points first, first + 1, ... to `points_csv` and `eigenvalues_csv`.
 /// Numbers are FormatExact (they read back to the same double). A point without a solution has
@@ -131,13 +100,5 @@ class PipelinedBlockFormatter {
   std::array<FormattedBlock, kSweepSlots> blocks_;
   std::unique_ptr<RecordDecoder> decoder_;  // with kRecordsAndRows
 };
-
-/// The text of relative_degree: one number per output, joined with ';' ("2", "1;2").
-std::string JoinRelativeDegrees(const std::vector<int>& relative_degree);
-/// The same text appended to `text` (no allocation of its own: sweeps write it for every row).
-void AppendRelativeDegrees(std::string& text, const std::vector<int>& relative_degree);
-
-/// `text` as one CSV field (RFC 4180): in double quotes, with inner quotes doubled.
-std::string CsvQuote(const std::string& text);
 
 }  // namespace servokit

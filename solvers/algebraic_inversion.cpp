@@ -18,6 +18,7 @@
 
 #include "analysis/nonlinear_structure.h"
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/vocabulary.h"
 #include "models/canonical_expression.h"
 #include "models/expression_program.h"
@@ -109,19 +110,10 @@ bool SolveScaledInto(const Eigen::MatrixXd& matrix,
   return solution.allFinite();
 }
 
-std::string FormatVector(const Eigen::VectorXd& vector) {
-  std::ostringstream text;
-  text.precision(6);
-  text << "[";
-  for (Eigen::Index i = 0; i < vector.size(); ++i) text << (i ? ", " : "") << vector[i];
-  text << "]";
-  return text.str();
-}
-
-// "q = [...], q_dot = [...]" for x = (q, q_dot), for messages.
+// "q = [...], q_dot = [...]" for x = (q, q_dot), for messages, to 6 digits.
 std::string StateText(const Eigen::VectorXd& x) {
   const Eigen::Index dof = x.size() / 2;
-  return "q = " + FormatVector(x.head(dof)) + ", q_dot = " + FormatVector(x.tail(dof));
+  return "q = " + FormatList(x.head(dof), 6) + ", q_dot = " + FormatList(x.tail(dof), 6);
 }
 
 // The compiled programs' outputs: the constraints' values, their Jacobian by x = (q, q_dot)

@@ -13,11 +13,9 @@
 #include "analysis/classification.h"
 #include "base/vocabulary.h"
 #include "models/model.h"
-#include "solvers/motion_extension.h"
+#include "solvers/feedforward_solution.h"
 #include "solvers/servo_constraint_problem.h"
 #include "solvers/solve_settings.h"
-#include "solvers/solve_summary.h"
-#include "solvers/stable_inversion.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {
@@ -59,34 +57,6 @@ struct InverseModelOptions {
   // Throws SettingError (or UsageError for `problem`) for a value out of range whatever the
   // method: non-finite or non-positive steps, times and tolerances.
   void Validate() const;
-};
-
-/// What the verification's bound is derived from: how accurate the method was asked to be.
-struct SolveAccuracy {
-  double rtol = std::numeric_limits<double>::quiet_NaN();  // NaN: exact (algebraic inverse)
-  double atol = std::numeric_limits<double>::quiet_NaN();
-  std::optional<double> step;  // Euler backward: first order in its fixed step
-};
-
-/// The answer.
-struct FeedforwardSolution {
-  SolverMethod method = SolverMethod::kAuto;  // the method that ran (never kAuto)
-  std::string method_reason;                  // why that method (auto's choice, or "asked for")
-  SolveSummary summary;
-  double t_start = 0.0, t_end = 0.0;  // the span solved (defaults resolved)
-  SolveAccuracy accuracy;
-  // Rows: the method's own points (always including t_start and, when it got there, t_end),
-  // or t_start + k sample_time when sample_time is set; up to where the solve stopped.
-  std::optional<double> sample_time;
-  std::vector<double> times;
-  std::vector<Eigen::VectorXd> q, q_dot, u;  // one per time: dof, dof, inputs
-  double max_servo_residual = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
-  std::optional<StableInversionWindow> window;                           // stable inversion only
-  // Things a user should know that do not stop the solve (the window cut short, ...).
-  std::vector<std::string> warnings;
-  // q_d, q_d' and u_d at any time of [t_start, where the solve stopped]: the method's own
-  // continuous extension. Null when the solve stopped before its first step.
-  std::shared_ptr<const MotionExtension> extension;
 };
 
 /// Solves the inverse model of `model` (with its parameters) for `trajectory`. `classification`

@@ -7,6 +7,7 @@
 #include "analysis/subspaces.h"
 #include "analysis/zero_dynamics.h"
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 
 namespace servokit {
@@ -29,11 +30,6 @@ constexpr double kMinEigenvalueScale = 1e-300;
 // bounds the step, steps of at most 1/kMinStepsPerWindow of the window keep it below the
 // integration error.
 constexpr double kMinStepsPerWindow = 4000.0;
-
-std::string Complex(std::complex<double> value) {
-  return FormatNumber(value.real()) + (value.imag() < 0 ? " - " : " + ") +
-         FormatNumber(std::abs(value.imag())) + "i";
-}
 
 // sign(A) by the scaled Newton iteration X <- (c X + (c X)^-1) / 2, c = |det X|^(-1/n)
 // (Higham, Functions of Matrices, Sect. 5.5): its eigenvalues are the signs of A's real parts,
@@ -85,7 +81,7 @@ HyperbolicSplit SplitHyperbolic(const Eigen::MatrixXd& state_matrix, double axis
   for (const auto& value : split.eigenvalues) {
     if (SideOfImaginaryAxis(value, std::max(largest, kMinEigenvalueScale), axis_tolerance) ==
         AxisSide::kOn) {
-      on_axis += (on_axis.empty() ? "" : ", ") + Complex(value);
+      on_axis += (on_axis.empty() ? "" : ", ") + FormatComplexWith(value, FormatNumber);
     }
   }
   if (!on_axis.empty()) {

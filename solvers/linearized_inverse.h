@@ -15,7 +15,7 @@
 
 #include "analysis/classification.h"
 #include "models/model.h"
-#include "solvers/inverse_model.h"
+#include "solvers/feedforward_solution.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {

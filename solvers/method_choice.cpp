@@ -1,8 +1,8 @@
 #include "solvers/method_choice.h"
 
 #include <algorithm>
-#include <cstdio>
 
+#include "base/number_format.h"
 #include "solvers/solve_settings.h"
 
 namespace servokit {
@@ -26,10 +26,8 @@ std::string Join(const std::vector<SolverMethod>& methods, const std::string& se
 std::string Eigenvalues(const ZeroDynamics& zero_dynamics) {
   std::string text;
   for (const std::complex<double>& value : zero_dynamics.eigenvalues) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, "%g %c %gi", value.real(), value.imag() < 0 ? '-' : '+',
-                  std::abs(value.imag()));
-    text += (text.empty() ? "" : ", ") + std::string(buffer);
+    text += (text.empty() ? "" : ", ") +
+            FormatComplexWith(value, [](double part) { return FormatSignificant(part, 6); });
   }
   return text;
 }

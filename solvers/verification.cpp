@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <utility>
 
 #include "analysis/operating_point.h"
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 #include "solvers/sundials_integrators.h"
 
@@ -127,12 +127,9 @@ Scales OutputScales(const OutputTrajectory& trajectory, const FeedforwardSolutio
   return scales;
 }
 
-// Numbers in the bound's explanation, to 6 digits (the bound itself is exact in its field).
-std::string Number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
+// Numbers in the bound's explanation and in messages, to this many digits (the bound itself is
+// exact in its field).
+constexpr int kExplainedDigits = 6;
 
 // An exact solve (the algebraic inverse) has no tolerance of its own.
 bool IsExact(const SolveAccuracy& accuracy) { return std::isnan(accuracy.rtol); }
@@ -150,11 +147,12 @@ std::string ResolutionRule(const FeedforwardSolution& solution,
                            const Scales& scales,
                            const VerificationOptions& options,
                            const Verification& verification) {
-  return Number(options.resolution_factor) +
+  return FormatSignificant(options.resolution_factor, kExplainedDigits) +
          " x (the forward check's own resolution, rtol max|y_d| + "
          "atol = " +
-         Number(verification.forward_rtol) + " * " + Number(scales.output) + " + " +
-         Number(verification.forward_atol) +
+         FormatSignificant(verification.forward_rtol, kExplainedDigits) + " * " +
+         FormatSignificant(scales.output, kExplainedDigits) + " + " +
+         FormatSignificant(verification.forward_atol, kExplainedDigits) +
          (solution.method == SolverMethod::kLinearized
               ? "; the bound of an exact inverse: the linearization's inverse passes only where it "
                 "is exact to that resolution)"
@@ -170,15 +168,19 @@ void SetAccuracyBound(const SolveAccuracy& accuracy,
                       Verification& verification) {
   if (accuracy.step) {
     verification.bound = options.step_bound_factor * *accuracy.step * scales.velocity;
-    verification.bound_rule = Number(options.step_bound_factor) +
-                              " x step max|y_d'| = " + Number(options.step_bound_factor) + " x " +
-                              Number(*accuracy.step) + " * " + Number(scales.velocity) +
-                              " (first order: about one step of delay)";
+    verification.bound_rule =
+        FormatSignificant(options.step_bound_factor, kExplainedDigits) +
+        " x step max|y_d'| = " + FormatSignificant(options.step_bound_factor, kExplainedDigits) +
+        " x " + FormatSignificant(*accuracy.step, kExplainedDigits) + " * " +
+        FormatSignificant(scales.velocity, kExplainedDigits) +
+        " (first order: about one step of delay)";
   } else if (!IsExact(accuracy)) {
     verification.bound = options.bound_factor * (accuracy.rtol * scales.output + accuracy.atol);
-    verification.bound_rule = Number(options.bound_factor) +
-                              " x (rtol max|y_d| + atol = " + Number(accuracy.rtol) + " * " +
-                              Number(scales.output) + " + " + Number(accuracy.atol) + ")";
+    verification.bound_rule =
+        FormatSignificant(options.bound_factor, kExplainedDigits) +
+        " x (rtol max|y_d| + atol = " + FormatSignificant(accuracy.rtol, kExplainedDigits) + " * " +
+        FormatSignificant(scales.output, kExplainedDigits) + " + " +
+        FormatSignificant(accuracy.atol, kExplainedDigits) + ")";
   }
 }
 
@@ -209,8 +211,8 @@ PlantState SolutionStateAtStart(const MotionExtension& motion, double t_start) {
   PlantState state;
   std::string why;
   if (!motion.Evaluate(t_start, state.q, state.q_dot, state.u, why)) {
-    throw NoSolution("the solution cannot be evaluated at t_start = " + Number(t_start) +
-                     " s: " + why);
+    throw NoSolution("the solution cannot be evaluated at t_start = " +
+                     FormatSignificant(t_start, kExplainedDigits) + " s: " + why);
   }
   return state;
 }
@@ -257,9 +259,10 @@ void CompareStartWithRest(const PlantState& solution_start,
           kRestFactor * (rtol * std::max(1.0, largest_velocity) + atol);
   if (!verification.solution_starts_at_rest) {
     verification.warnings.push_back(
-        "the solution does not start at rest at t_start = " + Number(solution.t_start) +
-        " s (|q - q_rest| = " + Number(verification.start_position_deviation) +
-        ", |q'| = " + Number(verification.start_velocity_deviation) +
+        "the solution does not start at rest at t_start = " +
+        FormatSignificant(solution.t_start, kExplainedDigits) + " s (|q - q_rest| = " +
+        FormatSignificant(verification.start_position_deviation, kExplainedDigits) +
+        ", |q'| = " + FormatSignificant(verification.start_velocity_deviation, kExplainedDigits) +
         "); the forward check starts from rest, where the physical system is");
   }
 }
@@ -308,9 +311,11 @@ void ChooseSegments(double span, const VerificationOptions& options, Verificatio
   } else if (span / verification.segment_length > kMaxSegments) {
     verification.segments = kMaxSegments;
     verification.warnings.push_back(
-        "the plant grows so fast (" + Number(verification.plant_growth_rate) +
+        "the plant grows so fast (" +
+        FormatSignificant(verification.plant_growth_rate, kExplainedDigits) +
         " /s) that the forward check's " + std::to_string(kMaxSegments) +
-        " segments let errors grow by more than " + Number(options.segment_growth) + " within one");
+        " segments let errors grow by more than " +
+        FormatSignificant(options.segment_growth, kExplainedDigits) + " within one");
   } else {
     verification.segments =
         int(std::ceil(span / verification.segment_length - kWholeSegmentsTolerance));
@@ -405,7 +410,8 @@ void RunForwardSegments(Plant& plant,
     } else {
       if (!motion.Evaluate(from, buffers.q, buffers.q_dot, buffers.u, why)) {
         verification.summary.status = SolveStatus::kNoConvergence;
-        verification.summary.message = "at t = " + Number(from) + " s: " + why;
+        verification.summary.message =
+            "at t = " + FormatSignificant(from, kExplainedDigits) + " s: " + why;
         break;
       }
       state << buffers.q, buffers.q_dot;
@@ -422,9 +428,9 @@ void RunForwardSegments(Plant& plant,
 }
 
 std::string ForwardRunsMessage(double t_stop, const Verification& verification) {
-  return "reached t = " + Number(t_stop) + " s in " + std::to_string(verification.segments) +
-         (verification.segments == 1 ? " run" : " runs") + ", " +
-         std::to_string(verification.summary.steps) + " steps";
+  return "reached t = " + FormatSignificant(t_stop, kExplainedDigits) + " s in " +
+         std::to_string(verification.segments) + (verification.segments == 1 ? " run" : " runs") +
+         ", " + std::to_string(verification.summary.steps) + " steps";
 }
 
 }  // namespace

@@ -12,7 +12,7 @@
 // Waiting (for a message, for a send to complete) polls every kPollInterval instead of
 // blocking in MPI, whose blocking calls spin on a core: with more threads than cores, a
 // waiting rank 0 would otherwise slow down the threads computing the block it waits for.
-#include "application/mpi_sweep.h"
+#include "application/mpi_plugin.h"
 
 #include <mpi.h>
 
@@ -29,7 +29,7 @@
 #include <vector>
 
 #include "application/exit_codes.h"
-#include "application/mpi_plugin.h"
+#include "application/mpi_sweep.h"
 #include "base/errors.h"
 
 namespace servokit {
