@@ -64,6 +64,15 @@ commands() {
   echo "analyze GEN/chain/chain_300.yaml --which leftmost"
   echo "analyze GEN/chain/chain_300.yaml --eigenvalues 0"
   echo "analyze $models/mass_on_car.yaml --rank-tolerance 2"
+  echo "threshold $models/mass_on_car.yaml --vary alpha=1deg:80deg --event oscillation --set d=1 --format text"
+  echo "threshold $models/rotational_arm.yaml --vary s=0:1 --event stability --format text --no-closed-form"
+  echo "threshold $models/rotational_arm.yaml --vary s=0:1 --event realization --scan 50 --tolerance 1e-9"
+  echo "threshold $models/mass_on_car.yaml --vary alpha=0.1:1.5 --event oscillation --set d=1 --y0 0.1"
+  echo "threshold $models/mass_on_car.yaml --vary k=1:10 --event stability --set alpha=30deg --set d=1"
+  echo "threshold GEN/chain/chain_300.yaml --vary d=0:1 --event stability"
+  echo "threshold $models/mass_on_car.yaml --vary nope=0:1 --event stability"
+  echo "threshold $models/mass_on_car.yaml --vary alpha=0:1 --event weather"
+  echo "threshold $models/mass_on_car.yaml --vary alpha=0:1 --event stability --scan 0"
   echo "report paper --out OUT/paper --models $models"
 }
 

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "models/units.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {
@@ -46,6 +47,17 @@ const servokit::Model& MultibodyModel(const Model& model, const char* operation)
 
 Model Model::FromFile(const std::string& path, const ParameterValues& overrides) {
   return Model(std::make_shared<const Loaded>(Loaded{LoadModelFile(path, ToOverrides(overrides))}));
+}
+
+std::optional<ValueWithUnit> ParseQuantity(std::string_view text) {
+  const std::optional<ParsedQuantity> parsed = ParseQuantityWithUnit(text);
+  if (!parsed) return std::nullopt;
+  return ValueWithUnit{parsed->value, parsed->unit == DisplayUnit::kDegree};
+}
+
+Model Model::MultibodyFromFile(const std::string& path, const ParameterValues& overrides) {
+  return Model(
+      std::make_shared<const Loaded>(Loaded{LoadedModel(LoadModel(path, ToOverrides(overrides)))}));
 }
 
 Model Model::FromString(const std::string& yaml,

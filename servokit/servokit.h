@@ -29,6 +29,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -73,6 +74,15 @@ using servokit::ToString;
 /// in SI units or "<number> deg" (converted to radians), as in the model file.
 using ParameterValues = std::vector<std::pair<std::string, std::string>>;
 
+/// A value as model files and parameter overrides write it: "<number>" in SI units or
+/// "<number> deg" (a blank before deg optional), converted to radians.
+struct ValueWithUnit {
+  double value = 0.0;    // SI (radians for degrees)
+  bool degrees = false;  // written in degrees
+};
+/// The value of `text`, nullopt when it is not such a number.
+std::optional<ValueWithUnit> ParseQuantity(std::string_view text);
+
 /// A loaded model, either kind: immutable, cheap to copy (copies share it) and safe to use from
 /// several threads at once.
 class Model {
@@ -80,6 +90,9 @@ class Model {
   /// Reads a model file (YAML; docs/model-files.md, `kind: linear` included). Throws ModelError
   /// naming the file, key and entry of a bad file, UsageError for a bad override.
   static Model FromFile(const std::string& path, const ParameterValues& overrides = {});
+  /// The same for a command that takes multibody models only: a linear model file is a
+  /// ModelError naming the file (before its matrices are read).
+  static Model MultibodyFromFile(const std::string& path, const ParameterValues& overrides = {});
   /// The same from YAML text; `source` names it in error messages, and a linear model's matrix
   /// files are found relative to its directory.
   static Model FromString(const std::string& yaml,
@@ -250,6 +263,17 @@ struct ThresholdQuery {
   double low = 0.0, high = 0.0;  // SI units
   ThresholdEvent event = ThresholdEvent::kStability;
   AnalyzeOptions analysis;  // the tolerances of each classification
+  // How finely [low, high] is scanned before each change is bisected, and the relative width
+  // each change is located to; unset: the toolkit's (docs/threshold.md).
+  std::optional<int> scan_intervals;
+  std::optional<double> relative_tolerance;
+  // Also derive the zero dynamics' characteristic polynomial in closed form, with its
+  // Routh-Hurwitz conditions (a symbolic derivation at q = 0; skipped when analysis moves the
+  // operating point with y0 or q_guess).
+  bool closed_form = false;
+  // Give each value in degrees too, even for a parameter the model shows in SI units (e.g. a
+  // range the caller wrote in degrees).
+  bool show_degrees = false;
 };
 
 /// One located change: the class goes from `from` to `to` at `value` (SI units).
@@ -258,11 +282,33 @@ struct Threshold {
   std::string from, to;
   std::string via;  // a thin state passed through (e.g. "tangential"), or empty
   // `value` * 180 / pi when the parameter is shown in degrees (Model::parameter_display_units()
-  // says "deg": the model file or an override gave it in degrees), else empty.
+  // says "deg": the model file or an override gave it in degrees, or show_degrees), else empty.
   std::optional<double> value_deg;
+  double bracket_width = 0.0;  // the change lies within value +- bracket_width / 2
 };
 
-/// Every threshold in [low, high], ascending, each to 1e-12 relative. Multibody models only.
+/// The toolkit's search settings: what ThresholdQuery's unset fields mean, and the largest scan
+/// it takes (the one place these numbers are written is the toolkit's ThresholdOptions).
+struct ThresholdSettings {
+  int scan_intervals = 0;
+  double relative_tolerance = 0.0;
+  int max_scan_intervals = 0;
+};
+ThresholdSettings DefaultThresholdSettings();
+
+/// A threshold search: its changes, its cost and the report `servokit threshold` prints.
+struct ThresholdReport {
+  std::vector<Threshold> thresholds;  // ascending
+  int classifications = 0;            // the points classified (scan and bisection)
+  std::string json, text;             // --format json and --format text
+};
+
+/// Every threshold in [low, high] with the report of the search. Multibody models only; throws
+/// UsageError for a bad query (naming ThresholdQuery's or the search options' field).
+ThresholdReport SearchThresholds(const Model& model, const ThresholdQuery& query);
+
+/// Every threshold in [low, high], ascending, each to 1e-12 relative: SearchThresholds'
+/// thresholds. Multibody models only.
 std::vector<Threshold> LocateThresholds(const Model& model, const ThresholdQuery& query);
 
 // ---- solving --------------------------------------------------------------------------------

@@ -210,6 +210,56 @@ TEST_CASE("thresholds through the API: over-damped below 9.1 deg at d = 1", "[se
   }
 }
 
+TEST_CASE("a threshold search's report brackets the closed form and says what it was asked",
+          "[servokit][paper]") {
+  // The over-damping threshold of the test above, alpha = asin(sqrt(1 / 40)), with the search's
+  // own settings and report; k is in SI units, so show_degrees alone gives its value in degrees.
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "1"}});
+  sk::ThresholdQuery query;
+  query.parameter = "alpha";
+  query.low = 1.0 * kPi / 180.0;
+  query.high = 80.0 * kPi / 180.0;
+  query.event = sk::ThresholdEvent::kOscillation;
+  query.relative_tolerance = 1e-10;
+  query.scan_intervals = 50;
+  const sk::ThresholdReport report = sk::SearchThresholds(model, query);
+  REQUIRE(report.thresholds.size() == 1);
+  const sk::Threshold& threshold = report.thresholds[0];
+  const double exact = std::asin(std::sqrt(1.0 / 40.0));
+  CHECK(threshold.bracket_width > 0.0);
+  CHECK(threshold.bracket_width <= 1e-10 * (query.high - query.low));
+  CHECK(std::abs(threshold.value - exact) <= threshold.bracket_width / 2.0 + 1e-12);
+  CHECK(report.classifications > 50);  // the scan, then bisection
+  CHECK(report.json.find("\"scan_intervals\": 50,") != std::string::npos);
+  CHECK(report.json.find("closed_form") == std::string::npos);  // not asked for
+  CHECK(report.text.find("1 event") != std::string::npos);
+
+  const sk::ThresholdSettings defaults = sk::DefaultThresholdSettings();
+  CHECK(defaults.scan_intervals >= 1);
+  CHECK(defaults.scan_intervals <= defaults.max_scan_intervals);
+  query.scan_intervals = defaults.max_scan_intervals + 1;
+  CHECK_THROWS_AS(sk::SearchThresholds(model, query), servokit::UsageError);
+
+  // k of m2 sin^2(alpha) s^2 + d s + k at alpha = 5 deg: over-damped while d^2 > 4 m2 k
+  // sin^2(alpha), k < 1 / (8 sin^2(5 deg)) = 16.46 N/m.
+  query = {};
+  query.parameter = "k";
+  query.low = 1.0;
+  query.high = 30.0;
+  query.event = sk::ThresholdEvent::kOscillation;
+  query.show_degrees = true;
+  query.closed_form = true;
+  const sk::ThresholdReport k_report = sk::SearchThresholds(
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "1"}, {"alpha", "5 deg"}}), query);
+  REQUIRE(k_report.thresholds.size() == 1);
+  const double sine = std::sin(5.0 * kPi / 180.0);
+  CHECK(k_report.thresholds[0].value == Approx(1.0 / (8.0 * sine * sine)).epsilon(1e-9));
+  REQUIRE(k_report.thresholds[0].value_deg.has_value());
+  CHECK(*k_report.thresholds[0].value_deg == k_report.thresholds[0].value * 180.0 / kPi);
+  CHECK(k_report.json.find("\"closed_form\"") != std::string::npos);
+  CHECK(k_report.text.find("characteristic polynomial: ") != std::string::npos);
+}
+
 TEST_CASE("the API names the sweep columns and gives a degree parameter in degrees", "[servokit]") {
   const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
   CHECK(model.parameter_display_units() == std::vector<std::string>{"SI", "SI", "SI", "SI", "deg"});
