@@ -13,43 +13,43 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "base/errors.h"
-#include "base/option_check.h"
-#include "models/linear_model.h"
-#include "models/model_generators.h"
+#include "servokit/servokit.h"
 
 namespace servokit {
 namespace {
 
 struct GenerateArguments {
-  ChainOptions chain;
-  BeamOptions beam;
-  std::string output_weights = "mass";  // --output-weights, ChainOutputWeights by name
-  std::string out;                      // the output directory
-  std::string name;                     // empty: chain_N or beam_N
+  api::ChainModel chain;
+  api::BeamModel beam;
+  std::string output_weights = std::string(ToString(api::ChainModel().output_weights));
+  std::string out;   // the output directory
+  std::string name;  // empty: chain_N or beam_N
 };
-
-int WriteModel(LinearModelFiles files, const GenerateArguments& arguments, std::ostream& out) {
-  if (!arguments.name.empty()) files.name = arguments.name;
-  MakeOutputDirectory(arguments.out);
-  out << WriteLinearModel(files, arguments.out) << "\n";
-  return static_cast<int>(ExitCode::kSuccess);
-}
 
 // A generator's options are its flags, spelt with '-' for '_' (--mass-per-length for
 // BeamOptions::mass_per_length); an option error from the generator names the flag too.
-LinearModelFiles Generate(const CLI::App& chain, const GenerateArguments& arguments) {
-  try {
-    if (!chain.parsed()) return GenerateBeam(arguments.beam);
-    ChainOptions options = arguments.chain;
+int RunGenerate(const CLI::App& chain, const GenerateArguments& arguments, std::ostream& out) {
+  api::ChainModel chain_model = arguments.chain;
+  if (chain.parsed()) {
     const std::optional<ChainOutputWeights> weights =
         ChainOutputWeightsFromString(arguments.output_weights);
     if (!weights) {
       throw UsageError("--output-weights " + arguments.output_weights +
                        ": expected mass, linear or uniform");
     }
-    options.output_weights = *weights;
-    return GenerateChain(options);
+    chain_model.output_weights = *weights;
+  }
+  try {
+    // Checked before the directory is made: a bad option leaves nothing behind.
+    if (chain.parsed()) {
+      chain_model.Validate();
+    } else {
+      arguments.beam.Validate();
+    }
+    MakeOutputDirectory(arguments.out);
+    out << (chain.parsed() ? api::Generate(chain_model, arguments.out, arguments.name)
+                           : api::Generate(arguments.beam, arguments.out, arguments.name))
+        << "\n";
   } catch (const OptionError& error) {
     std::string flag = error.field();
     for (char& c : flag) {
@@ -57,6 +57,7 @@ LinearModelFiles Generate(const CLI::App& chain, const GenerateArguments& argume
     }
     throw UsageError(std::string(error.what()) + " (--" + flag + ")");
   }
+  return static_cast<int>(ExitCode::kSuccess);
 }
 
 void AddOutputOptions(CLI::App& command, GenerateArguments& arguments, const std::string& stem) {
@@ -81,7 +82,7 @@ Command AddGenerateCommand(CLI::App& app) {
 
   CLI::App* chain = generate->add_subcommand(
       "chain", "N masses between springs and dampers, fixed to the ground at one end");
-  ChainOptions& chain_options = arguments->chain;
+  api::ChainModel& chain_options = arguments->chain;
   chain->add_option("--masses", chain_options.masses, "Number of masses N")->required();
   chain->add_option("--mass", chain_options.mass, "Each mass m, kg")->capture_default_str();
   chain->add_option("--stiffness", chain_options.stiffness, "Each spring k, N/m")
@@ -102,7 +103,7 @@ Command AddGenerateCommand(CLI::App& app) {
 
   CLI::App* beam = generate->add_subcommand(
       "beam", "A flexible link (Euler-Bernoulli, Hermite elements) on a hub driven by a torque");
-  BeamOptions& beam_options = arguments->beam;
+  api::BeamModel& beam_options = arguments->beam;
   beam->add_option("--elements", beam_options.elements, "Number of elements N")->required();
   beam->add_option("--length", beam_options.length, "Link length L, m")->capture_default_str();
   beam->add_option("--hub-inertia", beam_options.hub_inertia, "Hub inertia J, kg m^2")
@@ -117,7 +118,7 @@ Command AddGenerateCommand(CLI::App& app) {
   AddOutputOptions(*beam, *arguments, "beam");
 
   return {generate, [arguments, chain](std::ostream& out, std::ostream&) {
-            return WriteModel(Generate(*chain, *arguments), *arguments, out);
+            return RunGenerate(*chain, *arguments, out);
           }};
 }
 

@@ -73,6 +73,12 @@ commands() {
   echo "threshold $models/mass_on_car.yaml --vary nope=0:1 --event stability"
   echo "threshold $models/mass_on_car.yaml --vary alpha=0:1 --event weather"
   echo "threshold $models/mass_on_car.yaml --vary alpha=0:1 --event stability --scan 0"
+  echo "generate chain --masses 0 --out OUT/no-chain"
+  echo "generate chain --masses 5 --output-weights linear --output-mass 2 --out OUT/no-chain"
+  echo "generate chain --masses 5 --output-weights heavy --out OUT/no-chain"
+  echo "generate chain --masses 5 --name ../escape --out OUT/chain-name"
+  echo "generate beam --elements 3 --length -1 --out OUT/no-beam"
+  echo "generate beam --elements 3 --name link --out OUT/beam-name"
   echo "report paper --out OUT/paper --models $models"
 }
 

@@ -17,11 +17,7 @@ std::string Write(LinearModelFiles files, const std::string& directory, const st
   return WriteLinearModel(files, directory);
 }
 
-}  // namespace
-
-std::string Generate(const ChainModel& chain,
-                     const std::string& directory,
-                     const std::string& name) {
+ChainOptions ToChainOptions(const ChainModel& chain) {
   ChainOptions options;
   options.masses = chain.masses;
   options.mass = chain.mass;
@@ -30,10 +26,10 @@ std::string Generate(const ChainModel& chain,
   options.input_mass = chain.input_mass;
   options.output_mass = chain.output_mass;
   options.output_weights = chain.output_weights;
-  return Write(GenerateChain(options), directory, name);
+  return options;
 }
 
-std::string Generate(const BeamModel& beam, const std::string& directory, const std::string& name) {
+BeamOptions ToBeamOptions(const BeamModel& beam) {
   BeamOptions options;
   options.elements = beam.elements;
   options.length = beam.length;
@@ -41,7 +37,22 @@ std::string Generate(const BeamModel& beam, const std::string& directory, const 
   options.mass_per_length = beam.mass_per_length;
   options.bending_stiffness = beam.bending_stiffness;
   options.damping_factor = beam.damping_factor;
-  return Write(GenerateBeam(options), directory, name);
+  return options;
+}
+
+}  // namespace
+
+void ChainModel::Validate() const { ToChainOptions(*this).Validate(); }
+void BeamModel::Validate() const { ToBeamOptions(*this).Validate(); }
+
+std::string Generate(const ChainModel& chain,
+                     const std::string& directory,
+                     const std::string& name) {
+  return Write(GenerateChain(ToChainOptions(chain)), directory, name);
+}
+
+std::string Generate(const BeamModel& beam, const std::string& directory, const std::string& name) {
+  return Write(GenerateBeam(ToBeamOptions(beam)), directory, name);
 }
 
 }  // namespace servokit::api

@@ -462,6 +462,9 @@ struct ChainModel {
   // The output y: the position of output_mass, sum of (i/N) q_i over every mass (kLinear) or
   // the mean position, sum of q_i / N (kUniform).
   ChainOutputWeights output_weights = ChainOutputWeights::kMass;
+  /// Throws OptionError naming the field, its value and the rule it breaks (Generate checks
+  /// the same before it writes anything).
+  void Validate() const;
 };
 
 /// A hub-driven Euler-Bernoulli beam in finite elements, tip position as output.
@@ -472,6 +475,7 @@ struct BeamModel {
   double mass_per_length = 1.0;     // kg/m
   double bending_stiffness = 10.0;  // N m^2
   double damping_factor = 1e-4;     // beta in D = beta K, s
+  void Validate() const;            // as ChainModel::Validate
 };
 
 /// Writes the model (YAML and its Matrix Market files) into `directory` (made if missing) and
