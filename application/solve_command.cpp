@@ -7,6 +7,7 @@
 //     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica] [--plot DIR]
 //     [--summary json|text]
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -17,17 +18,7 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "base/errors.h"
-#include "base/number_format.h"
-#include "base/option_check.h"
-#include "files/output_file.h"
-#include "reports/solve_figures.h"
-#include "reports/solve_files.h"
 #include "servokit/servokit.h"
-#include "solvers/method_choice.h"
-#include "solvers/solve_settings.h"
-#include "solvers/solve_summary.h"
-#include "trajectories/sampled_trajectory.h"
 
 namespace servokit {
 namespace {
@@ -49,6 +40,14 @@ struct SolveArguments {
   std::string plot;              // --plot DIR, "" for no figures
   std::string summary = "json";  // what stdout gets: json or text
 };
+
+// The shortest text that reads back to the same double, as the library writes numbers in its
+// messages.
+std::string ShortestText(double value) {
+  char buffer[32];  // the longest shortest form, "-2.2250738585072014e-308", has 24
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
 
 // The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
 api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
@@ -82,15 +81,12 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
     if (arguments.sample_tolerance) {
       const double tolerance = *arguments.sample_tolerance;
       if (!(tolerance >= 0.0 && tolerance < 1.0)) {
-        throw UsageError("--sample-tolerance " + FormatNumber(tolerance) +
+        throw UsageError("--sample-tolerance " + ShortestText(tolerance) +
                          ": must be >= 0 (0: through every sample) and < 1");
       }
       trajectory.sample_tolerance = tolerance;
     }
-    TrajectorySamples samples = LoadTrajectorySamples(arguments.trajectory);
-    trajectory.sample_source = arguments.trajectory;
-    trajectory.sample_times = std::move(samples.times);
-    trajectory.sample_values = std::move(samples.values);
+    api::ReadSamplesFile(arguments.trajectory, trajectory);
     return trajectory;
   }
   trajectory.waypoint_file = arguments.trajectory;
@@ -147,89 +143,16 @@ api::Feedforward SolveTellingFlags(const api::Model& model,
 // The format of --out: --format when given, else from the name (.mat: mat, else csv); a name
 // that belongs to another format is refused (SolveFileNameProblem).
 SolveFileFormat ChooseFormat(const SolveArguments& arguments) {
-  if (!arguments.format) return SolveFileFormatOfName(arguments.out);
+  if (!arguments.format) return api::SolveFileFormatOfName(arguments.out);
   const std::optional<SolveFileFormat> format = SolveFileFormatFromString(*arguments.format);
   if (!format) {
     throw UsageError("--format " + *arguments.format + ": expected csv, mat or modelica");
   }
-  if (const std::optional<std::string> problem = SolveFileNameProblem(arguments.out, *format)) {
+  if (const std::optional<std::string> problem =
+          api::SolveFileNameProblem(arguments.out, *format)) {
     throw UsageError("--format " + *arguments.format + " --out " + arguments.out + ": " + *problem);
   }
   return *format;
-}
-
-// A number of the summary in a few digits, "none" where the JSON has null (not finite).
-std::string ShortOrNone(double value) {
-  if (!std::isfinite(value)) return "none";
-  return FormatShort(value == 0.0 ? 0.0 : value);  // as the JSON: no negative zero
-}
-
-// --summary text: the summary told in a few lines, the same numbers as its JSON object.
-std::string SummaryText(const api::SolveSummary& summary) {
-  std::ostringstream text;
-  text << "method: " << ToString(summary.method) << " (" << summary.method_reason << ")\n";
-  text << "status: " << ToString(summary.status);
-  if (!summary.message.empty()) text << ": " << summary.message;
-  text << "\nsteps: " << summary.steps << " (" << summary.rejected_steps << " rejected, "
-       << summary.newton_iterations << " Newton iterations), " << summary.samples
-       << " samples from t = " << ShortOrNone(summary.t_start) << " s to "
-       << ShortOrNone(summary.t_end) << " s\n";
-  text << "max servo residual: " << ShortOrNone(summary.max_servo_residual) << "\n";
-  if (const std::optional<api::Verification>& verification = summary.verification) {
-    text << "verification: " << (verification->passed ? "passed" : "FAILED")
-         << ", max output error " << ShortOrNone(verification->max_tracking_error)
-         << " at t = " << ShortOrNone(verification->time_of_max_error) << " s, bound "
-         << ShortOrNone(verification->bound) << "\n";
-  } else {
-    text << "verification: not run (--verify)\n";
-  }
-  if (summary.window) {
-    text << "pre-actuation from t = " << ShortOrNone(summary.window->pre_actuation_start)
-         << " s, post-actuation to t = " << ShortOrNone(summary.window->post_actuation_end)
-         << " s\n";
-  }
-  for (const std::string& warning : summary.warnings) text << "warning: " << warning << "\n";
-  text << "file: " << summary.out_file << "\n";
-  return text.str();
-}
-
-// A time of the window, none where the JSON has null.
-std::optional<double> FiniteOrNone(double value) {
-  if (!std::isfinite(value)) return std::nullopt;
-  return value == 0.0 ? 0.0 : value;
-}
-
-// --plot DIR: the figures of these solves, one curve per method (reports/solve_figures.h).
-void DrawFigures(const std::string& directory,
-                 const api::Model& model,
-                 const std::vector<const api::Feedforward*>& solves) {
-  SolveFigureFrame frame{model.name(), model.coordinate_names(), model.input_names(),
-                         model.output_names(), solves.front()->breakpoints};
-  std::vector<SolveFigureRun> runs;
-  for (const api::Feedforward* feedforward : solves) {
-    const api::SolveSummary& summary = feedforward->summary;
-    SolveFigureRun& run = runs.emplace_back();
-    run.method = std::string(ToString(summary.method));
-    run.t = feedforward->t;
-    run.q = feedforward->q;
-    run.q_dot = feedforward->q_dot;
-    run.u = feedforward->u;
-    run.y_d = feedforward->y_d;
-    if (summary.verification && !summary.verification->t.empty()) {
-      run.output_times = summary.verification->t;
-      run.output = summary.verification->y;
-      run.output_source = "forward simulation";
-    } else {
-      run.output_times = feedforward->t;
-      run.output = feedforward->y;
-      run.output_source = "h(q_d)";
-    }
-    if (summary.window) {
-      run.pre_actuation_start = FiniteOrNone(summary.window->pre_actuation_start);
-      run.post_actuation_end = FiniteOrNone(summary.window->post_actuation_end);
-    }
-  }
-  DrawSolveFigures(directory, frame, runs);
 }
 
 // --method: one method (auto included), or a comma-separated list of named methods, each
@@ -401,7 +324,7 @@ void WriteSummaries(const std::vector<api::Feedforward>& solves,
                     std::ostream& out) {
   if (summary == "text") {
     for (std::size_t k = 0; k < solves.size(); ++k) {
-      out << (k > 0 ? "\n" : "") << SummaryText(solves[k].summary);
+      out << (k > 0 ? "\n" : "") << api::SolveSummaryText(solves[k].summary);
     }
   } else if (!several) {
     out << solves.front().summary.json << "\n";
@@ -420,7 +343,7 @@ void DrawSolvesWithRows(const std::string& plot,
   for (const api::Feedforward& solve : solves) {
     if (!solve.t.empty()) drawn.push_back(&solve);
   }
-  if (!plot.empty() && !drawn.empty()) DrawFigures(plot, model, drawn);
+  if (!plot.empty() && !drawn.empty()) api::DrawSolveFigures(plot, model, drawn);
 }
 
 // Each solve's warnings and failure on `err`; the worst status of all the listed methods.
@@ -464,7 +387,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
 
   // The inputs are read: no output may be one of them, a link, a FIFO or a directory.
   for (std::size_t k = 0; k < methods.size(); ++k)
-    CheckOutputPath(OutFileOf(arguments.out, methods, k));
+    api::CheckOutputPath(OutFileOf(arguments.out, methods, k));
 
   const bool several = methods.size() > 1;
   const MethodSolves method_solves = SolveEachMethod(methods, arguments.out, model, trajectory,

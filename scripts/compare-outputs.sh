@@ -79,6 +79,12 @@ commands() {
   echo "generate chain --masses 5 --name ../escape --out OUT/chain-name"
   echo "generate beam --elements 3 --length -1 --out OUT/no-beam"
   echo "generate beam --elements 3 --name link --out OUT/beam-name"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 $rest --method radau,bdf --verify --plot OUT/figures --out OUT/plotted.csv"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 $rest --format mat --out OUT/u.csv"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 $rest --out OUT/case2.mat"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 --trajectory $root/tests/fuzz/corpus/trajectory_file/dense.csv --sample-tolerance 2 --t-end 10 --out OUT/s.csv"
+  echo "solve $models/mass_on_car.yaml --set alpha=5deg --set d=1 --trajectory $root/tests/fuzz/corpus/trajectory_file/dense.csv --t-end 10 --out OUT/s.csv"
+  echo "solve $models/mass_on_car.yaml --trajectory $data/errors/samples_not_a_number.csv --t-end 10 --out OUT/s.csv"
   echo "report paper --out OUT/paper --models $models"
 }
 

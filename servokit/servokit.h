@@ -441,6 +441,35 @@ struct Feedforward {
 /// The JSON array `servokit solve --method a,b` prints: each summary's object, in order.
 std::string SolveSummariesJson(const std::vector<SolveSummary>& summaries);
 
+/// The summary told in a few lines (`servokit solve --summary text`): method, status, steps,
+/// residual, the forward check, pre- and post-actuation, warnings and the file.
+std::string SolveSummaryText(const SolveSummary& summary);
+
+/// Draws the figures of `solves` of `model` (one curve per solve; each must have rows) into
+/// `directory` as `servokit solve --plot` does: u_d, q_d, y_d against the motion's output (the
+/// forward check's where it ran), as PNG and PDF with their gnuplot scripts and data.
+void DrawSolveFigures(const std::string& directory,
+                      const Model& model,
+                      const std::vector<const Feedforward*>& solves);
+
+// ---- files ----------------------------------------------------------------------------------
+
+/// The samples of a desired output read from a CSV file (t, then one column per output) into
+/// `trajectory` (sample_times, sample_values, sample_source). Throws ModelError "file:line:
+/// problem".
+void ReadSamplesFile(const std::string& path, OutputTrajectory& trajectory);
+
+/// The format a solve file's name asks for when none is given: MAT for a name ending in .mat
+/// (any case), else CSV.
+SolveFileFormat SolveFileFormatOfName(const std::string& path);
+/// Why `path` cannot hold a solve file of `format` (a name of another format's ending), or
+/// nullopt.
+std::optional<std::string> SolveFileNameProblem(const std::string& path, SolveFileFormat format);
+
+/// Refuses `path` as the name of an output before any work is done: throws UsageError naming it
+/// when it is empty, a link, a directory, a FIFO, socket or device, or a file read as an input.
+void CheckOutputPath(const std::string& path);
+
 /// Solves the inverse model of `model` (multibody) for `trajectory`. Throws UsageError for bad
 /// options, NoSolution when the method refuses the problem; a solve that stops early returns
 /// with usable false and the rows up to there.

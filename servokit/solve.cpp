@@ -159,7 +159,8 @@ SolveFileFormat ChooseFileFormat(const servokit::Model& model, const SolveOption
   if (options.out_file.empty()) return options.file_format.value_or(SolveFileFormat::kCsv);
   const SolveFileFormat format =
       options.file_format.value_or(SolveFileFormatOfName(options.out_file));
-  if (const std::optional<std::string> problem = SolveFileNameProblem(options.out_file, format)) {
+  if (const std::optional<std::string> problem =
+          servokit::SolveFileNameProblem(options.out_file, format)) {
     throw UsageError(
         "SolveOptions::file_format = " + std::string(options.file_format ? ToString(format) : "") +
         ", out_file = " + options.out_file + ": " + *problem);
