@@ -21,7 +21,7 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/input_file.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "reports/class_map.h"
 #include "reports/model_report.h"
 #include "reports/paper_report.h"

@@ -36,7 +36,7 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
-#include "models/loaded_model.h"
+#include "modeling/loaded_model.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_records.h"
 #include "reports/sweep_tables.h"

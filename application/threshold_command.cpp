@@ -13,7 +13,7 @@
 #include "application/grid_arguments.h"
 #include "base/errors.h"
 #include "base/number_format.h"
-#include "models/units.h"
+#include "modeling/units.h"
 
 namespace servokit {
 namespace {

@@ -11,7 +11,7 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/output_file.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "reports/plots.h"
 #include "reports/report_support.h"
 #include "reports/sweep_tables.h"

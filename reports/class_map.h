@@ -9,7 +9,7 @@
 
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "reports/document.h"
 
 namespace servokit {

@@ -6,7 +6,7 @@
 #include "analysis/classification.h"
 #include "base/errors.h"
 #include "base/number_format.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "reports/class_map.h"
 #include "reports/classification_report.h"
 #include "reports/escaping.h"

@@ -6,7 +6,7 @@
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep_point.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -8,7 +8,7 @@
 #include "analysis/classification.h"
 #include "base/errors.h"
 #include "base/number_format.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "reports/classification_report.h"
 #include "reports/report_support.h"
 #include "solvers/inverse_model.h"

@@ -7,7 +7,7 @@
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/sweep_point.h"
 #include "analysis/thresholds.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "reports/document.h"
 #include "reports/plots.h"
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/verification.h"
 #include "trajectories/trajectory.h"

@@ -2,7 +2,7 @@
 #include "analysis/thresholds.h"
 
 #include "base/option_check.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {

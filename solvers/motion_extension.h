@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/dense_output.h"
 #include "solvers/servo_constraint_problem.h"

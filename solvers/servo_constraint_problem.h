@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/linearly_implicit_dae.h"
 #include "solvers/solve_summary.h"
 #include "trajectories/trajectory.h"

@@ -16,7 +16,7 @@
 #include <optional>
 #include <vector>
 
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/motion_extension.h"
 #include "solvers/solve_summary.h"

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/solve_summary.h"
 #include "trajectories/trajectory.h"

@@ -8,7 +8,7 @@
 //
 // Numbers are compared within a relative 1e-6 (the report prints 6 to 12 digits); words
 // exactly; `backquoted` closed forms exactly (their text is canonical, the same in every run:
-// models/canonical_expression.h); `backquoted` measured numbers (a solver's agreement, a
+// modeling/canonical_expression.h); `backquoted` measured numbers (a solver's agreement, a
 // residual) are shown, not compared: they move with any change of a solver's steps.
 #include "reports/paper_report.h"
 
