@@ -22,12 +22,12 @@
 #include "base/number_format.h"
 #include "base/option_check.h"
 #include "files/output_file.h"
+#include "integrators/solve_summary.h"
 #include "reports/solve_figures.h"
 #include "reports/solve_files.h"
 #include "servokit/servokit.h"
 #include "solvers/method_choice.h"
 #include "solvers/solve_settings.h"
-#include "solvers/solve_summary.h"
 #include "trajectories/sampled_trajectory.h"
 
 namespace servokit {

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "base/errors.h"
-#include "solvers/radau.h"
+#include "integrators/radau.h"
 #include "solvers/verification.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"

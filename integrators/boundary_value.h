@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "solvers/solve_summary.h"
+#include "integrators/solve_summary.h"
 
 namespace servokit {
 

@@ -10,9 +10,9 @@
 #include <limits>
 #include <vector>
 
-#include "solvers/dense_output.h"
-#include "solvers/linearly_implicit_dae.h"
-#include "solvers/solve_summary.h"
+#include "integrators/dense_output.h"
+#include "integrators/linearly_implicit_dae.h"
+#include "integrators/solve_summary.h"
 
 namespace servokit {
 

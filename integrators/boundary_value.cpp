@@ -1,4 +1,4 @@
-#include "solvers/boundary_value.h"
+#include "integrators/boundary_value.h"
 
 #include <Eigen/SparseCore>
 #include <Eigen/SparseLU>

@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "solvers/dense_output.h"
-#include "solvers/solve_summary.h"
+#include "integrators/dense_output.h"
+#include "integrators/solve_summary.h"
 
 namespace servokit {
 

@@ -1,4 +1,4 @@
-#include "solvers/linearly_implicit_dae.h"
+#include "integrators/linearly_implicit_dae.h"
 
 #include <cmath>
 #include <limits>

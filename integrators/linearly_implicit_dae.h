@@ -1,7 +1,7 @@
 #pragma once
 // A DAE in linearly implicit form,  A(t, x) x' = phi(t, x),  with A possibly singular: the shape
 // of the projected servo-constraint equations (paper Eqs. 15-18, summarized as Eqs. 57-60),
-// and what Radau IIA and Euler backward (solvers/radau.h) integrate.
+// and what Radau IIA and Euler backward (integrators/radau.h) integrate.
 #include <Eigen/Dense>
 #include <string>
 #include <vector>

@@ -1,4 +1,4 @@
-#include "solvers/dense_output.h"
+#include "integrators/dense_output.h"
 
 #include <algorithm>
 #include <cmath>

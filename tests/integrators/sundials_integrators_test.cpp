@@ -1,6 +1,6 @@
 // The SUNDIALS integrators (ARKODE Dormand-Prince, CVODE BDF, IDA) on problems whose exact
 // solution is known in closed form, plus their breakpoints, failures and options.
-#include "solvers/sundials_integrators.h"
+#include "integrators/sundials_integrators.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -62,7 +62,8 @@ using OdeIntegrator = std::function<SolveSummary(const OdeRightHandSide&,
 // Harmonic oscillator q'' = -w^2 q with w = 2 pi 2.887 rad/s (the undamped mass on car's zero
 // dynamics at 5 deg), q(0) = 1, q'(0) = 0: q = cos(w t), q' = -w sin(w t). Over 10 s that is
 // 29 periods.
-TEST_CASE("Dormand-Prince follows the harmonic oscillator's cos/sin over 29 periods", "[solvers]") {
+TEST_CASE("Dormand-Prince follows the harmonic oscillator's cos/sin over 29 periods",
+          "[integrators]") {
   const double omega = 2.0 * kPi * 2.887;
   const OdeRightHandSide oscillator = [omega](double, const Eigen::VectorXd& y,
                                               Eigen::VectorXd& y_dot, std::string&) {
@@ -103,7 +104,7 @@ TEST_CASE("Dormand-Prince follows the harmonic oscillator's cos/sin over 29 peri
 //   y1 = exp(-t) + exp(-1e4 t),  y2 = exp(-t) - exp(-1e4 t).
 // Stiff: an explicit method is held to |h b| <~ 3.3 by stability long after the fast mode died.
 TEST_CASE("BDF solves a stiff linear system accurately in far fewer steps than Dormand-Prince",
-          "[solvers]") {
+          "[integrators]") {
   const double slow = -1.0;
   const double fast = -1e4;
   Eigen::Matrix2d system_matrix;
@@ -151,7 +152,7 @@ TEST_CASE("BDF solves a stiff linear system accurately in far fewer steps than D
 //   x = 3/2 exp(-t) + (sin t - cos t) / 2,  z = sin t.
 // Consistent start: x = 1, z = 0, x' = -1 + 0 = -1, z' = cos 0 = 1.
 TEST_CASE("IDA solves a linear index-1 DAE with its algebraic variable out of the error test",
-          "[solvers]") {
+          "[integrators]") {
   const DaeResidual dae = [](double t, const Eigen::VectorXd& x, const Eigen::VectorXd& x_dot,
                              Eigen::VectorXd& residual, std::string&) {
     residual << x_dot(0) + x(0) - x(1), x(1) - std::sin(t);
@@ -189,7 +190,7 @@ TEST_CASE("IDA solves a linear index-1 DAE with its algebraic variable out of th
 // Newton at every step. So q1'' = -w^2 q1 and, from q1(0) = 1, q2(0) = 0:
 //   q1 = cos(w t), q2 = -w sin(w t), z = w^2 cos(w t).
 TEST_CASE("IDA solves an oscillator whose force is the root of a nonlinear algebraic equation",
-          "[solvers]") {
+          "[integrators]") {
   const double omega = 2.0;
   const DaeResidual dae = [omega](double, const Eigen::VectorXd& x, const Eigen::VectorXd& x_dot,
                                   Eigen::VectorXd& residual, std::string&) {
@@ -229,7 +230,7 @@ TEST_CASE("IDA solves an oscillator whose force is the root of a nonlinear algeb
 // every method here integrates exactly, so the result is exact to round-off provided no step
 // straddles the kink: the integrator must stop on t = 1 and restart there. The step that lands
 // on t = 1 must also see y' = 0 there, although the function gives 1 at t = 1 itself.
-TEST_CASE("a breakpoint is hit exactly and the kinked solution comes out exact", "[solvers]") {
+TEST_CASE("a breakpoint is hit exactly and the kinked solution comes out exact", "[integrators]") {
   const double kink = 1.0;
   const OdeRightHandSide ramp = [kink](double t, const Eigen::VectorXd&, Eigen::VectorXd& y_dot,
                                        std::string&) {
@@ -293,7 +294,7 @@ TEST_CASE("a breakpoint is hit exactly and the kinked solution comes out exact",
 // t = 2; CVODE and IDA retry smaller steps and creep up to t = 2 until the step size falls
 // below round-off (measured stop_time 1.9925, 2 and 2; refusals at t = 2.0016, 2 and 2).
 TEST_CASE("a right-hand side that refuses a point stops the integration with its reason",
-          "[solvers]") {
+          "[integrators]") {
   const double barrier = 2.0;
   const OdeRightHandSide refusing = [barrier](double t, const Eigen::VectorXd& y,
                                               Eigen::VectorXd& y_dot, std::string& why) {
@@ -335,7 +336,7 @@ TEST_CASE("a right-hand side that refuses a point stops the integration with its
   }
 }
 
-TEST_CASE("a right-hand side that is not finite is reported as such", "[solvers]") {
+TEST_CASE("a right-hand side that is not finite is reported as such", "[integrators]") {
   // y' = -y, but NaN for t > 1.
   const OdeRightHandSide not_finite = [](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                          std::string&) {
@@ -349,7 +350,7 @@ TEST_CASE("a right-hand side that is not finite is reported as such", "[solvers]
   CHECK(summary.stop_time <= 1.0);
 }
 
-TEST_CASE("an exception thrown by a callback comes out of the integrator", "[solvers]") {
+TEST_CASE("an exception thrown by a callback comes out of the integrator", "[integrators]") {
   // Thrown inside SUNDIALS' C frames, caught there and rethrown once SUNDIALS has returned.
   const OdeRightHandSide throwing = [](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                        std::string&) {
@@ -374,7 +375,7 @@ TEST_CASE("an exception thrown by a callback comes out of the integrator", "[sol
                     "model evaluation failed");
 }
 
-TEST_CASE("a right-hand side returning the wrong size is a programming error", "[solvers]") {
+TEST_CASE("a right-hand side returning the wrong size is a programming error", "[integrators]") {
   const OdeRightHandSide wrong_size = [](double, const Eigen::VectorXd&, Eigen::VectorXd& y_dot,
                                          std::string&) {
     y_dot = Eigen::VectorXd::Zero(3);
@@ -386,7 +387,8 @@ TEST_CASE("a right-hand side returning the wrong size is a programming error", "
 }
 
 // ---------------------------------------------------------------------------------------------
-TEST_CASE("an observer returning false interrupts the integration where it said so", "[solvers]") {
+TEST_CASE("an observer returning false interrupts the integration where it said so",
+          "[integrators]") {
   // y' = -y from y(0) = 1; stop at the fifth call (the start and four steps).
   const OdeRightHandSide decay = [](double, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                     std::string&) {
@@ -412,7 +414,7 @@ TEST_CASE("an observer returning false interrupts the integration where it said 
   }
 }
 
-TEST_CASE("the step limit stops the integration with too-many-steps", "[solvers]") {
+TEST_CASE("the step limit stops the integration with too-many-steps", "[integrators]") {
   // y' = -y over 10 s with steps of at most 0.01 s: 1000 steps needed, 100 allowed.
   const OdeRightHandSide decay = [](double, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                     std::string&) {
@@ -429,7 +431,7 @@ TEST_CASE("the step limit stops the integration with too-many-steps", "[solvers]
   CHECK_THAT(summary.message, Catch::Contains("max_steps"));
 }
 
-TEST_CASE("counters add up across the restarts at breakpoints", "[solvers]") {
+TEST_CASE("counters add up across the restarts at breakpoints", "[integrators]") {
   // y' = -y with nine breakpoints: every restart resets SUNDIALS' counters, ours must not.
   const OdeRightHandSide decay = [](double, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                     std::string&) {
@@ -454,11 +456,11 @@ TEST_CASE("counters add up across the restarts at breakpoints", "[solvers]") {
 }
 
 // ---------------------------------------------------------------------------------------------
-TEST_CASE("default integrator options are valid", "[solvers]") {
+TEST_CASE("default integrator options are valid", "[integrators]") {
   CHECK_NOTHROW(IntegratorOptions{}.Validate());
 }
 
-TEST_CASE("each invalid integrator option is named with its value and rule", "[solvers]") {
+TEST_CASE("each invalid integrator option is named with its value and rule", "[integrators]") {
   const double nan = std::nan("");
   const auto invalid = [](void (*spoil)(IntegratorOptions&)) {
     IntegratorOptions options;
@@ -493,7 +495,8 @@ TEST_CASE("each invalid integrator option is named with its value and rule", "[s
   CHECK_NOTHROW(unbounded.Validate());
 }
 
-TEST_CASE("the integrators validate their options and inputs before anything else", "[solvers]") {
+TEST_CASE("the integrators validate their options and inputs before anything else",
+          "[integrators]") {
   int calls = 0;
   const OdeRightHandSide counting = [&calls](double, const Eigen::VectorXd& y,
                                              Eigen::VectorXd& y_dot, std::string&) {
@@ -537,7 +540,7 @@ TEST_CASE("the integrators validate their options and inputs before anything els
   CHECK(calls == 0);
 }
 
-TEST_CASE("an empty interval returns the start without a step", "[solvers]") {
+TEST_CASE("an empty interval returns the start without a step", "[integrators]") {
   const OdeRightHandSide decay = [](double, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot,
                                     std::string&) {
     y_dot = -y;

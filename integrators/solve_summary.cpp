@@ -1,4 +1,4 @@
-#include "solvers/solve_summary.h"
+#include "integrators/solve_summary.h"
 
 #include <array>
 #include <utility>

@@ -3,7 +3,7 @@
 // a stable mode driven by a pulse, paper Sect. 5.3) and the nonlinear Bratu problem; plus the
 // options, the size checks and the numerical failures. Each problem is written out with its
 // solution above its test.
-#include "solvers/boundary_value.h"
+#include "integrators/boundary_value.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -62,7 +62,8 @@ BoundaryConditions Dirichlet(double left, double right) {
 }
 
 // y'' = y on [0, 1], y(0) = 1, y(1) = e: y = e^t.
-TEST_CASE("a smooth linear problem is solved to the tolerance: y'' = y gives e^t", "[solvers]") {
+TEST_CASE("a smooth linear problem is solved to the tolerance: y'' = y gives e^t",
+          "[integrators]") {
   const std::vector<double> mesh = UniformMesh(0.0, 1.0, 5);
   const BoundaryValueSolution solution = SolveBoundaryValueProblem(
       ScaledSecondDerivative(1.0), ScaledSecondDerivativeJacobian(1.0),
@@ -86,7 +87,7 @@ TEST_CASE("a smooth linear problem is solved to the tolerance: y'' = y gives e^t
 // eps y'' = y on [-1, 1], y(+-1) = 1, eps = 1e-3: y = cosh(t / sqrt(eps)) / cosh(1 / sqrt(eps)),
 // with layers of width sqrt(eps) ~ 0.03 at both ends and y ~ 1e-14 in the middle.
 TEST_CASE("a boundary layer draws the mesh to both ends and is resolved to the tolerance",
-          "[solvers]") {
+          "[integrators]") {
   const double eps = 1e-3;
   const double root = std::sqrt(eps);
   const std::vector<double> mesh = UniformMesh(-1.0, 1.0, 10);
@@ -120,7 +121,7 @@ TEST_CASE("a boundary layer draws the mesh to both ends and is resolved to the t
 // where y ~ 1e-14, does not need them, and pairs of quiet intervals are merged there while the
 // layers are refined.
 TEST_CASE("quiet intervals of a fine initial mesh are merged while the layers are refined",
-          "[solvers]") {
+          "[integrators]") {
   const double eps = 1e-3;
   const std::vector<double> mesh = UniformMesh(-1.0, 1.0, 2000);
   const BoundaryValueSolution solution = SolveBoundaryValueProblem(
@@ -171,7 +172,7 @@ double StableReference(double t) {
 }
 
 TEST_CASE("stable inversion: the unstable mode gets an end condition and starts before the pulse",
-          "[solvers]") {
+          "[integrators]") {
   const BvpRightHandSide f = [](double t, const VectorXd& x, VectorXd& out, std::string&) {
     out.resize(2);
     out << 2.0 * x(0) + Pulse(t), -3.0 * x(1) + Pulse(t);
@@ -213,7 +214,7 @@ TEST_CASE("stable inversion: the unstable mode gets an end condition and starts 
 // as h^(2s-2) and the collocation polynomial between them as h^(s+1) (Ascher, Mattheij &
 // Russell, Thm. 5.140). Halving h must divide the errors by about 2^(2s-2) and 2^(s+1).
 TEST_CASE("Lobatto collocation converges with order 2s-2 at the interval ends, s+1 between",
-          "[solvers]") {
+          "[integrators]") {
   for (const int points : {4, 5}) {
     CAPTURE(points);
     BoundaryValueOptions options;
@@ -255,7 +256,7 @@ TEST_CASE("Lobatto collocation converges with order 2s-2 at the interval ends, s
 
 // The closed-form problems above, solved with 7 Lobatto points per interval to 1e-10: the
 // error test holds, with far fewer points than Hermite-Simpson needs at the same tolerance.
-TEST_CASE("7-point Lobatto collocation meets a tight tolerance with few points", "[solvers]") {
+TEST_CASE("7-point Lobatto collocation meets a tight tolerance with few points", "[integrators]") {
   BoundaryValueOptions options;
   options.collocation_points = 7;
   options.tolerance = 1e-10;
@@ -329,7 +330,7 @@ TEST_CASE("7-point Lobatto collocation meets a tight tolerance with few points",
 // y = -2 ln(cosh((t - 1/2) theta / 2) / cosh(theta / 4)) with theta = sqrt(2 lambda)
 // cosh(theta / 4) (the smaller root, theta ~ 1.5172); Newton from y = 0 finds it.
 TEST_CASE("the nonlinear Bratu problem converges to its lower solution from a zero guess",
-          "[solvers]") {
+          "[integrators]") {
   double theta = 1.0;
   for (int k = 0; k < 50; ++k) {  // Newton on theta - sqrt(2) cosh(theta / 4) = 0
     const double residual = theta - std::sqrt(2.0) * std::cosh(theta / 4.0);
@@ -361,7 +362,7 @@ TEST_CASE("the nonlinear Bratu problem converges to its lower solution from a ze
   CHECK(max_error < 1e-8);
 }
 
-TEST_CASE("default boundary value options are valid and bad fields are named", "[solvers]") {
+TEST_CASE("default boundary value options are valid and bad fields are named", "[integrators]") {
   CHECK_NOTHROW(BoundaryValueOptions{}.Validate());
   {
     BoundaryValueOptions options;
@@ -386,7 +387,7 @@ TEST_CASE("default boundary value options are valid and bad fields are named", "
   CHECK_THROWS_WITH(options.Validate(), Catch::Contains("max_newton_iterations = 0: must be >= 1"));
 }
 
-TEST_CASE("an inconsistent mesh or guess is a usage error", "[solvers]") {
+TEST_CASE("an inconsistent mesh or guess is a usage error", "[integrators]") {
   const BvpRightHandSide f = ScaledSecondDerivative(1.0);
   const BoundaryConditions conditions = Dirichlet(0.0, 1.0);
   const VectorXd zero = VectorXd::Zero(2);
@@ -409,7 +410,7 @@ TEST_CASE("an inconsistent mesh or guess is a usage error", "[solvers]") {
 }
 
 TEST_CASE("numerical failures give an unusable summary with the reason, not an exception",
-          "[solvers]") {
+          "[integrators]") {
   const VectorXd zero = VectorXd::Zero(2);
   SECTION("the right-hand side cannot be evaluated") {
     const BvpRightHandSide f = [](double, const VectorXd&, VectorXd&, std::string& why) {

@@ -2,7 +2,7 @@
 // A(t, x) x' = phi(t, x) with closed-form solutions: stiff ODEs, index-2 and index-3 DAEs and a
 // state-dependent mass matrix; plus the bookkeeping (breakpoints, t_end, failures, observer,
 // options). Each problem is written out with its solution above its class.
-#include "solvers/radau.h"
+#include "integrators/radau.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -170,7 +170,7 @@ class IndexThreeSineDeclaredAs : public IndexThreeSine {
   std::vector<int> indices_;
 };
 
-TEST_CASE("Radau IIA follows x' = -x within the tolerance", "[solvers]") {
+TEST_CASE("Radau IIA follows x' = -x within the tolerance", "[integrators]") {
   Decay decay;
   const RadauOptions options;  // rtol 1e-8, atol 1e-10
   Recording recording;
@@ -193,7 +193,7 @@ TEST_CASE("Radau IIA follows x' = -x within the tolerance", "[solvers]") {
 }
 
 TEST_CASE("Radau IIA integrates a stiff system in far fewer steps than an explicit method needs",
-          "[solvers]") {
+          "[integrators]") {
   StiffPair stiff;
   RadauOptions options;
   options.rtol = 1e-6;
@@ -212,7 +212,7 @@ TEST_CASE("Radau IIA integrates a stiff system in far fewer steps than an explic
 }
 
 TEST_CASE("Radau IIA solves an index-3 DAE thanks to the index scaling of the error test",
-          "[solvers]") {
+          "[integrators]") {
   IndexThreeSine dae;
   const RadauOptions options;  // rtol 1e-8, atol 1e-10
   Recording recording;
@@ -241,7 +241,7 @@ TEST_CASE("Radau IIA solves an index-3 DAE thanks to the index scaling of the er
 }
 
 TEST_CASE("at a constant step Radau IIA has orders 3 and 2 in the index-2 and index-3 components",
-          "[solvers]") {
+          "[integrators]") {
   // Hairer & Wanner VII.8 (Radau IIA, s = 3, index 3): x2 error O(h^s), u error O(h^(s-1)).
   // A loose tolerance and max_step = initial_step = h keep every step at h.
   IndexThreeSine dae;
@@ -265,7 +265,7 @@ TEST_CASE("at a constant step Radau IIA has orders 3 and 2 in the index-2 and in
   CHECK(coarse(2) / fine(2) == Approx(4.0).epsilon(0.1));
 }
 
-TEST_CASE("Radau IIA solves an index-2 DAE", "[solvers]") {
+TEST_CASE("Radau IIA solves an index-2 DAE", "[integrators]") {
   IndexTwoExponential dae;
   const RadauOptions options;  // rtol 1e-8, atol 1e-10
   Recording recording;
@@ -280,7 +280,7 @@ TEST_CASE("Radau IIA solves an index-2 DAE", "[solvers]") {
   CHECK(summary.steps < 200);  // measured 120
 }
 
-TEST_CASE("Radau IIA handles a mass matrix that depends on the state", "[solvers]") {
+TEST_CASE("Radau IIA handles a mass matrix that depends on the state", "[integrators]") {
   StateDependentMass dae;
   const RadauOptions options;  // rtol 1e-8, atol 1e-10
   Recording recording;
@@ -295,7 +295,7 @@ TEST_CASE("Radau IIA handles a mass matrix that depends on the state", "[solvers
   CHECK(summary.steps < 200);  // measured 131
 }
 
-TEST_CASE("Euler backward on x' = -x is x_k = (1 + h)^-k exactly", "[solvers]") {
+TEST_CASE("Euler backward on x' = -x is x_k = (1 + h)^-k exactly", "[integrators]") {
   // The scheme itself in closed form: x_{k+1} (1 + h) = x_k.
   Decay decay;
   const double h = 0.1;
@@ -314,7 +314,7 @@ TEST_CASE("Euler backward on x' = -x is x_k = (1 + h)^-k exactly", "[solvers]") 
   CHECK(recording.times.back() == 1.0);
 }
 
-TEST_CASE("Euler backward on the index-3 DAE converges with order 1", "[solvers]") {
+TEST_CASE("Euler backward on the index-3 DAE converges with order 1", "[integrators]") {
   // Euler backward keeps the constraint x1 = sin t exactly; x2 and u are difference quotients
   // of it, with errors ~ h sin(t) / 2 and ~ h cos(t) (both O(h), nonzero at t = 2).
   IndexThreeSine dae;
@@ -337,7 +337,7 @@ TEST_CASE("Euler backward on the index-3 DAE converges with order 1", "[solvers]
 }
 
 TEST_CASE("Euler backward handles the state-dependent mass matrix and the index-2 DAE",
-          "[solvers]") {
+          "[integrators]") {
   // Order 1: the global error is ~ h times the solution's second derivative (<= 1 for the
   // oscillator over [0, 1], <= 4 for e^-2t), so h = 1e-3 gives errors below 1e-3 and 4e-3.
   StateDependentMass oscillator;
@@ -357,7 +357,7 @@ TEST_CASE("Euler backward handles the state-dependent mass matrix and the index-
         4e-3);
 }
 
-TEST_CASE("Radau IIA steps exactly onto breakpoints and t_end", "[solvers]") {
+TEST_CASE("Radau IIA steps exactly onto breakpoints and t_end", "[integrators]") {
   KinkedRamp ramp;
   RadauOptions options;
   Recording recording;
@@ -380,7 +380,7 @@ TEST_CASE("Radau IIA steps exactly onto breakpoints and t_end", "[solvers]") {
   }
 }
 
-TEST_CASE("Euler backward keeps its grid and adds the breakpoints to it", "[solvers]") {
+TEST_CASE("Euler backward keeps its grid and adds the breakpoints to it", "[integrators]") {
   Decay decay;
   Recording recording;
   const SolveSummary summary = IntegrateRadau(decay, 0.0, Vector({1.0}), 0.5, {0.25},
@@ -395,12 +395,12 @@ TEST_CASE("Euler backward keeps its grid and adds the breakpoints to it", "[solv
   CHECK(recording.times.back() == 0.5);
 }
 
-TEST_CASE("the default options are valid", "[solvers]") {
+TEST_CASE("the default options are valid", "[integrators]") {
   CHECK_NOTHROW(RadauOptions{}.Validate());
   CHECK_NOTHROW(EulerOptions(0.01).Validate());
 }
 
-TEST_CASE("each invalid option gives a UsageError naming the field", "[solvers]") {
+TEST_CASE("each invalid option gives a UsageError naming the field", "[integrators]") {
   const auto invalid = [](auto change) {
     RadauOptions options;
     change(options);
@@ -432,7 +432,8 @@ TEST_CASE("each invalid option gives a UsageError naming the field", "[solvers]"
                     Contains("RadauOptions::max_newton_iterations = 0: must be >= 1"));
 }
 
-TEST_CASE("IntegrateRadau validates its options and its problem before it starts", "[solvers]") {
+TEST_CASE("IntegrateRadau validates its options and its problem before it starts",
+          "[integrators]") {
   Decay decay;
   RadauOptions bad;
   bad.rtol = -1.0;
@@ -445,7 +446,7 @@ TEST_CASE("IntegrateRadau validates its options and its problem before it starts
                     Contains("t_end >= t_start"));
 }
 
-TEST_CASE("an integration over an empty interval converges at once", "[solvers]") {
+TEST_CASE("an integration over an empty interval converges at once", "[integrators]") {
   Decay decay;
   Recording recording;
   const SolveSummary summary =
@@ -456,7 +457,8 @@ TEST_CASE("an integration over an empty interval converges at once", "[solvers]"
   CHECK(recording.times == std::vector<double>{3.0});
 }
 
-TEST_CASE("a model that cannot be evaluated stops the integration with its reason", "[solvers]") {
+TEST_CASE("a model that cannot be evaluated stops the integration with its reason",
+          "[integrators]") {
   FailsAfterTwo dae;
   for (const RadauOptions& options : {RadauOptions{}, EulerOptions(0.1)}) {
     INFO("stages = " << options.stages);
@@ -472,7 +474,7 @@ TEST_CASE("a model that cannot be evaluated stops the integration with its reaso
   }
 }
 
-TEST_CASE("a failure at the start point is reported at once", "[solvers]") {
+TEST_CASE("a failure at the start point is reported at once", "[integrators]") {
   FailsAfterTwo dae;
   const SolveSummary summary = IntegrateRadau(dae, 3.0, Vector({1.0}), 4.0, {}, {}, {});
   CHECK(summary.status == SolveStatus::kNoConvergence);
@@ -481,7 +483,7 @@ TEST_CASE("a failure at the start point is reported at once", "[solvers]") {
   CHECK(summary.steps == 0);
 }
 
-TEST_CASE("an observer returning false interrupts the integration", "[solvers]") {
+TEST_CASE("an observer returning false interrupts the integration", "[integrators]") {
   Decay decay;
   int calls = 0;
   double last_time = -1.0;
@@ -501,7 +503,7 @@ TEST_CASE("an observer returning false interrupts the integration", "[solvers]")
   }
 }
 
-TEST_CASE("the step limit stops the integration with kTooManySteps", "[solvers]") {
+TEST_CASE("the step limit stops the integration with kTooManySteps", "[integrators]") {
   Decay decay;
   RadauOptions options = EulerOptions(0.1);
   options.max_steps = 5;
@@ -512,7 +514,7 @@ TEST_CASE("the step limit stops the integration with kTooManySteps", "[solvers]"
   CHECK_THAT(summary.message, Catch::Contains("max_steps = 5"));
 }
 
-TEST_CASE("max_step bounds every Radau step", "[solvers]") {
+TEST_CASE("max_step bounds every Radau step", "[integrators]") {
   Decay decay;
   RadauOptions options;
   options.max_step = 0.25;

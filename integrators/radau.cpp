@@ -1,4 +1,4 @@
-#include "solvers/radau.h"
+#include "integrators/radau.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,10 @@
 #pragma once
-// What a solver reports (style: Ceres' Solver::Summary, docs/development.md): a status with its
-// one-line message, the time at which it stopped, and counters. Solvers do not throw when they fail
-// numerically; the caller decides (`servokit solve` turns an unusable summary into exit 3).
+// What an integrator or a solver reports (style: Ceres' Solver::Summary, docs/development.md): a
+// status with its one-line message, the time at which it stopped, and counters. Solvers do not
+// throw when they fail numerically; the caller decides (`servokit solve` turns an unusable
+// summary into exit 3). It lives with the integrators, which return it, and solvers/ passes it
+// on: one status enum with one table of names, so three of its statuses (singular decoupling, not
+// applicable, verification failed) are set only by solvers/.
 #include <limits>
 #include <string>
 #include <string_view>

@@ -1,4 +1,4 @@
-#include "solvers/sundials_integrators.h"
+#include "integrators/sundials_integrators.h"
 
 #include <arkode/arkode_erkstep.h>
 #include <cvode/cvode.h>
