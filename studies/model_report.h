@@ -16,7 +16,7 @@ namespace servokit {
 /// range, and the closed-form characteristic polynomial where it applies (at the default
 /// operating point only: it is derived at q = 0, u = 0). Every classification uses `options`
 /// (the operating point of --y0 and --q0, the tolerances). With exactly two axes the report
-/// opens with the map of their plane (reports/class_map.h): each grid point coloured by class,
+/// opens with the map of their plane (studies/class_map.h): each grid point coloured by class,
 /// and the threshold curves traced across it.
 /// A finished sweep over `axes` (`servokit report --from DIR`, read from its points.csv and
 /// eigenvalues.csv), in the grid's order (the first axis varying slowest).

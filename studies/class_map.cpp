@@ -1,4 +1,4 @@
-#include "reports/class_map.h"
+#include "studies/class_map.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,8 +13,8 @@
 #include "files/output_file.h"
 #include "modeling/units.h"
 #include "reports/plots.h"
-#include "reports/report_support.h"
 #include "reports/sweep_tables.h"
+#include "studies/study_support.h"
 
 namespace servokit {
 namespace {

@@ -1,6 +1,5 @@
 #pragma once
-// Pieces shared by the paper report and the report of any model.
-#include <filesystem>
+// Pieces shared by the studies: the paper's report and the report of any model.
 #include <string>
 #include <vector>
 
@@ -40,12 +39,6 @@ Table ThresholdTable(const std::vector<ThresholdSearch>& searches,
 void AddClosedForm(Document& document,
                    const CharacteristicPolynomial& closed_form,
                    const std::string& parameter);
-
-/// Writes report.md and report.html into `directory`.
-void WriteDocument(const std::filesystem::path& directory, const Document& document);
-
-/// Figure block for a drawn plot named `name`.
-Figure FigureOf(const std::string& name, const std::string& caption);
 
 /// Identity, for tables in SI units.
 double AsIs(double value);

@@ -1,10 +1,7 @@
-#include "reports/report_support.h"
-
-#include <fstream>
+#include "studies/study_support.h"
 
 #include "base/errors.h"
 #include "base/number_format.h"
-#include "files/output_file.h"
 
 namespace servokit {
 
@@ -105,20 +102,6 @@ void AddClosedForm(Document& document,
     document.Add(Paragraph{"Discriminant (negative: a complex pair): `" + closed_form.discriminant +
                            "`; sign changes at " + (changes.empty() ? "none" : changes) + "."});
   }
-}
-
-void WriteDocument(const std::filesystem::path& directory, const Document& document) {
-  for (const auto& [name, text] :
-       {std::pair{"report.md", RenderMarkdown(document)},
-        std::pair{"report.html", RenderHtml(document, directory.string())}}) {
-    OutputFile file((directory / name).string());
-    file.Write(text);
-    file.Commit();
-  }
-}
-
-Figure FigureOf(const std::string& name, const std::string& caption) {
-  return {name + ".png", name + ".svg", caption};
 }
 
 }  // namespace servokit

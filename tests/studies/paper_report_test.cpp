@@ -10,7 +10,7 @@
 // exactly; `backquoted` closed forms exactly (their text is canonical, the same in every run:
 // modeling/canonical_expression.h); `backquoted` measured numbers (a solver's agreement, a
 // residual) are shown, not compared: they move with any change of a solver's steps.
-#include "reports/paper_report.h"
+#include "studies/paper_report.h"
 
 #include <catch2/catch.hpp>
 #include <cctype>
@@ -86,7 +86,7 @@ bool SameToken(const std::string& expected, const std::string& actual) {
   return expected == actual;
 }
 
-TEST_CASE("report paper matches the reviewed answer file", "[reports][paper]") {
+TEST_CASE("report paper matches the reviewed answer file", "[studies][paper]") {
   const auto directory = std::filesystem::temp_directory_path() / "servokit_paper_report_test";
   std::filesystem::remove_all(directory);
   WritePaperReport(directory.string(), SERVOKIT_MODELS_DIR);

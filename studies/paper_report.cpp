@@ -1,4 +1,4 @@
-#include "reports/paper_report.h"
+#include "studies/paper_report.h"
 
 #include <cmath>
 #include <filesystem>
@@ -10,9 +10,9 @@
 #include "base/number_format.h"
 #include "modeling/units.h"
 #include "reports/classification_report.h"
-#include "reports/report_support.h"
 #include "solvers/inverse_model.h"
 #include "solvers/method_choice.h"
+#include "studies/study_support.h"
 
 namespace servokit {
 namespace {

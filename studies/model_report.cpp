@@ -1,4 +1,4 @@
-#include "reports/model_report.h"
+#include "studies/model_report.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -7,10 +7,10 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "modeling/units.h"
-#include "reports/class_map.h"
 #include "reports/classification_report.h"
 #include "reports/escaping.h"
-#include "reports/report_support.h"
+#include "studies/class_map.h"
+#include "studies/study_support.h"
 
 namespace servokit {
 namespace {
