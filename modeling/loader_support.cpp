@@ -220,6 +220,197 @@ class PowerChecker {
   bool unreadable_ = false;
 };
 
+// A constant exponent of more than six digits, or above kMaxConstantDigits, in the number
+// `number` (already read whole): CLN takes for ever on a decimal exponent of 20 digits, even of
+// 0e...; any beyond 10^kMaxConstantDigits is far outside a double (found by fuzzing, issue #7).
+std::optional<std::string> ExponentProblem(const std::string& number) {
+  if (const std::size_t e = number.find_first_of("eE"); e != std::string::npos) {
+    const std::string digits = number.substr(number.find_first_not_of("+-", e + 1));
+    if (digits.size() > 6 || std::stod(digits) > kMaxConstantDigits) {
+      return "number out of range '" + number + "'";
+    }
+  }
+  return std::nullopt;
+}
+
+// The first pass of FindLexicalProblem: reads the expression one token at a time and returns the
+// first problem. GiNaC's parser does not check how many arguments a function gets (cos()
+// dereferences a null pointer), and it recurses once per parenthesis, per sign in a row and per
+// power in a chain (a^b^c is a^(b^c)), so a long enough line overflows the stack. All three are
+// checked here: each open parenthesis with the function it calls ("" for grouping), its commas,
+// whether the argument being read has anything in it and the powers chained at its level.
+class TokenScanner {
+ public:
+  TokenScanner(const std::string& text, const NameCheck& check_name)
+      : text_(text), check_name_(check_name) {}
+
+  std::optional<std::string> Scan() {
+    while (position_ < text_.size()) {
+      const char c = text_[position_];
+      if (std::isspace(static_cast<unsigned char>(c)) != 0) {
+        ++position_;
+        continue;
+      }
+      if (auto problem = ReadToken(c)) return problem;
+    }
+    if (!open_.empty()) return "'(' without ')'";
+    return std::nullopt;
+  }
+
+ private:
+  struct Parenthesis {
+    std::string function;
+    std::size_t commas = 0;
+    bool argument_has_text = false;
+    std::size_t chained_powers = 0;
+  };
+
+  // Reads the token that starts with `c` (no blank) and moves past it.
+  std::optional<std::string> ReadToken(char c) {
+    if (c != ',' && c != ')' && !open_.empty()) open_.back().argument_has_text = true;
+    const bool at_start = std::exchange(expression_start_, false);
+    const char before = std::exchange(previous_, c);
+    if (IsDigit(c) || c == '.') return ReadNumber();
+    if (IsIdentifierStart(c) || c == '_') return ReadName();
+    switch (c) {
+      case '(':
+        return OpenParenthesis();
+      case ',':
+        return NextArgument();
+      case ')':
+        return CloseParenthesis();
+      case '^':
+        return Power();
+      default:
+        break;
+    }
+    if ((c == '+' || c == '-') && !after_operand_) return Sign(c, at_start, before);
+    if (c == '+' || c == '-' || c == '*' || c == '/') {
+      chained_powers() = 0;
+      after_operand_ = false;
+      ++position_;
+      return std::nullopt;
+    }
+    return std::string("unexpected character '") + c + "'";
+  }
+
+  std::optional<std::string> ReadNumber() {
+    after_operand_ = true;
+    const std::size_t start = position_;
+    position_ = SkipNumber(text_, position_);
+    const auto continues_number = [&] {
+      return position_ < text_.size() &&
+             (IsIdentifierChar(text_[position_]) || text_[position_] == '.');
+    };
+    if (continues_number()) {
+      while (continues_number()) ++position_;
+      return "malformed number '" + text_.substr(start, position_ - start) + "'";
+    }
+    return ExponentProblem(text_.substr(start, position_ - start));
+  }
+
+  // A name, checked by check_name_; a function's name when '(' follows it.
+  std::optional<std::string> ReadName() {
+    const std::size_t start = position_;
+    while (position_ < text_.size() && IsIdentifierChar(text_[position_])) ++position_;
+    const std::string name = text_.substr(start, position_ - start);
+    const std::size_t next = text_.find_first_not_of(" \t", position_);
+    const bool called = next != std::string::npos && text_[next] == '(';
+    if (auto problem = check_name_(name, called)) return problem;
+    if (called) called_function_ = name;
+    after_operand_ = !called;
+    return std::nullopt;
+  }
+
+  std::optional<std::string> OpenParenthesis() {
+    if (open_.size() == kMaxParenthesisDepth) {
+      return "parentheses nested deeper than " + std::to_string(kMaxParenthesisDepth);
+    }
+    open_.push_back({std::exchange(called_function_, {})});
+    StartExpression();
+    return std::nullopt;
+  }
+
+  std::optional<std::string> NextArgument() {
+    if (open_.empty() || open_.back().function.empty()) return "',' outside a function's arguments";
+    if (auto problem = ArgumentProblem(open_.back())) return problem;
+    ++open_.back().commas;
+    open_.back().argument_has_text = false;
+    open_.back().chained_powers = 0;
+    StartExpression();
+    return std::nullopt;
+  }
+
+  std::optional<std::string> CloseParenthesis() {
+    if (open_.empty()) return "')' without '('";
+    const Parenthesis closed = open_.back();
+    open_.pop_back();
+    if (auto problem = ArgumentProblem(closed)) return problem;
+    if (!closed.function.empty()) {
+      const std::size_t expected = FunctionArity(closed.function);
+      if (closed.commas + 1 != expected) {
+        return closed.function + "() takes " + std::to_string(expected) + " argument" +
+               (expected == 1 ? "" : "s") + ", found " + std::to_string(closed.commas + 1);
+      }
+    }
+    after_operand_ = true;
+    ++position_;
+    return std::nullopt;
+  }
+
+  std::optional<std::string> Power() {
+    if (++chained_powers() > kMaxChainedPowers) {
+      return "more than " + std::to_string(kMaxChainedPowers) + " powers in a chain a^b^c...";
+    }
+    after_operand_ = false;
+    ++position_;
+    return std::nullopt;
+  }
+
+  // GiNaC's parser gives a sign after an operator the rest of the expression: it reads 2*-x+1
+  // as 2*(1 - x), x^-2+1 as x^(-1) and x - -x + 1 as 2x - 1. A sign may therefore only open an
+  // expression, a parenthesis or an argument, where GiNaC reads it as usual.
+  std::optional<std::string> Sign(char sign, bool at_start, char before) {
+    if (!at_start) {
+      return std::string("'") + sign + "' right after '" + before +
+             "': put the signed operand in parentheses, as 2*(-x) (GiNaC would read 2*-x+1 "
+             "as 2*(-x+1))";
+    }
+    ++position_;
+    return std::nullopt;
+  }
+
+  // After '(' or ',': a new expression, where a sign may stand.
+  void StartExpression() {
+    after_operand_ = false;
+    expression_start_ = true;
+    ++position_;
+  }
+
+  static std::optional<std::string> ArgumentProblem(const Parenthesis& parenthesis) {
+    if (!parenthesis.argument_has_text) {
+      return parenthesis.function.empty() ? "empty parentheses"
+                                          : "empty argument of " + parenthesis.function + "()";
+    }
+    return std::nullopt;
+  }
+
+  // The powers chained at the current level: inside the innermost parenthesis, or outside all.
+  std::size_t& chained_powers() {
+    return open_.empty() ? chained_powers_outside_ : open_.back().chained_powers;
+  }
+
+  const std::string& text_;
+  const NameCheck& check_name_;
+  std::size_t position_ = 0;
+  std::vector<Parenthesis> open_;
+  std::size_t chained_powers_outside_ = 0;
+  bool after_operand_ = false;    // a '+' or '-' here is binary, else a sign
+  bool expression_start_ = true;  // at the start, after '(' or ','; a sign may stand only here
+  char previous_ = '\0';          // the last character that is not a blank
+  std::string called_function_;   // the name just read, when '(' follows it
+};
+
 }  // namespace
 
 void ContentHasher::Add(std::string_view bytes) {
@@ -285,125 +476,7 @@ std::string Text(const GiNaC::ex& expression) {
 
 std::optional<std::string> FindLexicalProblem(const std::string& text,
                                               const NameCheck& check_name) {
-  // GiNaC's parser does not check how many arguments a function gets (cos() dereferences a null
-  // pointer), and it recurses once per parenthesis, per sign in a row and per power in a chain
-  // (a^b^c is a^(b^c)), so a long enough line overflows the stack. All three are checked here:
-  // each open parenthesis with the function it calls ("" for grouping), its commas, whether
-  // the argument being read has anything in it and the powers chained at its level.
-  struct Parenthesis {
-    std::string function;
-    std::size_t commas = 0;
-    bool argument_has_text = false;
-    std::size_t chained_powers = 0;
-  };
-  std::vector<Parenthesis> open;
-  std::size_t chained_powers_outside = 0;
-  const auto chained_powers = [&]() -> std::size_t& {
-    return open.empty() ? chained_powers_outside : open.back().chained_powers;
-  };
-  bool after_operand = false;    // a '+' or '-' here is binary, else a sign
-  bool expression_start = true;  // at the start, after '(' or ','; a sign may stand only here
-  char previous = '\0';          // the last character that is not a blank
-  std::string called_function;   // the name just read, when '(' follows it
-  const auto argument_problem = [](const Parenthesis& parenthesis) -> std::optional<std::string> {
-    if (!parenthesis.argument_has_text) {
-      return parenthesis.function.empty() ? "empty parentheses"
-                                          : "empty argument of " + parenthesis.function + "()";
-    }
-    return std::nullopt;
-  };
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const char c = text[i];
-    if (std::isspace(static_cast<unsigned char>(c)) != 0) {
-      ++i;
-      continue;
-    }
-    if (c != ',' && c != ')' && !open.empty()) open.back().argument_has_text = true;
-    const bool at_start = std::exchange(expression_start, false);
-    const char before = std::exchange(previous, c);
-    if (IsDigit(c) || c == '.') {
-      after_operand = true;
-      const std::size_t start = i;
-      i = SkipNumber(text, i);
-      if (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) {
-        while (i < text.size() && (IsIdentifierChar(text[i]) || text[i] == '.')) ++i;
-        return "malformed number '" + text.substr(start, i - start) + "'";
-      }
-      // CLN takes for ever on a decimal exponent of 20 digits, even of 0e...; any beyond
-      // 10^kMaxConstantDigits is far outside a double (found by fuzzing, issue #7).
-      const std::string number = text.substr(start, i - start);
-      if (const std::size_t e = number.find_first_of("eE"); e != std::string::npos) {
-        const std::string digits = number.substr(number.find_first_not_of("+-", e + 1));
-        if (digits.size() > 6 || std::stod(digits) > kMaxConstantDigits) {
-          return "number out of range '" + number + "'";
-        }
-      }
-    } else if (IsIdentifierStart(c) || c == '_') {
-      const std::size_t start = i;
-      while (i < text.size() && IsIdentifierChar(text[i])) ++i;
-      const std::string name = text.substr(start, i - start);
-      const std::size_t next = text.find_first_not_of(" \t", i);
-      const bool called = next != std::string::npos && text[next] == '(';
-      if (auto problem = check_name(name, called)) return problem;
-      if (called) called_function = name;
-      after_operand = !called;
-    } else if (c == '(') {
-      if (open.size() == kMaxParenthesisDepth) {
-        return "parentheses nested deeper than " + std::to_string(kMaxParenthesisDepth);
-      }
-      open.push_back({std::exchange(called_function, {})});
-      after_operand = false;
-      expression_start = true;
-      ++i;
-    } else if (c == ',') {
-      if (open.empty() || open.back().function.empty()) return "',' outside a function's arguments";
-      if (auto problem = argument_problem(open.back())) return problem;
-      ++open.back().commas;
-      open.back().argument_has_text = false;
-      open.back().chained_powers = 0;
-      after_operand = false;
-      expression_start = true;
-      ++i;
-    } else if (c == ')') {
-      if (open.empty()) return "')' without '('";
-      const Parenthesis closed = open.back();
-      open.pop_back();
-      if (auto problem = argument_problem(closed)) return problem;
-      if (!closed.function.empty()) {
-        const std::size_t expected = FunctionArity(closed.function);
-        if (closed.commas + 1 != expected) {
-          return closed.function + "() takes " + std::to_string(expected) + " argument" +
-                 (expected == 1 ? "" : "s") + ", found " + std::to_string(closed.commas + 1);
-        }
-      }
-      after_operand = true;
-      ++i;
-    } else if (c == '^') {
-      if (++chained_powers() > kMaxChainedPowers) {
-        return "more than " + std::to_string(kMaxChainedPowers) + " powers in a chain a^b^c...";
-      }
-      after_operand = false;
-      ++i;
-    } else if ((c == '+' || c == '-') && !after_operand) {
-      // GiNaC's parser gives a sign after an operator the rest of the expression: it reads
-      // 2*-x+1 as 2*(1 - x), x^-2+1 as x^(-1) and x - -x + 1 as 2x - 1. A sign may therefore
-      // only open an expression, a parenthesis or an argument, where GiNaC reads it as usual.
-      if (!at_start) {
-        return std::string("'") + c + "' right after '" + before +
-               "': put the signed operand in parentheses, as 2*(-x) (GiNaC would read 2*-x+1 "
-               "as 2*(-x+1))";
-      }
-      ++i;
-    } else if (c == '+' || c == '-' || c == '*' || c == '/') {
-      chained_powers() = 0;
-      after_operand = false;
-      ++i;
-    } else {
-      return std::string("unexpected character '") + c + "'";
-    }
-  }
-  if (!open.empty()) return "'(' without ')'";
+  if (auto problem = TokenScanner(text, check_name).Scan()) return problem;
   return PowerChecker(text).Check();
 }
 
