@@ -7,10 +7,10 @@
 
 #include "analysis/operating_point.h"
 #include "base/errors.h"
-#include "models/canonical_expression.h"
-#include "models/expression_program.h"
-#include "models/symbolic_lock.h"
-#include "models/symbolic_model.h"
+#include "modeling/canonical_expression.h"
+#include "modeling/expression_program.h"
+#include "modeling/symbolic_lock.h"
+#include "modeling/symbolic_model.h"
 #include "numerics/gsl_support.h"
 
 namespace servokit {
@@ -175,7 +175,7 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     }
   }
 
-  // From here on GiNaC: one derivation under the lock (models/symbolic_lock.h). The sign
+  // From here on GiNaC: one derivation under the lock (modeling/symbolic_lock.h). The sign
   // changes are located on compiled programs, but only a few dozen times per condition.
   const SymbolicLock lock;
   GiNaC::exmap at_rest;

@@ -8,12 +8,12 @@
 // coefficient; and, for oscillation, the discriminant.
 //
 // Symbolic work: call once per model and parameter, never per point. Thread-safe: the GiNaC
-// part runs under SymbolicLock (models/symbolic_lock.h).
+// part runs under SymbolicLock (modeling/symbolic_lock.h).
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 
@@ -28,7 +28,7 @@ struct HurwitzCondition {
 
 struct CharacteristicPolynomial {
   std::string variable = "lambda";
-  // a_0 .. a_n, factored; all texts here are canonical (models/canonical_expression.h): the
+  // a_0 .. a_n, factored; all texts here are canonical (modeling/canonical_expression.h): the
   // same in every run.
   std::vector<std::string> coefficients;
   // a_0 .. a_n at the model's nominal parameter values.

@@ -14,7 +14,7 @@
 #include "analysis/output_structure.h"
 #include "analysis/zero_dynamics.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -47,7 +47,7 @@
 
 #include "analysis/zero_dynamics.h"
 #include "base/vocabulary.h"
-#include "models/linear_model.h"
+#include "modeling/linear_model.h"
 #include "numerics/arpack_eigen.h"
 
 namespace servokit {

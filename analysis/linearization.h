@@ -7,7 +7,7 @@
 #include <string>
 
 #include "analysis/operating_point.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

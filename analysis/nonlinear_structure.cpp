@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/canonical_expression.h"
-#include "models/symbolic_lock.h"
-#include "models/symbolic_model.h"
+#include "modeling/canonical_expression.h"
+#include "modeling/symbolic_lock.h"
+#include "modeling/symbolic_model.h"
 
 namespace servokit {
 namespace {

@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 
@@ -64,7 +64,7 @@ struct StructureStep {
   std::vector<std::size_t> delayed_inputs;  // the columns C: delayed by the dynamic extension
 };
 
-// GiNaC expressions: hold a SymbolicLock (models/symbolic_lock.h) while you keep one.
+// GiNaC expressions: hold a SymbolicLock (modeling/symbolic_lock.h) while you keep one.
 struct NonlinearStructure {
   std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
   // Y_ik = y_i_d^(k), named "y<i+1>_d" and k primes, k = 0..highest_derivative[i].
@@ -115,7 +115,7 @@ struct NonlinearStructureSummary {
 
 /// Runs the structure algorithm and summarizes it; a NoSolution of the algorithm becomes the
 /// note of a summary that is not derived. Thread-safe: the symbolic work runs under
-/// SymbolicLock (models/symbolic_lock.h), one caller after the other.
+/// SymbolicLock (modeling/symbolic_lock.h), one caller after the other.
 NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
                                                       const NonlinearStructureOptions& options);
 
@@ -123,7 +123,7 @@ NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
 /// output never depends on the inputs within 2 dof derivatives, when the outputs would need
 /// more than 2 dof constraints (they are not independent: no left inverse), or when the
 /// coefficient matrix has a lower rank at the reference state than on its neighbourhood (the
-/// rows to keep are not defined there). Runs under SymbolicLock (models/symbolic_lock.h); the
+/// rows to keep are not defined there). Runs under SymbolicLock (modeling/symbolic_lock.h); the
 /// caller holds one too for as long as it keeps the result, whose expressions are GiNaC's.
 NonlinearStructure DeriveNonlinearStructure(const Model& model,
                                             const NonlinearStructureOptions& options = {});

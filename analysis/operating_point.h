@@ -5,7 +5,7 @@
 #include <optional>
 #include <string>
 
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -12,7 +12,7 @@
 #include <variant>
 #include <vector>
 
-#include "models/units.h"
+#include "modeling/units.h"
 
 namespace servokit {
 

@@ -18,7 +18,7 @@
 #include "analysis/options.h"
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep_point.h"
-#include "models/loaded_model.h"
+#include "modeling/loaded_model.h"
 
 namespace servokit {
 

@@ -130,7 +130,7 @@ bool IsWellScaled(const StateSpace& state_space) {
 }
 
 // The fast path of a sweep point for single-output models whose zero-dynamics polynomial was
-// derived at load (models/symbolic_model.h), at the default operating point q = 0. One compiled
+// derived at load (modeling/symbolic_model.h), at the default operating point q = 0. One compiled
 // program gives the polynomial; its roots are the zero-dynamics eigenvalues (the invariant
 // zeros, as in the QZ route of zero_dynamics.h), its degree the order of the internal dynamics,
 // and 2 dof minus the degree the relative degree. P, its rank and the realization are decided

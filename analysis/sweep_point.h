@@ -19,8 +19,8 @@
 #include "analysis/linear_zero_dynamics.h"
 #include "analysis/options.h"
 #include "base/vocabulary.h"
-#include "models/loaded_model.h"
-#include "models/model.h"
+#include "modeling/loaded_model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -13,7 +13,7 @@
 
 #include "analysis/thresholds.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -18,7 +18,7 @@
 
 #include "analysis/options.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -1,7 +1,7 @@
 // servokit analyze MODEL [--set p=v]... [--y0 v]... [--q0 v]... [--format text|json|md]
 //   [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack] [--which nearest|rightmost]
 // A nonlinear model (YAML with expressions) is classified at its operating point; a large linear
-// model (`kind: linear`, models/linear_model.h) at q = 0, u = 0 with sparse matrices.
+// model (`kind: linear`, modeling/linear_model.h) at q = 0, u = 0 with sparse matrices.
 #include <memory>
 #include <optional>
 #include <ostream>

@@ -14,8 +14,8 @@
 #include "application/exit_codes.h"
 #include "base/errors.h"
 #include "base/option_check.h"
-#include "models/model.h"
-#include "models/units.h"
+#include "modeling/model.h"
+#include "modeling/units.h"
 
 #ifndef SERVOKIT_VERSION
 #error "SERVOKIT_VERSION must be defined by the build"

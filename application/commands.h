@@ -11,7 +11,7 @@
 
 #include "analysis/linear_analysis.h"
 #include "analysis/options.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "servokit/servokit.h"
 
 namespace servokit {

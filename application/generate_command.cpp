@@ -4,7 +4,7 @@
 // servokit generate beam  --elements N [--length L] [--hub-inertia J] [--mass-per-length r]
 //                         [--bending-stiffness EI] [--damping-factor b] --out DIR [--name NAME]
 //
-// Writes a large linear model (models/linear_model.h) into DIR, made if missing, and prints the
+// Writes a large linear model (modeling/linear_model.h) into DIR, made if missing, and prints the
 // path of its YAML file as one line, so that `servokit analyze "$(servokit generate ...)"` works.
 #include <memory>
 #include <optional>

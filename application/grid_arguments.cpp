@@ -10,7 +10,7 @@
 #include <utility>
 
 #include "base/errors.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {

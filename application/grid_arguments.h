@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "analysis/parameter_grid.h"
-#include "models/units.h"
+#include "modeling/units.h"
 
 namespace servokit {
 

@@ -25,7 +25,7 @@
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
 #include "application/sweep_store.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

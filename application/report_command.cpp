@@ -21,10 +21,10 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/input_file.h"
-#include "models/model.h"
-#include "reports/class_map.h"
-#include "reports/model_report.h"
-#include "reports/paper_report.h"
+#include "modeling/model.h"
+#include "studies/class_map.h"
+#include "studies/model_report.h"
+#include "studies/paper_report.h"
 
 #ifndef SERVOKIT_MODELS_DIR
 #error "SERVOKIT_MODELS_DIR must be defined by the build"

@@ -4,7 +4,7 @@
 //                [--checkpoint-interval s] [--block-size n]
 //                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
 //                [--which nearest|rightmost]            (linear models only)
-// A model of either kind (models/loaded_model.h) is swept by analysis/sweep.h: one workspace per
+// A model of either kind (modeling/loaded_model.h) is swept by analysis/sweep.h: one workspace per
 // thread, kept across blocks (a linear model's sparsity pattern is analysed once per thread).
 // Under mpirun (application/mpi_sweep.h) every rank runs this command: each sets the sweep up,
 // rank 0 alone opens the output directory, and the blocks are shared out.
@@ -35,8 +35,8 @@
 #include "application/sweep_store.h"
 #include "base/errors.h"
 #include "base/number_format.h"
-#include "models/linear_model.h"
-#include "models/loaded_model.h"
+#include "modeling/linear_model.h"
+#include "modeling/loaded_model.h"
 
 namespace servokit {
 namespace {

@@ -37,7 +37,7 @@
 #include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
 #include "base/vocabulary.h"
-#include "models/loaded_model.h"
+#include "modeling/loaded_model.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_records.h"
 #include "reports/sweep_tables.h"

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace {
 

@@ -17,7 +17,7 @@
 #include <string>
 
 #include "analysis/linear_zero_dynamics.h"
-#include "models/linear_model.h"
+#include "modeling/linear_model.h"
 
 namespace {
 

@@ -14,7 +14,7 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(SERVOKIT_LIBRARIES base files models numerics analysis trajectories solvers reports servokit application)
+set(SERVOKIT_LIBRARIES base files modeling numerics analysis trajectories integrators solvers reports studies servokit application)
 set(SERVOKIT_PACKAGE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/servokit)
 
 foreach(folder IN LISTS SERVOKIT_LIBRARIES)

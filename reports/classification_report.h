@@ -10,8 +10,8 @@
 #include "analysis/classification.h"
 #include "analysis/linear_analysis.h"
 #include "base/vocabulary.h"
-#include "models/linear_model.h"
-#include "models/model.h"
+#include "modeling/linear_model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 
@@ -38,7 +38,7 @@ std::string FormatClassification(const Model& model,
                                  const ClassificationOptions& options,
                                  ReportFormat format);
 
-/// The analyze object of a large linear model (models/linear_model.h): the keys of
+/// The analyze object of a large linear model (modeling/linear_model.h): the keys of
 /// ClassificationToJson where they apply, at the operating point q = 0, u = 0, y = 0
 /// (operating_point.q is left empty, with a note, since it has dof entries, all zero); inputs
 /// and outputs are named u1.., y1..; zero_dynamics adds complete, zero_count, scope, solver,

@@ -4,8 +4,10 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "base/errors.h"
+#include "files/output_file.h"
 #include "reports/escaping.h"
 
 namespace servokit {
@@ -177,6 +179,20 @@ std::string RenderHtml(const Document& document, const std::string& directory) {
   for (const Block& block : document.blocks) std::visit(HtmlRenderer{out, directory}, block);
   out << "</body>\n</html>\n";
   return out.str();
+}
+
+void WriteDocument(const std::filesystem::path& directory, const Document& document) {
+  for (const auto& [name, text] :
+       {std::pair{"report.md", RenderMarkdown(document)},
+        std::pair{"report.html", RenderHtml(document, directory.string())}}) {
+    OutputFile file((directory / name).string());
+    file.Write(text);
+    file.Commit();
+  }
+}
+
+Figure FigureOf(const std::string& name, const std::string& caption) {
+  return {name + ".png", name + ".svg", caption};
 }
 
 }  // namespace servokit

@@ -1,6 +1,7 @@
 #pragma once
 // A report as a list of blocks, rendered to Markdown and to HTML from the same content, so
 // that report.md and report.html cannot say different things.
+#include <filesystem>
 #include <string>
 #include <variant>
 #include <vector>
@@ -44,5 +45,11 @@ std::string RenderMarkdown(const Document& document);
 /// beside it (the PNG, the SVG and a PDF of the same name, when
 /// there is one) are linked for download. Throws Error when an SVG cannot be read.
 std::string RenderHtml(const Document& document, const std::string& directory);
+
+/// Writes report.md and report.html into `directory`.
+void WriteDocument(const std::filesystem::path& directory, const Document& document);
+
+/// Figure block for a drawn plot named `name`.
+Figure FigureOf(const std::string& name, const std::string& caption);
 
 }  // namespace servokit

@@ -1,7 +1,7 @@
 #pragma once
 // Text from a model file (its name, its description) shown in an output: one escaping function
 // per format, so that the text is shown as written and never read as part of the format. The
-// loader already refuses control characters in names (models/loader_support.h); these functions
+// loader already refuses control characters in names (modeling/loader_support.h); these functions
 // do not rely on that, since an API caller or a future key may bring any text.
 #include <string>
 #include <string_view>

@@ -9,7 +9,7 @@
 
 #include "analysis/classification.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/verification.h"
 #include "trajectories/trajectory.h"

@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "base/number_format.h"
-#include "models/units.h"
+#include "modeling/units.h"
 
 namespace servokit {
 namespace {

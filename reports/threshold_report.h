@@ -6,7 +6,7 @@
 
 #include "analysis/characteristic_polynomial.h"
 #include "analysis/thresholds.h"
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

@@ -3,7 +3,7 @@
 #include <optional>
 
 #include "base/errors.h"
-#include "models/model_generators.h"
+#include "modeling/model_generators.h"
 #include "servokit/servokit.h"
 
 namespace servokit::api {

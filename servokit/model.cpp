@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "servokit/toolkit_bridge.h"
 
 namespace servokit::api {

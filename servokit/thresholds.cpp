@@ -4,7 +4,7 @@
 
 #include "analysis/characteristic_polynomial.h"
 #include "base/option_check.h"
-#include "models/units.h"
+#include "modeling/units.h"
 #include "reports/threshold_report.h"
 #include "servokit/toolkit_bridge.h"
 

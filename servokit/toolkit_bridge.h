@@ -2,7 +2,7 @@
 // Inside the library: what an api::Model holds, and the translations from the API's options to
 // the toolkit's. Not installed (only servokit/servokit.h and base/errors.h are).
 #include "analysis/sweep_point.h"
-#include "models/loaded_model.h"
+#include "modeling/loaded_model.h"
 #include "servokit/servokit.h"
 
 namespace servokit::api {

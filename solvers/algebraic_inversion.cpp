@@ -20,9 +20,9 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "base/vocabulary.h"
-#include "models/canonical_expression.h"
-#include "models/expression_program.h"
-#include "models/symbolic_model.h"
+#include "modeling/canonical_expression.h"
+#include "modeling/expression_program.h"
+#include "modeling/symbolic_model.h"
 
 namespace servokit {
 namespace {

@@ -30,8 +30,8 @@
 #include <vector>
 
 #include "analysis/nonlinear_structure.h"
-#include "models/model.h"
-#include "models/symbolic_lock.h"
+#include "modeling/model.h"
+#include "modeling/symbolic_lock.h"
 
 namespace servokit {
 
@@ -53,7 +53,7 @@ struct AlgebraicInverseOptions {
 
 class AlgebraicInverse {
  public:
-  /// Derives the inverse from model.symbolic(), under SymbolicLock (models/symbolic_lock.h: the
+  /// Derives the inverse from model.symbolic(), under SymbolicLock (modeling/symbolic_lock.h: the
   /// derivation is GiNaC's, one thread at a time; any thread may destroy it). Throws NoSolution
   /// naming the reason when the problem is not flat in the sense above (internal dynamics
   /// remain, unless options.internal_dynamics; an output never depends on the inputs within

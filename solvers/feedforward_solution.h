@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "integrators/solve_summary.h"
 #include "solvers/motion_extension.h"
 #include "solvers/solve_settings.h"
-#include "solvers/solve_summary.h"
 #include "solvers/stable_inversion.h"
 
 namespace servokit {

@@ -8,7 +8,7 @@
 // the linearization of exactly what the nonlinear solvers integrate.
 #include <Eigen/Dense>
 
-#include "models/model.h"
+#include "modeling/model.h"
 
 namespace servokit {
 

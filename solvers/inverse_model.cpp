@@ -8,14 +8,14 @@
 #include "analysis/operating_point.h"
 #include "base/errors.h"
 #include "base/option_check.h"
+#include "integrators/dense_output.h"
+#include "integrators/radau.h"
+#include "integrators/sundials_integrators.h"
 #include "solvers/algebraic_inversion.h"
-#include "solvers/dense_output.h"
 #include "solvers/linearized_inverse.h"
 #include "solvers/method_choice.h"
 #include "solvers/output_normal_form.h"
-#include "solvers/radau.h"
 #include "solvers/stable_inversion.h"
-#include "solvers/sundials_integrators.h"
 
 namespace servokit {
 namespace {

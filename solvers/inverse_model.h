@@ -12,7 +12,7 @@
 
 #include "analysis/classification.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/feedforward_solution.h"
 #include "solvers/servo_constraint_problem.h"
 #include "solvers/solve_settings.h"

@@ -14,8 +14,8 @@
 #include <functional>
 #include <vector>
 
-#include "solvers/solve_summary.h"
-#include "solvers/sundials_integrators.h"
+#include "integrators/solve_summary.h"
+#include "integrators/sundials_integrators.h"
 
 namespace servokit {
 

@@ -14,7 +14,7 @@
 #include <memory>
 
 #include "analysis/classification.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/feedforward_solution.h"
 #include "trajectories/trajectory.h"
 

@@ -11,7 +11,7 @@
 #include "analysis/classification.h"
 #include "base/errors.h"
 #include "base/vocabulary.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
 
 namespace servokit {

@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "integrators/dense_output.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
-#include "solvers/dense_output.h"
 #include "solvers/servo_constraint_problem.h"
 #include "trajectories/trajectory.h"
 

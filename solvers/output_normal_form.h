@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "models/model.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
 #include "trajectories/trajectory.h"
 

@@ -7,8 +7,8 @@
 #include "analysis/decoupling_matrix.h"
 #include "base/errors.h"
 #include "base/option_check.h"
-#include "models/symbolic_lock.h"
-#include "models/symbolic_model.h"
+#include "modeling/symbolic_lock.h"
+#include "modeling/symbolic_model.h"
 
 namespace servokit {
 namespace {
@@ -116,7 +116,7 @@ ServoConstraintProblem::ServoConstraintProblem(const Model& model,
   }
 
   const auto independent_of_q = [&](const GiNaC::matrix& matrix) {
-    // GiNaC: the model's expressions are shared with other threads (models/symbolic_lock.h).
+    // GiNaC: the model's expressions are shared with other threads (modeling/symbolic_lock.h).
     const SymbolicLock lock;
     for (unsigned row = 0; row < matrix.rows(); ++row) {
       for (unsigned column = 0; column < matrix.cols(); ++column) {

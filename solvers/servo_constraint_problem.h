@@ -20,9 +20,9 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
-#include "solvers/linearly_implicit_dae.h"
-#include "solvers/solve_summary.h"
+#include "integrators/linearly_implicit_dae.h"
+#include "integrators/solve_summary.h"
+#include "modeling/model.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {

@@ -4,10 +4,10 @@
 #include <cmath>
 
 #include "base/option_check.h"
-#include "solvers/boundary_value.h"
-#include "solvers/radau.h"
+#include "integrators/boundary_value.h"
+#include "integrators/radau.h"
+#include "integrators/sundials_integrators.h"
 #include "solvers/stable_inversion.h"
-#include "solvers/sundials_integrators.h"
 
 namespace servokit {
 

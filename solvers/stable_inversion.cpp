@@ -8,7 +8,7 @@
 
 #include "base/errors.h"
 #include "base/option_check.h"
-#include "solvers/boundary_value.h"
+#include "integrators/boundary_value.h"
 #include "solvers/internal_dynamics.h"
 #include "solvers/linear_stable_inversion.h"
 #include "solvers/output_normal_form.h"

@@ -16,10 +16,10 @@
 #include <optional>
 #include <vector>
 
-#include "models/model.h"
+#include "integrators/solve_summary.h"
+#include "modeling/model.h"
 #include "solvers/algebraic_inversion.h"
 #include "solvers/motion_extension.h"
-#include "solvers/solve_summary.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {

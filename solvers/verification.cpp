@@ -8,7 +8,7 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "base/option_check.h"
-#include "solvers/sundials_integrators.h"
+#include "integrators/sundials_integrators.h"
 
 namespace servokit {
 namespace {

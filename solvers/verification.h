@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "models/model.h"
+#include "integrators/solve_summary.h"
+#include "modeling/model.h"
 #include "solvers/inverse_model.h"
-#include "solvers/solve_summary.h"
 #include "trajectories/trajectory.h"
 
 namespace servokit {

@@ -1,6 +1,6 @@
 #pragma once
-// The closed-form zeros of the chain `servokit generate chain` writes (models/model_generators.h),
-// the independent reference of the linear-model tests.
+// The closed-form zeros of the chain `servokit generate chain` writes
+// (modeling/model_generators.h), the independent reference of the linear-model tests.
 #include <complex>
 #include <numbers>
 #include <vector>

@@ -10,8 +10,8 @@
 
 #include "base/errors.h"
 #include "files/input_file.h"
-#include "models/units.h"
-#include "models/yaml_document.h"
+#include "modeling/units.h"
+#include "modeling/yaml_document.h"
 
 namespace servokit {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "analysis/classification.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "tests/test_paths.h"
 
 namespace servokit::testing {

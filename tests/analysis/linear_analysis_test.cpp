@@ -27,9 +27,9 @@
 
 #include "analysis/classification.h"
 #include "base/errors.h"
-#include "models/linear_model.h"
-#include "models/model.h"
-#include "models/model_generators.h"
+#include "modeling/linear_model.h"
+#include "modeling/model.h"
+#include "modeling/model_generators.h"
 #include "numerics/sparse_structure.h"
 
 namespace servokit {

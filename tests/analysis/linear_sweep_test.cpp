@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "analysis/sweep.h"
-#include "models/linear_model.h"
-#include "models/model_generators.h"
+#include "modeling/linear_model.h"
+#include "modeling/model_generators.h"
 #include "tests/analysis/grid_helpers.h"
 #include "tests/chain_closed_form.h"
 

@@ -1,7 +1,7 @@
 // Zero dynamics of large sparse linear models (analysis/linear_zero_dynamics.h), against
 // independent derivations.
 //
-// Chain (models/model_generators.h, GenerateChain): N masses m, springs k and dampers d from the
+// Chain (modeling/model_generators.h, GenerateChain): N masses m, springs k and dampers d from the
 // ground to a free end, force on mass 1, output the position of mass j. Holding y = q_j = 0
 // leaves masses j+1..N as a chain fixed at mass j and free at N, n' = N - j masses with
 // M = m I, K = k T', D = d T', T' the fixed-free Laplacian of size n', whose eigenvalues are
@@ -55,8 +55,8 @@
 
 #include "analysis/linear_analysis.h"
 #include "base/errors.h"
-#include "models/linear_model.h"
-#include "models/model_generators.h"
+#include "modeling/linear_model.h"
+#include "modeling/model_generators.h"
 #include "numerics/gsl_support.h"
 #include "tests/chain_closed_form.h"
 

@@ -15,7 +15,7 @@
 #include "analysis/classification.h"
 #include "analysis/zero_dynamics.h"
 #include "base/errors.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

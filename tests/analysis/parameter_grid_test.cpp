@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/model.h"
+#include "modeling/model.h"
 #include "tests/analysis/grid_helpers.h"
 #include "tests/test_paths.h"
 

@@ -14,7 +14,7 @@
 
 #include "analysis/classification.h"
 #include "base/errors.h"
-#include "models/loaded_model.h"
+#include "modeling/loaded_model.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

@@ -1,6 +1,6 @@
 // Every output is byte-identical run after run (issue #14). GiNaC orders terms by hashes seeded
 // with addresses, which address-space randomisation changes in every process; before the
-// canonical form of models/canonical_expression.h, two identical commands gave different closed
+// canonical form of modeling/canonical_expression.h, two identical commands gave different closed
 // forms, sweep rows and solve CSVs. So the commands run here as separate processes of the real
 // binary, five times each, in the same directory (paths in the JSON are then the same), on a
 // model with trigonometric and product terms (the two-link arm hanging in gravity) and, for

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "application/exit_codes.h"
-#include "models/linear_model.h"
-#include "models/model_generators.h"
+#include "modeling/linear_model.h"
+#include "modeling/model_generators.h"
 #include "tests/application/run_servokit.h"
 #include "tests/test_files.h"
 

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/linear_model.h"
-#include "models/model.h"
-#include "models/units.h"
+#include "modeling/linear_model.h"
+#include "modeling/model.h"
+#include "modeling/units.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

@@ -26,10 +26,10 @@
 #include "base/errors.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
-#include "models/linear_model.h"
-#include "models/loaded_model.h"
-#include "models/matrix_market.h"
-#include "models/model.h"
+#include "modeling/linear_model.h"
+#include "modeling/loaded_model.h"
+#include "modeling/matrix_market.h"
+#include "modeling/model.h"
 #include "trajectories/sampled_trajectory.h"
 #include "trajectories/trajectory.h"
 #include "trajectories/waypoint_trajectory.h"
@@ -39,7 +39,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Every quantity a multibody model compiles (models/model.h).
+// Every quantity a multibody model compiles (modeling/model.h).
 constexpr unsigned kAllQuantities = (1u << kNumQuantities) - 1;
 
 // A private directory for the model file under test and the matrices beside it, made once per

@@ -1,7 +1,7 @@
 """The module from several threads at once (issue #29): the binding releases the GIL while the
 toolkit computes, and 8 threads calling servokit.load(...).analyze() on the shipped models
 crashed inside GiNaC (not thread-safe) before its work went under one lock
-(models/symbolic_lock.h). Each test makes every call once on this thread for the reference, then
+(modeling/symbolic_lock.h). Each test makes every call once on this thread for the reference, then
 from 8 threads at once, and requires every answer to equal its reference exactly: the numbers
 are deterministic, so any difference is a race.
 

@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "reports/document.h"
-#include "reports/report_support.h"
 #include "tests/test_files.h"
 
 namespace servokit {

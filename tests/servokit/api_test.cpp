@@ -10,7 +10,7 @@
 
 #include "analysis/linear_zero_dynamics.h"
 #include "analysis/options.h"
-#include "models/model_generators.h"
+#include "modeling/model_generators.h"
 #include "servokit/servokit.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"

@@ -2,10 +2,10 @@
 // GiNaC, which loads the models and derives their nonlinear structure and algebraic inverses,
 // is not thread-safe: 8 threads calling Analyze on acrobot.yaml, or Solve with the algebraic
 // method, crashed inside GiNaC::power::eval in 4 of 5 runs before its work went under one lock
-// (models/symbolic_lock.h). Each case makes every call once on one thread for the reference,
+// (modeling/symbolic_lock.h). Each case makes every call once on one thread for the reference,
 // then makes the calls again from kThreads threads at once, each thread starting at another
 // call, and requires every answer to equal its reference exactly: the numbers are
-// deterministic (models/canonical_expression.h), so any difference is a race. Assertions run on
+// deterministic (modeling/canonical_expression.h), so any difference is a race. Assertions run on
 // the main thread only (Catch2's are not thread-safe). Under ThreadSanitizer: make test-thread.
 #include <algorithm>
 #include <catch2/catch.hpp>

@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "base/errors.h"
-#include "models/symbolic_model.h"
+#include "modeling/symbolic_model.h"
 #include "tests/test_paths.h"
 
 namespace servokit {

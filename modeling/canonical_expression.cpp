@@ -1,0 +1,463 @@
+#include "modeling/canonical_expression.h"
+
+#include <algorithm>
+#include <sstream>
+#include <stdexcept>
+
+#include "modeling/symbolic_lock.h"
+
+namespace servokit {
+namespace {
+
+std::string GinacText(const GiNaC::ex& expression) {
+  std::ostringstream stream;
+  stream << expression;
+  return stream.str();
+}
+
+std::string NumberText(const GiNaC::numeric& number) { return GinacText(number); }
+
+// Where a value is printed; each level needs parentheses around more kinds of operand.
+enum PrintContext : int {
+  kTopLevel = 0,   // a whole expression, a term of a sum, a function's argument
+  kFactor = 1,     // a factor of a product
+  kPowerBase = 2,  // the base of a power
+  kExponent = 3,   // the exponent of a power
+};
+
+// The order of kinds in the total order of nodes. Numbers come last, so that a sum's constant
+// term is its last (x-1, not -1+x) and does not decide the sum's sign.
+int KindRank(CanonicalExpressions::Kind kind) {
+  using Kind = CanonicalExpressions::Kind;
+  switch (kind) {
+    case Kind::kConstant:
+      return 0;
+    case Kind::kSymbol:
+      return 1;
+    case Kind::kPower:
+      return 2;
+    case Kind::kProduct:
+      return 3;
+    case Kind::kSum:
+      return 4;
+    case Kind::kFunction:
+      return 5;
+    case Kind::kOpaque:
+      return 6;
+    case Kind::kNumber:
+      return 7;
+  }
+  return 8;
+}
+
+int Sign(int value) { return (value > 0) - (value < 0); }
+
+}  // namespace
+
+CanonicalExpressions::CanonicalExpressions(const std::vector<GiNaC::ex>& ordered_symbols) {
+  Node unit;
+  unit.kind = Kind::kNumber;
+  unit.number = 1;
+  one_ = Intern(std::move(unit));
+  for (std::size_t i = 0; i < ordered_symbols.size(); ++i) {
+    symbol_ordinals_.emplace(ordered_symbols[i], i);
+  }
+}
+
+std::size_t CanonicalExpressions::NodeHash::operator()(NodeId id) const {
+  // GiNaC's hashes are seeded with addresses, but this table only looks nodes up within one
+  // run and is never iterated, so its order cannot reach any output.
+  const Node& node = self->nodes_[id];
+  std::size_t hash = std::hash<int>()(static_cast<int>(node.kind));
+  const auto mix = [&hash](std::size_t value) {
+    hash ^= value + 0x9e3779b97f4a7c15ull + (hash << 6) + (hash >> 2);
+  };
+  mix(std::hash<std::string>()(node.name));
+  if (node.kind == Kind::kSymbol || node.kind == Kind::kOpaque) mix(node.original.gethash());
+  for (const Scaled& operand : node.operands) {
+    mix(operand.node);
+    mix(operand.coefficient.gethash());
+  }
+  return hash;
+}
+
+bool CanonicalExpressions::NodeEqual::operator()(NodeId a, NodeId b) const {
+  const Node& x = self->nodes_[a];
+  const Node& y = self->nodes_[b];
+  if (x.kind != y.kind || x.name != y.name || x.operands.size() != y.operands.size()) {
+    return false;
+  }
+  // Distinct symbols of one name stay distinct nodes (Convert() refuses two of one name that
+  // are not both in the ordered list).
+  if ((x.kind == Kind::kSymbol || x.kind == Kind::kOpaque) && !x.original.is_equal(y.original)) {
+    return false;
+  }
+  for (std::size_t i = 0; i < x.operands.size(); ++i) {
+    if (x.operands[i].node != y.operands[i].node ||
+        !x.operands[i].coefficient.is_equal(y.operands[i].coefficient)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+CanonicalExpressions::NodeId CanonicalExpressions::Intern(Node node) {
+  // The candidate goes in last; if an equal node is known, the candidate is taken back out.
+  nodes_.push_back(std::move(node));
+  const auto id = NodeId(nodes_.size() - 1);
+  const auto [found, inserted] = interned_.insert(id);
+  if (!inserted) nodes_.pop_back();
+  return *found;
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::Add(const GiNaC::ex& expression) {
+  return Convert(expression);
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::Convert(const GiNaC::ex& expression) {
+  if (const auto found = converted_.find(expression); found != converted_.end()) {
+    return found->second;
+  }
+  Scaled result{1, one_};
+  if (GiNaC::is_a<GiNaC::numeric>(expression)) {
+    result = {GiNaC::ex_to<GiNaC::numeric>(expression), one_};
+  } else if (GiNaC::is_a<GiNaC::symbol>(expression)) {
+    Node node;
+    node.kind = Kind::kSymbol;
+    node.name = GiNaC::ex_to<GiNaC::symbol>(expression).get_name();
+    node.original = expression;
+    if (!symbol_ordinals_.contains(expression)) {
+      // A symbol outside the ordered list is known by its name alone.
+      const auto [previous, inserted] = unlisted_symbols_.emplace(node.name, expression);
+      if (!inserted && !previous->second.is_equal(expression)) {
+        throw std::invalid_argument("two different symbols are named '" + node.name + "'");
+      }
+    }
+    result = {1, Intern(std::move(node))};
+  } else if (GiNaC::is_a<GiNaC::constant>(expression)) {
+    Node node;
+    node.kind = Kind::kConstant;
+    node.name = GinacText(expression);
+    node.original = expression;
+    result = {1, Intern(std::move(node))};
+  } else if (GiNaC::is_a<GiNaC::add>(expression)) {
+    result = ConvertSum(expression);
+  } else if (GiNaC::is_a<GiNaC::mul>(expression)) {
+    result = ConvertProduct(expression);
+  } else if (GiNaC::is_a<GiNaC::power>(expression)) {
+    result = ConvertPower(expression);
+  } else if (GiNaC::is_a<GiNaC::function>(expression) &&
+             !GiNaC::is_a<GiNaC::fderivative>(expression)) {
+    Node node;
+    node.kind = Kind::kFunction;
+    node.name = GiNaC::ex_to<GiNaC::function>(expression).get_name();
+    for (std::size_t i = 0; i < expression.nops(); ++i) {
+      node.operands.push_back(Convert(expression.op(i)));
+    }
+    result = {1, Intern(std::move(node))};
+  } else {
+    // A list, a relation, a matrix, a derivative of an unknown function: kept whole, compared
+    // and printed by GiNaC's text (none of them is evaluated numerically).
+    Node node;
+    node.kind = Kind::kOpaque;
+    node.original = expression;
+    result = {1, Intern(std::move(node))};
+  }
+  converted_.emplace(expression, result);
+  return result;
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::ConvertSum(const GiNaC::ex& sum) {
+  std::vector<Scaled> terms;
+  terms.reserve(sum.nops());
+  for (std::size_t i = 0; i < sum.nops(); ++i) terms.push_back(Convert(sum.op(i)));
+  std::sort(terms.begin(), terms.end(),
+            [this](const Scaled& a, const Scaled& b) { return Compare(a.node, b.node) < 0; });
+  // Terms GiNaC kept apart can be one node here (the same sum signed two ways): merge them.
+  std::vector<Scaled> merged;
+  for (const Scaled& term : terms) {
+    if (!merged.empty() && merged.back().node == term.node) {
+      merged.back().coefficient += term.coefficient;
+    } else {
+      merged.push_back(term);
+    }
+  }
+  std::erase_if(merged, [](const Scaled& term) { return term.coefficient.is_zero(); });
+  if (merged.empty()) return {0, one_};
+  if (merged.size() == 1) return merged.front();
+  // The sign convention: the first term positive; -1 goes to whoever refers to the sum.
+  // (A complex first coefficient is left as it is; numeric programs refuse complex numbers.)
+  GiNaC::numeric sign = 1;
+  if (merged.front().coefficient.is_real() && merged.front().coefficient.is_negative()) {
+    sign = -1;
+    for (Scaled& term : merged) term.coefficient = -term.coefficient;
+  }
+  Node node;
+  node.kind = Kind::kSum;
+  node.operands = std::move(merged);
+  return {sign, Intern(std::move(node))};
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::ex& product) {
+  GiNaC::numeric coefficient = 1;
+  std::vector<Scaled> factors;
+  for (std::size_t i = 0; i < product.nops(); ++i) {
+    const Scaled factor = Convert(product.op(i));
+    coefficient *= factor.coefficient;
+    if (factor.node == one_) continue;
+    const Node& converted = nodes_[factor.node];
+    if (converted.kind == Kind::kProduct) {
+      factors.insert(factors.end(), converted.operands.begin(), converted.operands.end());
+    } else {
+      factors.push_back({1, factor.node});
+    }
+  }
+  std::sort(factors.begin(), factors.end(),
+            [this](const Scaled& a, const Scaled& b) { return Compare(a.node, b.node) < 0; });
+  if (factors.empty() || coefficient.is_zero()) return {coefficient, one_};
+  if (factors.size() == 1) return {coefficient, factors.front().node};
+  Node node;
+  node.kind = Kind::kProduct;
+  node.operands = std::move(factors);
+  return {coefficient, Intern(std::move(node))};
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::ConvertPower(const GiNaC::ex& power) {
+  const Scaled base = Convert(power.op(0));
+  const Scaled exponent = Convert(power.op(1));
+  Node node;
+  node.kind = Kind::kPower;
+  if (exponent.node == one_ && exponent.coefficient.is_integer()) {
+    // (c b)^n = c^n b^n: the sign and the factor go outward, as for a product.
+    const GiNaC::numeric coefficient = base.coefficient.power(exponent.coefficient);
+    if (base.node == one_ || exponent.coefficient.is_zero()) return {coefficient, one_};
+    if (exponent.coefficient == 1) return {coefficient, base.node};
+    node.operands = {{1, base.node}, exponent};
+    return {coefficient, Intern(std::move(node))};
+  }
+  // A fractional or symbolic exponent: (-x)^(1/2) is not -(x^(1/2)), so the base keeps its
+  // coefficient.
+  node.operands = {base, exponent};
+  return {1, Intern(std::move(node))};
+}
+
+int CanonicalExpressions::CompareScaled(const Scaled& a, const Scaled& b) const {
+  if (const int nodes = Compare(a.node, b.node); nodes != 0) return nodes;
+  return Sign(a.coefficient.compare(b.coefficient));
+}
+
+int CanonicalExpressions::Compare(NodeId a, NodeId b) const {
+  if (a == b) return 0;
+  const Node& x = nodes_[a];
+  const Node& y = nodes_[b];
+  if (x.kind != y.kind) return KindRank(x.kind) < KindRank(y.kind) ? -1 : 1;
+  switch (x.kind) {
+    case Kind::kNumber:
+      return Sign(x.number.compare(y.number));
+    case Kind::kConstant:
+      return Sign(x.name.compare(y.name));
+    case Kind::kSymbol: {
+      if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
+      const auto ordinal_x = symbol_ordinals_.find(x.original);
+      const auto ordinal_y = symbol_ordinals_.find(y.original);
+      const std::size_t unlisted = symbol_ordinals_.size();
+      const std::size_t first = ordinal_x == symbol_ordinals_.end() ? unlisted : ordinal_x->second;
+      const std::size_t second = ordinal_y == symbol_ordinals_.end() ? unlisted : ordinal_y->second;
+      return first < second ? -1 : (first > second ? 1 : 0);
+    }
+    case Kind::kOpaque:
+      return Sign(GinacText(x.original).compare(GinacText(y.original)));
+    case Kind::kFunction:
+      if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
+      [[fallthrough]];
+    case Kind::kPower:
+    case Kind::kProduct:
+    case Kind::kSum:
+      if (x.operands.size() != y.operands.size()) {
+        return x.operands.size() < y.operands.size() ? -1 : 1;
+      }
+      for (std::size_t i = 0; i < x.operands.size(); ++i) {
+        if (const int operands = CompareScaled(x.operands[i], y.operands[i]); operands != 0) {
+          return operands;
+        }
+      }
+      return 0;
+  }
+  return 0;
+}
+
+std::string CanonicalExpressions::Text(const Scaled& value) const {
+  std::string out;
+  Print(value, kTopLevel, out);
+  return out;
+}
+
+void CanonicalExpressions::Print(const Scaled& value, int context, std::string& out) const {
+  GiNaC::numeric coefficient = value.coefficient;
+  if (value.node == one_) {
+    const bool plain = coefficient.is_integer() && !coefficient.is_negative();
+    const bool wrap = context >= kFactor && !plain;
+    if (wrap) out += '(';
+    out += NumberText(coefficient);
+    if (wrap) out += ')';
+    return;
+  }
+  // The factors, split into a numerator and a denominator (negative numeric exponents).
+  const Node& node = nodes_[value.node];
+  std::vector<Scaled> numerator;
+  std::vector<NodeId> denominator;  // powers with a negative numeric exponent
+  const std::vector<Scaled> single = {{1, value.node}};
+  for (const Scaled& factor : node.kind == Kind::kProduct ? node.operands : single) {
+    const Node& power = nodes_[factor.node];
+    const bool reciprocal = power.kind == Kind::kPower && power.operands[1].node == one_ &&
+                            power.operands[1].coefficient.is_real() &&
+                            power.operands[1].coefficient.is_negative();
+    if (reciprocal) {
+      denominator.push_back(factor.node);
+    } else {
+      numerator.push_back(factor);
+    }
+  }
+  if (coefficient == 1 && denominator.empty() && numerator.size() == 1) {
+    PrintNode(value.node, context, out);
+    return;
+  }
+  // -x, 1/2*x, -2*x*y/(a+b): a product with a numeric factor, as GiNaC writes it, with the
+  // negative powers as a quotient.
+  const bool wrap = context >= kPowerBase ||
+                    (context == kFactor && coefficient.is_real() && coefficient.is_negative());
+  if (wrap) out += '(';
+  if (coefficient.is_real() && coefficient.is_negative()) {
+    out += '-';
+    coefficient = -coefficient;
+  }
+  if (coefficient != 1 || numerator.empty()) {
+    const bool plain = coefficient.is_rational();
+    if (!plain) out += '(';
+    out += NumberText(coefficient);
+    if (!plain) out += ')';
+    if (!numerator.empty()) out += '*';
+  }
+  for (std::size_t i = 0; i < numerator.size(); ++i) {
+    if (i > 0) out += '*';
+    Print(numerator[i], kFactor, out);
+  }
+  if (!denominator.empty()) {
+    out += '/';
+    if (denominator.size() > 1) out += '(';
+    for (std::size_t i = 0; i < denominator.size(); ++i) {
+      if (i > 0) out += '*';
+      const Node& power = nodes_[denominator[i]];
+      const GiNaC::numeric exponent = -power.operands[1].coefficient;
+      if (exponent == 1) {
+        Print(power.operands[0], denominator.size() > 1 ? kFactor : kPowerBase, out);
+      } else {
+        PrintPower(power.operands[0], exponent, kFactor, out);
+      }
+    }
+    if (denominator.size() > 1) out += ')';
+  }
+  if (wrap) out += ')';
+}
+
+void CanonicalExpressions::PrintPower(const Scaled& base,
+                                      const GiNaC::numeric& exponent,
+                                      int context,
+                                      std::string& out) const {
+  if (exponent == 1) {
+    Print(base, context, out);
+    return;
+  }
+  if (exponent == GiNaC::numeric(1, 2)) {
+    out += "sqrt(";
+    Print(base, kTopLevel, out);
+    out += ')';
+    return;
+  }
+  const bool wrap = context >= kPowerBase;
+  if (wrap) out += '(';
+  Print(base, kPowerBase, out);
+  out += '^';
+  Print({exponent, one_}, kExponent, out);
+  if (wrap) out += ')';
+}
+
+void CanonicalExpressions::PrintNode(NodeId id, int context, std::string& out) const {
+  const Node& node = nodes_[id];
+  switch (node.kind) {
+    case Kind::kNumber:
+      out += NumberText(node.number);
+      return;
+    case Kind::kConstant:
+    case Kind::kSymbol:
+      out += node.name;
+      return;
+    case Kind::kOpaque:
+      out += GinacText(node.original);
+      return;
+    case Kind::kFunction:
+      out += node.name;
+      out += '(';
+      for (std::size_t i = 0; i < node.operands.size(); ++i) {
+        if (i > 0) out += ',';
+        Print(node.operands[i], kTopLevel, out);
+      }
+      out += ')';
+      return;
+    case Kind::kPower: {
+      const Scaled& base = node.operands[0];
+      const Scaled& exponent = node.operands[1];
+      if (exponent.node == one_) {
+        PrintPower(base, exponent.coefficient, context, out);
+        return;
+      }
+      const bool wrap = context >= kPowerBase;
+      if (wrap) out += '(';
+      Print(base, kPowerBase, out);
+      out += '^';
+      Print(exponent, kExponent, out);
+      if (wrap) out += ')';
+      return;
+    }
+    case Kind::kProduct: {
+      const bool wrap = context >= kPowerBase;
+      if (wrap) out += '(';
+      for (std::size_t i = 0; i < node.operands.size(); ++i) {
+        if (i > 0) out += '*';
+        Print(node.operands[i], kFactor, out);
+      }
+      if (wrap) out += ')';
+      return;
+    }
+    case Kind::kSum: {
+      const bool wrap = context >= kFactor;
+      if (wrap) out += '(';
+      for (std::size_t i = 0; i < node.operands.size(); ++i) {
+        const Scaled& term = node.operands[i];
+        if (i > 0 && term.coefficient.is_real() && term.coefficient.is_negative()) {
+          out += '-';
+          Print({-term.coefficient, term.node}, kTopLevel, out);
+        } else {
+          if (i > 0) out += '+';
+          Print(term, kTopLevel, out);
+        }
+      }
+      if (wrap) out += ')';
+      return;
+    }
+  }
+}
+
+std::string CanonicalText(const GiNaC::ex& expression) {
+  const SymbolicLock lock;
+  CanonicalExpressions canonical;
+  return canonical.Text(canonical.Add(expression));
+}
+
+GiNaC::ex CanonicalNormal(const GiNaC::ex& expression) {
+  const SymbolicLock lock;
+  const GiNaC::ex fraction = expression.numer_denom();
+  return fraction.op(0).expand() / fraction.op(1).expand();
+}
+
+}  // namespace servokit

@@ -1,0 +1,127 @@
+#pragma once
+// Expressions in a form that depends on their mathematics alone, never on memory addresses.
+//
+// GiNaC keeps the operands of every sum and product sorted by hash values seeded with the
+// addresses of its type names. With address-space randomisation these change from run to run,
+// and with them the order of the operands and the sign GiNaC gives a sum inside a product (it
+// pulls out -1 so that the sum's first operand is positive: (2*l-3*s)*m in one run,
+// -(3*s-2*l)*m in the next); normal() and factor() choose signs the same way. Anything that
+// walks an expression in GiNaC's order would then differ from run to run: the floating-point
+// evaluation order of a compiled program (so its last bits), and printed closed forms.
+//
+// CanonicalExpressions rebuilds expressions as a DAG in which
+//   - every node is a number, a symbol, a constant, a sum, a product, a power or a function;
+//   - the operands of sums and products are sorted by a total order of nodes defined by
+//     structure alone (kind, names of symbols and functions, values of numbers, operands);
+//   - a sum's terms are (coefficient, node) pairs with the first coefficient positive; a sign
+//     or a numeric factor is carried outward by the Scaled value that refers to the node;
+//   - identical subexpressions are one node (hash-consing), which also shares the
+//     subexpressions common to several expressions, whatever sign GiNaC gave them.
+// Everything numeric that servokit builds from GiNaC goes through this form (the compiler of
+// modeling/expression_program.h), and so does every closed form it prints (CanonicalText).
+// GiNaC work: callers hold a SymbolicLock (modeling/symbolic_lock.h) while they use these
+// expressions; CanonicalText and CanonicalNormal take one as well.
+#include <ginac/ginac.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_set>
+#include <vector>
+
+namespace servokit {
+
+class CanonicalExpressions {
+ public:
+  using NodeId = std::uint32_t;
+
+  enum class Kind : std::uint8_t {
+    kNumber,    // number: a real or complex GiNaC numeric (1 stands for "no node" in Scaled)
+    kConstant,  // name: Pi, Euler, ...
+    kSymbol,    // name; symbol: the GiNaC symbol
+    kPower,     // operands: {base, exponent}
+    kProduct,   // operands: two or more factors, coefficient 1 each, sorted
+    kSum,       // operands: two or more terms, sorted, the first coefficient positive
+    kFunction,  // name; operands: the arguments in order
+    kOpaque,    // anything else GiNaC holds (a list, a relation, a matrix): original only
+  };
+
+  /// coefficient * node. A pure number is its value times the node of the number 1.
+  struct Scaled {
+    GiNaC::numeric coefficient;
+    NodeId node;
+  };
+
+  struct Node {
+    Kind kind;
+    std::string name;
+    GiNaC::numeric number;
+    std::vector<Scaled> operands;
+    GiNaC::ex original;  // kSymbol: the symbol; kOpaque: the expression; unused otherwise
+  };
+
+  /// `ordered_symbols` breaks ties between distinct symbols of the same name (their order in
+  /// the list); two distinct symbols of one name that are not both in it are a logic error.
+  explicit CanonicalExpressions(const std::vector<GiNaC::ex>& ordered_symbols = {});
+  // The hash-consing table refers to this object.
+  CanonicalExpressions(const CanonicalExpressions&) = delete;
+  CanonicalExpressions& operator=(const CanonicalExpressions&) = delete;
+
+  /// The canonical form of `expression` (GiNaC's automatic evaluation having happened).
+  Scaled Add(const GiNaC::ex& expression);
+
+  const Node& node(NodeId id) const { return nodes_[id]; }
+  NodeId one() const { return one_; }
+  /// The total order of nodes: <0, 0 or >0, as a before, equal to or after b.
+  int Compare(NodeId a, NodeId b) const;
+  /// GiNaC's default syntax for the value (sums and products in canonical order).
+  std::string Text(const Scaled& value) const;
+
+ private:
+  NodeId Intern(Node node);
+  Scaled Convert(const GiNaC::ex& expression);
+  Scaled ConvertSum(const GiNaC::ex& sum);
+  Scaled ConvertProduct(const GiNaC::ex& product);
+  Scaled ConvertPower(const GiNaC::ex& power);
+  int CompareScaled(const Scaled& a, const Scaled& b) const;
+  void Print(const Scaled& value, int context, std::string& out) const;
+  void PrintNode(NodeId id, int context, std::string& out) const;
+  void PrintPower(const Scaled& base,
+                  const GiNaC::numeric& exponent,
+                  int context,
+                  std::string& out) const;
+
+  // Hash-consing: nodes by their structure (kind, name, symbol, operand ids and
+  // coefficients), looked up through their ids.
+  struct NodeHash {
+    const CanonicalExpressions* self;
+    std::size_t operator()(NodeId id) const;
+  };
+  struct NodeEqual {
+    const CanonicalExpressions* self;
+    bool operator()(NodeId a, NodeId b) const;
+  };
+  std::vector<Node> nodes_;
+  std::unordered_set<NodeId, NodeHash, NodeEqual> interned_{16, NodeHash{this}, NodeEqual{this}};
+  // Expressions already converted (GiNaC's own order serves for lookups within one run).
+  std::map<GiNaC::ex, Scaled, GiNaC::ex_is_less> converted_;
+  std::map<GiNaC::ex, std::size_t, GiNaC::ex_is_less> symbol_ordinals_;
+  std::map<std::string, GiNaC::ex> unlisted_symbols_;  // symbols outside the list, by name
+  NodeId one_ = 0;
+};
+
+/// GiNaC's default text of `expression` (x^2, 1/2*y, sqrt(x), sin(x)...), with the terms of
+/// every sum and the factors of every product in the canonical order and sums signed as
+/// above, so that the same expression prints the same in every run.
+std::string CanonicalText(const GiNaC::ex& expression);
+
+/// GiNaC::normal(expression) with its numerator and its denominator expanded: a form that
+/// depends on the rational function alone. normal() alone does not give one: it cancels the
+/// same common factors in every run, but it builds the denominator as a product of the
+/// cofactors it met while adding the terms in GiNaC's (address-seeded) order, so one run gives
+/// (m+mt-m*cos(theta)^2)*cos(theta)^2 and the next (m*cos(theta)^3-(m+mt)*cos(theta))*cos(theta),
+/// and a compiled program evaluates them with different rounding. Expanded numerator and
+/// denominator are unique up to a common sign, which the canonical form absorbs.
+GiNaC::ex CanonicalNormal(const GiNaC::ex& expression);
+
+}  // namespace servokit

@@ -1,0 +1,43 @@
+#pragma once
+// The Lagrangian form of a model (`kind: lagrangian` and `kind: planar-bodies`,
+// docs/model-files.md): the equations of motion M(q) q'' + f(q, q') = B(q) u derived from
+// the kinetic energy T, the potential energy V, the Rayleigh dissipation function R and the
+// generalized forces Q. The one place these formulas are written; modeling/model_loader.cpp reads
+// the file, checks the result and hands M and f to the same SymbolicModel as the explicit form.
+// Internal to modeling/ (namespace detail); runs under the loader's SymbolicLock
+// (modeling/symbolic_lock.h).
+#include <ginac/ginac.h>
+
+#include <vector>
+
+namespace servokit::detail {
+
+/// T(q, q'), V(q), R(q, q') (zero when absent) and Q(q, q') (dof x 1, zeros when absent), in the
+/// symbols of the model.
+struct Energies {
+  GiNaC::ex kinetic = 0;
+  GiNaC::ex potential = 0;
+  GiNaC::ex dissipation = 0;
+  GiNaC::matrix generalized_forces;
+};
+
+/// M = d2T/dq' dq', dof x dof, symmetric by construction (each entry derived once, above the
+/// diagonal, and mirrored). `velocities[k]` is q'_k.
+GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
+                                const std::vector<GiNaC::realsymbol>& velocities);
+
+/// Lagrange's equations d/dt dT/dq' - dT/dq + dV/dq + dR/dq' = Q (+ B u) written as
+/// M q'' + f = B u: f = (d2T/dq' dq) q' - dT/dq + dV/dq + dR/dq' - Q, dof x 1, each entry
+/// expanded so that terms which cancel do so exactly.
+GiNaC::matrix LagrangeForces(const Energies& energies,
+                             const std::vector<GiNaC::realsymbol>& coordinates,
+                             const std::vector<GiNaC::realsymbol>& velocities);
+
+/// T - 1/2 q'^T M q' with M = KineticMassMatrix(T): zero exactly when T is a quadratic form in
+/// the velocities, T(q, s q') = s^2 T(q, q') with M free of q' (no term linear in q' and none
+/// free of it). Expanded; a caller decides "zero" symbolically or numerically.
+GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,
+                                 const GiNaC::matrix& mass_matrix,
+                                 const std::vector<GiNaC::realsymbol>& velocities);
+
+}  // namespace servokit::detail

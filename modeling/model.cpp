@@ -1,0 +1,247 @@
+#include "modeling/model.h"
+
+#include <algorithm>
+#include <bit>
+#include <cassert>
+#include <utility>
+
+#include "modeling/expression_program.h"
+
+namespace servokit {
+namespace {
+
+std::size_t ProgramIndex(Quantity quantity) {
+  const auto bits = static_cast<unsigned>(quantity);
+  assert(std::has_single_bit(bits) && "program() takes one Quantity, not a combination");
+  return static_cast<std::size_t>(std::countr_zero(bits));
+}
+
+bool Wants(unsigned quantities, Quantity quantity) {
+  return (quantities & static_cast<unsigned>(quantity)) != 0;
+}
+
+Eigen::Index ToIndex(std::size_t size) { return static_cast<Eigen::Index>(size); }
+
+// Copies consecutive column-major blocks of blocks[k].rows() x blocks[k].cols() values.
+template <typename Block>
+const double* CopyBlock(const double* source, Block& block) {
+  std::copy_n(source, block.size(), block.data());
+  return source + block.size();
+}
+
+}  // namespace
+
+std::vector<std::string> Model::output_names() const {
+  std::vector<std::string> names;
+  names.reserve(num_outputs_);
+  for (std::size_t i = 1; i <= num_outputs_; ++i) {
+    // Appending, not "y" + to_string(i): GCC 12 -O2 warns falsely (-Wrestrict) on the latter.
+    std::string name = "y";
+    name += std::to_string(i);
+    names.push_back(std::move(name));
+  }
+  return names;
+}
+
+std::optional<std::size_t> Model::FindParameter(std::string_view name) const {
+  const auto found = std::find(parameter_names_.begin(), parameter_names_.end(), name);
+  if (found == parameter_names_.end()) {
+    return std::nullopt;
+  }
+  return static_cast<std::size_t>(found - parameter_names_.begin());
+}
+
+const ExpressionProgram& Model::program(Quantity quantity) const {
+  const std::size_t index = ProgramIndex(quantity);
+  assert(index < programs_.size() && programs_[index] && "model was not built by LoadModel");
+  return *programs_[index];
+}
+
+std::size_t Model::max_registers() const {
+  return LargestOfPrograms(&ExpressionProgram::num_registers);
+}
+
+std::size_t Model::max_outputs() const {
+  return LargestOfPrograms(&ExpressionProgram::num_outputs);
+}
+
+std::size_t Model::LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const {
+  std::size_t largest = 0;
+  for (const auto& program : programs_) largest = std::max(largest, ((*program).*size)());
+  for (const auto& [combination, program] : combined_programs_) {
+    largest = std::max(largest, ((*program).*size)());
+  }
+  return largest;
+}
+
+Workspace::Workspace(const Model& model)
+    : parameters(model.parameters()),
+      dof_(model.dof()),
+      num_inputs_(model.num_inputs()),
+      num_outputs_(model.num_outputs()),
+      num_parameters_(model.num_parameters()) {
+  const Eigen::Index dof = ToIndex(dof_);
+  const Eigen::Index inputs = ToIndex(num_inputs_);
+  const Eigen::Index outputs = ToIndex(num_outputs_);
+  mass_matrix.setZero(dof, dof);
+  forces.setZero(dof);
+  input_matrix.setZero(dof, inputs);
+  output.setZero(outputs);
+  output_jacobian.setZero(outputs, dof);
+  output_bias.setZero(outputs);
+  forces_position_jacobian.setZero(dof, dof);
+  forces_velocity_jacobian.setZero(dof, dof);
+  mass_matrix_derivatives.assign(dof_, Eigen::MatrixXd::Zero(dof, dof));
+  input_matrix_derivatives.assign(dof_, Eigen::MatrixXd::Zero(dof, inputs));
+  output_jacobian_derivatives.assign(dof_, Eigen::MatrixXd::Zero(outputs, dof));
+  output_bias_position_jacobian.setZero(outputs, dof);
+  output_bias_velocity_jacobian.setZero(outputs, dof);
+  zero_dynamics_polynomial.setZero(2 * dof + 1);
+  zero_dynamics_polynomial_scale.setZero(2 * dof + 1);
+
+  program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
+  registers_.assign(model.max_registers(), 0.0);
+  outputs_.assign(model.max_outputs(), 0.0);
+  for (const auto& [quantities, program] : model.combined_programs()) {
+    std::vector<double>& registers = combined_registers_.emplace_back(program->num_registers());
+    program->LoadConstants(registers.data());
+  }
+  combined_destinations_.reserve(model.max_outputs());
+}
+
+bool Workspace::Fits(const Model& model) const {
+  if (dof_ != model.dof() || num_inputs_ != model.num_inputs() ||
+      num_outputs_ != model.num_outputs() || num_parameters_ != model.num_parameters() ||
+      static_cast<std::size_t>(parameters.size()) != num_parameters_) {
+    return false;
+  }
+  // Same shape is not enough: a different model may need more scratch registers.
+  if (model.max_registers() > registers_.size() || model.max_outputs() > outputs_.size() ||
+      model.combined_programs().size() != combined_registers_.size()) {
+    return false;
+  }
+  for (std::size_t i = 0; i < combined_registers_.size(); ++i) {
+    if (model.combined_programs()[i].second->num_registers() != combined_registers_[i].size()) {
+      return false;
+    }
+  }
+  return true;
+}
+
+namespace {
+
+// Calls visit(data, size) for each block of quantity's results in the workspace, in the order
+// the loader compiles them (column-major, one after another).
+template <typename Visit>
+void ForEachResultBlock(Quantity quantity, Workspace& workspace, Visit visit) {
+  const auto block = [&](auto& matrix) {
+    visit(matrix.data(), static_cast<std::size_t>(matrix.size()));
+  };
+  switch (quantity) {
+    case Quantity::kMassMatrix:
+      return block(workspace.mass_matrix);
+    case Quantity::kForces:
+      return block(workspace.forces);
+    case Quantity::kInputMatrix:
+      return block(workspace.input_matrix);
+    case Quantity::kOutput:
+      return block(workspace.output);
+    case Quantity::kOutputJacobian:
+      return block(workspace.output_jacobian);
+    case Quantity::kOutputBias:
+      return block(workspace.output_bias);
+    case Quantity::kForcesJacobians:
+      block(workspace.forces_position_jacobian);
+      return block(workspace.forces_velocity_jacobian);
+    case Quantity::kMassMatrixDerivatives:
+      for (Eigen::MatrixXd& matrix : workspace.mass_matrix_derivatives) block(matrix);
+      return;
+    case Quantity::kInputMatrixDerivatives:
+      for (Eigen::MatrixXd& matrix : workspace.input_matrix_derivatives) block(matrix);
+      return;
+    case Quantity::kOutputJacobianDerivatives:
+      for (Eigen::MatrixXd& matrix : workspace.output_jacobian_derivatives) block(matrix);
+      return;
+    case Quantity::kOutputBiasJacobians:
+      block(workspace.output_bias_position_jacobian);
+      return block(workspace.output_bias_velocity_jacobian);
+    case Quantity::kZeroDynamicsPolynomial:
+      block(workspace.zero_dynamics_polynomial);
+      return block(workspace.zero_dynamics_polynomial_scale);
+  }
+}
+
+// Copies quantity's results from `source` into the workspace.
+void CopyResults(Quantity quantity, const double* source, Workspace& workspace) {
+  ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t size) {
+    std::copy_n(source, size, data);
+    source += size;
+  });
+}
+
+// Where a result of a single block lives in the workspace, laid out column-major by the loader
+// as Eigen stores it, so that its program writes it in place; nullptr for a result of several
+// blocks (it goes through outputs_ and CopyResults).
+double* InPlaceResult(Quantity quantity, Workspace& workspace) {
+  double* only = nullptr;
+  int blocks = 0;
+  ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t) {
+    only = data;
+    ++blocks;
+  });
+  return blocks == 1 ? only : nullptr;
+}
+
+}  // namespace
+
+void Evaluate(const Model& model,
+              Workspace& workspace,
+              const Eigen::Ref<const Eigen::VectorXd>& q,
+              const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+              unsigned quantities) {
+  assert(workspace.Fits(model) && "workspace was built for another model");
+  assert(static_cast<std::size_t>(q.size()) == model.dof() && "q must have size dof");
+  assert(static_cast<std::size_t>(q_dot.size()) == model.dof() && "q_dot must have size dof");
+
+  double* inputs = workspace.program_inputs_.data();
+  inputs = std::copy_n(workspace.parameters.data(), workspace.parameters.size(), inputs);
+  inputs = std::copy_n(q.data(), q.size(), inputs);
+  std::copy_n(q_dot.data(), q_dot.size(), inputs);
+
+  const auto run = [&](const ExpressionProgram& program, double* destination) {
+    program.Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(), destination);
+  };
+  // A request the loader compiled as one program: its shared subexpressions computed once, on
+  // registers of its own that keep its constants, its results written in place.
+  const auto& combined = model.combined_programs();
+  for (std::size_t i = 0; i < combined.size(); ++i) {
+    if (combined[i].first != quantities) continue;
+    std::vector<double>& registers = workspace.combined_registers_[i];
+    std::copy(workspace.program_inputs_.begin(), workspace.program_inputs_.end(),
+              registers.begin());
+    std::vector<double*>& destinations = workspace.combined_destinations_;
+    destinations.clear();
+    for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
+      const auto quantity = static_cast<Quantity>(1u << bit);
+      if (!Wants(quantities, quantity)) continue;
+      ForEachResultBlock(quantity, workspace, [&](double* data, std::size_t size) {
+        for (std::size_t k = 0; k < size; ++k) destinations.push_back(data + k);
+      });
+    }
+    combined[i].second->EvaluateLoaded(registers.data(), destinations.data());
+    return;
+  }
+  // One program per quantity.
+  for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
+    const auto quantity = static_cast<Quantity>(1u << bit);
+    if (!Wants(quantities, quantity)) continue;
+    if (double* destination = InPlaceResult(quantity, workspace)) {
+      run(model.program(quantity), destination);
+    } else {
+      run(model.program(quantity), workspace.outputs_.data());
+      CopyResults(quantity, workspace.outputs_.data(), workspace);
+    }
+  }
+}
+
+}  // namespace servokit

@@ -1,0 +1,224 @@
+#pragma once
+// A servo-constraint model  M(q) q'' + f(q, q') = B(q) u,  y = h(q)  (paper Eqs. 1, 3).
+//
+// Model is built once by LoadModel() and never changed afterwards; it is shared by all threads.
+// Workspace holds every buffer an evaluation needs; each thread owns one (as Pinocchio keeps
+// Model apart from Data). Numeric code evaluates compiled ExpressionPrograms only and never
+// calls GiNaC, which is slow per call and not thread-safe; symbolic work runs under
+// SymbolicLock (modeling/symbolic_lock.h), and so does the destruction of a model's expressions.
+#include <Eigen/Dense>
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "base/errors.h"
+#include "modeling/units.h"
+
+namespace servokit {
+
+class SymbolicModel;      // modeling/symbolic_model.h: the GiNaC expressions
+class ExpressionProgram;  // modeling/expression_program.h: a compiled evaluator
+
+/// What Evaluate() can compute; combine with |. Matrices are evaluated column-major.
+enum class Quantity : unsigned {
+  kMassMatrix = 1u << 0,                 // M(q), dof x dof
+  kForces = 1u << 1,                     // f(q, q_dot), dof
+  kInputMatrix = 1u << 2,                // B(q), dof x inputs
+  kOutput = 1u << 3,                     // h(q), outputs
+  kOutputJacobian = 1u << 4,             // H = dh/dq, outputs x dof (Eq. 4)
+  kOutputBias = 1u << 5,                 // h_bar = H_dot q_dot, outputs (Eq. 5)
+  kForcesJacobians = 1u << 6,            // df/dq and df/dq_dot, dof x dof each
+  kMassMatrixDerivatives = 1u << 7,      // dM/dq_k, dof matrices of dof x dof
+  kInputMatrixDerivatives = 1u << 8,     // dB/dq_k, dof matrices of dof x inputs
+  kOutputJacobianDerivatives = 1u << 9,  // dH/dq_k, dof matrices of outputs x dof
+  kOutputBiasJacobians = 1u << 10,       // d h_bar/dq and d h_bar/dq_dot, outputs x dof each
+  // Coefficients a_0..a_(2 dof) of SymbolicModel::zero_dynamics_polynomial() at q (q_dot is
+  // ignored), then their scales; all zero when the model is too large for it (check with
+  // Model::has_zero_dynamics_polynomial()).
+  kZeroDynamicsPolynomial = 1u << 11,
+};
+constexpr unsigned operator|(Quantity a, Quantity b) {
+  return static_cast<unsigned>(a) | static_cast<unsigned>(b);
+}
+constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
+/// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
+inline constexpr std::size_t kNumQuantities = 12;
+/// What a sweep's polynomial path (analysis/sweep_point.h) evaluates at every point, compiled
+/// also as one program (Model::combined_program).
+inline constexpr unsigned kPolynomialPathQuantities =
+    Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutputJacobian |
+    Quantity::kZeroDynamicsPolynomial;
+
+/// A parameter's value given by name, in place of the model file's nominal value; value is a
+/// number and may end in "deg".
+struct ParameterOverride {
+  std::string name;
+  std::string value;
+};
+
+/// An immutable, thread-shareable model: names, nominal parameters (SI), the symbolic
+/// expressions and their compiled evaluators.
+class Model {
+ public:
+  const std::string& name() const { return name_; }
+  const std::string& description() const { return description_; }
+  /// Where the model came from (the file path as given), used in error messages.
+  const std::string& source() const { return source_; }
+  /// FNV-1a 64-bit hash of the model file's bytes, as 16 hex digits (sweep.json records it).
+  const std::string& content_hash() const { return content_hash_; }
+
+  std::size_t dof() const { return coordinates_.size(); }
+  std::size_t num_inputs() const { return inputs_.size(); }
+  std::size_t num_outputs() const { return num_outputs_; }
+  std::size_t num_parameters() const { return parameter_names_.size(); }
+
+  const std::vector<std::string>& coordinates() const { return coordinates_; }
+  const std::vector<std::string>& inputs() const { return inputs_; }
+  const std::vector<std::string>& parameter_names() const { return parameter_names_; }
+  /// Output names y1, y2, ... (the columns y1_d, ... of docs/solve.md).
+  std::vector<std::string> output_names() const;
+  /// Nominal parameter values in SI units, in the order of parameter_names(), after overrides.
+  const Eigen::VectorXd& parameters() const { return parameters_; }
+  /// The unit each parameter is shown in, in the order of parameter_names(): kDegree for one
+  /// the model file or an override gave in degrees ("5 deg"), kSI otherwise. Values stay SI.
+  const std::vector<DisplayUnit>& parameter_display_units() const { return parameter_units_; }
+  /// Index of a parameter by name, or nullopt.
+  std::optional<std::size_t> FindParameter(std::string_view name) const;
+
+  /// The GiNaC expressions (for closed forms and reports; not for numeric loops). Hold a
+  /// SymbolicLock (modeling/symbolic_lock.h) while you use them: other threads may be using them.
+  const SymbolicModel& symbolic() const { return *symbolic_; }
+  /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot].
+  const ExpressionProgram& program(Quantity quantity) const;
+  /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
+  /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
+  bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
+  /// Programs compiled for a combination of quantities (their results one after another, in
+  /// Quantity order), with the combination. Evaluate runs one for exactly its combination
+  /// instead of one program each, so that the subexpressions they share (the cosine of a
+  /// parameter, ...) are computed once. One for kPolynomialPathQuantities when the polynomial was
+  /// derived.
+  const std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>>&
+  combined_programs() const {
+    return combined_programs_;
+  }
+  /// The most registers and outputs of any of its programs (Workspace's scratch).
+  std::size_t max_registers() const;
+  std::size_t max_outputs() const;
+
+ private:
+  friend class ModelBuilder;  // modeling/model_loader.cpp fills a Model
+  // The largest size() of any of its programs (max_registers, max_outputs).
+  std::size_t LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const;
+  std::string name_, description_, source_, content_hash_;
+  std::vector<std::string> coordinates_, inputs_, parameter_names_;
+  std::vector<DisplayUnit> parameter_units_;
+  std::size_t num_outputs_ = 0;
+  bool has_zero_dynamics_polynomial_ = false;
+  Eigen::VectorXd parameters_;
+  std::shared_ptr<const SymbolicModel> symbolic_;
+  std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
+  // Programs for combinations of quantities (combined_programs), with their combination.
+  std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>> combined_programs_;
+};
+
+/// Reads a model file (YAML, docs/model-files.md), checks it, derives H, h_bar and the
+/// Jacobians symbolically and compiles them. Throws ModelError ("file: key: entry: problem")
+/// for a bad file (a linear model's too; LoadModelFile, modeling/loaded_model.h, reads a file of
+/// either kind) and ParameterOverrideError for a bad override (unknown name, bad value). Uses
+/// GiNaC, which is not thread-safe, under SymbolicLock (modeling/symbolic_lock.h): models load
+/// from several threads at once, one after the other where they use GiNaC.
+Model LoadModel(const std::string& path, const std::vector<ParameterOverride>& overrides = {});
+
+/// As LoadModel, from YAML text; `source` names it in error messages.
+Model LoadModelFromString(const std::string& yaml_text,
+                          const std::string& source,
+                          const std::vector<ParameterOverride>& overrides = {});
+
+/// A model whose equations are linear with constant matrices, M q'' + K q + D q' = B u and
+/// y = H q: a linearization written as a model of its own (solvers/linearized_inverse.h).
+struct LinearEquations {
+  std::string name, description, source;
+  std::vector<std::string> coordinates, inputs;
+  Eigen::MatrixXd mass_matrix;      // M, dof x dof
+  Eigen::MatrixXd stiffness;        // K, dof x dof
+  Eigen::MatrixXd damping;          // D, dof x dof
+  Eigen::MatrixXd input_matrix;     // B, dof x inputs
+  Eigen::MatrixXd output_jacobian;  // H, outputs x dof
+};
+
+/// Builds and compiles the model of `equations` as LoadModel would the same equations written
+/// in a file, from the numbers themselves (each coefficient exactly the double given), without
+/// a file or its text. No parameters. Throws ModelError when the sizes do not agree.
+Model ModelFromLinearEquations(const LinearEquations& equations);
+
+/// Per-thread buffers and results of Evaluate(). Build one per thread from the model it serves.
+class Workspace {
+ public:
+  explicit Workspace(const Model& model);
+
+  /// Parameter values Evaluate() uses; starts as model.parameters(). Sweeps change it per point.
+  Eigen::VectorXd parameters;
+
+  // Results of the last Evaluate(); only the quantities asked for are up to date.
+  Eigen::MatrixXd mass_matrix;                               // dof x dof
+  Eigen::VectorXd forces;                                    // dof
+  Eigen::MatrixXd input_matrix;                              // dof x inputs
+  Eigen::VectorXd output;                                    // outputs
+  Eigen::MatrixXd output_jacobian;                           // outputs x dof
+  Eigen::VectorXd output_bias;                               // outputs
+  Eigen::MatrixXd forces_position_jacobian;                  // dof x dof, df/dq
+  Eigen::MatrixXd forces_velocity_jacobian;                  // dof x dof, df/dq_dot
+  std::vector<Eigen::MatrixXd> mass_matrix_derivatives;      // dof of dof x dof
+  std::vector<Eigen::MatrixXd> input_matrix_derivatives;     // dof of dof x inputs
+  std::vector<Eigen::MatrixXd> output_jacobian_derivatives;  // dof of outputs x dof
+  Eigen::MatrixXd output_bias_position_jacobian;             // outputs x dof
+  Eigen::MatrixXd output_bias_velocity_jacobian;             // outputs x dof
+  Eigen::VectorXd zero_dynamics_polynomial;                  // a_0 .. a_(2 dof)
+  Eigen::VectorXd zero_dynamics_polynomial_scale;            // sum of |terms| of each a_k
+
+  /// Factorizations an analysis redoes at every point of a sweep, kept here so that their
+  /// memory is allocated once per thread. Nothing but memory carries over between calls.
+  Eigen::FullPivLU<Eigen::MatrixXd> equilibrium_factor;  // FindOperatingPoint: isolated?
+
+  /// True if this workspace was built for a model of the same shape.
+  bool Fits(const Model& model) const;
+
+ private:
+  friend void Evaluate(const Model&,
+                       Workspace&,
+                       const Eigen::Ref<const Eigen::VectorXd>&,
+                       const Eigen::Ref<const Eigen::VectorXd>&,
+                       unsigned);
+  std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0, num_parameters_ = 0;
+  std::vector<double> program_inputs_;  // [parameters, q, q_dot]
+  std::vector<double> registers_;       // scratch for the largest program
+  std::vector<double> outputs_;         // scratch for programs with several result blocks
+  // Each combined program's registers (its constants loaded once), and where its outputs go.
+  std::vector<std::vector<double>> combined_registers_;
+  std::vector<double*> combined_destinations_;
+};
+
+/// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with
+/// workspace.parameters. q and q_dot have size model.dof(). Does not check for NaN: callers that
+/// hand numbers to users do. `workspace` must be built from `model` (asserted).
+void Evaluate(const Model& model,
+              Workspace& workspace,
+              const Eigen::Ref<const Eigen::VectorXd>& q,
+              const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+              unsigned quantities);
+
+/// Evaluate() for one quantity, so that a single Quantity needs no cast.
+inline void Evaluate(const Model& model,
+                     Workspace& workspace,
+                     const Eigen::Ref<const Eigen::VectorXd>& q,
+                     const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+                     Quantity quantity) {
+  Evaluate(model, workspace, q, q_dot, static_cast<unsigned>(quantity));
+}
+
+}  // namespace servokit

@@ -1,0 +1,159 @@
+#include "modeling/symbolic_model.h"
+
+#include <cassert>
+#include <utility>
+
+namespace servokit {
+namespace {
+
+// d column / d symbols: column.rows() x symbols.size().
+GiNaC::matrix Jacobian(const GiNaC::matrix& column, const std::vector<GiNaC::realsymbol>& symbols) {
+  GiNaC::matrix jacobian(column.rows(), static_cast<unsigned>(symbols.size()));
+  for (unsigned i = 0; i < column.rows(); ++i) {
+    for (unsigned j = 0; j < symbols.size(); ++j) {
+      jacobian(i, j) = column(i, 0).diff(symbols[j]);
+    }
+  }
+  return jacobian;
+}
+
+// d matrix / d symbols[k] for every k, each the shape of `matrix`.
+std::vector<GiNaC::matrix> Derivatives(const GiNaC::matrix& matrix,
+                                       const std::vector<GiNaC::realsymbol>& symbols) {
+  std::vector<GiNaC::matrix> derivatives;
+  derivatives.reserve(symbols.size());
+  for (const GiNaC::realsymbol& symbol : symbols) {
+    GiNaC::matrix derivative(matrix.rows(), matrix.cols());
+    for (unsigned i = 0; i < matrix.rows(); ++i) {
+      for (unsigned j = 0; j < matrix.cols(); ++j) {
+        derivative(i, j) = matrix(i, j).diff(symbol);
+      }
+    }
+    derivatives.push_back(std::move(derivative));
+  }
+  return derivatives;
+}
+
+// h_bar_i = sum_k sum_j dH_ij/dq_k q_dot_j q_dot_k (paper Eq. 5: H_dot q_dot with H_dot =
+// sum_k dH/dq_k q_dot_k).
+GiNaC::matrix OutputBias(const std::vector<GiNaC::matrix>& output_jacobian_derivatives,
+                         const std::vector<GiNaC::realsymbol>& velocities,
+                         unsigned num_outputs) {
+  GiNaC::matrix bias(num_outputs, 1);
+  for (unsigned i = 0; i < num_outputs; ++i) {
+    GiNaC::ex sum = 0;
+    for (unsigned k = 0; k < velocities.size(); ++k) {
+      for (unsigned j = 0; j < velocities.size(); ++j) {
+        sum += output_jacobian_derivatives[k](i, j) * velocities[j] * velocities[k];
+      }
+    }
+    bias(i, 0) = sum;
+  }
+  return bias;
+}
+
+// Sum of |terms| of an expanded expression: what its value is compared with to call it zero.
+GiNaC::ex SumOfAbsoluteTerms(const GiNaC::ex& expanded) {
+  if (!GiNaC::is_a<GiNaC::add>(expanded)) return GiNaC::abs(expanded);
+  GiNaC::ex sum = 0;
+  for (const GiNaC::ex& term : expanded) sum += GiNaC::abs(term);
+  return sum;
+}
+
+}  // namespace
+
+SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
+                             std::vector<GiNaC::realsymbol> coordinates,
+                             std::vector<GiNaC::realsymbol> velocities,
+                             GiNaC::matrix mass_matrix,
+                             GiNaC::matrix forces,
+                             GiNaC::matrix input_matrix,
+                             GiNaC::matrix output) {
+  const SymbolicLock lock;
+  expressions_.reset(new Expressions());
+  Expressions& e = *expressions_;
+  e.parameters = std::move(parameters);
+  e.coordinates = std::move(coordinates);
+  e.velocities = std::move(velocities);
+  e.mass_matrix = std::move(mass_matrix);
+  e.forces = std::move(forces);
+  e.input_matrix = std::move(input_matrix);
+  e.output = std::move(output);
+  assert(e.velocities.size() == e.coordinates.size());
+  assert(e.mass_matrix.rows() == dof() && e.mass_matrix.cols() == dof());
+  assert(e.forces.rows() == dof() && e.forces.cols() == 1);
+  assert(e.input_matrix.rows() == dof());
+  assert(e.output.cols() == 1);
+  e.output_jacobian = Jacobian(e.output, e.coordinates);
+  e.output_jacobian_derivatives = Derivatives(e.output_jacobian, e.coordinates);
+  e.output_bias = OutputBias(e.output_jacobian_derivatives, e.velocities, e.output.rows());
+  e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
+  e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
+  e.mass_matrix_derivatives = Derivatives(e.mass_matrix, e.coordinates);
+  e.input_matrix_derivatives = Derivatives(e.input_matrix, e.coordinates);
+  e.output_bias_position_jacobian = Jacobian(e.output_bias, e.coordinates);
+  e.output_bias_velocity_jacobian = Jacobian(e.output_bias, e.velocities);
+  if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs()) {
+    GiNaC::exmap at_rest;
+    for (const GiNaC::realsymbol& velocity : e.velocities) at_rest[velocity] = 0;
+    const GiNaC::realsymbol lambda("lambda");
+    const GiNaC::ex polynomial =
+        GiNaC::numer(GiNaC::normal(RosenbrockDeterminant(lambda, at_rest))).expand();
+    for (int k = 0; k <= int(2 * dof()); ++k) {
+      const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
+      e.zero_dynamics_polynomial.push_back(coefficient);
+      e.zero_dynamics_polynomial_scale.push_back(SumOfAbsoluteTerms(coefficient));
+    }
+  }
+}
+
+GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,
+                                               const GiNaC::exmap& at) const {
+  const SymbolicLock lock;
+  const Expressions& e = *expressions_;
+  const unsigned n = unsigned(dof()), m = unsigned(num_inputs());
+  GiNaC::matrix rosenbrock(n + m, n + m);
+  for (unsigned i = 0; i < n; ++i) {
+    for (unsigned j = 0; j < n; ++j) {
+      rosenbrock(i, j) =
+          (e.mass_matrix(i, j) * GiNaC::pow(lambda, 2) + e.forces_velocity_jacobian(i, j) * lambda +
+           e.forces_position_jacobian(i, j))
+              .subs(at);
+    }
+    for (unsigned k = 0; k < m; ++k) rosenbrock(i, n + k) = -e.input_matrix(i, k).subs(at);
+  }
+  for (unsigned r = 0; r < e.output.rows(); ++r) {
+    for (unsigned j = 0; j < n; ++j) rosenbrock(n + r, j) = e.output_jacobian(r, j).subs(at);
+  }
+  return rosenbrock.determinant();
+}
+
+std::vector<GiNaC::ex> SymbolicModel::ProgramInputs() const {
+  const SymbolicLock lock;
+  const Expressions& e = *expressions_;
+  std::vector<GiNaC::ex> inputs;
+  inputs.reserve(e.parameters.size() + e.coordinates.size() + e.velocities.size());
+  inputs.insert(inputs.end(), e.parameters.begin(), e.parameters.end());
+  inputs.insert(inputs.end(), e.coordinates.begin(), e.coordinates.end());
+  inputs.insert(inputs.end(), e.velocities.begin(), e.velocities.end());
+  return inputs;
+}
+
+GiNaC::exmap SymbolicModel::ParameterValues(const Eigen::VectorXd& values) const {
+  const SymbolicLock lock;
+  const std::vector<GiNaC::realsymbol>& symbols = expressions_->parameters;
+  assert(static_cast<std::size_t>(values.size()) == symbols.size());
+  GiNaC::exmap substitution;
+  for (std::size_t i = 0; i < symbols.size(); ++i) {
+    substitution[symbols[i]] = GiNaC::numeric(values[static_cast<Eigen::Index>(i)]);
+  }
+  return substitution;
+}
+
+GiNaC::ex SymbolicModel::SubstituteParameters(const GiNaC::ex& expression,
+                                              const Eigen::VectorXd& values) const {
+  const SymbolicLock lock;
+  return expression.subs(ParameterValues(values));
+}
+
+}  // namespace servokit

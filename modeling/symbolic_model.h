@@ -1,0 +1,136 @@
+#pragma once
+// The symbolic view of a model (docs/model-files.md, "How servokit reads a model"): the GiNaC
+// expressions of M, f, B, h as read from the model file, and everything derived from them once
+// at load time. Numeric code uses the compiled programs instead (modeling/model.h); this view is
+// for closed forms (characteristic polynomials, normal forms) and for reports. GiNaC is not
+// thread-safe: hold a SymbolicLock (modeling/symbolic_lock.h) while you use the expressions; the
+// member functions that make new ones take it themselves, and any thread may destroy a
+// SymbolicModel (its expressions go under the lock).
+#include <ginac/ginac.h>
+
+#include <Eigen/Dense>
+#include <cstddef>
+#include <vector>
+
+#include "modeling/symbolic_lock.h"
+
+namespace servokit {
+
+/// M(q) q'' + f(q, q') = B(q) u, y = h(q) (paper Eqs. 1, 3) with the derived H, h_bar and the
+/// Jacobians. Vectors are GiNaC matrices with one column. Symbols are GiNaC::realsymbol, so that
+/// abs() differentiates to x/abs(x) and conjugate() is the identity.
+class SymbolicModel {
+ public:
+  /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
+  /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`. The caller
+  /// holds a SymbolicLock (it made the arguments); the derivation takes one too.
+  SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
+                std::vector<GiNaC::realsymbol> coordinates,
+                std::vector<GiNaC::realsymbol> velocities,
+                GiNaC::matrix mass_matrix,
+                GiNaC::matrix forces,
+                GiNaC::matrix input_matrix,
+                GiNaC::matrix output);
+
+  /// Number of coordinates q.
+  std::size_t dof() const { return expressions_->coordinates.size(); }
+  /// Number of inputs u (columns of B).
+  std::size_t num_inputs() const { return expressions_->input_matrix.cols(); }
+  /// Number of outputs y (rows of h).
+  std::size_t num_outputs() const { return expressions_->output.rows(); }
+
+  /// The parameter symbols, in the order of Model::parameter_names().
+  const std::vector<GiNaC::realsymbol>& parameters() const { return expressions_->parameters; }
+  /// q, in the order of Model::coordinates().
+  const std::vector<GiNaC::realsymbol>& coordinates() const { return expressions_->coordinates; }
+  /// q_dot; the symbol of coordinate c is named c_dot.
+  const std::vector<GiNaC::realsymbol>& velocities() const { return expressions_->velocities; }
+  /// The inputs of every compiled program: [parameters, q, q_dot].
+  std::vector<GiNaC::ex> ProgramInputs() const;
+
+  /// M(q), dof x dof (paper Eq. 1).
+  const GiNaC::matrix& mass_matrix() const { return expressions_->mass_matrix; }
+  /// f(q, q_dot), dof x 1 (paper Eq. 1).
+  const GiNaC::matrix& forces() const { return expressions_->forces; }
+  /// B(q), dof x inputs (paper Eq. 1).
+  const GiNaC::matrix& input_matrix() const { return expressions_->input_matrix; }
+  /// h(q), outputs x 1 (paper Eq. 3).
+  const GiNaC::matrix& output() const { return expressions_->output; }
+  /// H = dh/dq, outputs x dof (paper Eq. 4).
+  const GiNaC::matrix& output_jacobian() const { return expressions_->output_jacobian; }
+  /// h_bar = H_dot q_dot = sum_jk d2h/dq_j dq_k q_dot_j q_dot_k, outputs x 1 (paper Eq. 5).
+  const GiNaC::matrix& output_bias() const { return expressions_->output_bias; }
+  /// df/dq, dof x dof.
+  const GiNaC::matrix& forces_position_jacobian() const {
+    return expressions_->forces_position_jacobian;
+  }
+  /// df/dq_dot, dof x dof.
+  const GiNaC::matrix& forces_velocity_jacobian() const {
+    return expressions_->forces_velocity_jacobian;
+  }
+  /// dM/dq_k for k = 0..dof-1, each dof x dof.
+  const std::vector<GiNaC::matrix>& mass_matrix_derivatives() const {
+    return expressions_->mass_matrix_derivatives;
+  }
+  /// dB/dq_k for k = 0..dof-1, each dof x inputs.
+  const std::vector<GiNaC::matrix>& input_matrix_derivatives() const {
+    return expressions_->input_matrix_derivatives;
+  }
+  /// dH/dq_k for k = 0..dof-1, each outputs x dof.
+  const std::vector<GiNaC::matrix>& output_jacobian_derivatives() const {
+    return expressions_->output_jacobian_derivatives;
+  }
+  /// d h_bar/dq, outputs x dof.
+  const GiNaC::matrix& output_bias_position_jacobian() const {
+    return expressions_->output_bias_position_jacobian;
+  }
+  /// d h_bar/dq_dot, outputs x dof.
+  const GiNaC::matrix& output_bias_velocity_jacobian() const {
+    return expressions_->output_bias_velocity_jacobian;
+  }
+
+  /// det [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]] with `at` substituted (e.g.
+  /// q_dot -> 0): the characteristic polynomial of the linearized zero dynamics at an
+  /// equilibrium where B u0 does not vary with q (u0 = 0 or B constant); its roots are the
+  /// invariant zeros. The one place this determinant is formed.
+  GiNaC::ex RosenbrockDeterminant(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
+
+  /// Its coefficients a_0 .. a_(2 dof) in lambda at q_dot = 0, as functions of the parameters
+  /// and q, derived at load for models with dof + inputs <= kMaxPolynomialSize (empty for
+  /// larger ones: a symbolic determinant costs like n!). Denominators are cleared, which
+  /// scales every coefficient alike and keeps the roots.
+  const std::vector<GiNaC::ex>& zero_dynamics_polynomial() const {
+    return expressions_->zero_dynamics_polynomial;
+  }
+  /// For each coefficient, the sum of the absolute values of its terms: the size against which
+  /// "this coefficient is zero" is decided (cancellation down to round-off).
+  const std::vector<GiNaC::ex>& zero_dynamics_polynomial_scale() const {
+    return expressions_->zero_dynamics_polynomial_scale;
+  }
+  /// Rows of the Rosenbrock matrix (dof + inputs) up to which zero_dynamics_polynomial() is
+  /// derived at load; keeps loading well under the 100 ms goal.
+  static constexpr std::size_t kMaxPolynomialSize = 4;
+
+  /// The substitution parameter symbol -> value, for GiNaC's subs(). `values` has
+  /// parameters().size() entries in SI units (e.g. Model::parameters()).
+  GiNaC::exmap ParameterValues(const Eigen::VectorXd& values) const;
+  /// `expression` with every parameter replaced by its value in `values` (as ParameterValues).
+  GiNaC::ex SubstituteParameters(const GiNaC::ex& expression, const Eigen::VectorXd& values) const;
+
+ private:
+  // Everything GiNaC of the model. A Model shares it with its copies, and the thread that drops
+  // the last one may be any, so it is destroyed under SymbolicLock (modeling/symbolic_lock.h).
+  struct Expressions {
+    std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
+    GiNaC::matrix mass_matrix, forces, input_matrix, output;
+    GiNaC::matrix output_jacobian, output_bias;
+    GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
+    std::vector<GiNaC::matrix> mass_matrix_derivatives, input_matrix_derivatives,
+        output_jacobian_derivatives;
+    GiNaC::matrix output_bias_position_jacobian, output_bias_velocity_jacobian;
+    std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
+  };
+  SymbolicPtr<Expressions> expressions_;
+};
+
+}  // namespace servokit
