@@ -85,7 +85,8 @@ std::map<Cell, std::string> ClassesFromMap(const std::filesystem::path& data,
 }
 
 TEST_CASE("report --from colours the map of a finished sweep from its points.csv", "[reports]") {
-  const auto root = std::filesystem::temp_directory_path() / "servokit_report_from_test";
+  const servokit::testing::TemporaryDirectory scratch_root(/*create=*/false);
+  const std::filesystem::path root = scratch_root.path();
   std::filesystem::remove_all(root);
   const std::vector<std::string> grid = {"--vary", "alpha=-40deg:60deg:n=6", "--vary",
                                          "d=0.5:4:n=8"};
@@ -120,7 +121,8 @@ TEST_CASE("report --from colours the map of a finished sweep from its points.csv
 }
 
 TEST_CASE("report --from takes a one-axis study's eigenvalues from the sweep", "[reports]") {
-  const auto root = std::filesystem::temp_directory_path() / "servokit_report_from_1d_test";
+  const servokit::testing::TemporaryDirectory scratch_root(/*create=*/false);
+  const std::filesystem::path root = scratch_root.path();
   std::filesystem::remove_all(root);
   REQUIRE(RunServokit({"sweep", ModelPath("mass_on_car.yaml"), "--vary", "alpha=5deg:90deg:n=9",
                        "--set", "d=1", "--out", (root / "sweep").string()})
@@ -145,7 +147,8 @@ TEST_CASE("report --from takes a one-axis study's eigenvalues from the sweep", "
 }
 
 TEST_CASE("report --from refuses what is not a finished sweep of an unchanged model", "[reports]") {
-  const auto root = std::filesystem::temp_directory_path() / "servokit_report_from_refusals";
+  const servokit::testing::TemporaryDirectory scratch_root(/*create=*/false);
+  const std::filesystem::path root = scratch_root.path();
   std::filesystem::remove_all(root);
   std::filesystem::create_directories(root / "empty");
   const auto model = root / "car.yaml";

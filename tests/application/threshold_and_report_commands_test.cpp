@@ -98,7 +98,8 @@ TEST_CASE("threshold names the unit and gives a degree parameter's values in deg
 }
 
 TEST_CASE("report MODEL shows a parameter given in degrees in degrees", "[reports]") {
-  const auto directory = std::filesystem::temp_directory_path() / "servokit_model_report_deg_test";
+  const servokit::testing::TemporaryDirectory scratch_directory(/*create=*/false);
+  const std::filesystem::path directory = scratch_directory.path();
   std::filesystem::remove_all(directory);
   const auto run = RunServokit({"report", ModelPath("mass_on_car.yaml"), "--set", "d=1", "--vary",
                                 "alpha=1deg:80deg:n=80", "--out", directory.string()});
@@ -124,7 +125,8 @@ TEST_CASE("report MODEL shows a parameter given in degrees in degrees", "[report
 }
 
 TEST_CASE("report MODEL writes the classification, a study per axis and its figures", "[reports]") {
-  const auto directory = std::filesystem::temp_directory_path() / "servokit_model_report_test";
+  const servokit::testing::TemporaryDirectory scratch_directory(/*create=*/false);
+  const std::filesystem::path directory = scratch_directory.path();
   std::filesystem::remove_all(directory);
   const auto run = RunServokit({"report", ModelPath("rotational_arm.yaml"), "--vary", "s=0:1:n=51",
                                 "--out", directory.string()});
@@ -157,7 +159,8 @@ TEST_CASE("report MODEL with two axes writes the class map and its traced curves
   // Mass on car (k = 5, m2 = 2): the zero dynamics m2 sin^2(a) s^2 + d s + k has a double root
   // where d = 2 sqrt(k m2) |sin a| (the over-damping curve), and the realization is tangential
   // at a = 0 only.
-  const auto directory = std::filesystem::temp_directory_path() / "servokit_map_report_test";
+  const servokit::testing::TemporaryDirectory scratch_directory(/*create=*/false);
+  const std::filesystem::path directory = scratch_directory.path();
   std::filesystem::remove_all(directory);
   const auto run =
       RunServokit({"report", ModelPath("mass_on_car.yaml"), "--vary", "alpha=-40deg:60deg:n=21",
@@ -224,7 +227,8 @@ TEST_CASE("threshold and report take the operating point from --q0 and --y0", "[
   CHECK(nlohmann::json::parse(hanging.out)["events"].empty());
 
   // report MODEL: the located realization row of the same study at --y0 0 --q0 0,pi.
-  const auto directory = std::filesystem::temp_directory_path() / "servokit_report_q0_test";
+  const servokit::testing::TemporaryDirectory scratch_directory(/*create=*/false);
+  const std::filesystem::path directory = scratch_directory.path();
   std::filesystem::remove_all(directory);
   const auto report = RunServokit({"report", testing::TestDataPath("two_link_arm_gravity.yaml"),
                                    "--vary", "kappa=0.5:0.6:11", "--y0", "0", "--q0",
