@@ -33,10 +33,10 @@ Command AddSweepCommand(CLI::App& app);
 
 /// The options `analyze` and `sweep` take for linear models, as given on the command line.
 struct LinearModelArguments {
-  int eigenvalues = ArpackOptions{}.eigenvalues;
-  double shift = 0.0;
-  std::string eigen_solver = "auto";
-  std::string which = "nearest";
+  int eigenvalues = api::DefaultAnalyzeOptions().eigenvalues;
+  double shift = api::DefaultAnalyzeOptions().shift;
+  std::string eigen_solver = std::string(ToString(api::DefaultAnalyzeOptions().eigen_solver));
+  std::string which = std::string(ToString(api::DefaultAnalyzeOptions().which));
 };
 
 /// Their names, so that a command can refuse them for a multibody model.

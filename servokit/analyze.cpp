@@ -80,6 +80,20 @@ Analysis FromLinearAnalysis(const LinearModel& model,
 
 }  // namespace
 
+AnalyzeOptions DefaultAnalyzeOptions() {
+  static const ClassificationOptions classification;
+  static const LinearZeroDynamicsOptions linear;
+  return AnalyzeOptions{.y0 = std::nullopt,
+                        .q_guess = std::nullopt,
+                        .rank_tolerance = classification.rank_tolerance,
+                        .imaginary_axis_tolerance = classification.imaginary_axis_tolerance,
+                        .nonlinear_structure = true,  // the API's own: what `analyze` prints
+                        .eigen_solver = linear.solver,
+                        .eigenvalues = linear.arpack.eigenvalues,
+                        .shift = linear.shift,
+                        .which = linear.target};
+}
+
 ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options) {
   ClassificationOptions classification;
   classification.rank_tolerance = options.rank_tolerance;

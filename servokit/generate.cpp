@@ -42,6 +42,27 @@ BeamOptions ToBeamOptions(const BeamModel& beam) {
 
 }  // namespace
 
+ChainModel DefaultChainModel() {
+  static const ChainOptions defaults;
+  return ChainModel{.masses = defaults.masses,
+                    .mass = defaults.mass,
+                    .stiffness = defaults.stiffness,
+                    .damping = defaults.damping,
+                    .input_mass = defaults.input_mass,
+                    .output_mass = defaults.output_mass,
+                    .output_weights = defaults.output_weights};
+}
+
+BeamModel DefaultBeamModel() {
+  static const BeamOptions defaults;
+  return BeamModel{.elements = defaults.elements,
+                   .length = defaults.length,
+                   .hub_inertia = defaults.hub_inertia,
+                   .mass_per_length = defaults.mass_per_length,
+                   .bending_stiffness = defaults.bending_stiffness,
+                   .damping_factor = defaults.damping_factor};
+}
+
 void ChainModel::Validate() const { ToChainOptions(*this).Validate(); }
 void BeamModel::Validate() const { ToBeamOptions(*this).Validate(); }
 

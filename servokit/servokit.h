@@ -129,7 +129,17 @@ class Model {
 
 // ---- analysis -------------------------------------------------------------------------------
 
-/// How Analyze classifies (defaults: those of `servokit analyze`).
+struct AnalyzeOptions;
+struct ChainModel;
+struct BeamModel;
+/// The toolkit's defaults, written once inside it (its classification, linear zero dynamics and
+/// generator options): AnalyzeOptions, ChainModel and BeamModel start from them. Each returns a
+/// struct with every field set.
+AnalyzeOptions DefaultAnalyzeOptions();
+ChainModel DefaultChainModel();
+BeamModel DefaultBeamModel();
+
+/// How Analyze classifies (defaults: the toolkit's, as `servokit analyze` uses them).
 struct AnalyzeOptions {
   // The operating point: the output there, one value per output (default: h(q = 0)), and
   // Newton's start for q (default: 0). Multibody models only; a linear model is analysed at 0.
@@ -137,21 +147,21 @@ struct AnalyzeOptions {
   std::optional<Eigen::VectorXd> q_guess;
   // A singular value (or Markov row) counts as zero at most rank_tolerance times the norms of
   // its factors: relative, so the verdict does not change with units.
-  double rank_tolerance = 1e-10;
+  double rank_tolerance = DefaultAnalyzeOptions().rank_tolerance;
   // An eigenvalue with damping ratio |Re lambda| / |lambda| at most this (or below 1e-12 max
   // |lambda|, the zero floor) counts as on the imaginary axis ("critical").
-  double imaginary_axis_tolerance = 1e-9;
+  double imaginary_axis_tolerance = DefaultAnalyzeOptions().imaginary_axis_tolerance;
   // Multibody models: also run the structure algorithm on the nonlinear model (relative degree
   // along the motion, dynamic extension), as `servokit analyze` does; it costs a symbolic
   // derivation per call, which sweeps skip (and which runs one thread at a time).
-  bool nonlinear_structure = true;
+  bool nonlinear_structure = DefaultAnalyzeOptions().nonlinear_structure;
   // Linear models: the eigensolver (auto: dense up to 200 coordinates, ARPACK above); how many
   // zeros ARPACK computes; its real shift (1/s); which zeros, those nearest the shift or the
   // rightmost.
-  LinearEigenSolver eigen_solver = LinearEigenSolver::kAuto;
-  int eigenvalues = 10;
-  double shift = 0.0;
-  EigenvalueTarget which = EigenvalueTarget::kNearest;
+  LinearEigenSolver eigen_solver = DefaultAnalyzeOptions().eigen_solver;
+  int eigenvalues = DefaultAnalyzeOptions().eigenvalues;
+  double shift = DefaultAnalyzeOptions().shift;
+  EigenvalueTarget which = DefaultAnalyzeOptions().which;
 };
 
 /// One lightly damped or undamped mode of the zero dynamics.
@@ -482,15 +492,16 @@ Feedforward Solve(const Model& model,
 /// A chain of point masses joined by springs and dampers, a force on one mass, the position of
 /// one mass as output.
 struct ChainModel {
-  long masses = 1000;
-  double mass = 1.0;       // kg
-  double stiffness = 1.0;  // N/m
-  double damping = 0.01;   // N s/m
-  long input_mass = 1;     // 1..masses
-  long output_mass = 1;    // 1..masses (only with output_weights "mass")
+  long masses = DefaultChainModel().masses;
+  double mass = DefaultChainModel().mass;            // kg
+  double stiffness = DefaultChainModel().stiffness;  // N/m
+  double damping = DefaultChainModel().damping;      // N s/m
+  long input_mass = DefaultChainModel().input_mass;  // 1..masses
+  // 1..masses (only with output_weights kMass)
+  long output_mass = DefaultChainModel().output_mass;
   // The output y: the position of output_mass, sum of (i/N) q_i over every mass (kLinear) or
   // the mean position, sum of q_i / N (kUniform).
-  ChainOutputWeights output_weights = ChainOutputWeights::kMass;
+  ChainOutputWeights output_weights = DefaultChainModel().output_weights;
   /// Throws OptionError naming the field, its value and the rule it breaks (Generate checks
   /// the same before it writes anything).
   void Validate() const;
@@ -498,13 +509,13 @@ struct ChainModel {
 
 /// A hub-driven Euler-Bernoulli beam in finite elements, tip position as output.
 struct BeamModel {
-  long elements = 1000;
-  double length = 1.0;              // m
-  double hub_inertia = 0.1;         // kg m^2
-  double mass_per_length = 1.0;     // kg/m
-  double bending_stiffness = 10.0;  // N m^2
-  double damping_factor = 1e-4;     // beta in D = beta K, s
-  void Validate() const;            // as ChainModel::Validate
+  long elements = DefaultBeamModel().elements;
+  double length = DefaultBeamModel().length;                        // m
+  double hub_inertia = DefaultBeamModel().hub_inertia;              // kg m^2
+  double mass_per_length = DefaultBeamModel().mass_per_length;      // kg/m
+  double bending_stiffness = DefaultBeamModel().bending_stiffness;  // N m^2
+  double damping_factor = DefaultBeamModel().damping_factor;        // beta in D = beta K, s
+  void Validate() const;                                            // as ChainModel::Validate
 };
 
 /// Writes the model (YAML and its Matrix Market files) into `directory` (made if missing) and

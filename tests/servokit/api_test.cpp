@@ -47,6 +47,8 @@ struct RestToRest {
 }  // namespace
 
 TEST_CASE("the API's default options are the toolkit's", "[servokit]") {
+  // The defaults are written once, in the toolkit's option structs; the API's start from them
+  // (DefaultAnalyzeOptions, ...). This checks that each field is wired to its own.
   const sk::AnalyzeOptions analyze;
   const servokit::ClassificationOptions classification;
   CHECK(analyze.rank_tolerance == classification.rank_tolerance);
