@@ -7,6 +7,8 @@
 // the fixed-free chain of n' = 299 masses: zeros lambda^2 + d mu_i lambda + mu_i = 0 with
 // mu_i = 4 sin^2((2i - 1) pi / (2 (2n' + 1))) (see tests/analysis/linear_zero_dynamics_test.cpp).
 // The 4 nearest 0 are the pairs of i = 1, 2.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
@@ -33,8 +35,9 @@ struct GeneratedChain {
 
 // Writes the chain with `servokit generate chain` and returns its YAML path.
 void Generate(GeneratedChain& chain) {
-  chain.directory = std::filesystem::temp_directory_path() /
-                    ("servokit_analyze_linear_" + std::to_string(std::rand()));
+  chain.directory =
+      std::filesystem::temp_directory_path() /
+      ("servokit_analyze_linear_" + std::to_string(::getpid()) + "_" + std::to_string(std::rand()));
   const auto run =
       RunServokit({"generate", "chain", "--masses", "300", "--mass", "1", "--stiffness", "1",
                    "--damping", "0.01", "--out", chain.directory.string()});

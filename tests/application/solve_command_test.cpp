@@ -2,6 +2,8 @@
 // forward check, the refusal of unstable internal dynamics, and one clear error per bad input.
 // The numbers themselves are tested against the paper in tests/solvers/inverse_model_test.cpp;
 // here the case-4 force is checked once more against Eq. (47) through the files a user reads.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
@@ -19,8 +21,10 @@ using testing::ModelPath;
 using testing::RunServokit;
 using testing::TestDataPath;
 
+// Named by the process too, so that two runs of the suite at once never share a file.
 std::filesystem::path TemporaryFile(const std::string& name) {
-  return std::filesystem::temp_directory_path() / ("servokit_solve_test_" + name);
+  return std::filesystem::temp_directory_path() /
+         ("servokit_solve_test_" + std::to_string(::getpid()) + "_" + name);
 }
 
 std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path) {
