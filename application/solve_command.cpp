@@ -7,7 +7,6 @@
 //     [--post-actuation S] [--verify] --out FILE [--format csv|mat|modelica] [--plot DIR]
 //     [--summary json|text]
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -41,14 +40,6 @@ struct SolveArguments {
   std::string summary = "json";  // what stdout gets: json or text
 };
 
-// The shortest text that reads back to the same double, as the library writes numbers in its
-// messages.
-std::string ShortestText(double value) {
-  char buffer[32];  // the longest shortest form, "-2.2250738585072014e-308", has 24
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  return std::string(buffer, result.ptr);
-}
-
 // The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
 api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
   api::OutputTrajectory trajectory;
@@ -81,7 +72,7 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
     if (arguments.sample_tolerance) {
       const double tolerance = *arguments.sample_tolerance;
       if (!(tolerance >= 0.0 && tolerance < 1.0)) {
-        throw UsageError("--sample-tolerance " + ShortestText(tolerance) +
+        throw UsageError("--sample-tolerance " + api::FormatNumber(tolerance) +
                          ": must be >= 0 (0: through every sample) and < 1");
       }
       trajectory.sample_tolerance = tolerance;

@@ -80,18 +80,22 @@ Analysis FromLinearAnalysis(const LinearModel& model,
 
 }  // namespace
 
-AnalyzeOptions DefaultAnalyzeOptions() {
+const AnalyzeOptions& DefaultAnalyzeOptions() {
+  // Built once; every field given, so that AnalyzeOptions' own defaults (which read this) are
+  // not used here.
   static const ClassificationOptions classification;
   static const LinearZeroDynamicsOptions linear;
-  return AnalyzeOptions{.y0 = std::nullopt,
-                        .q_guess = std::nullopt,
-                        .rank_tolerance = classification.rank_tolerance,
-                        .imaginary_axis_tolerance = classification.imaginary_axis_tolerance,
-                        .nonlinear_structure = true,  // the API's own: what `analyze` prints
-                        .eigen_solver = linear.solver,
-                        .eigenvalues = linear.arpack.eigenvalues,
-                        .shift = linear.shift,
-                        .which = linear.target};
+  static const AnalyzeOptions defaults{
+      .y0 = std::nullopt,
+      .q_guess = std::nullopt,
+      .rank_tolerance = classification.rank_tolerance,
+      .imaginary_axis_tolerance = classification.imaginary_axis_tolerance,
+      .nonlinear_structure = true,  // the API's own: what `analyze` prints
+      .eigen_solver = linear.solver,
+      .eigenvalues = linear.arpack.eigenvalues,
+      .shift = linear.shift,
+      .which = linear.target};
+  return defaults;
 }
 
 ClassificationOptions ToClassificationOptions(const AnalyzeOptions& options) {

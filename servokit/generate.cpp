@@ -42,25 +42,28 @@ BeamOptions ToBeamOptions(const BeamModel& beam) {
 
 }  // namespace
 
-ChainModel DefaultChainModel() {
-  static const ChainOptions defaults;
-  return ChainModel{.masses = defaults.masses,
-                    .mass = defaults.mass,
-                    .stiffness = defaults.stiffness,
-                    .damping = defaults.damping,
-                    .input_mass = defaults.input_mass,
-                    .output_mass = defaults.output_mass,
-                    .output_weights = defaults.output_weights};
+// Each built once, every field given (see DefaultAnalyzeOptions).
+const ChainModel& DefaultChainModel() {
+  static const ChainOptions options;
+  static const ChainModel defaults{.masses = options.masses,
+                                   .mass = options.mass,
+                                   .stiffness = options.stiffness,
+                                   .damping = options.damping,
+                                   .input_mass = options.input_mass,
+                                   .output_mass = options.output_mass,
+                                   .output_weights = options.output_weights};
+  return defaults;
 }
 
-BeamModel DefaultBeamModel() {
-  static const BeamOptions defaults;
-  return BeamModel{.elements = defaults.elements,
-                   .length = defaults.length,
-                   .hub_inertia = defaults.hub_inertia,
-                   .mass_per_length = defaults.mass_per_length,
-                   .bending_stiffness = defaults.bending_stiffness,
-                   .damping_factor = defaults.damping_factor};
+const BeamModel& DefaultBeamModel() {
+  static const BeamOptions options;
+  static const BeamModel defaults{.elements = options.elements,
+                                  .length = options.length,
+                                  .hub_inertia = options.hub_inertia,
+                                  .mass_per_length = options.mass_per_length,
+                                  .bending_stiffness = options.bending_stiffness,
+                                  .damping_factor = options.damping_factor};
+  return defaults;
 }
 
 void ChainModel::Validate() const { ToChainOptions(*this).Validate(); }

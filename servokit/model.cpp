@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "modeling/units.h"
 #include "servokit/toolkit_bridge.h"
 
@@ -54,6 +55,8 @@ std::optional<ValueWithUnit> ParseQuantity(std::string_view text) {
   if (!parsed) return std::nullopt;
   return ValueWithUnit{parsed->value, parsed->unit == DisplayUnit::kDegree};
 }
+
+std::string FormatNumber(double value) { return servokit::FormatNumber(value); }
 
 Model Model::MultibodyFromFile(const std::string& path, const ParameterValues& overrides) {
   return Model(

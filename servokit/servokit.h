@@ -82,6 +82,9 @@ struct ValueWithUnit {
 };
 /// The value of `text`, nullopt when it is not such a number.
 std::optional<ValueWithUnit> ParseQuantity(std::string_view text);
+/// A number as servokit writes it in messages: the shortest text that reads back to the same
+/// double ("nan", "inf" for those).
+std::string FormatNumber(double value);
 
 /// A loaded model, either kind: immutable, cheap to copy (copies share it) and safe to use from
 /// several threads at once.
@@ -133,11 +136,11 @@ struct AnalyzeOptions;
 struct ChainModel;
 struct BeamModel;
 /// The toolkit's defaults, written once inside it (its classification, linear zero dynamics and
-/// generator options): AnalyzeOptions, ChainModel and BeamModel start from them. Each returns a
-/// struct with every field set.
-AnalyzeOptions DefaultAnalyzeOptions();
-ChainModel DefaultChainModel();
-BeamModel DefaultBeamModel();
+/// generator options): AnalyzeOptions, ChainModel and BeamModel start from them. Each is built
+/// once, with every field set.
+const AnalyzeOptions& DefaultAnalyzeOptions();
+const ChainModel& DefaultChainModel();
+const BeamModel& DefaultBeamModel();
 
 /// How Analyze classifies (defaults: the toolkit's, as `servokit analyze` uses them).
 struct AnalyzeOptions {
