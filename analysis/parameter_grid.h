@@ -1,6 +1,6 @@
 #pragma once
 // The parameter points of a sweep (`servokit sweep --vary`, docs/sweep.md "The grid"; the text
-// is read by application/grid_arguments.h): a full grid over any number of varied parameters. The
+// is read by studies/grid_text.h): a full grid over any number of varied parameters. The
 // grid is never materialised: a point is addressed by its index and its values are computed from it
 // (mixed radix, the first axis varying slowest), so a sweep of 10^8 points needs no more memory
 // than one of 10.

@@ -12,10 +12,7 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "base/errors.h"
-#include "base/option_check.h"
-#include "modeling/model.h"
-#include "modeling/units.h"
+#include "servokit/servokit.h"
 
 #ifndef SERVOKIT_VERSION
 #error "SERVOKIT_VERSION must be defined by the build"
@@ -31,22 +28,14 @@ void MakeOutputDirectory(const std::string& directory) {
   }
 }
 
-std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts) {
-  std::vector<ParameterOverride> overrides;
+api::ParameterValues ParseParameterValues(const std::vector<std::string>& texts) {
+  api::ParameterValues values;
   for (const std::string& text : texts) {
     const auto equals = text.find('=');
     if (equals == std::string::npos || equals == 0) {
       throw UsageError("--set " + text + ": expected name=value (e.g. --set alpha=\"5 deg\")");
     }
-    overrides.push_back({text.substr(0, equals), text.substr(equals + 1)});
-  }
-  return overrides;
-}
-
-api::ParameterValues ParseParameterValues(const std::vector<std::string>& texts) {
-  api::ParameterValues values;
-  for (const ParameterOverride& parsed : ParseOverrides(texts)) {
-    values.emplace_back(parsed.name, parsed.value);
+    values.emplace_back(text.substr(0, equals), text.substr(equals + 1));
   }
   return values;
 }
@@ -111,12 +100,12 @@ Eigen::VectorXd ParseValues(const std::string& option, const std::vector<std::st
     std::stringstream stream(text);
     std::string item;
     while (std::getline(stream, item, ',')) {
-      const std::optional<double> value = ParseQuantity(item);
+      const std::optional<api::ValueWithUnit> value = api::ParseQuantity(item);
       if (!value) {
         throw UsageError(option + " " + text + ": '" + item +
                          "' is not a number (use e.g. 0.5 or \"5 deg\")");
       }
-      values.push_back(*value);
+      values.push_back(value->value);
     }
   }
   return Eigen::Map<const Eigen::VectorXd>(values.data(), Eigen::Index(values.size()));

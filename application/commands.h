@@ -9,9 +9,6 @@
 #include <string>
 #include <vector>
 
-#include "analysis/linear_analysis.h"
-#include "analysis/options.h"
-#include "modeling/model.h"
 #include "servokit/servokit.h"
 
 namespace servokit {
@@ -61,22 +58,12 @@ void ApplyLinearModelArguments(const LinearModelArguments& arguments,
                                bool q0_given,
                                api::AnalyzeOptions& options);
 
-/// The linear analysis options from `arguments` and the tolerances the commands share. Throws
-/// UsageError naming a bad --eigen-solver or --which, or --y0/--q0 when given (a linear model is
-/// analysed at q = 0, y = 0), and the options' own Validate() errors.
-LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& arguments,
-                                                const ClassificationOptions& tolerances,
-                                                bool y0_given,
-                                                bool q0_given);
-
 /// Makes the directory `--out` names (and its parents). Throws Error (exit status 1, as for any
 /// file that cannot be written) naming --out and the system's reason.
 void MakeOutputDirectory(const std::string& directory);
 
-/// "--set name=value" texts into overrides; throws UsageError naming a malformed one.
-std::vector<ParameterOverride> ParseOverrides(const std::vector<std::string>& texts);
-
-/// The same as the API's parameter values (servokit/servokit.h).
+/// "--set name=value" texts into the API's parameter values (servokit/servokit.h); throws
+/// UsageError naming a malformed one.
 api::ParameterValues ParseParameterValues(const std::vector<std::string>& texts);
 
 /// "--y0 1,2 --y0 3" -> [1, 2, 3]; each value may end in "deg". Throws UsageError naming

@@ -1,6 +1,6 @@
 #include "application/exit_codes.h"
 
-#include "base/errors.h"
+#include "servokit/servokit.h"
 
 namespace servokit {
 

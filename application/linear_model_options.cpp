@@ -1,8 +1,7 @@
 #include <string>
 
 #include "application/commands.h"
-#include "base/errors.h"
-#include "servokit/toolkit_bridge.h"
+#include "servokit/servokit.h"
 
 namespace servokit {
 
@@ -55,17 +54,6 @@ void ApplyLinearModelArguments(const LinearModelArguments& arguments,
   options.shift = arguments.shift;
   options.eigen_solver = *solver;
   options.which = *target;
-}
-
-LinearAnalysisOptions MakeLinearAnalysisOptions(const LinearModelArguments& arguments,
-                                                const ClassificationOptions& tolerances,
-                                                bool y0_given,
-                                                bool q0_given) {
-  api::AnalyzeOptions options;
-  options.rank_tolerance = tolerances.rank_tolerance;
-  options.imaginary_axis_tolerance = tolerances.imaginary_axis_tolerance;
-  ApplyLinearModelArguments(arguments, y0_given, q0_given, options);
-  return api::ToLinearAnalysisOptions(options);
 }
 
 void RefuseLinearModelOptions(const CLI::App& command) {

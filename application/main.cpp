@@ -2,13 +2,13 @@
 #include <ostream>
 
 #include "application/command_line.h"
-#include "application/mpi_sweep.h"
+#include "servokit/servokit.h"
 
 int main(int argc, char** argv) {
   // Started by mpirun, every rank runs the command (a sweep shares its grid out); only rank 0
   // prints, the others write to a stream without a buffer, which drops everything.
-  const servokit::MpiSession mpi(argc, argv);
-  if (servokit::Processes().IsRoot()) {
+  const servokit::api::MpiSession mpi(argc, argv);
+  if (servokit::api::Processes().IsRoot()) {
     return servokit::RunCommandLine(argc, argv, std::cout, std::cerr);
   }
   std::ostream discard(nullptr);

@@ -4,39 +4,25 @@
 //                [--checkpoint-interval s] [--block-size n]
 //                [--eigenvalues K] [--shift S] [--eigen-solver auto|dense|arpack]
 //                [--which nearest|rightmost]            (linear models only)
-// A model of either kind (modeling/loaded_model.h) is swept by analysis/sweep.h: one workspace per
-// thread, kept across blocks (a linear model's sparsity pattern is analysed once per thread).
-// Under mpirun (application/mpi_sweep.h) every rank runs this command: each sets the sweep up,
-// rank 0 alone opens the output directory, and the blocks are shared out.
-#include <omp.h>
+// The sweep itself is the library's api::DirectorySweep (servokit/servokit.h): durable,
+// resumable, and shared out over the ranks of an MPI job, where every rank runs this command.
+// Here: the flags, the signals that stop it, the test hooks and the progress bar.
 #include <signal.h>
 
-#include <algorithm>
 #include <charconv>
-#include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
-#include <exception>
 #include <memory>
 #include <optional>
 #include <ostream>
 #include <string>
-#include <thread>
 #include <vector>
 
-#include "analysis/parameter_grid.h"
-#include "analysis/sweep.h"
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "application/grid_arguments.h"
-#include "application/mpi_sweep.h"
 #include "application/progress.h"
-#include "application/sweep_store.h"
-#include "base/errors.h"
-#include "base/number_format.h"
-#include "modeling/linear_model.h"
-#include "modeling/loaded_model.h"
+#include "servokit/servokit.h"
 
 namespace servokit {
 namespace {
@@ -51,12 +37,13 @@ struct SweepArguments {
   std::string out;                // the output directory
   std::string format = "csv";     // SweepFileFormat's name
   int threads = 0;                // 0: not given, all cores
-  std::size_t block_size = kSweepBlockSize;
+  std::size_t block_size = api::DefaultSweepSettings().block_size;
   std::vector<std::string> overrides;  // "name=value"
   std::vector<std::string> y0, q0;     // each may hold several values separated by commas
-  ClassificationOptions options;
+  double rank_tolerance = api::DefaultAnalyzeOptions().rank_tolerance;
+  double imaginary_axis_tolerance = api::DefaultAnalyzeOptions().imaginary_axis_tolerance;
   // Seconds between checkpoints.
-  double checkpoint_interval = kSweepCheckpointInterval.count();
+  double checkpoint_interval = api::DefaultSweepSettings().checkpoint_interval;
   LinearModelArguments linear;  // linear models only (as `servokit analyze`)
 };
 
@@ -150,18 +137,6 @@ class StopRequest {
   std::size_t blocks_ = 0;
 };
 
-// Threads per process of an MPI sweep without --threads: the cores this process may run on
-// (OpenMP's count follows mpirun's binding) shared among the ranks on this machine, unless it is
-// bound to fewer cores than the machine has (then they are its own); OMP_NUM_THREADS wins.
-int DefaultThreadsPerProcess(const ProcessGroup& processes) {
-  // 0: OpenMP's default, which SweepThreads() checks against kMaxSweepThreads.
-  if (std::getenv("OMP_NUM_THREADS") != nullptr) return 0;
-  const int available = omp_get_num_procs();
-  const auto machine = static_cast<int>(std::thread::hardware_concurrency());
-  if (available < machine) return std::max(available, 1);
-  return std::max(available / std::max(processes.ranks_on_node, 1), 1);
-}
-
 // The command line as given, rebuilt from the parsed options (RunCommandLine does not pass argv
 // on); options come in the order they are declared, each with every value it was given. The
 // thread count is left out: sweep.json, like the tables, is the same bytes for any count.
@@ -177,242 +152,148 @@ std::vector<std::string> CommandLine(const CLI::App& sweep) {
   return line;
 }
 
-void RejectSetAndVary(const std::vector<ParameterOverride>& overrides, const ParameterGrid& grid) {
-  for (const GridAxis& axis : grid.axes()) {
-    for (const ParameterOverride& override : overrides) {
-      if (override.name == axis.name) {
-        throw UsageError("--vary " + axis.name + ": the parameter is also given by --set; " +
+void RejectSetAndVary(const api::ParameterValues& overrides,
+                      const std::vector<api::SweepAxis>& axes) {
+  for (const api::SweepAxis& axis : axes) {
+    for (const auto& [name, value] : overrides) {
+      if (name == axis.parameter) {
+        throw UsageError("--vary " + axis.parameter + ": the parameter is also given by --set; " +
                          "drop one of them");
       }
     }
   }
 }
 
-SweepOptions MakeSweepOptions(const SweepArguments& arguments,
-                              const CLI::App& sweep,
-                              const LoadedModel& model) {
-  SweepOptions options;
-  options.classification = arguments.options;
-  if (!arguments.y0.empty()) {
-    options.classification.operating_point.y0 = ParseValues("--y0", arguments.y0);
-  }
-  if (!arguments.q0.empty()) {
-    options.classification.operating_point.q_guess = ParseValues("--q0", arguments.q0);
-  }
+// The operating point and the thread count (the tolerances and a linear model's options are
+// set before the grid is read).
+void SetPointAndThreads(const SweepArguments& arguments,
+                        const CLI::App& sweep,
+                        api::SweepOptions& options) {
+  if (!arguments.y0.empty()) options.analysis.y0 = ParseValues("--y0", arguments.y0);
+  if (!arguments.q0.empty()) options.analysis.q_guess = ParseValues("--q0", arguments.q0);
   if (sweep.get_option("--threads")->count() > 0) {
+    const int most = api::DefaultSweepSettings().max_threads;
     if (arguments.threads < 1) {
       throw UsageError("--threads " + std::to_string(arguments.threads) +
                        ": must be at least 1 (default: all cores)");
     }
-    if (arguments.threads > kMaxSweepThreads) {
+    if (arguments.threads > most) {
       throw UsageError("--threads " + std::to_string(arguments.threads) + ": must be at most " +
-                       std::to_string(kMaxSweepThreads));
+                       std::to_string(most));
     }
     options.threads = arguments.threads;
-  } else if (Processes().size > 1) {
-    options.threads = DefaultThreadsPerProcess(Processes());
   }
-  SweepThreads(options);  // OMP_NUM_THREADS too, before the output directory is made
+}
+
+api::DirectorySweepOptions MakeDirectorySweepOptions(const SweepArguments& arguments,
+                                                     const CLI::App& sweep) {
+  api::DirectorySweepOptions options;
+  const std::optional<SweepFileFormat> format = SweepFileFormatFromString(arguments.format);
+  if (!format) throw UsageError("--format " + arguments.format + ": must be csv, hdf5 or mat");
+  options.format = *format;
   if (arguments.block_size < 1) throw UsageError("--block-size 0: must be at least 1");
-  if (arguments.block_size > kMaxSweepBlockSize) {
+  const std::size_t most = api::DefaultSweepSettings().max_block_size;
+  if (arguments.block_size > most) {
     throw UsageError("--block-size " + std::to_string(arguments.block_size) + ": must be at most " +
-                     std::to_string(kMaxSweepBlockSize));
+                     std::to_string(most));
   }
   options.block_size = arguments.block_size;
-  // Before the output directory is touched: a bad option must not leave a half-made sweep.
-  if (const Model* multibody = model.multibody()) options.classification.Validate(*multibody);
+  if (!(arguments.checkpoint_interval > 0.0)) {
+    throw UsageError("--checkpoint-interval " + api::FormatNumber(arguments.checkpoint_interval) +
+                     ": must be > 0 seconds");
+  }
+  options.checkpoint_interval = arguments.checkpoint_interval;
+  options.command_line = CommandLine(sweep);
+  options.directory_label = "--out";
+  options.format_label = "--format";
   return options;
 }
 
-// Everything a sweep needs before it touches the output directory; the same on every process.
-struct SweepSetup {
-  LoadedModel model;
-  SweepModelInfo info;  // what the files record of it
-  ParameterGrid grid;
-  SweepOptions options;
-  SweepOutputOptions output_options;
-  SweepFileFormat format = SweepFileFormat::kCsv;
+// What the command line asks for, read on every process of an MPI sweep (before the output
+// directory is touched: a bad option must not leave a half-made sweep).
+struct SweepRequest {
+  std::optional<api::Model> model;
+  std::vector<api::SweepAxis> axes;
+  api::SweepOptions options;
+  api::DirectorySweepOptions directory_options;
+  std::vector<std::string> warnings;  // of the --vary texts, printed once the sweep is set up
   TestHooks test_hooks;
-  std::vector<std::string> warnings;  // of the --vary texts, printed by rank 0
 };
 
-SweepFileFormat ParseSweepFileFormat(const std::string& text) {
-  const std::optional<SweepFileFormat> format = SweepFileFormatFromString(text);
-  if (!format) throw UsageError("--format " + text + ": must be csv, hdf5 or mat");
-  return *format;
-}
-
-SweepSetup MakeSweepSetup(const SweepArguments& arguments, const CLI::App& sweep) {
-  if (Processes().size > 1 && !BuiltWithMpi()) {
-    throw UsageError(
-        "started by an MPI launcher with " + std::to_string(Processes().size) +
-        " processes, but this servokit cannot run a distributed sweep: " + MpiUnavailableReason());
-  }
-  const std::vector<ParameterOverride> overrides = ParseOverrides(arguments.overrides);
-  LoadedModel model = LoadModelFile(arguments.model_path, overrides);
-  LinearAnalysisOptions linear_options;
-  if (model.linear()) {
-    linear_options = MakeLinearAnalysisOptions(arguments.linear, arguments.options,
-                                               !arguments.y0.empty(), !arguments.q0.empty());
-  } else {
-    RefuseLinearModelOptions(sweep);
-  }
-  std::vector<std::string> warnings;
-  ParameterGrid grid = ParseParameterGrid(
-      {model.parameter_names(), model.parameter_display_units()}, arguments.vary, &warnings);
-  RejectSetAndVary(overrides, grid);
-  const SweepFileFormat format = ParseSweepFileFormat(arguments.format);
-  CheckSweepFileColumns(format, grid);
-  SweepOptions options = MakeSweepOptions(arguments, sweep, model);
-  options.linear = linear_options;
-  if (!(arguments.checkpoint_interval > 0.0)) {
-    throw UsageError("--checkpoint-interval " + FormatShort(arguments.checkpoint_interval) +
-                     ": must be > 0 seconds");
-  }
-  const SweepOutputOptions output_options = {
-      std::chrono::duration<double>(arguments.checkpoint_interval)};
-  SweepModelInfo info = DescribeSweepModel(model, options);
-  return {std::move(model),
-          std::move(info),
-          std::move(grid),
-          options,
-          output_options,
-          format,
-          TestHooksFromEnvironment(),
-          std::move(warnings)};
-}
-
-// Runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
-template <typename Step>
-void OnEveryProcess(Step step) {
-  std::exception_ptr failure;
-  try {
-    step();
-  } catch (...) {
-    failure = std::current_exception();
-  }
-  AgreeOnSuccess(failure);
-}
-
-// An MPI sweep's ranks must compute the same sweep: a rank that reads another model file (a
-// different copy on its machine) or runs another servokit would mix two sweeps in one file.
-void CheckSameSweepOnEveryProcess(const SweepSetup& setup) {
-  if (Processes().size == 1) return;
-  const std::string fingerprint =
-      SweepFingerprint(setup.info, setup.grid, setup.options.classification, setup.format);
-  OnEveryProcess([&] {
-    if (BroadcastFromRoot(fingerprint) != fingerprint) {
-      throw UsageError("this rank computes another sweep than rank 0 (" + fingerprint +
-                       "): its model file or servokit differs");
+SweepRequest ReadSweepRequest(const SweepArguments& arguments, const CLI::App& sweep) {
+  SweepRequest request;
+  api::OnEveryProcess([&] {
+    const api::ParameterValues overrides = ParseParameterValues(arguments.overrides);
+    request.model.emplace(api::Model::FromFile(arguments.model_path, overrides));
+    api::AnalyzeOptions& analysis = request.options.analysis;
+    analysis.rank_tolerance = arguments.rank_tolerance;
+    analysis.imaginary_axis_tolerance = arguments.imaginary_axis_tolerance;
+    if (request.model->kind() == ModelKind::kLinear) {
+      ApplyLinearModelArguments(arguments.linear, !arguments.y0.empty(), !arguments.q0.empty(),
+                                analysis);
+    } else {
+      RefuseLinearModelOptions(sweep);
     }
+    request.axes = api::ParseSweepAxes(*request.model, arguments.vary, "--vary", &request.warnings);
+    RejectSetAndVary(overrides, request.axes);
+    request.directory_options = MakeDirectorySweepOptions(arguments, sweep);
+    SetPointAndThreads(arguments, sweep, request.options);
+    request.test_hooks = TestHooksFromEnvironment();
   });
-}
-
-// Computes points first_point.. and appends them to `output` (rank 0 only); returns the index
-// after the last point written: the grid's size, or less when stopped on request.
-std::size_t ComputeSweep(const SweepSetup& setup,
-                         std::size_t first_point,
-                         SweepOutput* output,
-                         StopRequest& stop_requested,
-                         std::ostream& err) {
-  ProgressBar progress(err, setup.grid.num_points(), first_point, IsTerminalStderr(err));
-  // The per-thread workspaces are kept across blocks (and, under MPI, across the blocks of this
-  // rank), so each thread of a linear sweep analyses the sparsity pattern once.
-  SweepWorkspaces workspaces(setup.model,
-                             SweepThreads(setup.options, setup.grid.num_points() - first_point));
-  const SweepRunner run = [&](std::size_t first, const SweepConsumer& consume) {
-    return RunSweep(setup.model, setup.grid, setup.options, first, workspaces, consume);
-  };
-  if (Processes().size == 1) {
-    // The threads format their own chunks as they compute them, and this thread only writes
-    // finished blocks while they go on with the next ones. Binary records (sweep.h5, sweep.mat)
-    // are cheap to write, and the writing thread of a sweep with one computing thread has time
-    // to spare: it encodes them itself there (and decodes sweep.h5's rows from them); with two
-    // computing threads or more they do both.
-    const bool records = TableEncodingOf(setup.format) != TableEncoding::kCsv;
-    const bool format_here = records && workspaces.threads() < 2;
-    const TableEncoding encoding =
-        format_here ? TableEncoding::kRecords : TableEncodingOf(setup.format);
-    const std::size_t chunk_size = SweepChunkSize(setup.model);
-    PipelinedBlockFormatter formatter(setup.grid, encoding, setup.options.block_size, chunk_size);
-    return RunSweepPipeline(
-        setup.model, setup.grid, setup.options, first_point, workspaces,
-        [&](int slot, std::size_t chunk, std::size_t first, std::span<const SweepPoint> points) {
-          if (!format_here) formatter.FormatChunk(slot, chunk, first, points);
-        },
-        [&](int slot, std::size_t first, std::span<const SweepPoint> block) {
-          for (std::size_t begin = 0; format_here && begin < block.size(); begin += chunk_size) {
-            formatter.FormatChunk(slot, begin / chunk_size, first + begin,
-                                  block.subspan(begin, std::min(chunk_size, block.size() - begin)));
-          }
-          output->Append(formatter.Block(slot, first, block));
-          progress.Update(first + block.size());
-          return !stop_requested();
-        });
-  }
-  return RunDistributedSweep(
-             run, setup.grid, setup.options, first_point, TableEncodingOf(setup.format),
-             [&](const FormattedBlock& block) {
-               output->Append(block);
-               progress.Update(block.first + block.points);
-             },
-             stop_requested)
-      .done;
+  return request;
 }
 
 int RunSweepCommand(const SweepArguments& arguments,
                     const CLI::App& sweep,
                     std::ostream& out,
                     std::ostream& err) {
-  std::optional<SweepSetup> setup;
-  OnEveryProcess([&] { setup.emplace(MakeSweepSetup(arguments, sweep)); });
-  // `err` of a rank other than 0 is a null stream (mpi_sweep.h): rank 0 alone warns.
-  for (const std::string& warning : setup->warnings)
+  // `err` of a rank other than 0 is a null stream (main.cpp): rank 0 alone prints.
+  const SweepRequest request = ReadSweepRequest(arguments, sweep);
+  const api::Model& model = *request.model;
+  // Collective itself, as Open and Run are.
+  api::DirectorySweep directory_sweep(model, request.axes, request.options,
+                                      request.directory_options);
+  for (const std::string& warning : request.warnings) {
     err << "servokit: warning: " << warning << "\n";
-  CheckSameSweepOnEveryProcess(*setup);
-  const bool root = Processes().IsRoot();
-  std::optional<SweepOutput> output;
-  OnEveryProcess([&] {
-    if (root) {
-      output.emplace(arguments.out, setup->info, setup->grid, setup->options.classification,
-                     CommandLine(sweep), setup->output_options, setup->format);
-    }
-  });
-  const std::size_t total = setup->grid.num_points();
-  const bool already_complete = BroadcastFromRoot(root && output->already_complete()) != 0;
-  const std::size_t first_point = BroadcastFromRoot(root ? output->points_done() : 0);
-  if (already_complete) {
+  }
+  directory_sweep.Open(arguments.out);
+  const std::size_t total = directory_sweep.num_points();
+  if (directory_sweep.already_complete()) {
     err << "servokit: " << arguments.out << " already holds this sweep, complete (" << total
         << " points); nothing to do\n";
     return static_cast<int>(ExitCode::kSuccess);
   }
+  const std::size_t first_point = directory_sweep.first_point();
   if (first_point > 0) {
     err << "servokit: resuming at point " << first_point << " of " << total << "\n";
   }
   // Held until the tables are finished: Ctrl-C while sweep.mat is built is honoured too (and
   // the stop test hook counts the table file's chunks after the blocks).
   const InterruptGuard interrupt;
-  StopRequest stop_requested(interrupt, setup->test_hooks);
-  const std::size_t done =
-      ComputeSweep(*setup, first_point, output ? &*output : nullptr, stop_requested, err);
-  if (!root) {
-    return done < total ? kInterruptedExitStatus : static_cast<int>(ExitCode::kSuccess);
+  StopRequest stop_requested(interrupt, request.test_hooks);
+  ProgressBar progress(err, total, first_point, IsTerminalStderr(err));
+  const api::DirectorySweep::End end = directory_sweep.Run(
+      [&] { return stop_requested(); }, [&](std::size_t done) { progress.Update(done); });
+  progress.Clear();  // before the last line
+  if (!api::Processes().IsRoot()) {
+    return end == api::DirectorySweep::End::kFinished ? static_cast<int>(ExitCode::kSuccess)
+                                                      : kInterruptedExitStatus;
   }
-  if (done < total) {
-    output->Checkpoint();
-    err << "servokit: error: interrupted at point " << done << " of " << total
-        << "; run the same command again to resume\n";
-    return kInterruptedExitStatus;
+  switch (end) {
+    case api::DirectorySweep::End::kStopped:
+      err << "servokit: error: interrupted at point " << directory_sweep.points_done() << " of "
+          << total << "; run the same command again to resume\n";
+      return kInterruptedExitStatus;
+    case api::DirectorySweep::End::kStoppedInTables:
+      err << "servokit: error: interrupted while writing the tables (every point is done); run "
+          << "the same command again to finish them\n";
+      return kInterruptedExitStatus;
+    case api::DirectorySweep::End::kFinished:
+      break;
   }
-  if (!output->Finish([&] { return stop_requested(); })) {
-    output->Checkpoint();
-    err << "servokit: error: interrupted while writing the tables (every point is done); run "
-        << "the same command again to finish them\n";
-    return kInterruptedExitStatus;
-  }
-  out << "swept " << total << " points of " << setup->info.name << " into " << arguments.out << " ("
-      << SweepTableFileNames(setup->format) << ", sweep.json); "
-      << output->points_without_solution() << " without a solution\n";
+  out << "swept " << total << " points of " << model.name() << " into " << arguments.out << " ("
+      << directory_sweep.table_file_names() << ", sweep.json); "
+      << directory_sweep.points_without_solution() << " without a solution\n";
   return static_cast<int>(ExitCode::kSuccess);
 }
 
@@ -449,13 +330,14 @@ Command AddSweepCommand(CLI::App& app) {
                    "mat (sweep.mat, MAT 5)")
       ->capture_default_str();
   sweep->add_option("--threads", arguments->threads,
-                    "Threads, at most " + std::to_string(kMaxSweepThreads) +
+                    "Threads, at most " + std::to_string(api::DefaultSweepSettings().max_threads) +
                         " and never more than the points (default: all cores, or "
                         "OMP_NUM_THREADS, which must not ask for more; under mpirun, per rank: "
                         "the cores of its machine shared among its ranks)");
   sweep
       ->add_option("--block-size", arguments->block_size,
-                   "Points per block, at most " + std::to_string(kMaxSweepBlockSize) +
+                   "Points per block, at most " +
+                       std::to_string(api::DefaultSweepSettings().max_block_size) +
                        ": computed in parallel, then written; under mpirun block b goes to "
                        "rank b mod K. The files do not depend on it")
       ->capture_default_str();
@@ -469,11 +351,11 @@ Command AddSweepCommand(CLI::App& app) {
                     "Output value at the operating point, one per output (default: h(0))");
   sweep->add_option("--q0", arguments->q0, "Newton's starting point for q (default: 0)");
   sweep
-      ->add_option("--rank-tolerance", arguments->options.rank_tolerance,
+      ->add_option("--rank-tolerance", arguments->rank_tolerance,
                    "Relative tolerance of rank decisions (P, Markov parameters)")
       ->capture_default_str();
   sweep
-      ->add_option("--axis-tolerance", arguments->options.imaginary_axis_tolerance,
+      ->add_option("--axis-tolerance", arguments->imaginary_axis_tolerance,
                    "Damping ratio |Re lambda|/|lambda| at or below which an eigenvalue is on the "
                    "imaginary axis")
       ->capture_default_str();

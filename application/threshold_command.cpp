@@ -7,7 +7,6 @@
 
 #include "application/commands.h"
 #include "application/exit_codes.h"
-#include "application/grid_arguments.h"
 #include "servokit/servokit.h"
 
 namespace servokit {
@@ -69,12 +68,9 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
   }
   // Values stay SI; a parameter given in degrees (model file, --set or --vary) also gets its
   // values in degrees.
-  const bool declared_in_degrees =
-      model.parameter_display_units()[std::size_t(parameter - names.begin())] == "deg";
   if (const std::string warning =
-          AngleSpanWarning("--vary " + arguments.vary, range.parameter,
-                           declared_in_degrees ? DisplayUnit::kDegree : DisplayUnit::kSI,
-                           range.in_degrees, range.low, range.high);
+          api::AngleSpanWarning(model, range.parameter, range.in_degrees, range.low, range.high,
+                                "--vary " + arguments.vary);
       !warning.empty()) {
     err << "servokit: warning: " << warning << "\n";
   }

@@ -23,10 +23,11 @@ foreach(folder IN LISTS SERVOKIT_LIBRARIES)
 endforeach()
 install(FILES ${PROJECT_SOURCE_DIR}/servokit/servokit.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit)
-# servokit.h includes "base/errors.h" and "base/vocabulary.h": they live in the lowest layer, and
-# are installed under include/servokit (on the installed targets' include path too), so that the
-# prefix's include/ holds nothing but servokit/.
-install(FILES ${PROJECT_SOURCE_DIR}/base/errors.h ${PROJECT_SOURCE_DIR}/base/vocabulary.h
+# servokit.h includes "base/errors.h", "base/process_group.h" and "base/vocabulary.h": they live
+# in the lowest layer, and are installed under include/servokit (on the installed targets'
+# include path too), so that the prefix's include/ holds nothing but servokit/.
+install(FILES ${PROJECT_SOURCE_DIR}/base/errors.h ${PROJECT_SOURCE_DIR}/base/process_group.h
+              ${PROJECT_SOURCE_DIR}/base/vocabulary.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/servokit/base)
 list(TRANSFORM SERVOKIT_LIBRARIES PREPEND servokit_ OUTPUT_VARIABLE SERVOKIT_LIBRARY_TARGETS)
 install(TARGETS ${SERVOKIT_LIBRARY_TARGETS} EXPORT servokitTargets

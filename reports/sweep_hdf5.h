@@ -26,7 +26,7 @@
 
 namespace servokit {
 
-/// sweep.h5 written while the sweep runs (application/sweep_store.h): rows go in as they are
+/// sweep.h5 written while the sweep runs (studies/sweep_store.h): rows go in as they are
 /// computed, in table order, and the file's bytes depend only on the rows, not on how they were
 /// split among the calls, so that a resumed sweep that appends its records' rows again writes
 /// the same file.

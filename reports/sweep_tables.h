@@ -1,6 +1,6 @@
 #pragma once
 // The tables of a sweep (docs/sweep.md, "The files"): their columns and
-// rows, formatted the same by `servokit sweep` (whose durable store, application/sweep_store.h,
+// rows, formatted the same by `servokit sweep` (whose durable store, studies/sweep_store.h,
 // writes them) and by the library's api::SweepToFiles.
 //
 //   points.csv          one row per grid point: the varied parameters (SI, or degrees in a

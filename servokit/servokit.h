@@ -9,14 +9,16 @@
 //   // analysis.zero_dynamics.eigenvalues ...
 //
 // Everything the `servokit` command does is here, in the toolkit's own words: load a model (a
-// file or a string, either kind), analyze it at an operating point, sweep parameters (in memory
-// or to the files `servokit sweep` writes), locate thresholds, solve for the feedforward, and
-// generate large linear models. Options are structs whose defaults are servokit's; results are
-// plain values. Errors are the exceptions of base/errors.h, each with a kind (usage, model,
-// no solution). The header needs only Eigen and the standard library: GiNaC, SUNDIALS and the
-// rest stay inside the compiled library.
+// file or a string, either kind), analyze it at an operating point, sweep parameters (in memory,
+// or into a directory as `servokit sweep` does: durable, resumable, over MPI ranks), locate
+// thresholds, solve for the feedforward, write reports, and generate large linear models. Options
+// are structs whose defaults are servokit's; results are plain values. Errors are the exceptions of
+// base/errors.h, each with a kind (usage, model, no solution). The header needs only Eigen and the
+// standard library: GiNaC, SUNDIALS and the rest stay inside the compiled library.
 //
-// Every function may be called from several threads at once, on one model or on several. The
+// Every function may be called from several threads at once, on one model or on several (a
+// DirectorySweep object from one thread at a time, and an MPI job's collective steps from the
+// thread that started MPI). The
 // symbolic steps (loading a model, Analyze's nonlinear structure, the inverse a solve derives
 // once per model and options) use GiNaC, which is not thread-safe, and run one thread at a time
 // under one process-wide lock; the numeric work (operating points, zero dynamics, sweeps,
@@ -34,6 +36,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/process_group.h"
 #include "base/vocabulary.h"
 
 namespace servokit::api {
@@ -50,6 +53,7 @@ using servokit::LinearEigenSolver;
 using servokit::LinearEigenSolverFromString;
 using servokit::ModelKind;
 using servokit::ModelKindFromString;
+using servokit::ProcessGroup;
 using servokit::Realization;
 using servokit::RealizationFromString;
 using servokit::ReportFormat;
@@ -207,11 +211,57 @@ Analysis Analyze(const Model& model, const AnalyzeOptions& options = {});
 
 // ---- sweeps ---------------------------------------------------------------------------------
 
-/// One varied parameter and its values, in SI units.
-struct SweepAxis {
-  std::string parameter;
-  std::vector<double> values;
+/// `count` values evenly spaced from `first` to `last` (SI), both included, as numpy.linspace;
+/// on an axis shown in degrees, evenly spaced in degrees (0deg:90deg:91 takes exactly the values
+/// 0 deg, 1 deg, ..., 90 deg).
+struct SweepRange {
+  double first = 0.0, last = 0.0;
+  std::size_t count = 1;
 };
+
+/// One varied parameter and its values, in SI units: a list, or a range.
+struct SweepAxis {
+  SweepAxis() = default;
+  /// A list: {"d", {0.0, 0.5, 1.0}}.
+  SweepAxis(std::string parameter_name, std::vector<double> parameter_values)
+      : parameter(std::move(parameter_name)), values(std::move(parameter_values)) {}
+
+  std::string parameter;
+  std::vector<double> values;       // the values in their order; or, when empty, `range`
+  std::optional<SweepRange> range;  // used when `values` is empty
+  // Shown in degrees (its table column "<name>_deg", its values in degrees); unset: as the model
+  // shows the parameter (Model::parameter_display_units()).
+  std::optional<bool> degrees;
+};
+
+/// One axis written in servokit's grid text (docs/sweep.md, "The grid"): "name=a:b:n" (n values
+/// from a to b), "name=a:b:n=N", "name=a:b:step=h" or "name=v1,v2,...", each value a number in
+/// SI units or "<number> deg" (an axis with a value in degrees is shown in degrees). `label` is
+/// the caller's name for the text and starts every message (the command line: "--vary"): throws
+/// UsageError "<label> <text>: <problem>" for a bad text or an unknown parameter. Appends to
+/// `warnings` a line for a text that is probably not what was meant: a bare a:b:n that MATLAB
+/// would read as start:step:end, or an angle's values without a unit spanning more than a turn.
+SweepAxis ParseSweepAxis(const Model& model,
+                         const std::string& text,
+                         const std::string& label,
+                         std::vector<std::string>* warnings = nullptr);
+/// ParseSweepAxis for each text, and the checks of the grid over them: a parameter varied twice,
+/// more points than a size_t counts, a table column that would clash with another.
+std::vector<SweepAxis> ParseSweepAxes(const Model& model,
+                                      const std::vector<std::string>& texts,
+                                      const std::string& label,
+                                      std::vector<std::string>* warnings = nullptr);
+
+/// The warning for the values `low`..`high` (SI) of an angle-like parameter of `model` (shown in
+/// degrees, or named alpha, beta, gamma, theta, phi, psi or with "angle" in its name) written
+/// without a unit (`has_unit` false) that span more than a full turn (2 pi): radians, maybe meant
+/// as degrees. "" when there is none. `label` starts it (the command line: "--vary alpha=0:90").
+std::string AngleSpanWarning(const Model& model,
+                             const std::string& parameter,
+                             bool has_unit,
+                             double low,
+                             double high,
+                             const std::string& label);
 
 struct SweepOptions {
   AnalyzeOptions analysis;  // nonlinear_structure is not used: a sweep classifies only
@@ -267,6 +317,160 @@ std::size_t SweepToFiles(const Model& model,
                          const std::vector<SweepAxis>& axes,
                          const std::string& directory,
                          const SweepOptions& options = {});
+
+// ---- sweeps into a directory: durable, resumable, distributed -------------------------------
+
+/// The toolkit's sweep settings: DirectorySweepOptions' defaults, and the most a sweep takes (the
+/// one place these numbers are written is the toolkit's sweep engine).
+struct SweepSettings {
+  int max_threads = 0;         // SweepOptions::threads
+  std::size_t block_size = 0;  // points per block
+  std::size_t max_block_size = 0;
+  double checkpoint_interval = 0.0;  // seconds
+};
+SweepSettings DefaultSweepSettings();
+
+/// How a DirectorySweep writes (defaults: those of `servokit sweep --out`). None of it changes the
+/// bytes of the files.
+struct DirectorySweepOptions {
+  SweepFileFormat format = SweepFileFormat::kCsv;
+  // Points computed in parallel, then written; under MPI block b goes to rank b mod K.
+  std::size_t block_size = DefaultSweepSettings().block_size;
+  // Seconds between checkpoints (fsync): the most work a crash can lose.
+  double checkpoint_interval = DefaultSweepSettings().checkpoint_interval;
+  // How the sweep was asked for (the command line), recorded in sweep.json.
+  std::vector<std::string> command_line;
+  // The caller's names for the directory and the format in messages (the command line: "--out",
+  // "--format"), so that an error says what to change where it was written.
+  std::string directory_label = "directory";
+  std::string format_label = "format";
+};
+
+/// A sweep into a directory, as `servokit sweep --out DIR` runs it (docs/sweep.md, "The files"
+/// and "Interruption and resume"): points.csv and eigenvalues.csv (or sweep.h5, sweep.mat) with
+/// sweep.json, written durably as the points are computed, so that a sweep stopped at any moment
+/// (SweepOptions::stop_requested, a crash, SIGKILL) is resumed by the same sweep and its files
+/// are the same bytes as those of an uninterrupted one, for any thread or process count.
+///
+/// In a process started by an MPI launcher with an MpiSession alive, every process of the job
+/// constructs, opens and runs the same DirectorySweep (each step is collective: a failure on any
+/// process throws on all of them): the blocks are shared out over the processes and rank 0
+/// alone writes the directory.
+///
+///   sk::DirectorySweep sweep(model, sk::ParseSweepAxes(model, {"alpha=0deg:90deg:91"}, "axis"));
+///   sweep.Open("alpha-sweep");
+///   if (sweep.Run() != sk::DirectorySweep::End::kFinished) ...  // stopped: run it again
+class DirectorySweep {
+ public:
+  /// Checks everything that can be checked before the directory is touched: the axes, the
+  /// options (threads 0 on a process of an MPI job: the cores of its machine shared among its
+  /// ranks there), the format's column names, and that every process sweeps the same. Throws
+  /// UsageError. options.stop_requested is not used: Run takes its own.
+  DirectorySweep(const Model& model,
+                 const std::vector<SweepAxis>& axes,
+                 const SweepOptions& options = {},
+                 const DirectorySweepOptions& directory_options = {});
+  ~DirectorySweep();
+  DirectorySweep(const DirectorySweep&) = delete;
+  DirectorySweep& operator=(const DirectorySweep&) = delete;
+
+  /// Opens `directory` (made if missing; locked against another sweep) and finds what it holds:
+  /// nothing of this sweep, an unfinished run of it (resumed where its checkpoint says), or all
+  /// of it. Throws UsageError when it holds another sweep or another process writes it, Error
+  /// when it cannot be written.
+  void Open(const std::string& directory);
+
+  std::size_t num_points() const;
+  /// After Open: the directory holds this sweep, finished; Run has nothing to do.
+  bool already_complete() const;
+  /// After Open: the first point Run computes (0, or where an interrupted sweep stopped).
+  std::size_t first_point() const;
+
+  enum class End {
+    kFinished,         // every point written, the tables finished
+    kStopped,          // stopped on request at a block; the checkpoint holds points_done()
+    kStoppedInTables,  // every point done, stopped while the table file was built; resumable
+  };
+  /// Computes the points still missing and finishes the files. Asks `stop_requested` (when
+  /// given; on every process of an MPI job, and true on any stops all) after each block and
+  /// while it builds a table file; tells `progress` the points done in all after each block
+  /// written (rank 0).
+  End Run(const std::function<bool()>& stop_requested = {},
+          const std::function<void(std::size_t done)>& progress = {});
+
+  /// After Run: the points written (num_points(), or fewer when stopped).
+  std::size_t points_done() const;
+  /// After Run, on rank 0: the points without a solution (their row holds the error).
+  std::size_t points_without_solution() const;
+  /// The files of the tables: "points.csv, eigenvalues.csv", "sweep.h5" or "sweep.mat".
+  std::string table_file_names() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+// ---- processes of an MPI job ----------------------------------------------------------------
+
+/// While alive (constructed at the top of main()), a process started by an MPI launcher (mpirun,
+/// srun) is one rank of the job, with MPI initialised through servokit's MPI plugin; started any
+/// other way, or in a build without MPI, nothing happens and no MPI library is loaded.
+class MpiSession {
+ public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+/// This process's group (ProcessGroup, base/process_group.h); in a build without MPI started by
+/// mpirun, the launcher's numbers, so that only rank 0 prints and DirectorySweep refuses to run.
+ProcessGroup Processes();
+
+/// Collective (every process of the group calls it): runs `step`; when it throws on any
+/// process, throws on every process an error of the kind of the lowest failing rank's, with its
+/// message on rank 0.
+void OnEveryProcess(const std::function<void()>& step);
+
+// ---- reports --------------------------------------------------------------------------------
+
+/// The paper's report (docs/report.md) into `directory` (which must exist): report.md and
+/// report.html with their figures, from the shipped models in `models_directory`.
+void WritePaperReport(const std::string& directory, const std::string& models_directory);
+
+/// A report of `model` (multibody) into `directory` (which must exist): its classification at
+/// the operating point of `options`, and the study over `axes` (one axis: the zero dynamics
+/// along it; two: the map of the plane). Each axis is classified on its own (no grid checks).
+void WriteModelReport(const std::string& directory,
+                      const Model& model,
+                      const std::vector<SweepAxis>& axes,
+                      const AnalyzeOptions& options = {});
+
+/// A finished CSV sweep read back from its directory for its report: sweep.json, the model it
+/// names (which must be unchanged: same content hash) and its tables.
+class FinishedSweep {
+ public:
+  /// Throws UsageError naming the file and the problem: no sweep.json ("<label> DIR: no
+  /// sweep.json there"; `label` is the caller's name for DIR), not a sweep's record, a sweep not
+  /// completed, of a linear model or in HDF5/MAT, its model missing or changed, its tables not
+  /// those of its grid.
+  static FinishedSweep Read(const std::string& directory,
+                            const std::string& label = "sweep directory");
+  struct Data;  // inside the library
+
+ private:
+  explicit FinishedSweep(std::shared_ptr<const Data> data) : data_(std::move(data)) {}
+  friend const Data& Unwrap(const FinishedSweep& sweep);
+  std::shared_ptr<const Data> data_;
+};
+
+/// The report of `sweep` into `directory` (which must exist), as WriteModelReport of its model,
+/// grid and options, with the map coloured from its points.
+void WriteSweepReport(const std::string& directory, const FinishedSweep& sweep);
 
 // ---- thresholds -----------------------------------------------------------------------------
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <span>
+#include <variant>
 
 #include "analysis/parameter_grid.h"
 #include "analysis/zero_dynamics.h"
@@ -13,26 +14,58 @@
 #include "files/output_file.h"
 #include "reports/sweep_tables.h"
 #include "servokit/toolkit_bridge.h"
+#include "studies/grid_text.h"
 
 namespace servokit::api {
 namespace {
 
+SweepAxis FromGridAxis(const GridAxis& axis) {
+  SweepAxis result;
+  result.parameter = axis.name;
+  if (const auto* range = std::get_if<ValueRange>(&axis.values)) {
+    result.range = SweepRange{range->first, range->last, range->count};
+  } else {
+    result.values = std::get<std::vector<double>>(axis.values);
+  }
+  result.degrees = axis.display_unit == DisplayUnit::kDegree;
+  return result;
+}
+
+GridParameters ModelGridParameters(const Model& model) {
+  const LoadedModel& loaded = ToolkitModel(model);
+  return {loaded.parameter_names(), loaded.parameter_display_units()};
+}
+
+}  // namespace
+
+GridAxis ToGridAxis(const Model& model, const SweepAxis& axis) {
+  GridAxis grid_axis;
+  grid_axis.name = axis.parameter;
+  grid_axis.parameter = ParameterIndex(model.parameter_names(), axis.parameter);
+  if (!axis.values.empty()) {
+    grid_axis.values = axis.values;
+  } else {
+    RequireOption(axis.range.has_value(), "SweepAxis", "values", axis.parameter,
+                  "must hold at least one value (or give a range)");
+    RequireOption(axis.range->count >= 1, "SweepRange", "count", axis.range->count,
+                  "must be at least 1");
+    grid_axis.values = ValueRange{axis.range->first, axis.range->last, axis.range->count};
+  }
+  const DisplayUnit shown = ToolkitModel(model).parameter_display_units()[grid_axis.parameter];
+  grid_axis.display_unit =
+      axis.degrees ? (*axis.degrees ? DisplayUnit::kDegree : DisplayUnit::kSI) : shown;
+  return grid_axis;
+}
+
 ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes) {
   std::vector<GridAxis> grid_axes;
-  for (const SweepAxis& axis : axes) {
-    RequireOption(!axis.values.empty(), "SweepAxis", "values", axis.parameter,
-                  "must hold at least one value");
-    GridAxis grid_axis;
-    grid_axis.name = axis.parameter;
-    grid_axis.parameter = ParameterIndex(model.parameter_names(), axis.parameter);
-    grid_axis.values = axis.values;
-    grid_axis.display_unit = ToolkitModel(model).parameter_display_units()[grid_axis.parameter];
-    grid_axes.push_back(std::move(grid_axis));
-  }
+  for (const SweepAxis& axis : axes) grid_axes.push_back(ToGridAxis(model, axis));
   ParameterGrid grid(std::move(grid_axes));
   CheckSweepColumns(grid);
   return grid;
 }
+
+namespace {
 
 // Runs the sweep block by block into `consume`: the toolkit's one sweep engine, either kind.
 // Stops after a block when the caller asks to (SweepOptions::stop_requested).
@@ -41,10 +74,7 @@ void RunModelSweep(
     const ParameterGrid& grid,
     const SweepOptions& options,
     const std::function<void(std::size_t, std::span<const servokit::SweepPoint>)>& consume) {
-  servokit::SweepOptions sweep_options;
-  static_cast<AnalysisOptions&>(sweep_options) = ToAnalysisOptions(model, options.analysis);
-  sweep_options.threads = options.threads;
-  RunSweep(ToolkitModel(model), grid, sweep_options, 0,
+  RunSweep(ToolkitModel(model), grid, ToSweepOptions(model, options), 0,
            [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
              consume(first, block);
              return !(options.stop_requested && options.stop_requested());
@@ -82,6 +112,41 @@ SweepPoint ToSweepPoint(const ParameterGrid& grid,
 }
 
 }  // namespace
+
+servokit::SweepOptions ToSweepOptions(const Model& model, const SweepOptions& options) {
+  servokit::SweepOptions sweep_options;
+  static_cast<AnalysisOptions&>(sweep_options) = ToAnalysisOptions(model, options.analysis);
+  sweep_options.threads = options.threads;
+  return sweep_options;
+}
+
+SweepAxis ParseSweepAxis(const Model& model,
+                         const std::string& text,
+                         const std::string& label,
+                         std::vector<std::string>* warnings) {
+  return FromGridAxis(ParseGridAxis(ModelGridParameters(model), label, text, warnings));
+}
+
+std::vector<SweepAxis> ParseSweepAxes(const Model& model,
+                                      const std::vector<std::string>& texts,
+                                      const std::string& label,
+                                      std::vector<std::string>* warnings) {
+  const ParameterGrid grid = ParseParameterGrid(ModelGridParameters(model), label, texts, warnings);
+  std::vector<SweepAxis> axes;
+  for (const GridAxis& axis : grid.axes()) axes.push_back(FromGridAxis(axis));
+  return axes;
+}
+
+std::string AngleSpanWarning(const Model& model,
+                             const std::string& parameter,
+                             bool has_unit,
+                             double low,
+                             double high,
+                             const std::string& label) {
+  const std::size_t index = ParameterIndex(model.parameter_names(), parameter);
+  return servokit::AngleSpanWarning(
+      label, parameter, ToolkitModel(model).parameter_display_units()[index], has_unit, low, high);
+}
 
 std::vector<SweepPoint> Sweep(const Model& model,
                               const std::vector<SweepAxis>& axes,

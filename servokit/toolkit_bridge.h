@@ -1,6 +1,8 @@
 #pragma once
 // Inside the library: what an api::Model holds, and the translations from the API's options to
 // the toolkit's. Not installed (only servokit/servokit.h and base/errors.h are).
+#include "analysis/parameter_grid.h"
+#include "analysis/sweep.h"
 #include "analysis/sweep_point.h"
 #include "modeling/loaded_model.h"
 #include "servokit/servokit.h"
@@ -32,5 +34,15 @@ LinearAnalysisOptions ToLinearAnalysisOptions(const AnalyzeOptions& options);
 
 /// The options of AnalyzePoint for `model`'s kind (the other kind's stay at their defaults).
 AnalysisOptions ToAnalysisOptions(const Model& model, const AnalyzeOptions& options);
+
+/// The toolkit's axis of a parameter of `model`; throws UsageError for an unknown parameter or
+/// an axis without values.
+GridAxis ToGridAxis(const Model& model, const SweepAxis& axis);
+/// The grid over `axes`; throws UsageError also for a grid the sweep tables cannot hold (a
+/// parameter varied twice, too many points, a column that clashes).
+ParameterGrid ToGrid(const Model& model, const std::vector<SweepAxis>& axes);
+
+/// The toolkit's sweep options of `options` for `model`'s kind.
+servokit::SweepOptions ToSweepOptions(const Model& model, const SweepOptions& options);
 
 }  // namespace servokit::api

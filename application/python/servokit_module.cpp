@@ -110,11 +110,24 @@ void BindAnalyze(ModelClass& model_class) {
 
 // ---- sweeps and thresholds --------------------------------------------------------------------
 
-std::vector<sk::SweepAxis> ToSweepAxes(const py::dict& grid) {
+// {parameter: values}: each values an array of SI values, or a text of the grid (docs/sweep.md,
+// "The grid": "0deg:90deg:91", "0:2:step=0.5", "5deg,30deg"), shown in degrees when it says deg.
+// A text's warnings (a MATLAB-style a:step:b, an angle without a unit) become Python warnings.
+std::vector<sk::SweepAxis> ToSweepAxes(const sk::Model& model, const py::dict& grid) {
   std::vector<sk::SweepAxis> axes;
   for (const auto& [key, values] : grid) {
+    const std::string parameter = key.cast<std::string>();
+    if (py::isinstance<py::str>(values)) {
+      std::vector<std::string> warnings;
+      axes.push_back(sk::ParseSweepAxis(model, parameter + "=" + values.cast<std::string>(), "grid",
+                                        &warnings));
+      for (const std::string& warning : warnings) {
+        py::module_::import("warnings").attr("warn")(warning);
+      }
+      continue;
+    }
     sk::SweepAxis axis;
-    axis.parameter = key.cast<std::string>();
+    axis.parameter = parameter;
     const std::optional<Eigen::VectorXd> vector =
         ToOptionalVector(py::reinterpret_borrow<py::object>(values));
     if (vector) axis.values.assign(vector->data(), vector->data() + vector->size());
@@ -129,7 +142,7 @@ py::tuple SweepModel(const sk::Model& model,
                      double rank_tolerance,
                      double imaginary_axis_tolerance,
                      const std::string& table) {
-  const std::vector<sk::SweepAxis> axes = ToSweepAxes(grid);
+  const std::vector<sk::SweepAxis> axes = ToSweepAxes(model, grid);
   sk::SweepOptions options;
   options.analysis =
       ToAnalyzeOptions(py::none(), py::none(), rank_tolerance, imaginary_axis_tolerance);
@@ -154,18 +167,18 @@ py::tuple SweepModel(const sk::Model& model,
 
 void BindSweep(ModelClass& model_class) {
   const sk::AnalyzeOptions defaults;
-  model_class.def(
-      "sweep", &SweepModel, py::arg("grid"), py::kw_only(), py::arg("threads") = 0,
-      py::arg("rank_tolerance") = defaults.rank_tolerance,
-      py::arg("imaginary_axis_tolerance") = defaults.imaginary_axis_tolerance,
-      py::arg("table") = "auto",
-      "Classifies every point of the full grid {parameter: values (SI)}, the first "
-      "parameter varying slowest, on `threads` threads (0: all cores, or OMP_NUM_THREADS; "
-      "at most 1024, a UsageError above). Returns (points, eigenvalues): the tables "
-      "`servokit sweep` writes as points.csv and eigenvalues.csv, as pandas DataFrames "
-      "(table='auto' when "
-      "pandas is importable, or 'pandas') or numpy structured arrays (table='numpy'; a "
-      "missing integer is -1 there).");
+  model_class.def("sweep", &SweepModel, py::arg("grid"), py::kw_only(), py::arg("threads") = 0,
+                  py::arg("rank_tolerance") = defaults.rank_tolerance,
+                  py::arg("imaginary_axis_tolerance") = defaults.imaginary_axis_tolerance,
+                  py::arg("table") = "auto",
+                  "Classifies every point of the full grid {parameter: values (SI) or a text of "
+                  "`servokit sweep --vary` such as '0deg:90deg:91'}, the first parameter varying "
+                  "slowest, on `threads` threads (0: all cores, or OMP_NUM_THREADS; "
+                  "at most 1024, a UsageError above). Returns (points, eigenvalues): the tables "
+                  "`servokit sweep` writes as points.csv and eigenvalues.csv, as pandas DataFrames "
+                  "(table='auto' when "
+                  "pandas is importable, or 'pandas') or numpy structured arrays (table='numpy'; a "
+                  "missing integer is -1 there).");
 }
 
 py::list ThresholdsOfModel(const sk::Model& model,

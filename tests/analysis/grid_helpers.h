@@ -1,7 +1,7 @@
 #pragma once
 // Parameter grids for the analysis tests, built as a caller of the toolkit builds them: an axis
 // per parameter name with its values (the `--vary` text is application grammar,
-// application/grid_arguments.h, tested in tests/application/grid_arguments_test.cpp).
+// studies/grid_text.h, tested in tests/studies/grid_text_test.cpp).
 #include <cstddef>
 #include <string>
 #include <utility>

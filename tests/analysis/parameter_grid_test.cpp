@@ -1,6 +1,6 @@
 // ParameterGrid: axes by parameter name (ParameterIndex), ranges and lists, the row-major
 // numbering of points (first axis slowest) and the exact messages of the usage errors. The
-// `--vary` text is tested with its reader, tests/application/grid_arguments_test.cpp.
+// `--vary` text is tested with its reader, tests/studies/grid_text_test.cpp.
 #include "analysis/parameter_grid.h"
 
 #include <catch2/catch.hpp>

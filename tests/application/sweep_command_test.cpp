@@ -25,7 +25,7 @@
 
 #include "application/command_line.h"
 #include "application/progress.h"
-#include "application/sweep_store.h"
+#include "studies/sweep_store.h"
 #include "tests/application/run_servokit.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"

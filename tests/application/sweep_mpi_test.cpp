@@ -1,6 +1,6 @@
-// `mpirun -np K servokit sweep` (issue #6, application/mpi_sweep.h): the real binary under the real
-// launcher (SERVOKIT_MPIEXEC, Open MPI's mpirun) must write the same files, byte for byte, as one
-// process: points.csv, eigenvalues.csv and sweep.json, each run started in its own directory
+// `mpirun -np K servokit sweep` (issue #6, studies/distributed_sweep.h): the real binary under the
+// real launcher (SERVOKIT_MPIEXEC, Open MPI's mpirun) must write the same files, byte for byte, as
+// one process: points.csv, eigenvalues.csv and sweep.json, each run started in its own directory
 // with the same relative --out, so that even the command line recorded in sweep.json is the
 // same. An error on any rank gives one error line and its exit status from the whole job, never
 // a hang (every job runs under `timeout`); a stopped MPI sweep resumes, with or without MPI, to

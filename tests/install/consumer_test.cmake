@@ -23,10 +23,13 @@ foreach(path bin/servokit include/servokit/servokit.h include/servokit/base/erro
     message(FATAL_ERROR "not installed: ${path}")
   endif()
 endforeach()
-# Only the public API (with the vocabulary of classes it exports, base/vocabulary.h): no internal
+# Only the public API (with the errors, the process group and the vocabulary of classes it
+# exports from base/): no internal
 # header (GiNaC, SUNDIALS, CLI11, json behind them) is installed.
 file(GLOB_RECURSE installed_headers RELATIVE ${prefix}/include ${prefix}/include/*)
-if(NOT installed_headers STREQUAL "servokit/base/errors.h;servokit/base/vocabulary.h;servokit/servokit.h")
+set(public_headers servokit/base/errors.h servokit/base/process_group.h
+    servokit/base/vocabulary.h servokit/servokit.h)
+if(NOT installed_headers STREQUAL "${public_headers}")
   message(FATAL_ERROR "installed headers beyond the public API: ${installed_headers}")
 endif()
 

@@ -2,6 +2,8 @@
 // (Sect. 3, Eqs. 26-27, 36) and of a two-mass chain, and against the toolkit's own defaults.
 // Only the public header is used, except in the defaults test, which compares with the
 // internal options structs the API stands for.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
@@ -456,4 +458,89 @@ TEST_CASE("a trajectory of two kinds at once is refused", "[servokit]") {
   sk::SolveOptions options;
   options.t_end = 1.0;
   CHECK_THROWS_AS(sk::Solve(model, trajectory, options), servokit::UsageError);
+}
+
+TEST_CASE("the grid text through the API: a degree range is spaced evenly in degrees",
+          "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  std::vector<std::string> warnings;
+  const std::vector<sk::SweepAxis> axes =
+      sk::ParseSweepAxes(model, {"alpha=5deg:85deg:9", "d=0.5,1"}, "axis", &warnings);
+  CHECK(warnings.empty());
+  REQUIRE(axes.size() == 2);
+  REQUIRE(axes[0].range.has_value());
+  CHECK(axes[0].range->count == 9);
+  CHECK(axes[0].degrees == true);
+  CHECK(axes[1].values == std::vector<double>{0.5, 1.0});
+  // 5, 15, ..., 85 degrees, each the double that "<n> deg" gives in a model file.
+  const std::vector<sk::SweepPoint> points = sk::Sweep(model, {axes[0]});
+  REQUIRE(points.size() == 9);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const int degrees = 5 + 10 * int(i);
+    CHECK(points[i].parameter_display_values[0] == double(degrees));
+    CHECK(points[i].parameter_values[0] ==
+          sk::ParseQuantity(std::to_string(degrees) + " deg")->value);
+  }
+  CHECK_THROWS_WITH(sk::ParseSweepAxes(model, {"beta=0:1:3"}, "axis"),
+                    Catch::StartsWith("axis beta=0:1:3: unknown parameter 'beta'"));
+  CHECK_THROWS_WITH(sk::ParseSweepAxes(model, {"d=0:1:3", "d=2"}, "axis"),
+                    Catch::StartsWith("axis d: the parameter is varied twice"));
+  // A bare a:b:n that MATLAB reads as start:step:end is read as servokit's, with a warning.
+  sk::ParseSweepAxes(model, {"d=0:2:4"}, "axis", &warnings);
+  REQUIRE(warnings.size() == 1);
+  CHECK(warnings[0].rfind("axis d=0:2:4 is read as 4 values from 0 to 2", 0) == 0);
+}
+
+TEST_CASE("a directory sweep stopped and resumed writes the bytes of one run, as SweepToFiles",
+          "[servokit]") {
+  const sk::Model model = sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"d", "0"}});
+  const std::vector<sk::SweepAxis> axes = sk::ParseSweepAxes(model, {"alpha=5deg:85deg:9"}, "axis");
+  const std::filesystem::path root = std::filesystem::temp_directory_path() /
+                                     ("servokit_api_directory_sweep_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(root);
+  sk::DirectorySweepOptions options;
+  options.block_size = 2;
+  {
+    sk::DirectorySweep sweep(model, axes, {}, options);
+    sweep.Open((root / "resumed").string());
+    CHECK(sweep.num_points() == 9);
+    CHECK(sweep.first_point() == 0);
+    int questions = 0;
+    std::size_t progress = 0;
+    CHECK(sweep.Run([&] { return ++questions >= 2; }, [&](std::size_t done) { progress = done; }) ==
+          sk::DirectorySweep::End::kStopped);
+    CHECK(sweep.points_done() == 4);  // two blocks of two
+    CHECK(progress == 4);
+    CHECK_FALSE(std::filesystem::exists(root / "resumed" / "points.csv"));
+  }
+  {
+    sk::DirectorySweep sweep(model, axes, {}, options);
+    sweep.Open((root / "resumed").string());
+    CHECK_FALSE(sweep.already_complete());
+    CHECK(sweep.first_point() == 4);
+    CHECK(sweep.Run() == sk::DirectorySweep::End::kFinished);
+    CHECK(sweep.points_done() == 9);
+    CHECK(sweep.points_without_solution() == 0);
+    CHECK(sweep.table_file_names() == "points.csv, eigenvalues.csv");
+  }
+  // The second route: the same tables from one uninterrupted in-memory run.
+  CHECK(sk::SweepToFiles(model, axes, (root / "whole").string()) == 9);
+  CHECK(ReadFile(root / "resumed" / "points.csv") == ReadFile(root / "whole" / "points.csv"));
+  CHECK(ReadFile(root / "resumed" / "eigenvalues.csv") ==
+        ReadFile(root / "whole" / "eigenvalues.csv"));
+  CHECK(ReadFile(root / "resumed" / "sweep.json").find("\"completed\": true") != std::string::npos);
+  {
+    sk::DirectorySweep again(model, axes, {}, options);
+    again.Open((root / "resumed").string());
+    CHECK(again.already_complete());
+  }
+  // Another grid in the same directory is refused, in the caller's words for it.
+  sk::DirectorySweepOptions labelled = options;
+  labelled.directory_label = "folder";
+  sk::DirectorySweep other(model, sk::ParseSweepAxes(model, {"alpha=1deg,2deg"}, "axis"), {},
+                           labelled);
+  CHECK_THROWS_WITH(
+      other.Open((root / "resumed").string()),
+      Catch::StartsWith("folder " + (root / "resumed").string() + " holds another sweep"));
+  std::filesystem::remove_all(root);
 }

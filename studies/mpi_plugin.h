@@ -1,16 +1,16 @@
 #pragma once
-// The MPI plugin (reports/plugins.h), libservokit_mpi.so: application/mpi_plugin.cpp, the code
-// that calls MPI. application/mpi_processes.cpp loads it only when servokit was started by an
+// The MPI plugin (reports/plugins.h), libservokit_mpi.so: studies/mpi_plugin.cpp, the code
+// that calls MPI. studies/distributed_sweep.cpp loads it only when servokit was started by an
 // MPI launcher, so that no other run loads MPI's libraries (Open MPI brings a dozen, and hwloc
 // probes the machine's topology when they load).
 #include <cstddef>
 #include <string>
 
-#include "application/mpi_sweep.h"
+#include "studies/distributed_sweep.h"
 
 namespace servokit {
 
-/// What the plugin offers; each function is the one of application/mpi_sweep.h of that name
+/// What the plugin offers; each function is the one of studies/distributed_sweep.h of that name
 /// (the same signature, so that a change there shows here).
 struct MpiPlugin {
   // MPI_Init_thread and this process's group in MPI_COMM_WORLD.

@@ -50,9 +50,11 @@ std::string SweepTableFileNames(SweepFileFormat format);
 /// How the rows of `format` are formatted while sweeping: CSV text for kCsv, binary records
 /// (built into the file at the end) otherwise.
 TableEncoding TableEncodingOf(SweepFileFormat format);
-/// Throws UsageError when a column of `grid` cannot be written in `format` (CheckHdf5ColumnNames,
-/// CheckMatColumnNames).
-void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid);
+/// Throws UsageError "<label> <format>: ..." when a column of `grid` cannot be written in `format`
+/// (CheckHdf5ColumnNames, CheckMatColumnNames); `label` is the caller's name for the format.
+void CheckSweepFileColumns(SweepFileFormat format,
+                           const ParameterGrid& grid,
+                           const std::string& label);
 
 /// The default of SweepOutputOptions::checkpoint_interval: an fsync per block would cost more
 /// than the points of a small model, and a crash loses at most a second of work (an interrupt,
@@ -63,6 +65,10 @@ inline constexpr std::chrono::duration<double> kSweepCheckpointInterval{1.0};
 struct SweepOutputOptions {
   // How often the partial files are made durable (fsync) and the checkpoint is updated.
   std::chrono::duration<double> checkpoint_interval = kSweepCheckpointInterval;
+  // How messages name the directory and the format where the caller wrote them (the command
+  // line: "--out", "--format"), so that an error says what to change.
+  std::string directory_label = "directory";
+  std::string format_label = "format";
 };
 
 /// What the files record of the swept model, whatever its kind: a multibody model (Model) or a
@@ -107,9 +113,9 @@ struct SweepRecord {
   // The classification options of a multibody sweep (tolerances, y0, q0).
   ClassificationOptions options;
 };
-/// Reads DIR/sweep.json. Throws UsageError naming the file when DIR has none or it is not a
-/// servokit sweep record.
-SweepRecord ReadSweepRecord(const std::filesystem::path& directory);
+/// Reads DIR/sweep.json. Throws UsageError naming the file when DIR has none ("<label> DIR: no
+/// sweep.json there", `label` the caller's name for DIR) or it is not a servokit sweep record.
+SweepRecord ReadSweepRecord(const std::filesystem::path& directory, const std::string& label);
 /// `record.axes` with each `parameter` the index of its name in `parameter_names`.
 std::vector<GridAxis> ResolveSweepAxes(const SweepRecord& record,
                                        const std::vector<std::string>& parameter_names);
@@ -195,6 +201,7 @@ class SweepOutput {
   SweepFileFormat format_;
   std::string fingerprint_;
   std::chrono::duration<double> checkpoint_interval_;
+  std::string directory_label_;
 
   int directory_fd_ = -1;  // held open for the lock and to fsync renames
   int points_fd_ = -1, eigenvalues_fd_ = -1;

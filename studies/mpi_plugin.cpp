@@ -1,9 +1,9 @@
-// application/mpi_sweep.h with MPI: the MPI plugin (application/mpi_plugin.h), built when CMake
+// studies/distributed_sweep.h with MPI: the MPI plugin (studies/mpi_plugin.h), built when CMake
 // finds MPI (SERVOKIT_HAVE_MPI).
 //
 // The protocol of RunDistributedSweep. Every message from a rank to rank 0 (tag kResultTag) is
 // one byte buffer: a MessageHeader, then its text. A rank sends its blocks in index order,
-// then one final message: finished, stopped (a stop request) or failed (exit status and
+// then one final message: finished, stopped (a stop request) or failed (the error's kind and
 // message). MPI keeps the order of messages between two ranks, so rank 0 can take block b
 // from rank b mod size, in order, and then drain each rank up to its final message. Rank 0
 // ends the sweep by sending every other rank one Verdict (tag kVerdictTag): a rank checks for it
@@ -12,7 +12,7 @@
 // Waiting (for a message, for a send to complete) polls every kPollInterval instead of
 // blocking in MPI, whose blocking calls spin on a core: with more threads than cores, a
 // waiting rank 0 would otherwise slow down the threads computing the block it waits for.
-#include "application/mpi_plugin.h"
+#include "studies/mpi_plugin.h"
 
 #include <mpi.h>
 
@@ -28,9 +28,8 @@
 #include <utility>
 #include <vector>
 
-#include "application/exit_codes.h"
-#include "application/mpi_sweep.h"
 #include "base/errors.h"
+#include "studies/distributed_sweep.h"
 
 namespace servokit {
 namespace {
@@ -61,13 +60,16 @@ void CheckMpi(int code, const char* call) {
 
 // ---- errors across ranks ---------------------------------------------------------------------
 
-int ExitStatusOf(const std::exception_ptr& failure) {
+// A failure as it travels between ranks: 0 for none, else 1 + its ErrorKind, so that the rank
+// that throws it again throws an error of the same kind (the command line's exit status follows
+// from the kind, application/exit_codes.h).
+int FailureCodeOf(const std::exception_ptr& failure) {
   try {
     std::rethrow_exception(failure);
-  } catch (const std::exception& error) {
-    return static_cast<int>(ExitCodeFor(error));
+  } catch (const Error& error) {
+    return 1 + static_cast<int>(error.kind());
   } catch (...) {
-    return static_cast<int>(ExitCode::kOther);
+    return 1 + static_cast<int>(ErrorKind::kOther);
   }
 }
 
@@ -81,16 +83,12 @@ std::string MessageOf(const std::exception_ptr& failure) {
   }
 }
 
-// The error another rank reported, as the class that gives its exit status (ExitCodeFor).
-[[noreturn]] void ThrowWithExitStatus(int status, const std::string& message) {
-  switch (static_cast<ExitCode>(status)) {
-    case ExitCode::kBadInput:
-      throw UsageError(message);
-    case ExitCode::kNoSolution:
-      throw NoSolution(message);
-    default:
-      throw Error(message);
-  }
+// The error another rank reported (FailureCodeOf), of its kind.
+[[noreturn]] void ThrowFailure(int code, const std::string& message) {
+  const int kind = code - 1;
+  const bool known =
+      kind >= static_cast<int>(ErrorKind::kUsage) && kind <= static_cast<int>(ErrorKind::kOther);
+  throw Error(message, known ? static_cast<ErrorKind>(kind) : ErrorKind::kOther);
 }
 
 std::string OnRank(int rank, const std::string& message) {
@@ -107,7 +105,7 @@ struct MessageHeader {
   MessageKind kind = MessageKind::kBlock;
   std::uint64_t first = 0, points = 0, points_without_solution = 0;  // kBlock
   std::uint64_t points_bytes = 0, eigenvalues_bytes = 0;  // kBlock: the text that follows
-  std::uint64_t exit_status = 0, message_bytes = 0;       // kFailed: the message that follows
+  std::uint64_t failure_code = 0, message_bytes = 0;      // kFailed: the message that follows
 };
 static_assert(std::is_trivially_copyable_v<MessageHeader>);
 
@@ -115,8 +113,8 @@ enum class VerdictKind : std::uint64_t { kFinished, kStopped, kFailed };
 
 struct Verdict {
   VerdictKind kind = VerdictKind::kFinished;
-  std::uint64_t done = 0;         // points written by rank 0
-  std::uint64_t exit_status = 0;  // kFailed
+  std::uint64_t done = 0;          // points written by rank 0
+  std::uint64_t failure_code = 0;  // kFailed
 };
 static_assert(std::is_trivially_copyable_v<Verdict>);
 
@@ -132,7 +130,7 @@ void AppendBytes(Buffer& buffer, const void* data, std::size_t size) {
 int MessageSize(const Buffer& buffer) {
   if (buffer.size() > static_cast<std::size_t>(INT_MAX)) {
     throw Error("a block of the sweep formats to " + std::to_string(buffer.size()) +
-                " bytes, more than one MPI message holds; use a smaller --block-size");
+                " bytes, more than one MPI message holds; use a smaller block size");
   }
   return static_cast<int>(buffer.size());
 }
@@ -154,10 +152,10 @@ Buffer BlockMessage(const FormattedBlock& block) {
   return buffer;
 }
 
-Buffer FinalMessage(MessageKind kind, int exit_status, const std::string& message) {
+Buffer FinalMessage(MessageKind kind, int failure_code, const std::string& message) {
   MessageHeader header;
   header.kind = kind;
-  header.exit_status = static_cast<std::uint64_t>(exit_status);
+  header.failure_code = static_cast<std::uint64_t>(failure_code);
   header.message_bytes = message.size();
   Buffer buffer;
   AppendBytes(buffer, &header, sizeof header);
@@ -333,7 +331,7 @@ class Root {
     } catch (...) {
       failure = std::current_exception();
       verdict.kind = VerdictKind::kFailed;
-      verdict.exit_status = static_cast<std::uint64_t>(ExitStatusOf(failure));
+      verdict.failure_code = static_cast<std::uint64_t>(FailureCodeOf(failure));
     }
     End(verdict);
     if (failure) std::rethrow_exception(failure);
@@ -353,15 +351,15 @@ class Root {
           throw Error(OnRank(rank, "sent " + std::to_string(header.points) + " points from " +
                                        std::to_string(header.first) + " where rank 0 expected " +
                                        std::to_string(points) + " from " + std::to_string(first) +
-                                       " (another --block-size?)"));
+                                       " (another block size?)"));
         }
         ReadBlock(buffer, header, block_);
         return true;
       case MessageKind::kStopped:
         return false;
       case MessageKind::kFailed:
-        ThrowWithExitStatus(static_cast<int>(header.exit_status),
-                            OnRank(rank, ReadMessageText(buffer, header)));
+        ThrowFailure(static_cast<int>(header.failure_code),
+                     OnRank(rank, ReadMessageText(buffer, header)));
       case MessageKind::kFinished:
         break;
     }
@@ -425,7 +423,7 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
     failure = std::current_exception();
     end = MessageKind::kFailed;
   }
-  sends.Send(failure ? FinalMessage(end, ExitStatusOf(failure), MessageOf(failure))
+  sends.Send(failure ? FinalMessage(end, FailureCodeOf(failure), MessageOf(failure))
                      : FinalMessage(end, 0, ""),
              0, kResultTag, kSendsInFlight);
   sends.WaitAll();
@@ -435,8 +433,8 @@ DistributedSweepEnd RunWorker(const ProcessGroup& group,
   std::memcpy(&verdict, buffer.data(), sizeof verdict);
   if (verdict.kind == VerdictKind::kFailed) {
     if (failure) std::rethrow_exception(failure);
-    // Printed by rank 0 only; here it only carries the exit status.
-    ThrowWithExitStatus(static_cast<int>(verdict.exit_status), "the sweep failed on another rank");
+    // Printed by rank 0 only; here it only carries the error's kind (the exit status).
+    ThrowFailure(static_cast<int>(verdict.failure_code), "the sweep failed on another rank");
   }
   return {static_cast<std::size_t>(verdict.done), verdict.kind == VerdictKind::kStopped};
 }
@@ -469,7 +467,7 @@ void AgreeOnSuccessWithMpi(std::exception_ptr failure) {
     if (failure) std::rethrow_exception(failure);
     return;
   }
-  const int status = failure ? ExitStatusOf(failure) : 0;
+  const int status = failure ? FailureCodeOf(failure) : 0;
   std::vector<int> statuses(static_cast<std::size_t>(world.size));
   CheckMpi(MPI_Allgather(&status, 1, MPI_INT, statuses.data(), 1, MPI_INT, MPI_COMM_WORLD),
            "MPI_Allgather");
@@ -487,9 +485,9 @@ void AgreeOnSuccessWithMpi(std::exception_ptr failure) {
   }
   if (world.rank == 0) {
     const Buffer message = Receive(rank, kErrorTag);
-    ThrowWithExitStatus(*failed, OnRank(rank, std::string(message.begin(), message.end())));
+    ThrowFailure(*failed, OnRank(rank, std::string(message.begin(), message.end())));
   }
-  ThrowWithExitStatus(*failed, OnRank(rank, "failed"));  // not printed: rank 0 prints
+  ThrowFailure(*failed, OnRank(rank, "failed"));  // not printed: rank 0 prints
 }
 
 std::size_t BroadcastSize(std::size_t value) {

@@ -1,4 +1,4 @@
-#include "application/grid_arguments.h"
+#include "studies/grid_text.h"
 
 #include <algorithm>
 #include <cctype>
@@ -37,40 +37,42 @@ std::vector<std::string_view> Split(std::string_view text, char separator) {
   return parts;
 }
 
-UsageError VaryError(std::string_view text, const std::string& problem) {
-  return UsageError("--vary " + std::string(text) + ": " + problem);
+// `argument` is the axis's text as its caller names it ("--vary alpha=0:1:3" on the command line).
+UsageError VaryError(std::string_view argument, const std::string& problem) {
+  return UsageError(std::string(argument) + ": " + problem);
 }
 
-ParsedQuantity ParseValue(std::string_view text, std::string_view item) {
+ParsedQuantity ParseValue(std::string_view argument, std::string_view item) {
   const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(item);
   if (!value) {
     throw VaryError(
-        text, "'" + std::string(Trim(item)) + "' is not a number (use e.g. 0.5 or \"5 deg\")");
+        argument, "'" + std::string(Trim(item)) + "' is not a number (use e.g. 0.5 or \"5 deg\")");
   }
   return *value;
 }
 
-std::size_t ParseCount(std::string_view text, std::string_view item) {
+std::size_t ParseCount(std::string_view argument, std::string_view item) {
   const std::string_view digits = Trim(item);
   long long count = 0;
   const char* end = digits.data() + digits.size();
   const auto [stop, error] = std::from_chars(digits.data(), end, count);
   if (digits.empty() || error != std::errc() || stop != end) {
-    throw VaryError(text, "'" + std::string(digits) + "' is not a whole number of values");
+    throw VaryError(argument, "'" + std::string(digits) + "' is not a whole number of values");
   }
   if (count < 1) {
-    throw VaryError(text, "the number of values must be at least 1, got " + std::to_string(count));
+    throw VaryError(argument,
+                    "the number of values must be at least 1, got " + std::to_string(count));
   }
   return static_cast<std::size_t>(count);
 }
 
 std::size_t VariedParameter(const std::vector<std::string>& parameter_names,
-                            std::string_view text,
+                            std::string_view argument,
                             std::string_view name) {
   try {
     return ParameterIndex(parameter_names, name);
   } catch (const UsageError& error) {
-    throw VaryError(text, error.what());
+    throw VaryError(argument, error.what());
   }
 }
 
@@ -88,13 +90,13 @@ std::string ShortNumber(double value) {
 }
 
 // "name=a:b:step=h": a ValueRange from a to the last a + i h <= b (kWholeStepsTolerance).
-ValueRange StepRange(std::string_view text,
+ValueRange StepRange(std::string_view argument,
                      const ParsedQuantity& a,
                      const ParsedQuantity& b,
                      const ParsedQuantity& h,
                      bool degrees) {
-  if (!(h.value > 0.0)) throw VaryError(text, "the step h of a:b:step=h must be > 0");
-  if (!(b.value >= a.value)) throw VaryError(text, "a:b:step=h needs a <= b");
+  if (!(h.value > 0.0)) throw VaryError(argument, "the step h of a:b:step=h must be > 0");
+  if (!(b.value >= a.value)) throw VaryError(argument, "a:b:step=h needs a <= b");
   // Counted in the unit the axis is shown in, so that 0deg:90deg:step=5deg is exactly 18 steps.
   const auto shown = [&](const ParsedQuantity& q) {
     return degrees ? DisplayDegrees(q.value) : q.value;
@@ -103,7 +105,7 @@ ValueRange StepRange(std::string_view text,
   const double span = shown(b) - shown(a);
   const double steps =
       std::isfinite(span) ? span / shown(h) : shown(b) / shown(h) - shown(a) / shown(h);
-  if (!(steps < kMaxStepCount)) throw VaryError(text, "the step h is too small for a..b");
+  if (!(steps < kMaxStepCount)) throw VaryError(argument, "the step h is too small for a..b");
   const double whole = std::round(steps);
   if (std::abs(steps - whole) <= kWholeStepsTolerance * std::max(1.0, whole)) {
     return {a.value, b.value, static_cast<std::size_t>(whole) + 1};
@@ -117,7 +119,7 @@ ValueRange StepRange(std::string_view text,
 }
 
 // A bare a:b:n that MATLAB's start:step:end would read otherwise (a, a + b, ..., n).
-std::string MatlabWarning(std::string_view text,
+std::string MatlabWarning(std::string_view argument,
                           std::string_view name,
                           const ParsedQuantity& a,
                           const ParsedQuantity& b,
@@ -129,7 +131,7 @@ std::string MatlabWarning(std::string_view text,
   if (steps != std::floor(steps)) return {};
   const std::string first = ShortNumber(a.value), second = ShortNumber(b.value),
                     third = std::to_string(n), label = std::string(name);
-  return "--vary " + std::string(text) + " is read as " + third + " values from " + first + " to " +
+  return std::string(argument) + " is read as " + third + " values from " + first + " to " +
          second + " (servokit's a:b:n), not as MATLAB's start:step:end (" + first + ", " +
          ShortNumber(a.value + b.value) + ", ..., " + third + "); write " + label + "=" + first +
          ":" + second + ":n=" + third + " for the first, " + label + "=" + first + ":" + third +
@@ -163,15 +165,17 @@ std::string AngleSpanWarning(std::string_view option,
 }
 
 GridAxis ParseGridAxis(const GridParameters& parameters,
+                       std::string_view label,
                        std::string_view text,
                        std::vector<std::string>* warnings) {
+  const std::string argument = std::string(label) + " " + std::string(text);
   const std::size_t equals = text.find('=');
   const std::string_view name = Trim(text.substr(0, equals));
   if (equals == std::string_view::npos || name.empty()) {
-    throw VaryError(text,
-                    "expected name=a:b:n or name=v1,v2,... (e.g. --vary alpha=0deg:90deg:91)");
+    throw VaryError(argument, "expected name=a:b:n or name=v1,v2,... (e.g. " + std::string(label) +
+                                  " alpha=0deg:90deg:91)");
   }
-  GridAxis axis{std::string(name), VariedParameter(parameters.names, text, name), {}};
+  GridAxis axis{std::string(name), VariedParameter(parameters.names, argument, name), {}};
   const DisplayUnit declared = axis.parameter < parameters.units.size()
                                    ? parameters.units[axis.parameter]
                                    : DisplayUnit::kSI;
@@ -184,31 +188,31 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
   if (spec.find(':') != std::string_view::npos) {
     const std::vector<std::string_view> parts = Split(spec, ':');
     if (parts.size() != 3) {
-      throw VaryError(text,
+      throw VaryError(argument,
                       "a range is a:b:n, a:b:n=N or a:b:step=h, e.g. alpha=0deg:90deg:n=91 (91 "
                       "values from a to b) or alpha=0deg:90deg:step=1deg");
     }
-    const ParsedQuantity a = ParseValue(text, parts[0]), b = ParseValue(text, parts[1]);
+    const ParsedQuantity a = ParseValue(argument, parts[0]), b = ParseValue(argument, parts[1]);
     const std::string_view last = Trim(parts[2]);
     has_unit = a.unit == DisplayUnit::kDegree || b.unit == DisplayUnit::kDegree;
     if (last.starts_with("step=")) {
-      const ParsedQuantity h = ParseValue(text, last.substr(5));
+      const ParsedQuantity h = ParseValue(argument, last.substr(5));
       has_unit = has_unit || h.unit == DisplayUnit::kDegree;
       axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
-      axis.values = StepRange(text, a, b, h, axis.display_unit == DisplayUnit::kDegree);
+      axis.values = StepRange(argument, a, b, h, axis.display_unit == DisplayUnit::kDegree);
     } else {
       const bool explicit_count = last.starts_with("n=");
-      const std::size_t n = ParseCount(text, explicit_count ? last.substr(2) : last);
+      const std::size_t n = ParseCount(argument, explicit_count ? last.substr(2) : last);
       axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
       axis.values = ValueRange{a.value, b.value, n};
-      if (!explicit_count) warn(MatlabWarning(text, name, a, b, n));
+      if (!explicit_count) warn(MatlabWarning(argument, name, a, b, n));
     }
     low = a.value;
     high = b.value;
   } else {
     std::vector<double> list;
     for (const std::string_view item : Split(spec, ',')) {
-      const ParsedQuantity value = ParseValue(text, item);
+      const ParsedQuantity value = ParseValue(argument, item);
       has_unit = has_unit || value.unit == DisplayUnit::kDegree;
       list.push_back(value.value);
     }
@@ -217,33 +221,40 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
     axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
     axis.values = std::move(list);
   }
-  warn(AngleSpanWarning("--vary " + std::string(text), name, declared, has_unit, low, high));
+  warn(AngleSpanWarning(argument, name, declared, has_unit, low, high));
   return axis;
 }
 
-GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text) {
+GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names,
+                       std::string_view label,
+                       std::string_view text) {
   static const std::vector<DisplayUnit> kNoUnits;
-  return ParseGridAxis(GridParameters{parameter_names, kNoUnits}, text);
+  return ParseGridAxis(GridParameters{parameter_names, kNoUnits}, label, text);
 }
 
 ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
+                                 std::string_view label,
                                  const std::vector<std::string>& texts) {
   static const std::vector<DisplayUnit> kNoUnits;
-  return ParseParameterGrid(GridParameters{parameter_names, kNoUnits}, texts);
+  return ParseParameterGrid(GridParameters{parameter_names, kNoUnits}, label, texts);
 }
 
 ParameterGrid ParseParameterGrid(const GridParameters& parameters,
+                                 std::string_view label,
                                  const std::vector<std::string>& texts,
                                  std::vector<std::string>* warnings) {
   std::vector<GridAxis> axes;
   axes.reserve(texts.size());
-  for (const std::string& text : texts) axes.push_back(ParseGridAxis(parameters, text, warnings));
-  // Checked here too, so that the message can say what to do on the command line.
+  for (const std::string& text : texts) {
+    axes.push_back(ParseGridAxis(parameters, label, text, warnings));
+  }
+  // Checked here too, so that the message can say what to do where the texts were written.
   for (std::size_t i = 0; i < axes.size(); ++i) {
     for (std::size_t j = 0; j < i; ++j) {
       if (axes[j].parameter == axes[i].parameter) {
-        throw UsageError("--vary " + axes[i].name +
-                         ": the parameter is varied twice (give all its values in one --vary)");
+        throw UsageError(std::string(label) + " " + axes[i].name +
+                         ": the parameter is varied twice (give all its values in one " +
+                         std::string(label) + ")");
       }
     }
   }
@@ -251,12 +262,12 @@ ParameterGrid ParseParameterGrid(const GridParameters& parameters,
   try {
     grid.emplace(std::move(axes));
   } catch (const UsageError& error) {
-    throw UsageError("--vary: " + std::string(error.what()));  // too many points
+    throw UsageError(std::string(label) + ": " + std::string(error.what()));  // too many points
   }
   try {
     CheckSweepColumns(*grid);
   } catch (const UsageError& error) {
-    throw UsageError("--vary: " + std::string(error.what()));
+    throw UsageError(std::string(label) + ": " + std::string(error.what()));
   }
   return std::move(*grid);
 }

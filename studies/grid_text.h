@@ -1,7 +1,10 @@
 #pragma once
-// The command-line grammar of a varied parameter (`--vary`), read into the toolkit's GridAxis and
-// ParameterGrid (analysis/parameter_grid.h). Used by `servokit sweep` and `servokit report MODEL`,
-// for models of either kind: only the parameter names and display units come from the model.
+// servokit's text of a varied parameter (docs/sweep.md, "The grid"; `servokit sweep --vary`),
+// read into the toolkit's GridAxis and ParameterGrid (analysis/parameter_grid.h). Used through
+// the API (api::ParseSweepAxes) by `servokit sweep` and `servokit report MODEL`, for models of
+// either kind: only the parameter names and display units come from the model. Every message
+// starts with the caller's `label` for the text (the command line's "--vary"), so that the
+// library names no flag.
 //
 //   name=a:b:n          n values evenly spaced from a to b, both included (servokit's range)
 //   name=a:b:n=N        the same, said explicitly: N values from a to b
@@ -11,7 +14,7 @@
 //                       at the last a + i h below b
 //   name=v1,v2,...      a list, in its order (one value is a list of one)
 //
-// Each of a, b, h and v is a number in SI units or "<number> deg" (ParseQuantity). A --vary with
+// Each of a, b, h and v is a number in SI units or "<number> deg" (ParseQuantity). An axis with
 // a value in degrees, or of a parameter the model gives in degrees, is shown in degrees
 // (GridAxis::display_unit; its table column is "<name>_deg").
 #include <string>
@@ -30,7 +33,7 @@ struct GridParameters {
   const std::vector<DisplayUnit>& units;
 };
 
-/// Parses one `--vary` argument (the forms above). Throws UsageError "--vary <text>: ..." naming
+/// Parses one axis's text (the forms above). Throws UsageError "<label> <text>: ..." naming
 /// the problem: bad syntax, unknown parameter (the message lists the known ones), a value that
 /// is not a number, n < 1, h <= 0, b < a in the step form. Appends to `warnings` (one line each,
 /// without the "servokit: warning: " prefix) when the text is probably not what was meant:
@@ -40,19 +43,24 @@ struct GridParameters {
 ///     beta, gamma, theta, phi, psi or containing "angle") carry no unit and span more than
 ///     2 pi: they are radians, maybe meant as degrees.
 GridAxis ParseGridAxis(const GridParameters& parameters,
+                       std::string_view label,
                        std::string_view text,
                        std::vector<std::string>* warnings = nullptr);
 
 /// ParseGridAxis for each text, then the grid over them in the same order. Throws UsageError
-/// "--vary name: ..." also when a parameter is varied twice, the grid is too large, or a
+/// "<label> name: ..." also when a parameter is varied twice, the grid is too large, or a
 /// parameter's column would clash with another column of the sweep tables (CheckSweepColumns).
 ParameterGrid ParseParameterGrid(const GridParameters& parameters,
+                                 std::string_view label,
                                  const std::vector<std::string>& texts,
                                  std::vector<std::string>* warnings = nullptr);
 
 /// The same for a model whose parameters are all shown in SI, without warnings.
-GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names, std::string_view text);
+GridAxis ParseGridAxis(const std::vector<std::string>& parameter_names,
+                       std::string_view label,
+                       std::string_view text);
 ParameterGrid ParseParameterGrid(const std::vector<std::string>& parameter_names,
+                                 std::string_view label,
                                  const std::vector<std::string>& texts);
 
 /// True for a parameter that is probably an angle: given in degrees by the model (`unit`), or

@@ -14,7 +14,7 @@
 //   - a stop request (SIGINT, SIGTERM) on any rank stops all of them at a block boundary, with
 //     the checkpoint written by rank 0; every rank exits with status 130.
 //
-// The MPI code lives in mpi_plugin.cpp, built as the MPI plugin (application/mpi_plugin.h) when
+// The MPI code lives in mpi_plugin.cpp, built as the MPI plugin (studies/mpi_plugin.h) when
 // CMake finds MPI (SERVOKIT_HAVE_MPI); mpi_processes.cpp loads it only under an MPI launcher and
 // otherwise gives the same functions for one process.
 #include <cstddef>
@@ -24,8 +24,9 @@
 
 #include "analysis/parameter_grid.h"
 #include "analysis/sweep.h"
-#include "application/sweep_store.h"
+#include "base/process_group.h"
 #include "modeling/model.h"
+#include "studies/sweep_store.h"
 
 namespace servokit {
 
@@ -50,14 +51,6 @@ class MpiSession {
   MpiSession& operator=(const MpiSession&) = delete;
 };
 
-/// The processes that run this command together.
-struct ProcessGroup {
-  int rank = 0;           // this process, in [0, size)
-  int size = 1;           // all processes of the job
-  int ranks_on_node = 1;  // processes of the job on this machine (sharing its cores)
-  bool IsRoot() const { return rank == 0; }
-};
-
 /// This process's group: MPI_COMM_WORLD inside an MpiSession, else this process alone. In a
 /// build without MPI started by mpirun, rank and size come from the launcher's environment
 /// (so that only rank 0 prints), and `servokit sweep` refuses to run.
@@ -67,6 +60,18 @@ ProcessGroup Processes();
 /// everywhere); otherwise throws on every process an error of the lowest failing rank's exit
 /// status (ExitCodeFor), with its message on rank 0 (the one that prints it).
 void AgreeOnSuccess(std::exception_ptr failure);
+
+/// Collective: runs `step` on every process; a failure on any ends all of them (AgreeOnSuccess).
+template <typename Step>
+void OnEveryProcess(Step step) {
+  std::exception_ptr failure;
+  try {
+    step();
+  } catch (...) {
+    failure = std::current_exception();
+  }
+  AgreeOnSuccess(failure);
+}
 
 /// Collective: rank 0's `value`, on every process.
 std::size_t BroadcastFromRoot(std::size_t value);

@@ -1,5 +1,5 @@
-// application/mpi_sweep.h for every build: a process started by an MPI launcher in a build with
-// MPI loads the MPI plugin (application/mpi_plugin.h) and runs as one rank of the job; any other
+// studies/distributed_sweep.h for every build: a process started by an MPI launcher in a build with
+// MPI loads the MPI plugin (studies/mpi_plugin.h) and runs as one rank of the job; any other
 // process is alone and never loads MPI. Started by mpirun without the plugin (a build without
 // MPI), a process still learns its rank from the launcher's environment, so that only rank 0
 // prints (and `servokit sweep` refuses to run K copies of one sweep).
@@ -7,10 +7,10 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "application/mpi_plugin.h"
-#include "application/mpi_sweep.h"
 #include "base/errors.h"
 #include "reports/plugins.h"
+#include "studies/distributed_sweep.h"
+#include "studies/mpi_plugin.h"
 
 namespace servokit {
 namespace {

@@ -1,4 +1,4 @@
-#include "application/sweep_store.h"
+#include "studies/sweep_store.h"
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -216,10 +216,10 @@ CheckpointRecord ReadCheckpoint(const std::filesystem::path& path) {
 }
 
 // The one table of SweepFileFormat's names.
-UsageError AnotherSweep(const std::filesystem::path& directory) {
-  return UsageError("--out " + directory.string() +
+UsageError AnotherSweep(const std::string& label, const std::filesystem::path& directory) {
+  return UsageError(label + " " + directory.string() +
                     " holds another sweep (a different model, grid or options); use another " +
-                    "--out or delete that directory");
+                    label + " or delete that directory");
 }
 
 // ---- sweep.json ------------------------------------------------------------------------------
@@ -320,12 +320,14 @@ std::string SweepTableFileNames(SweepFileFormat format) {
   return "";
 }
 
-void CheckSweepFileColumns(SweepFileFormat format, const ParameterGrid& grid) {
+void CheckSweepFileColumns(SweepFileFormat format,
+                           const ParameterGrid& grid,
+                           const std::string& label) {
   try {
     if (format == SweepFileFormat::kHdf5) CheckHdf5ColumnNames(grid);
     if (format == SweepFileFormat::kMat) CheckMatColumnNames(grid);
   } catch (const UsageError& problem) {
-    throw UsageError("--format " + std::string(ToString(format)) + ": " + problem.what());
+    throw UsageError(label + " " + std::string(ToString(format)) + ": " + problem.what());
   }
 }
 
@@ -347,12 +349,12 @@ std::string DescribeGrid(const ParameterGrid& grid) {
   return text;
 }
 
-SweepRecord ReadSweepRecord(const std::filesystem::path& directory) {
+SweepRecord ReadSweepRecord(const std::filesystem::path& directory, const std::string& label) {
   SweepRecord record;
   record.file = directory / "sweep.json";
   if (!std::filesystem::is_regular_file(record.file)) {
-    throw UsageError("--from " + directory.string() + ": no sweep.json there; not a directory " +
-                     "written by `servokit sweep --out`");
+    throw UsageError(label + " " + directory.string() +
+                     ": no sweep.json there; not a directory a servokit sweep wrote");
   }
   const nlohmann::json json = nlohmann::json::parse(ReadFile(record.file), nullptr, false);
   const auto not_a_record = [&record](const std::string& why) {
@@ -462,7 +464,8 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
       command_line_(std::move(command_line)),
       format_(format),
       fingerprint_(SweepFingerprint(model_, grid, options, format)),
-      checkpoint_interval_(output_options.checkpoint_interval) {
+      checkpoint_interval_(output_options.checkpoint_interval),
+      directory_label_(output_options.directory_label) {
   Lock();
   try {
     for (const std::filesystem::path& path :
@@ -472,7 +475,7 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
     RemoveStaleTemporaries();
     if (std::filesystem::exists(paths_.checkpoint)) {
       const CheckpointRecord checkpoint = ReadCheckpoint(paths_.checkpoint);
-      if (checkpoint.fingerprint != fingerprint_) throw AnotherSweep(directory_);
+      if (checkpoint.fingerprint != fingerprint_) throw AnotherSweep(directory_label_, directory_);
       points_done_ = checkpoint.points_done;
       points_without_solution_ = checkpoint.points_without_solution;
       Resume({checkpoint.points_bytes, checkpoint.eigenvalues_bytes});
@@ -481,10 +484,11 @@ SweepOutput::SweepOutput(const std::filesystem::path& directory,
     if (std::filesystem::exists(paths_.record)) {
       nlohmann::json record = nlohmann::json::parse(ReadFile(paths_.record), nullptr, false);
       if (!record.is_object() || !record.contains("fingerprint")) {
-        throw UsageError("--out " + directory_.string() + ": " + paths_.record.string() +
-                         " is not a servokit sweep record; use another --out or delete it");
+        throw UsageError(directory_label_ + " " + directory_.string() + ": " +
+                         paths_.record.string() + " is not a servokit sweep record; use another " +
+                         directory_label_ + " or delete it");
       }
-      if (record["fingerprint"] != fingerprint_) throw AnotherSweep(directory_);
+      if (record["fingerprint"] != fingerprint_) throw AnotherSweep(directory_label_, directory_);
       already_complete_ = record.value("completed", false) && FinalFilesExist();
       if (already_complete_) {
         // A crash right after the record said completed may have left the records behind.
@@ -519,7 +523,7 @@ void SweepOutput::Lock() {
   directory_fd_ = OpenFile(directory_, O_RDONLY | O_DIRECTORY);
   if (::flock(directory_fd_, LOCK_EX | LOCK_NB) != 0) {
     CloseFile(directory_fd_);
-    throw UsageError("--out " + directory_.string() +
+    throw UsageError(directory_label_ + " " + directory_.string() +
                      ": another servokit sweep is writing this directory");
   }
 }

@@ -1,7 +1,7 @@
-// The `--vary` grammar (application/grid_arguments.h): range a:b:n, list v1,v2,..., degrees, and
+// The `--vary` grammar (studies/grid_text.h): range a:b:n, list v1,v2,..., degrees, and
 // the exact messages of the usage errors, which name the option. The same reader serves both model
 // kinds: only the parameter names come from the model.
-#include "application/grid_arguments.h"
+#include "studies/grid_text.h"
 
 #include <catch2/catch.hpp>
 #include <limits>
@@ -33,7 +33,7 @@ std::vector<double> AxisValues(const GridAxis& axis) {
 
 std::string UsageErrorOf(const std::vector<std::string>& texts) {
   try {
-    ParseParameterGrid(MassOnCar(), texts);
+    ParseParameterGrid(MassOnCar(), "--vary", texts);
   } catch (const UsageError& error) {
     return error.what();
   }
@@ -41,14 +41,14 @@ std::string UsageErrorOf(const std::vector<std::string>& texts) {
 }
 
 TEST_CASE("a range a:b:n is n evenly spaced values from a to b, both included", "[reports]") {
-  const GridAxis axis = ParseGridAxis(MassOnCar(), "d=0:2:5");
+  const GridAxis axis = ParseGridAxis(MassOnCar(), "--vary", "d=0:2:5");
   CHECK(axis.name == "d");
   CHECK(axis.parameter == 3);  // m1, m2, k, d, alpha
   CHECK(AxisValues(axis) == std::vector<double>{0.0, 0.5, 1.0, 1.5, 2.0});
 }
 
 TEST_CASE("n = 1 is the single value a", "[reports]") {
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=3:7:1")) == std::vector<double>{3.0});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=3:7:1")) == std::vector<double>{3.0});
 }
 
 TEST_CASE("deg is accepted on each value of a range or list, with or without a blank",
@@ -58,20 +58,21 @@ TEST_CASE("deg is accepted on each value of a range or list, with or without a b
   for (const char* text : {"alpha=0deg:90deg:3", "alpha=0 deg:90 deg:3", "alpha=0:90deg:3"}) {
     INFO(text);
     // A range with a value in degrees is spaced evenly in degrees: its middle is "45 deg".
-    CHECK(AxisValues(ParseGridAxis(MassOnCar(), text)) ==
+    CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", text)) ==
           std::vector<double>{0.0, *ParseQuantity("45 deg"), ninety});
   }
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "alpha=90deg, 0.5,45 deg")) ==
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "alpha=90deg, 0.5,45 deg")) ==
         std::vector<double>{ninety, 0.5, *ParseQuantity("45 deg")});
 }
 
 TEST_CASE("a list is taken as given, in its order; one value is a list of one", "[reports]") {
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "m1=3,1,2")) == std::vector<double>{3, 1, 2});
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "m1=4")) == std::vector<double>{4});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "m1=3,1,2")) ==
+        std::vector<double>{3, 1, 2});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "m1=4")) == std::vector<double>{4});
 }
 
 TEST_CASE("the first --vary varies slowest", "[reports]") {
-  const ParameterGrid grid = ParseParameterGrid(MassOnCar(), {"alpha=1,2", "d=10:30:3"});
+  const ParameterGrid grid = ParseParameterGrid(MassOnCar(), "--vary", {"alpha=1,2", "d=10:30:3"});
   REQUIRE(grid.num_points() == 6);
   std::vector<double> values(2);
   grid.PointValues(4, values);
@@ -124,10 +125,10 @@ TEST_CASE("a grid with more points than std::size_t counts is refused", "[report
 TEST_CASE("a linear model's parameters are read by the same grammar", "[reports]") {
   const LinearModel model = LoadLinearModel(testing::TestDataPath("linear/tiny.yaml"));
   // tiny.yaml: parameters m, k, d, alpha.
-  const ParameterGrid grid = ParseParameterGrid(model.parameter_names(), {"d=0:1:3"});
+  const ParameterGrid grid = ParseParameterGrid(model.parameter_names(), "--vary", {"d=0:1:3"});
   REQUIRE(grid.num_points() == 3);
   CHECK(grid.axes().front().parameter == 2);
-  CHECK_THROWS_WITH(ParseParameterGrid(model.parameter_names(), {"q=1:2:3"}),
+  CHECK_THROWS_WITH(ParseParameterGrid(model.parameter_names(), "--vary", {"q=1:2:3"}),
                     "--vary q=1:2:3: unknown parameter 'q' (the model has m, k, d, alpha)");
 }
 
@@ -144,35 +145,39 @@ GridParameters MassOnCarParameters() {
 
 std::vector<std::string> WarningsOf(const std::string& text) {
   std::vector<std::string> warnings;
-  ParseGridAxis(MassOnCarParameters(), text, &warnings);
+  ParseGridAxis(MassOnCarParameters(), "--vary", text, &warnings);
   return warnings;
 }
 
 TEST_CASE("a:b:n=N is N values from a to b, as a:b:N", "[reports]") {
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=0:2:n=5")) ==
-        AxisValues(ParseGridAxis(MassOnCar(), "d=0:2:5")));
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=3:7:n=1")) == std::vector<double>{3.0});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=0:2:n=5")) ==
+        AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=0:2:5")));
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=3:7:n=1")) == std::vector<double>{3.0});
 }
 
 TEST_CASE("a:b:step=h is a, a + h, ... up to b, b included within a rounding tolerance",
           "[reports]") {
   // (1 - 0) / 0.1 = 10.000000000000002 in floating point: whole within 1e-9, so 11 values and
   // the last is exactly 1.
-  const std::vector<double> tenths = AxisValues(ParseGridAxis(MassOnCar(), "d=0:1:step=0.1"));
+  const std::vector<double> tenths =
+      AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=0:1:step=0.1"));
   REQUIRE(tenths.size() == 11);
   CHECK(tenths.front() == 0.0);
   CHECK(tenths.back() == 1.0);
   CHECK(tenths[3] == Approx(0.3).epsilon(1e-15));
   // 1 / 0.3 = 3.33: b is not reached; the values stop at 0.9.
-  const std::vector<double> thirds = AxisValues(ParseGridAxis(MassOnCar(), "d=0:1:step=0.3"));
+  const std::vector<double> thirds =
+      AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=0:1:step=0.3"));
   REQUIRE(thirds.size() == 4);
   CHECK(thirds.back() == Approx(0.9).epsilon(1e-15));
   CHECK(thirds.back() < 1.0);
   // a = b is one value; a step larger than b - a too.
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=2:2:step=1")) == std::vector<double>{2.0});
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=2:3:step=5")) == std::vector<double>{2.0});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=2:2:step=1")) ==
+        std::vector<double>{2.0});
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=2:3:step=5")) ==
+        std::vector<double>{2.0});
   // Degrees: 0, 5, ..., 90 is 19 values, each exactly what "<v> deg" converts to.
-  const GridAxis alpha = ParseGridAxis(MassOnCar(), "alpha=0deg:90deg:step=5deg");
+  const GridAxis alpha = ParseGridAxis(MassOnCar(), "--vary", "alpha=0deg:90deg:step=5deg");
   REQUIRE(alpha.size() == 19);
   CHECK(alpha.display_unit == DisplayUnit::kDegree);
   for (std::size_t i = 0; i < alpha.size(); ++i) {
@@ -186,13 +191,13 @@ TEST_CASE("ranges whose span overflows the largest double are read without overf
   // b - a = 2e308 overflows: a:b:3 is a, (a + b) / 2 = 0, b (parameter_grid.h), and
   // a:b:step=h counts (b - a) / h as b/h - a/h = 2 steps. Before: the middle value was inf, and
   // the step form said "the step h is too small".
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:3")) ==
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=-1e308:1e308:3")) ==
         std::vector<double>{-1e308, 0.0, 1e308});
-  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:step=1e308")) ==
+  CHECK(AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=-1e308:1e308:step=1e308")) ==
         std::vector<double>{-1e308, 0.0, 1e308});
   // 2e308 / 3e307 = 6.67 steps: the whole ones, up to -1e308 + 6 * 3e307 = 8e307.
   const std::vector<double> sixths =
-      AxisValues(ParseGridAxis(MassOnCar(), "d=-1e308:1e308:step=3e307"));
+      AxisValues(ParseGridAxis(MassOnCar(), "--vary", "d=-1e308:1e308:step=3e307"));
   REQUIRE(sixths.size() == 7);
   CHECK(sixths.back() == Approx(8e307).epsilon(1e-15));
 }
@@ -203,22 +208,23 @@ TEST_CASE("a --vary in degrees, or of a parameter the model gives in degrees, is
   const std::vector<DisplayUnit> units = MassOnCarModel().parameter_display_units();
   CHECK(units == std::vector<DisplayUnit>{DisplayUnit::kSI, DisplayUnit::kSI, DisplayUnit::kSI,
                                           DisplayUnit::kSI, DisplayUnit::kDegree});
-  const GridAxis listed = ParseGridAxis(MassOnCarParameters(), "alpha=5deg,30deg");
+  const GridAxis listed = ParseGridAxis(MassOnCarParameters(), "--vary", "alpha=5deg,30deg");
   CHECK(listed.display_unit == DisplayUnit::kDegree);
   CHECK(listed.ColumnName() == "alpha_deg");
   // The given degrees come back exactly, although 5 pi/180 * 180/pi need not be 5.
   CHECK(listed.DisplayValue(listed.Value(0)) == 5.0);
   CHECK(listed.DisplayValue(listed.Value(1)) == 30.0);
   // Declared in degrees by the model: shown in degrees even when given in radians.
-  const GridAxis radians = ParseGridAxis(MassOnCarParameters(), "alpha=0.5,1");
+  const GridAxis radians = ParseGridAxis(MassOnCarParameters(), "--vary", "alpha=0.5,1");
   CHECK(radians.display_unit == DisplayUnit::kDegree);
   CHECK(radians.Value(0) == 0.5);
   CHECK(radians.DisplayValue(0.5) == Approx(0.5 * 180.0 / std::numbers::pi).epsilon(1e-15));
   // A deg on any value marks the axis, whatever the model says.
-  CHECK(ParseGridAxis(MassOnCarParameters(), "d=0:1:3").display_unit == DisplayUnit::kSI);
-  CHECK(ParseGridAxis(MassOnCar(), "d=0deg:1deg:n=3").display_unit == DisplayUnit::kDegree);
+  CHECK(ParseGridAxis(MassOnCarParameters(), "--vary", "d=0:1:3").display_unit == DisplayUnit::kSI);
+  CHECK(ParseGridAxis(MassOnCar(), "--vary", "d=0deg:1deg:n=3").display_unit ==
+        DisplayUnit::kDegree);
   // A range in degrees is evenly spaced in degrees: 0deg:90deg:91 reads 0, 1, ..., 90.
-  const GridAxis range = ParseGridAxis(MassOnCar(), "alpha=0deg:90deg:91");
+  const GridAxis range = ParseGridAxis(MassOnCar(), "--vary", "alpha=0deg:90deg:91");
   for (std::size_t i = 0; i < range.size(); ++i) {
     CHECK(range.DisplayValue(range.Value(i)) == static_cast<double>(i));
     CHECK(range.Value(i) == *ParseQuantity(std::to_string(i) + " deg"));
@@ -276,7 +282,7 @@ outputs: [x]
   const GridParameters parameters{model.parameter_names(), model.parameter_display_units()};
   const auto error_of = [&](const std::vector<std::string>& texts) -> std::string {
     try {
-      ParseParameterGrid(parameters, texts);
+      ParseParameterGrid(parameters, "--vary", texts);
     } catch (const UsageError& error) {
       return error.what();
     }
