@@ -38,6 +38,20 @@ class ExpressionProgram {
   /// passes its own registers. Domain errors (log of a negative number) give NaN, as in <cmath>.
   void Evaluate(const double* inputs, double* registers, double* outputs) const;
 
+  /// Taylor-mode forward differentiation (modeling/taylor_evaluation.cpp): given every input as a
+  /// truncated Taylor series x_i(t) = sum_k x_ik t^k, k = 0..degree, computes every output's
+  /// coefficients y_k = y^(k)(0) / k! through the instructions, without expanding a formula: the
+  /// cost is (degree + 1)^2 operations per instruction. `input_coefficients` holds num_inputs()
+  /// rows of degree + 1 (input i's coefficient k at i * (degree + 1) + k), `registers` scratch of
+  /// num_registers() * (degree + 1) values, `output_coefficients` receives num_outputs() rows of
+  /// degree + 1. Degree 1 with x_i1 the direction v gives the directional derivative (a Jacobian
+  /// column for v = e_j). Where a derivative does not exist (sqrt or abs at 0, log at 0) the
+  /// coefficients are not finite, as in <cmath>.
+  void EvaluateTaylor(int degree,
+                      const double* input_coefficients,
+                      double* registers,
+                      double* output_coefficients) const;
+
   /// For a caller that keeps `registers` (num_registers() values) for this program alone: writes
   /// the constants into them, once.
   void LoadConstants(double* registers) const;

@@ -1,0 +1,293 @@
+// ExpressionProgram::EvaluateTaylor: univariate Taylor-mode forward differentiation through the
+// compiled instruction list (A. Griewank, A. Walther, "Evaluating Derivatives", 2nd ed., SIAM
+// 2008, Sect. 13.2, Table 13.1 and 13.2). Each register holds a truncated Taylor series
+// c(t) = c_0 + c_1 t + ... + c_d t^d; each instruction maps its operands' series to its result's
+// with the recurrences below, O(d^2) operations, and no formula is ever expanded: the cost
+// grows with the program (shared subexpressions count once), not with the size of an expanded
+// derivative. Coefficient 0 is computed as Evaluate() computes the value, to the same bits.
+//
+// The elementary functions use that their derivative solves a linear relation with a series
+// known one coefficient ahead: for c = F(a) with c' w = v (w and v series), coefficient k - 1 of
+// the product gives
+//     k c_k w_0 = v_(k-1) - sum_(j=1)^(k-1) j c_j w_(k-j).
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "modeling/expression_program.h"
+
+namespace servokit {
+namespace {
+
+using Series = std::span<double>;
+using ConstSeries = std::span<const double>;
+
+// c = a * b (Cauchy product); c may not alias a or b.
+void Multiply(ConstSeries a, ConstSeries b, Series c) {
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t j = 0; j <= k; ++j) sum += a[j] * b[k - j];
+    c[k] = sum;
+  }
+  c[0] = a[0] * b[0];  // the value's bits, as Evaluate
+}
+
+// c = a / b: c_k = (a_k - sum_(j<k) c_j b_(k-j)) / b_0. `a` empty means 1 (a reciprocal).
+void Divide(ConstSeries a, ConstSeries b, Series c) {
+  c[0] = a.empty() ? 1.0 / b[0] : a[0] / b[0];
+  for (std::size_t k = 1; k < c.size(); ++k) {
+    double sum = a.empty() ? 0.0 : a[k];
+    for (std::size_t j = 0; j < k; ++j) sum -= c[j] * b[k - j];
+    c[k] = sum / b[0];
+  }
+}
+
+// c = a^n, n >= 1, by the same binary exponentiation as Evaluate (so c_0 has its bits).
+void PowerInteger(ConstSeries a, std::uint32_t n, Series c, Series base, Series product) {
+  std::fill(c.begin(), c.end(), 0.0);
+  c[0] = 1.0;
+  std::copy(a.begin(), a.end(), base.begin());
+  for (std::uint32_t exponent = n; exponent != 0; exponent >>= 1) {
+    if ((exponent & 1u) != 0) {
+      Multiply(c, base, product);
+      std::copy(product.begin(), product.end(), c.begin());
+    }
+    if (exponent > 1) {
+      Multiply(base, base, product);
+      std::copy(product.begin(), product.end(), base.begin());
+    }
+  }
+}
+
+// c = F(a) given c_0, where c' w = a' (w a series whose coefficient k - 1 is known before c_k):
+// k c_k w_0 = k a_k - sum_(j=1)^(k-1) j c_j w_(k-j). `sign` -1 gives c' w = -a'.
+void IntegrateQuotient(ConstSeries a, ConstSeries w, double sign, Series c) {
+  for (std::size_t k = 1; k < c.size(); ++k) {
+    double sum = sign * double(k) * a[k];
+    for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
+    c[k] = sum / (double(k) * w[0]);
+  }
+}
+
+// c_k = (1/k) sum_(j=1)^k j a_j partner_(k-j) * sign: the recurrence of exp (partner = c),
+// sin/cos and sinh/cosh (partner = the other function), for coefficient k alone.
+double ChainCoefficient(ConstSeries a, ConstSeries partner, std::size_t k, double sign) {
+  double sum = 0.0;
+  for (std::size_t j = 1; j <= k; ++j) sum += double(j) * a[j] * partner[k - j];
+  return sign * sum / double(k);
+}
+
+// s = sin a, co = cos a (or sinh, cosh with `hyperbolic`), both computed: each needs the other.
+void SineCosine(ConstSeries a, bool hyperbolic, Series s, Series co) {
+  s[0] = hyperbolic ? std::sinh(a[0]) : std::sin(a[0]);
+  co[0] = hyperbolic ? std::cosh(a[0]) : std::cos(a[0]);
+  for (std::size_t k = 1; k < s.size(); ++k) {
+    s[k] = ChainCoefficient(a, co, k, 1.0);
+    co[k] = ChainCoefficient(a, s, k, hyperbolic ? 1.0 : -1.0);
+  }
+}
+
+// t = tan a (t' = (1 + t^2) a') or tanh a (t' = (1 - t^2) a'); w is 1 +- t^2, built along.
+void Tangent(ConstSeries a, bool hyperbolic, Series t, Series w) {
+  const double sign = hyperbolic ? -1.0 : 1.0;
+  t[0] = hyperbolic ? std::tanh(a[0]) : std::tan(a[0]);
+  w[0] = 1.0 + sign * t[0] * t[0];
+  for (std::size_t k = 1; k < t.size(); ++k) {
+    t[k] = ChainCoefficient(a, w, k, 1.0);
+    double square = 0.0;
+    for (std::size_t i = 0; i <= k; ++i) square += t[i] * t[k - i];
+    w[k] = sign * square;
+  }
+}
+
+// c = sqrt(a): c_k = (a_k - sum_(j=1)^(k-1) c_j c_(k-j)) / (2 c_0).
+void SquareRoot(ConstSeries a, Series c) {
+  c[0] = std::sqrt(a[0]);
+  for (std::size_t k = 1; k < c.size(); ++k) {
+    double sum = a[k];
+    for (std::size_t j = 1; j < k; ++j) sum -= c[j] * c[k - j];
+    c[k] = sum / (2.0 * c[0]);
+  }
+}
+
+// c = exp(a) with c_0 given (exp(a_0), or pow's value for a^b = exp(b log a)).
+void Exponential(ConstSeries a, Series c) {
+  for (std::size_t k = 1; k < c.size(); ++k) c[k] = ChainCoefficient(a, c, k, 1.0);
+}
+
+// c = log(a): c' a = a', so k c_k a_0 = k a_k - sum_(j=1)^(k-1) j c_j a_(k-j).
+void Logarithm(ConstSeries a, Series c) {
+  c[0] = std::log(a[0]);
+  IntegrateQuotient(a, a, 1.0, c);
+}
+
+// c = a^r for a constant r: c' a = r a' c, so
+// k a_0 c_k = sum_(j=1)^k (r j - (k - j)) a_j c_(k-j).
+void PowerConstant(ConstSeries a, double r, Series c) {
+  for (std::size_t k = 1; k < c.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t j = 1; j <= k; ++j) {
+      sum += (r * double(j) - double(k - j)) * a[j] * c[k - j];
+    }
+    c[k] = sum / (double(k) * a[0]);
+  }
+}
+
+// w = shift + sign * (a^2 (+ b^2)): the series 1 - a^2, 1 + a^2 and a^2 + b^2.
+void SumOfSquares(ConstSeries a, ConstSeries b, double shift, double sign, Series w) {
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i <= k; ++i) {
+      sum += a[i] * a[k - i] + (b.empty() ? 0.0 : b[i] * b[k - i]);
+    }
+    w[k] = (k == 0 ? shift : 0.0) + sign * sum;
+  }
+}
+
+// c = atan2(a, b): c' (a^2 + b^2) = b a' - a b'. Coefficient k - 1 of the right side is
+// v = sum_(i=0)^(k-1) (k - i) (b_i a_(k-i) - a_i b_(k-i)).
+void ArcTangent2(ConstSeries a, ConstSeries b, Series w, Series c) {
+  c[0] = std::atan2(a[0], b[0]);
+  SumOfSquares(a, b, 0.0, 1.0, w);
+  for (std::size_t k = 1; k < c.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < k; ++i) sum += double(k - i) * (b[i] * a[k - i] - a[i] * b[k - i]);
+    for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
+    c[k] = sum / (double(k) * w[0]);
+  }
+}
+
+// c = |a|: the series of a times its sign, the sign of the first nonzero coefficient where
+// a_0 = 0 (the one-sided series for t > 0).
+void AbsoluteValue(ConstSeries a, Series c) {
+  double sign = 0.0;
+  for (const double coefficient : a) {
+    if (coefficient != 0.0) {
+      sign = coefficient > 0.0 ? 1.0 : -1.0;
+      break;
+    }
+  }
+  for (std::size_t k = 0; k < c.size(); ++k) c[k] = sign * a[k];
+  c[0] = std::abs(a[0]);
+}
+
+}  // namespace
+
+void ExpressionProgram::EvaluateTaylor(int degree,
+                                       const double* input_coefficients,
+                                       double* registers,
+                                       double* output_coefficients) const {
+  const auto n = static_cast<std::size_t>(degree) + 1;
+  const auto row = [&](std::uint32_t index) { return Series(registers + index * n, n); };
+  std::copy_n(input_coefficients, num_inputs_ * n, registers);
+  for (std::size_t i = 0; i < constants_.size(); ++i) {
+    const Series constant = row(static_cast<std::uint32_t>(num_inputs_ + i));
+    std::fill(constant.begin(), constant.end(), 0.0);
+    constant[0] = constants_[i];
+  }
+  // Scratch series: a partner function, an auxiliary w, and two for powers.
+  std::vector<double> scratch(4 * n);
+  const Series partner(scratch.data(), n), auxiliary(scratch.data() + n, n),
+      spare(scratch.data() + 2 * n, n), spare2(scratch.data() + 3 * n, n);
+  auto result_index = static_cast<std::uint32_t>(num_inputs_ + constants_.size());
+  for (const Instruction& instruction : instructions_) {
+    const Series c = row(result_index++);
+    const ConstSeries a = row(instruction.a);
+    const auto b = [&] { return ConstSeries(row(instruction.b)); };
+    switch (instruction.op) {
+      case OpCode::kAdd:
+        for (std::size_t k = 0; k < n; ++k) c[k] = a[k] + b()[k];
+        break;
+      case OpCode::kSub:
+        for (std::size_t k = 0; k < n; ++k) c[k] = a[k] - b()[k];
+        break;
+      case OpCode::kMul:
+        Multiply(a, b(), c);
+        break;
+      case OpCode::kDiv:
+        Divide(a, b(), c);
+        break;
+      case OpCode::kNeg:
+        for (std::size_t k = 0; k < n; ++k) c[k] = -a[k];
+        break;
+      case OpCode::kReciprocal:
+        Divide({}, a, c);
+        break;
+      case OpCode::kPowInt:
+        PowerInteger(a, instruction.b, c, spare, spare2);
+        break;
+      case OpCode::kPow: {
+        const ConstSeries exponent = b();
+        c[0] = std::pow(a[0], exponent[0]);
+        if (std::all_of(exponent.begin() + 1, exponent.end(), [](double e) { return e == 0.0; })) {
+          PowerConstant(a, exponent[0], c);
+        } else {
+          // a^b = exp(b log a): the exponent's series is b * log(a).
+          Logarithm(a, spare);
+          Multiply(exponent, spare, spare2);
+          Exponential(spare2, c);
+        }
+        break;
+      }
+      case OpCode::kSqrt:
+        SquareRoot(a, c);
+        break;
+      case OpCode::kSin:
+        SineCosine(a, false, c, partner);
+        break;
+      case OpCode::kCos:
+        SineCosine(a, false, partner, c);
+        break;
+      case OpCode::kTan:
+        Tangent(a, false, c, auxiliary);
+        break;
+      case OpCode::kAsin:
+      case OpCode::kAcos: {
+        // c' sqrt(1 - a^2) = +-a'.
+        SumOfSquares(a, {}, 1.0, -1.0, spare);
+        SquareRoot(spare, auxiliary);
+        const bool sine = instruction.op == OpCode::kAsin;
+        c[0] = sine ? std::asin(a[0]) : std::acos(a[0]);
+        IntegrateQuotient(a, auxiliary, sine ? 1.0 : -1.0, c);
+        break;
+      }
+      case OpCode::kAtan:
+        // c' (1 + a^2) = a'.
+        SumOfSquares(a, {}, 1.0, 1.0, auxiliary);
+        c[0] = std::atan(a[0]);
+        IntegrateQuotient(a, auxiliary, 1.0, c);
+        break;
+      case OpCode::kAtan2:
+        ArcTangent2(a, b(), auxiliary, c);
+        break;
+      case OpCode::kExp:
+        c[0] = std::exp(a[0]);
+        Exponential(a, c);
+        break;
+      case OpCode::kLog:
+        Logarithm(a, c);
+        break;
+      case OpCode::kSinh:
+        SineCosine(a, true, c, partner);
+        break;
+      case OpCode::kCosh:
+        SineCosine(a, true, partner, c);
+        break;
+      case OpCode::kTanh:
+        Tangent(a, true, c, auxiliary);
+        break;
+      case OpCode::kAbs:
+        AbsoluteValue(a, c);
+        break;
+    }
+  }
+  for (std::size_t i = 0; i < output_registers_.size(); ++i) {
+    const ConstSeries output = row(output_registers_[i]);
+    std::copy(output.begin(), output.end(), output_coefficients + i * n);
+  }
+}
+
+}  // namespace servokit
