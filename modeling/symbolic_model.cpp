@@ -3,6 +3,8 @@
 #include <cassert>
 #include <utility>
 
+#include "modeling/expansion_bound.h"
+
 namespace servokit {
 namespace {
 
@@ -97,8 +99,12 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
     GiNaC::exmap at_rest;
     for (const GiNaC::realsymbol& velocity : e.velocities) at_rest[velocity] = 0;
     const GiNaC::realsymbol lambda("lambda");
-    const GiNaC::ex polynomial =
-        GiNaC::numer(GiNaC::normal(RosenbrockDeterminant(lambda, at_rest))).expand();
+    const GiNaC::matrix rosenbrock = RosenbrockMatrix(lambda, at_rest);
+    // Derived only when its expansion stays within the budget; else sweeps take the numeric
+    // route (the eigenvalues of the linearized zero dynamics) for this model too.
+    e.zero_dynamics_polynomial_terms = BoundExpandedTerms(LeibnizDeterminant(rosenbrock)).numerator;
+    if (e.zero_dynamics_polynomial_terms > kMaxPolynomialTerms) return;
+    const GiNaC::ex polynomial = GiNaC::numer(GiNaC::normal(rosenbrock.determinant())).expand();
     for (int k = 0; k <= int(2 * dof()); ++k) {
       const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
       e.zero_dynamics_polynomial.push_back(coefficient);
@@ -109,6 +115,12 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
 
 GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,
                                                const GiNaC::exmap& at) const {
+  const SymbolicLock lock;
+  return RosenbrockMatrix(lambda, at).determinant();
+}
+
+GiNaC::matrix SymbolicModel::RosenbrockMatrix(const GiNaC::realsymbol& lambda,
+                                              const GiNaC::exmap& at) const {
   const SymbolicLock lock;
   const Expressions& e = *expressions_;
   const unsigned n = unsigned(dof()), m = unsigned(num_inputs());
@@ -125,7 +137,7 @@ GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,
   for (unsigned r = 0; r < e.output.rows(); ++r) {
     for (unsigned j = 0; j < n; ++j) rosenbrock(n + r, j) = e.output_jacobian(r, j).subs(at);
   }
-  return rosenbrock.determinant();
+  return rosenbrock;
 }
 
 std::vector<GiNaC::ex> SymbolicModel::ProgramInputs() const {

@@ -94,6 +94,8 @@ class SymbolicModel {
   /// equilibrium where B u0 does not vary with q (u0 = 0 or B constant); its roots are the
   /// invariant zeros. The one place this determinant is formed.
   GiNaC::ex RosenbrockDeterminant(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
+  /// The matrix of that determinant, [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]].
+  GiNaC::matrix RosenbrockMatrix(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
 
   /// Its coefficients a_0 .. a_(2 dof) in lambda at q_dot = 0, as functions of the parameters
   /// and q, derived at load for models with dof + inputs <= kMaxPolynomialSize (empty for
@@ -110,6 +112,17 @@ class SymbolicModel {
   /// Rows of the Rosenbrock matrix (dof + inputs) up to which zero_dynamics_polynomial() is
   /// derived at load; keeps loading well under the 100 ms goal.
   static constexpr std::size_t kMaxPolynomialSize = 4;
+  /// The most terms the polynomial's expanded numerator may have, by BoundExpandedTerms
+  /// (modeling/expansion_bound.h) before anything is expanded: beyond it the polynomial is not
+  /// derived (a product of sums in the forces would take minutes and gigabytes to expand, issue
+  /// #31) and the sweeps classify the model by its eigenvalues, as a larger model.
+  // The shipped models need up to 5616 (rotational_arm_tip, loaded in about 50 ms); a product of
+  // seven sums of five terms, about 1.4e4, took seconds.
+  static constexpr double kMaxPolynomialTerms = 8000;
+  /// The bound on its numerator's terms that decided (0 when the size rule above excluded it).
+  double zero_dynamics_polynomial_terms() const {
+    return expressions_->zero_dynamics_polynomial_terms;
+  }
 
   /// The substitution parameter symbol -> value, for GiNaC's subs(). `values` has
   /// parameters().size() entries in SI units (e.g. Model::parameters()).
@@ -129,6 +142,7 @@ class SymbolicModel {
         output_jacobian_derivatives;
     GiNaC::matrix output_bias_position_jacobian, output_bias_velocity_jacobian;
     std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
+    double zero_dynamics_polynomial_terms = 0.0;
   };
   SymbolicPtr<Expressions> expressions_;
 };

@@ -1,0 +1,77 @@
+#include "modeling/expansion_bound.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cstddef>
+#include <limits>
+#include <numeric>
+#include <vector>
+
+namespace servokit {
+namespace {
+
+// The terms of a sum of `terms` terms raised to the n-th power: the number of monomials of
+// degree n in `terms` variables, C(terms + n - 1, n).
+double PowerTerms(double terms, long n) {
+  double count = 1.0;
+  for (long i = 1; i <= n; ++i) count = count * (terms - 1.0 + double(i)) / double(i);
+  return count;
+}
+
+}  // namespace
+
+ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression) {
+  if (GiNaC::is_a<GiNaC::add>(expression)) {
+    // Over the common denominator, term i's numerator is multiplied by every other denominator.
+    std::vector<ExpandedTerms> operands;
+    for (const GiNaC::ex& operand : expression) operands.push_back(BoundExpandedTerms(operand));
+    ExpandedTerms sum{0.0, 1.0};
+    for (const ExpandedTerms& operand : operands) sum.denominator *= operand.denominator;
+    for (const ExpandedTerms& operand : operands) {
+      sum.numerator += operand.numerator * (sum.denominator / operand.denominator);
+    }
+    return sum;
+  }
+  if (GiNaC::is_a<GiNaC::mul>(expression)) {
+    ExpandedTerms product;
+    for (const GiNaC::ex& factor : expression) {
+      const ExpandedTerms terms = BoundExpandedTerms(factor);
+      product.numerator *= terms.numerator;
+      product.denominator *= terms.denominator;
+    }
+    return product;
+  }
+  if (GiNaC::is_a<GiNaC::power>(expression)) {
+    const GiNaC::ex exponent = expression.op(1);
+    if (GiNaC::is_a<GiNaC::numeric>(exponent) &&
+        GiNaC::ex_to<GiNaC::numeric>(exponent).is_integer()) {
+      const long n = GiNaC::ex_to<GiNaC::numeric>(exponent).to_long();
+      const ExpandedTerms base = BoundExpandedTerms(expression.op(0));
+      const ExpandedTerms raised{PowerTerms(base.numerator, std::labs(n)),
+                                 PowerTerms(base.denominator, std::labs(n))};
+      return n >= 0 ? raised : ExpandedTerms{raised.denominator, raised.numerator};
+    }
+  }
+  return {};  // a number, a symbol, a function or a power kept whole: one term
+}
+
+GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix) {
+  const unsigned n = matrix.rows();
+  assert(matrix.cols() == n && n <= 5);
+  std::vector<unsigned> permutation(n);
+  std::iota(permutation.begin(), permutation.end(), 0u);
+  GiNaC::ex determinant = 0;
+  do {
+    // The sign of the permutation: the parity of its inversions.
+    int inversions = 0;
+    for (unsigned i = 0; i < n; ++i) {
+      for (unsigned j = i + 1; j < n; ++j) inversions += permutation[i] > permutation[j] ? 1 : 0;
+    }
+    GiNaC::ex product = inversions % 2 == 0 ? 1 : -1;
+    for (unsigned i = 0; i < n; ++i) product *= matrix(i, permutation[i]);
+    determinant += product;
+  } while (std::next_permutation(permutation.begin(), permutation.end()));
+  return determinant;
+}
+
+}  // namespace servokit

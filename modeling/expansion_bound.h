@@ -1,0 +1,27 @@
+#pragma once
+// A bound on what GiNaC's normal() and expand() make of an expression, computed from its tree
+// without expanding anything: the number of terms of the expanded numerator and denominator
+// over a common denominator. A product of K sums of m terms each expands to up to m^K terms, and
+// normal() brings a sum of fractions onto one denominator, multiplying each numerator by the
+// others' denominators; both grow without bound on models of realistic size. The bound decides,
+// before the work, whether a closed form is cheap enough to derive (issue #31: symbolic only
+// where it is cheap).
+#include <ginac/ginac.h>
+
+namespace servokit {
+
+/// Upper bounds on the term counts of numer(normal(e)).expand() and denom(...).expand(). Functions
+/// (sin, sqrt, ...) and powers with a non-integer or symbolic exponent count as one term (normal
+/// keeps them as atoms). Counts saturate at infinity. Hold a SymbolicLock.
+struct ExpandedTerms {
+  double numerator = 1.0;
+  double denominator = 1.0;
+};
+ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression);
+
+/// The Laplace expansion of det(matrix), a sum of signed products of entries, built without
+/// normal() or expand() (a square matrix of at most 5 rows): what BoundExpandedTerms bounds
+/// before GiNaC's own determinant() normalizes it.
+GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix);
+
+}  // namespace servokit
