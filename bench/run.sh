@@ -15,6 +15,9 @@ echo
 echo "== start-up: CPU time of analyze on every shipped model (issue #19) =="
 "$root/bench/compare_startup.sh" "$build"
 echo
+echo "== model size: the symbolic core against issue #31's targets =="
+"$root/bench/compare_model_size.sh" "$build"
+echo
 echo "== sweep of every shipped model against a generic per-point SciPy pipeline (issue #19) =="
 "$root/bench/compare_generic_sweep.sh" "$build"
 echo
