@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/numeric_structure.h"
 #include "base/errors.h"
 #include "modeling/canonical_expression.h"
 #include "modeling/symbolic_lock.h"
@@ -322,13 +323,7 @@ class StructureAlgorithm {
   }
 
  private:
-  NoSolution NotIndependent(std::size_t row) const {
-    return NoSolution(
-        "the outputs do not determine the inputs: with output " + OutputName(row) +
-        " the structure algorithm needs more than 2 dof = " + std::to_string(states_) +
-        " constraints on the state (the outputs are not independent; no left "
-        "inverse exists)");
-  }
+  NoSolution NotIndependent(std::size_t row) const { return OutputsNotIndependent(row, states_); }
 
   // Row i's u-free functions become constraints until u appears in a derivative.
   void DifferentiateUntilInputsAppear(std::size_t i) {
@@ -354,9 +349,7 @@ class StructureAlgorithm {
       AddParametersOf(derivative.input_coefficients, dynamics_, pinned_);
       row.function = derivative.drift;
       if (row.order >= max_order && structure_.relative_degree[i] == 0) {
-        throw NoSolution("output " + OutputName(i) +
-                         " never depends on the inputs (checked up to its derivative of order " +
-                         std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
+        throw OutputNeverDependsOnInputs(i, std::size_t(max_order));
       }
     }
   }
@@ -512,8 +505,52 @@ NonlinearStructure DeriveNonlinearStructure(const Model& model,
   return StructureAlgorithm(model, options).Run();
 }
 
-NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
-                                                      const NonlinearStructureOptions& options) {
+namespace {
+
+// The summary's note from its other fields: the rank of A at the operating point when it is
+// lower there than nearby, else the dynamic extension (its first step's rank).
+std::string StructureNote(const NonlinearStructureSummary& summary,
+                          std::size_t reference_rank,
+                          std::size_t extension_rank,
+                          std::size_t m) {
+  if (!summary.defined_at_operating_point) {
+    const bool scalar_p = m == 1 && summary.relative_degree[0] == 2 && !summary.extended;
+    return std::string(scalar_p ? "P" : "the inputs' coefficient matrix") +
+           " vanishes at the operating point only (rank " + std::to_string(reference_rank) +
+           " of " + std::to_string(m) + " there, " + std::to_string(m) +
+           " nearby): the relative degree is not defined there, and the structure of "
+           "the linearization (flat or tangential) holds for the linearization only";
+  }
+  if (!summary.extended) return "";
+  std::string names;
+  for (std::size_t i = 0; i < summary.delayed_inputs.size(); ++i) {
+    names += (i ? ", " : "") + summary.delayed_inputs[i];
+  }
+  return "the inputs' coefficient matrix is singular on a neighbourhood (rank " +
+         std::to_string(extension_rank) + " of " + std::to_string(m) +
+         "); a dynamic extension delays " + names + " through " +
+         std::to_string(summary.integrators) + " integrator" +
+         (summary.integrators == 1 ? "" : "s");
+}
+
+// The summary of the numeric route, when A is regular nearby: no extension.
+NonlinearStructureSummary NumericSummary(const Model& model, const NumericStructure& numeric) {
+  NonlinearStructureSummary summary;
+  summary.derived = true;
+  summary.relative_degree = numeric.relative_degree;
+  summary.extended_relative_degree = numeric.relative_degree;
+  int constraints = 0;
+  for (int order : numeric.relative_degree) constraints += order;
+  summary.internal_order = 2 * model.dof() - std::size_t(constraints);
+  const std::size_t m = model.num_outputs();
+  summary.defined_at_operating_point = numeric.reference_rank == m;
+  summary.note = StructureNote(summary, numeric.reference_rank, 0, m);
+  return summary;
+}
+
+// The summary of the symbolic route.
+NonlinearStructureSummary SymbolicSummary(const Model& model,
+                                          const NonlinearStructureOptions& options) {
   // The structure's expressions live in this scope: they are made and destroyed under the lock.
   const SymbolicLock lock;
   NonlinearStructureSummary summary;
@@ -537,26 +574,24 @@ NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
   summary.internal_order = structure.internal_order();
   const std::size_t m = model.num_outputs();
   summary.defined_at_operating_point = structure.reference_rank == m;
-  if (!summary.defined_at_operating_point) {
-    const bool scalar_p = m == 1 && structure.relative_degree[0] == 2 && !structure.extended();
-    summary.note = std::string(scalar_p ? "P" : "the inputs' coefficient matrix") +
-                   " vanishes at the operating point only (rank " +
-                   std::to_string(structure.reference_rank) + " of " + std::to_string(m) +
-                   " there, " + std::to_string(m) +
-                   " nearby): the relative degree is not defined there, and the structure of "
-                   "the linearization (flat or tangential) holds for the linearization only";
-  } else if (summary.extended) {
-    std::string names;
-    for (std::size_t i = 0; i < summary.delayed_inputs.size(); ++i) {
-      names += (i ? ", " : "") + summary.delayed_inputs[i];
-    }
-    summary.note = "the inputs' coefficient matrix is singular on a neighbourhood (rank " +
-                   std::to_string(structure.extension_steps.front().rank) + " of " +
-                   std::to_string(m) + "); a dynamic extension delays " + names + " through " +
-                   std::to_string(summary.integrators) + " integrator" +
-                   (summary.integrators == 1 ? "" : "s");
-  }
+  summary.note = StructureNote(summary, structure.reference_rank,
+                               summary.extended ? structure.extension_steps.front().rank : 0, m);
   return summary;
+}
+
+}  // namespace
+
+NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
+                                                      const NonlinearStructureOptions& options) {
+  try {
+    const NumericStructure numeric = DeriveNumericStructure(model, options);
+    if (numeric.rank_nearby == model.num_outputs()) return NumericSummary(model, numeric);
+  } catch (const NoSolution& error) {
+    NonlinearStructureSummary summary;
+    summary.note = error.what();
+    return summary;
+  }
+  return SymbolicSummary(model, options);
 }
 
 }  // namespace servokit

@@ -114,8 +114,10 @@ struct NonlinearStructureSummary {
 };
 
 /// Runs the structure algorithm and summarizes it; a NoSolution of the algorithm becomes the
-/// note of a summary that is not derived. Thread-safe: the symbolic work runs under
-/// SymbolicLock (modeling/symbolic_lock.h), one caller after the other.
+/// note of a summary that is not derived. The numeric route (analysis/numeric_structure.h)
+/// decides first, with no formula; only when the inputs' coefficient matrix is singular nearby
+/// (a dynamic extension) does the symbolic route derive the combined rows. Thread-safe: the
+/// symbolic work runs under SymbolicLock (modeling/symbolic_lock.h), one caller after the other.
 NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
                                                       const NonlinearStructureOptions& options);
 

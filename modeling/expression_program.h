@@ -11,6 +11,8 @@
 
 namespace servokit {
 
+struct Dual;  // modeling/dual_number.h
+
 /// An immutable, thread-shareable evaluator of several expressions in the same inputs.
 ///
 /// Register file layout (the caller owns it, so that one program serves many threads):
@@ -51,6 +53,13 @@ class ExpressionProgram {
                       const double* input_coefficients,
                       double* registers,
                       double* output_coefficients) const;
+  /// The same over dual numbers (modeling/dual_number.h): each coefficient carries its
+  /// derivative in one direction, which the inputs' tangents give (a start or an input of a
+  /// motion, modeling/motion_series.h), exactly rather than as a difference.
+  void EvaluateTaylor(int degree,
+                      const Dual* input_coefficients,
+                      Dual* registers,
+                      Dual* output_coefficients) const;
 
   /// For a caller that keeps `registers` (num_registers() values) for this program alone: writes
   /// the constants into them, once.
@@ -97,6 +106,12 @@ class ExpressionProgram {
 
   // Runs the instructions on registers holding the inputs and the constants.
   void Run(double* registers) const;
+  // EvaluateTaylor for coefficients of type T (modeling/taylor_evaluation.cpp).
+  template <typename T>
+  void RunTaylor(int degree,
+                 const T* input_coefficients,
+                 T* registers,
+                 T* output_coefficients) const;
 
   friend class ExpressionCompiler;  // expression_program.cpp builds programs
   std::size_t num_inputs_ = 0;

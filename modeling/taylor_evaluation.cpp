@@ -10,6 +10,9 @@
 // known one coefficient ahead: for c = F(a) with c' w = v (w and v series), coefficient k - 1 of
 // the product gives
 //     k c_k w_0 = v_(k-1) - sum_(j=1)^(k-1) j c_j w_(k-j).
+//
+// The coefficients are doubles, or dual numbers (modeling/dual_number.h): then every coefficient
+// carries its derivative in one direction (a start or an input of a motion) along, exactly.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -17,179 +20,205 @@
 #include <span>
 #include <vector>
 
+#include "modeling/dual_number.h"
 #include "modeling/expression_program.h"
 
 namespace servokit {
 namespace {
+using std::abs;
+using std::acos;
+using std::asin;
+using std::atan;
+using std::atan2;
+using std::cos;
+using std::cosh;
+using std::exp;
+using std::log;
+using std::pow;
+using std::sin;
+using std::sinh;
+using std::sqrt;
+using std::tan;
+using std::tanh;
 
-using Series = std::span<double>;
-using ConstSeries = std::span<const double>;
+// The recurrences, for coefficients of type T (the functions of <cmath> for double, of
+// modeling/dual_number.h for Dual, found by argument-dependent lookup).
+template <typename T>
+struct TaylorRules {
+  using Series = std::span<T>;
+  using ConstSeries = std::span<const T>;
 
-// c = a * b (Cauchy product); c may not alias a or b.
-void Multiply(ConstSeries a, ConstSeries b, Series c) {
-  for (std::size_t k = 0; k < c.size(); ++k) {
-    double sum = 0.0;
-    for (std::size_t j = 0; j <= k; ++j) sum += a[j] * b[k - j];
-    c[k] = sum;
-  }
-  c[0] = a[0] * b[0];  // the value's bits, as Evaluate
-}
-
-// c = a / b: c_k = (a_k - sum_(j<k) c_j b_(k-j)) / b_0. `a` empty means 1 (a reciprocal).
-void Divide(ConstSeries a, ConstSeries b, Series c) {
-  c[0] = a.empty() ? 1.0 / b[0] : a[0] / b[0];
-  for (std::size_t k = 1; k < c.size(); ++k) {
-    double sum = a.empty() ? 0.0 : a[k];
-    for (std::size_t j = 0; j < k; ++j) sum -= c[j] * b[k - j];
-    c[k] = sum / b[0];
-  }
-}
-
-// c = a^n, n >= 1, by the same binary exponentiation as Evaluate (so c_0 has its bits).
-void PowerInteger(ConstSeries a, std::uint32_t n, Series c, Series base, Series product) {
-  std::fill(c.begin(), c.end(), 0.0);
-  c[0] = 1.0;
-  std::copy(a.begin(), a.end(), base.begin());
-  for (std::uint32_t exponent = n; exponent != 0; exponent >>= 1) {
-    if ((exponent & 1u) != 0) {
-      Multiply(c, base, product);
-      std::copy(product.begin(), product.end(), c.begin());
+  // c = a * b (Cauchy product); c may not alias a or b.
+  static void Multiply(ConstSeries a, ConstSeries b, Series c) {
+    for (std::size_t k = 0; k < c.size(); ++k) {
+      T sum = 0.0;
+      for (std::size_t j = 0; j <= k; ++j) sum += a[j] * b[k - j];
+      c[k] = sum;
     }
-    if (exponent > 1) {
-      Multiply(base, base, product);
-      std::copy(product.begin(), product.end(), base.begin());
-    }
+    c[0] = a[0] * b[0];  // the value's bits, as Evaluate
   }
-}
 
-// c = F(a) given c_0, where c' w = a' (w a series whose coefficient k - 1 is known before c_k):
-// k c_k w_0 = k a_k - sum_(j=1)^(k-1) j c_j w_(k-j). `sign` -1 gives c' w = -a'.
-void IntegrateQuotient(ConstSeries a, ConstSeries w, double sign, Series c) {
-  for (std::size_t k = 1; k < c.size(); ++k) {
-    double sum = sign * double(k) * a[k];
-    for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
-    c[k] = sum / (double(k) * w[0]);
-  }
-}
-
-// c_k = (1/k) sum_(j=1)^k j a_j partner_(k-j) * sign: the recurrence of exp (partner = c),
-// sin/cos and sinh/cosh (partner = the other function), for coefficient k alone.
-double ChainCoefficient(ConstSeries a, ConstSeries partner, std::size_t k, double sign) {
-  double sum = 0.0;
-  for (std::size_t j = 1; j <= k; ++j) sum += double(j) * a[j] * partner[k - j];
-  return sign * sum / double(k);
-}
-
-// s = sin a, co = cos a (or sinh, cosh with `hyperbolic`), both computed: each needs the other.
-void SineCosine(ConstSeries a, bool hyperbolic, Series s, Series co) {
-  s[0] = hyperbolic ? std::sinh(a[0]) : std::sin(a[0]);
-  co[0] = hyperbolic ? std::cosh(a[0]) : std::cos(a[0]);
-  for (std::size_t k = 1; k < s.size(); ++k) {
-    s[k] = ChainCoefficient(a, co, k, 1.0);
-    co[k] = ChainCoefficient(a, s, k, hyperbolic ? 1.0 : -1.0);
-  }
-}
-
-// t = tan a (t' = (1 + t^2) a') or tanh a (t' = (1 - t^2) a'); w is 1 +- t^2, built along.
-void Tangent(ConstSeries a, bool hyperbolic, Series t, Series w) {
-  const double sign = hyperbolic ? -1.0 : 1.0;
-  t[0] = hyperbolic ? std::tanh(a[0]) : std::tan(a[0]);
-  w[0] = 1.0 + sign * t[0] * t[0];
-  for (std::size_t k = 1; k < t.size(); ++k) {
-    t[k] = ChainCoefficient(a, w, k, 1.0);
-    double square = 0.0;
-    for (std::size_t i = 0; i <= k; ++i) square += t[i] * t[k - i];
-    w[k] = sign * square;
-  }
-}
-
-// c = sqrt(a): c_k = (a_k - sum_(j=1)^(k-1) c_j c_(k-j)) / (2 c_0).
-void SquareRoot(ConstSeries a, Series c) {
-  c[0] = std::sqrt(a[0]);
-  for (std::size_t k = 1; k < c.size(); ++k) {
-    double sum = a[k];
-    for (std::size_t j = 1; j < k; ++j) sum -= c[j] * c[k - j];
-    c[k] = sum / (2.0 * c[0]);
-  }
-}
-
-// c = exp(a) with c_0 given (exp(a_0), or pow's value for a^b = exp(b log a)).
-void Exponential(ConstSeries a, Series c) {
-  for (std::size_t k = 1; k < c.size(); ++k) c[k] = ChainCoefficient(a, c, k, 1.0);
-}
-
-// c = log(a): c' a = a', so k c_k a_0 = k a_k - sum_(j=1)^(k-1) j c_j a_(k-j).
-void Logarithm(ConstSeries a, Series c) {
-  c[0] = std::log(a[0]);
-  IntegrateQuotient(a, a, 1.0, c);
-}
-
-// c = a^r for a constant r: c' a = r a' c, so
-// k a_0 c_k = sum_(j=1)^k (r j - (k - j)) a_j c_(k-j).
-void PowerConstant(ConstSeries a, double r, Series c) {
-  for (std::size_t k = 1; k < c.size(); ++k) {
-    double sum = 0.0;
-    for (std::size_t j = 1; j <= k; ++j) {
-      sum += (r * double(j) - double(k - j)) * a[j] * c[k - j];
-    }
-    c[k] = sum / (double(k) * a[0]);
-  }
-}
-
-// w = shift + sign * (a^2 (+ b^2)): the series 1 - a^2, 1 + a^2 and a^2 + b^2.
-void SumOfSquares(ConstSeries a, ConstSeries b, double shift, double sign, Series w) {
-  for (std::size_t k = 0; k < w.size(); ++k) {
-    double sum = 0.0;
-    for (std::size_t i = 0; i <= k; ++i) {
-      sum += a[i] * a[k - i] + (b.empty() ? 0.0 : b[i] * b[k - i]);
-    }
-    w[k] = (k == 0 ? shift : 0.0) + sign * sum;
-  }
-}
-
-// c = atan2(a, b): c' (a^2 + b^2) = b a' - a b'. Coefficient k - 1 of the right side is
-// v = sum_(i=0)^(k-1) (k - i) (b_i a_(k-i) - a_i b_(k-i)).
-void ArcTangent2(ConstSeries a, ConstSeries b, Series w, Series c) {
-  c[0] = std::atan2(a[0], b[0]);
-  SumOfSquares(a, b, 0.0, 1.0, w);
-  for (std::size_t k = 1; k < c.size(); ++k) {
-    double sum = 0.0;
-    for (std::size_t i = 0; i < k; ++i) sum += double(k - i) * (b[i] * a[k - i] - a[i] * b[k - i]);
-    for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
-    c[k] = sum / (double(k) * w[0]);
-  }
-}
-
-// c = |a|: the series of a times its sign, the sign of the first nonzero coefficient where
-// a_0 = 0 (the one-sided series for t > 0).
-void AbsoluteValue(ConstSeries a, Series c) {
-  double sign = 0.0;
-  for (const double coefficient : a) {
-    if (coefficient != 0.0) {
-      sign = coefficient > 0.0 ? 1.0 : -1.0;
-      break;
+  // c = a / b: c_k = (a_k - sum_(j<k) c_j b_(k-j)) / b_0. `a` empty means 1 (a reciprocal).
+  static void Divide(ConstSeries a, ConstSeries b, Series c) {
+    c[0] = a.empty() ? 1.0 / b[0] : a[0] / b[0];
+    for (std::size_t k = 1; k < c.size(); ++k) {
+      T sum = a.empty() ? 0.0 : a[k];
+      for (std::size_t j = 0; j < k; ++j) sum -= c[j] * b[k - j];
+      c[k] = sum / b[0];
     }
   }
-  for (std::size_t k = 0; k < c.size(); ++k) c[k] = sign * a[k];
-  c[0] = std::abs(a[0]);
-}
+
+  // c = a^n, n >= 1, by the same binary exponentiation as Evaluate (so c_0 has its bits).
+  static void PowerInteger(ConstSeries a, std::uint32_t n, Series c, Series base, Series product) {
+    std::fill(c.begin(), c.end(), 0.0);
+    c[0] = 1.0;
+    std::copy(a.begin(), a.end(), base.begin());
+    for (std::uint32_t exponent = n; exponent != 0; exponent >>= 1) {
+      if ((exponent & 1u) != 0) {
+        Multiply(c, base, product);
+        std::copy(product.begin(), product.end(), c.begin());
+      }
+      if (exponent > 1) {
+        Multiply(base, base, product);
+        std::copy(product.begin(), product.end(), base.begin());
+      }
+    }
+  }
+
+  // c = F(a) given c_0, where c' w = a' (w a series whose coefficient k - 1 is known before c_k):
+  // k c_k w_0 = k a_k - sum_(j=1)^(k-1) j c_j w_(k-j). `sign` -1 gives c' w = -a'.
+  static void IntegrateQuotient(ConstSeries a, ConstSeries w, double sign, Series c) {
+    for (std::size_t k = 1; k < c.size(); ++k) {
+      T sum = sign * double(k) * a[k];
+      for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
+      c[k] = sum / (double(k) * w[0]);
+    }
+  }
+
+  // c_k = (1/k) sum_(j=1)^k j a_j partner_(k-j) * sign: the recurrence of exp (partner = c),
+  // sin/cos and sinh/cosh (partner = the other function), for coefficient k alone.
+  static T ChainCoefficient(ConstSeries a, ConstSeries partner, std::size_t k, double sign) {
+    T sum = 0.0;
+    for (std::size_t j = 1; j <= k; ++j) sum += double(j) * a[j] * partner[k - j];
+    return sign * sum / double(k);
+  }
+
+  // s = sin a, co = cos a (or sinh, cosh with `hyperbolic`), both computed: each needs the other.
+  static void SineCosine(ConstSeries a, bool hyperbolic, Series s, Series co) {
+    s[0] = hyperbolic ? sinh(a[0]) : sin(a[0]);
+    co[0] = hyperbolic ? cosh(a[0]) : cos(a[0]);
+    for (std::size_t k = 1; k < s.size(); ++k) {
+      s[k] = ChainCoefficient(a, co, k, 1.0);
+      co[k] = ChainCoefficient(a, s, k, hyperbolic ? 1.0 : -1.0);
+    }
+  }
+
+  // t = tan a (t' = (1 + t^2) a') or tanh a (t' = (1 - t^2) a'); w is 1 +- t^2, built along.
+  static void Tangent(ConstSeries a, bool hyperbolic, Series t, Series w) {
+    const double sign = hyperbolic ? -1.0 : 1.0;
+    t[0] = hyperbolic ? tanh(a[0]) : tan(a[0]);
+    w[0] = 1.0 + sign * t[0] * t[0];
+    for (std::size_t k = 1; k < t.size(); ++k) {
+      t[k] = ChainCoefficient(a, w, k, 1.0);
+      T square = 0.0;
+      for (std::size_t i = 0; i <= k; ++i) square += t[i] * t[k - i];
+      w[k] = sign * square;
+    }
+  }
+
+  // c = sqrt(a): c_k = (a_k - sum_(j=1)^(k-1) c_j c_(k-j)) / (2 c_0).
+  static void SquareRoot(ConstSeries a, Series c) {
+    c[0] = sqrt(a[0]);
+    for (std::size_t k = 1; k < c.size(); ++k) {
+      T sum = a[k];
+      for (std::size_t j = 1; j < k; ++j) sum -= c[j] * c[k - j];
+      c[k] = sum / (2.0 * c[0]);
+    }
+  }
+
+  // c = exp(a) with c_0 given (exp(a_0), or pow's value for a^b = exp(b log a)).
+  static void Exponential(ConstSeries a, Series c) {
+    for (std::size_t k = 1; k < c.size(); ++k) c[k] = ChainCoefficient(a, c, k, 1.0);
+  }
+
+  // c = log(a): c' a = a', so k c_k a_0 = k a_k - sum_(j=1)^(k-1) j c_j a_(k-j).
+  static void Logarithm(ConstSeries a, Series c) {
+    c[0] = log(a[0]);
+    IntegrateQuotient(a, a, 1.0, c);
+  }
+
+  // c = a^r for a constant r: c' a = r a' c, so
+  // k a_0 c_k = sum_(j=1)^k (r j - (k - j)) a_j c_(k-j).
+  static void PowerConstant(ConstSeries a, T r, Series c) {
+    for (std::size_t k = 1; k < c.size(); ++k) {
+      T sum = 0.0;
+      for (std::size_t j = 1; j <= k; ++j) {
+        sum += (r * double(j) - double(k - j)) * a[j] * c[k - j];
+      }
+      c[k] = sum / (double(k) * a[0]);
+    }
+  }
+
+  // w = shift + sign * (a^2 (+ b^2)): the series 1 - a^2, 1 + a^2 and a^2 + b^2.
+  static void SumOfSquares(ConstSeries a, ConstSeries b, double shift, double sign, Series w) {
+    for (std::size_t k = 0; k < w.size(); ++k) {
+      T sum = 0.0;
+      for (std::size_t i = 0; i <= k; ++i) {
+        sum += a[i] * a[k - i] + (b.empty() ? 0.0 : b[i] * b[k - i]);
+      }
+      w[k] = (k == 0 ? shift : 0.0) + sign * sum;
+    }
+  }
+
+  // c = atan2(a, b): c' (a^2 + b^2) = b a' - a b'. Coefficient k - 1 of the right side is
+  // v = sum_(i=0)^(k-1) (k - i) (b_i a_(k-i) - a_i b_(k-i)).
+  static void ArcTangent2(ConstSeries a, ConstSeries b, Series w, Series c) {
+    c[0] = atan2(a[0], b[0]);
+    SumOfSquares(a, b, 0.0, 1.0, w);
+    for (std::size_t k = 1; k < c.size(); ++k) {
+      T sum = 0.0;
+      for (std::size_t i = 0; i < k; ++i)
+        sum += double(k - i) * (b[i] * a[k - i] - a[i] * b[k - i]);
+      for (std::size_t j = 1; j < k; ++j) sum -= double(j) * c[j] * w[k - j];
+      c[k] = sum / (double(k) * w[0]);
+    }
+  }
+
+  // c = |a|: the series of a times its sign, the sign of the first nonzero coefficient where
+  // a_0 = 0 (the one-sided series for t > 0).
+  static void AbsoluteValue(ConstSeries a, Series c) {
+    double sign = 0.0;
+    for (const T& coefficient : a) {
+      if (ValueOf(coefficient) != 0.0) {
+        sign = ValueOf(coefficient) > 0.0 ? 1.0 : -1.0;
+        break;
+      }
+    }
+    for (std::size_t k = 0; k < c.size(); ++k) c[k] = sign * a[k];
+    c[0] = abs(a[0]);
+  }
+};
 
 }  // namespace
 
-void ExpressionProgram::EvaluateTaylor(int degree,
-                                       const double* input_coefficients,
-                                       double* registers,
-                                       double* output_coefficients) const {
+template <typename T>
+void ExpressionProgram::RunTaylor(int degree,
+                                  const T* input_coefficients,
+                                  T* registers,
+                                  T* output_coefficients) const {
+  using Rules = TaylorRules<T>;
+  using Series = typename Rules::Series;
+  using ConstSeries = typename Rules::ConstSeries;
   const auto n = static_cast<std::size_t>(degree) + 1;
   const auto row = [&](std::uint32_t index) { return Series(registers + index * n, n); };
   std::copy_n(input_coefficients, num_inputs_ * n, registers);
   for (std::size_t i = 0; i < constants_.size(); ++i) {
     const Series constant = row(static_cast<std::uint32_t>(num_inputs_ + i));
-    std::fill(constant.begin(), constant.end(), 0.0);
+    std::fill(constant.begin(), constant.end(), T(0.0));
     constant[0] = constants_[i];
   }
   // Scratch series: a partner function, an auxiliary w, and two for powers.
-  std::vector<double> scratch(4 * n);
+  std::vector<T> scratch(4 * n);
   const Series partner(scratch.data(), n), auxiliary(scratch.data() + n, n),
       spare(scratch.data() + 2 * n, n), spare2(scratch.data() + 3 * n, n);
   auto result_index = static_cast<std::uint32_t>(num_inputs_ + constants_.size());
@@ -205,82 +234,83 @@ void ExpressionProgram::EvaluateTaylor(int degree,
         for (std::size_t k = 0; k < n; ++k) c[k] = a[k] - b()[k];
         break;
       case OpCode::kMul:
-        Multiply(a, b(), c);
+        Rules::Multiply(a, b(), c);
         break;
       case OpCode::kDiv:
-        Divide(a, b(), c);
+        Rules::Divide(a, b(), c);
         break;
       case OpCode::kNeg:
         for (std::size_t k = 0; k < n; ++k) c[k] = -a[k];
         break;
       case OpCode::kReciprocal:
-        Divide({}, a, c);
+        Rules::Divide({}, a, c);
         break;
       case OpCode::kPowInt:
-        PowerInteger(a, instruction.b, c, spare, spare2);
+        Rules::PowerInteger(a, instruction.b, c, spare, spare2);
         break;
       case OpCode::kPow: {
         const ConstSeries exponent = b();
-        c[0] = std::pow(a[0], exponent[0]);
-        if (std::all_of(exponent.begin() + 1, exponent.end(), [](double e) { return e == 0.0; })) {
-          PowerConstant(a, exponent[0], c);
+        c[0] = pow(a[0], exponent[0]);
+        if (std::all_of(exponent.begin() + 1, exponent.end(),
+                        [](const T& e) { return IsZero(e); })) {
+          Rules::PowerConstant(a, exponent[0], c);
         } else {
           // a^b = exp(b log a): the exponent's series is b * log(a).
-          Logarithm(a, spare);
-          Multiply(exponent, spare, spare2);
-          Exponential(spare2, c);
+          Rules::Logarithm(a, spare);
+          Rules::Multiply(exponent, spare, spare2);
+          Rules::Exponential(spare2, c);
         }
         break;
       }
       case OpCode::kSqrt:
-        SquareRoot(a, c);
+        Rules::SquareRoot(a, c);
         break;
       case OpCode::kSin:
-        SineCosine(a, false, c, partner);
+        Rules::SineCosine(a, false, c, partner);
         break;
       case OpCode::kCos:
-        SineCosine(a, false, partner, c);
+        Rules::SineCosine(a, false, partner, c);
         break;
       case OpCode::kTan:
-        Tangent(a, false, c, auxiliary);
+        Rules::Tangent(a, false, c, auxiliary);
         break;
       case OpCode::kAsin:
       case OpCode::kAcos: {
         // c' sqrt(1 - a^2) = +-a'.
-        SumOfSquares(a, {}, 1.0, -1.0, spare);
-        SquareRoot(spare, auxiliary);
+        Rules::SumOfSquares(a, {}, 1.0, -1.0, spare);
+        Rules::SquareRoot(spare, auxiliary);
         const bool sine = instruction.op == OpCode::kAsin;
-        c[0] = sine ? std::asin(a[0]) : std::acos(a[0]);
-        IntegrateQuotient(a, auxiliary, sine ? 1.0 : -1.0, c);
+        c[0] = sine ? asin(a[0]) : acos(a[0]);
+        Rules::IntegrateQuotient(a, auxiliary, sine ? 1.0 : -1.0, c);
         break;
       }
       case OpCode::kAtan:
         // c' (1 + a^2) = a'.
-        SumOfSquares(a, {}, 1.0, 1.0, auxiliary);
-        c[0] = std::atan(a[0]);
-        IntegrateQuotient(a, auxiliary, 1.0, c);
+        Rules::SumOfSquares(a, {}, 1.0, 1.0, auxiliary);
+        c[0] = atan(a[0]);
+        Rules::IntegrateQuotient(a, auxiliary, 1.0, c);
         break;
       case OpCode::kAtan2:
-        ArcTangent2(a, b(), auxiliary, c);
+        Rules::ArcTangent2(a, b(), auxiliary, c);
         break;
       case OpCode::kExp:
-        c[0] = std::exp(a[0]);
-        Exponential(a, c);
+        c[0] = exp(a[0]);
+        Rules::Exponential(a, c);
         break;
       case OpCode::kLog:
-        Logarithm(a, c);
+        Rules::Logarithm(a, c);
         break;
       case OpCode::kSinh:
-        SineCosine(a, true, c, partner);
+        Rules::SineCosine(a, true, c, partner);
         break;
       case OpCode::kCosh:
-        SineCosine(a, true, partner, c);
+        Rules::SineCosine(a, true, partner, c);
         break;
       case OpCode::kTanh:
-        Tangent(a, true, c, auxiliary);
+        Rules::Tangent(a, true, c, auxiliary);
         break;
       case OpCode::kAbs:
-        AbsoluteValue(a, c);
+        Rules::AbsoluteValue(a, c);
         break;
     }
   }
@@ -288,6 +318,20 @@ void ExpressionProgram::EvaluateTaylor(int degree,
     const ConstSeries output = row(output_registers_[i]);
     std::copy(output.begin(), output.end(), output_coefficients + i * n);
   }
+}
+
+void ExpressionProgram::EvaluateTaylor(int degree,
+                                       const double* input_coefficients,
+                                       double* registers,
+                                       double* output_coefficients) const {
+  RunTaylor(degree, input_coefficients, registers, output_coefficients);
+}
+
+void ExpressionProgram::EvaluateTaylor(int degree,
+                                       const Dual* input_coefficients,
+                                       Dual* registers,
+                                       Dual* output_coefficients) const {
+  RunTaylor(degree, input_coefficients, registers, output_coefficients);
 }
 
 }  // namespace servokit

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "modeling/dual_number.h"
 #include "modeling/expression_program.h"
 #include "modeling/model.h"
 #include "modeling/symbolic_lock.h"
@@ -83,6 +84,33 @@ void CheckAgainstGinac(const Symbols& s, const GiNaC::ex& f) {
   }
 }
 
+// Over dual numbers with x's start carrying tangent 1, the tangents of f's coefficients are the
+// coefficients of df/dx along the same curve (x(t) moves with its start), by GiNaC; the values
+// are those of the double evaluation, to the bit.
+void CheckDualAgainstGinac(const Symbols& s, const GiNaC::ex& f) {
+  const std::vector<double> expected = GinacCoefficients(s, f.diff(s.x));
+  const std::vector<double> values = TaylorCoefficients(s, f);
+  const ExpressionProgram program = CompileExpressions({f}, s.inputs());
+  std::vector<Dual> inputs;
+  for (const Curve& curve : kCurves) {
+    inputs.emplace_back(curve.start, &curve == &kCurves[0] ? 1.0 : 0.0);
+    inputs.emplace_back(curve.slope);
+    inputs.emplace_back(curve.curvature);
+    for (int k = 3; k <= kDegree; ++k) inputs.emplace_back(0.0);
+  }
+  std::vector<Dual> registers(program.num_registers() * (kDegree + 1));
+  std::vector<Dual> coefficients(kDegree + 1);
+  program.EvaluateTaylor(kDegree, inputs.data(), registers.data(), coefficients.data());
+  double scale = 0.0;
+  for (const double value : expected) scale = std::max(scale, std::abs(value));
+  for (int k = 0; k <= kDegree; ++k) {
+    INFO(f << ", tangent of coefficient " << k);
+    CHECK(coefficients[std::size_t(k)].value == values[std::size_t(k)]);
+    CHECK(coefficients[std::size_t(k)].tangent ==
+          Approx(expected[std::size_t(k)]).margin(1e-13 * std::max(scale, 1.0)));
+  }
+}
+
 }  // namespace
 
 TEST_CASE("Taylor coefficients through every instruction equal GiNaC's derivatives",
@@ -117,7 +145,10 @@ TEST_CASE("Taylor coefficients through every instruction equal GiNaC's derivativ
       GiNaC::sin(x) * GiNaC::cos(y) / (1 + GiNaC::pow(z, 2)) +
           GiNaC::exp(GiNaC::cos(x)) * GiNaC::log(y),
   };
-  for (const GiNaC::ex& f : expressions) CheckAgainstGinac(s, f);
+  for (const GiNaC::ex& f : expressions) {
+    CheckAgainstGinac(s, f);
+    CheckDualAgainstGinac(s, f);
+  }
 }
 
 TEST_CASE("degree 1 along e_j is the Jacobian column GiNaC derives for a shipped model",

@@ -1,0 +1,140 @@
+#include "modeling/motion_series.h"
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+
+#include "modeling/expression_program.h"
+
+namespace servokit {
+namespace {
+
+std::vector<Dual> Duals(const Eigen::VectorXd& values, const Eigen::VectorXd& tangents) {
+  std::vector<Dual> duals(std::size_t(values.size()));
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    duals[std::size_t(i)] = Dual(values[i], tangents.size() == 0 ? 0.0 : tangents[i]);
+  }
+  return duals;
+}
+
+}  // namespace
+
+MotionSeries::MotionSeries(const Model& model,
+                           const Eigen::VectorXd& parameters,
+                           const MotionStart& start,
+                           const MotionStart& direction)
+    : model_(model),
+      parameters_(Duals(parameters, Eigen::VectorXd())),
+      u_(Duals(start.u, direction.u)),
+      q_{Duals(start.q, direction.q), Duals(start.q_dot, direction.q_dot)} {
+  FillInputs(0);
+  EvaluateSeries(Quantity::kMassMatrix, 0);
+  const auto n = Eigen::Index(model_.dof());
+  Eigen::MatrixXd values(n, n);
+  mass_matrix_tangent_.resize(n, n);
+  for (Eigen::Index c = 0; c < n; ++c) {
+    for (Eigen::Index r = 0; r < n; ++r) {
+      values(r, c) = outputs_[std::size_t(r + c * n)].value;
+      mass_matrix_tangent_(r, c) = outputs_[std::size_t(r + c * n)].tangent;
+    }
+  }
+  regular_ = values.allFinite() && mass_matrix_tangent_.allFinite();
+  if (regular_) {
+    mass_matrix_.compute(values);
+    // PartialPivLU does not report singularity; its reciprocal condition estimate does.
+    regular_ = mass_matrix_.rcond() > std::numeric_limits<double>::epsilon();
+  }
+}
+
+void MotionSeries::FillInputs(int degree) {
+  const auto width = std::size_t(degree + 1);
+  const std::size_t n = model_.dof(), p = parameters_.size();
+  inputs_.assign((p + 2 * n) * width, Dual());
+  for (std::size_t i = 0; i < p; ++i) inputs_[i * width] = parameters_[i];
+  for (std::size_t j = 0; j < n; ++j) {
+    for (std::size_t k = 0; k < width; ++k) {
+      inputs_[(p + j) * width + k] = q_[k][j];
+      inputs_[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
+    }
+  }
+}
+
+void MotionSeries::EvaluateSeries(Quantity quantity, int degree) {
+  const ExpressionProgram& program = model_.program(quantity);
+  const auto width = std::size_t(degree + 1);
+  registers_.resize(program.num_registers() * width);
+  outputs_.resize(program.num_outputs() * width);
+  program.EvaluateTaylor(degree, inputs_.data(), registers_.data(), outputs_.data());
+}
+
+std::vector<Dual> MotionSeries::SolveMassMatrix(const std::vector<Dual>& rhs) const {
+  const auto n = Eigen::Index(rhs.size());
+  if (!regular_) return std::vector<Dual>(rhs.size(), Dual(std::nan(""), std::nan("")));
+  Eigen::VectorXd values(n), tangents(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    values[i] = rhs[std::size_t(i)].value;
+    tangents[i] = rhs[std::size_t(i)].tangent;
+  }
+  const Eigen::VectorXd solution = mass_matrix_.solve(values);
+  return Duals(solution, mass_matrix_.solve(tangents - mass_matrix_tangent_ * solution));
+}
+
+void MotionSeries::AddOrder() {
+  const std::size_t k = accelerations_.size();
+  const auto width = k + 1;
+  const std::size_t n = model_.dof();
+  FillInputs(int(k));
+  // rhs = B_k u - f_k - sum_(l=1..k) M_l a_(k-l); entry (r, c) of a matrix is output r + c n.
+  std::vector<Dual> rhs(n);
+  EvaluateSeries(Quantity::kMassMatrix, int(k));
+  for (std::size_t c = 0; c < n; ++c) {
+    for (std::size_t r = 0; r < n; ++r) {
+      const Dual* series = &outputs_[(r + c * n) * width];
+      for (std::size_t l = 1; l <= k; ++l) rhs[r] -= series[l] * accelerations_[k - l][c];
+    }
+  }
+  EvaluateSeries(Quantity::kForces, int(k));
+  for (std::size_t r = 0; r < n; ++r) rhs[r] -= outputs_[r * width + k];
+  EvaluateSeries(Quantity::kInputMatrix, int(k));
+  for (std::size_t c = 0; c < u_.size(); ++c) {
+    if (IsZero(u_[c])) continue;  // 0 * inf would make a motion at rest NaN
+    for (std::size_t r = 0; r < n; ++r) rhs[r] += outputs_[(r + c * n) * width + k] * u_[c];
+  }
+  std::vector<Dual> acceleration = SolveMassMatrix(rhs);
+  std::vector<Dual> next(n);
+  const auto divisor = double((k + 1) * (k + 2));
+  for (std::size_t j = 0; j < n; ++j) next[j] = acceleration[j] / divisor;
+  q_.push_back(std::move(next));
+  accelerations_.push_back(std::move(acceleration));
+}
+
+MotionSeries::Derivative MotionSeries::Split(const std::vector<Dual>& duals, double scale) {
+  Derivative split{Eigen::VectorXd(Eigen::Index(duals.size())),
+                   Eigen::VectorXd(Eigen::Index(duals.size()))};
+  for (std::size_t i = 0; i < duals.size(); ++i) {
+    split.value[Eigen::Index(i)] = scale * duals[i].value;
+    split.tangent[Eigen::Index(i)] = scale * duals[i].tangent;
+  }
+  return split;
+}
+
+MotionSeries::Derivative MotionSeries::Acceleration() {
+  if (accelerations_.empty()) AddOrder();
+  return Split(accelerations_.front(), 1.0);
+}
+
+MotionSeries::Derivative MotionSeries::OutputDerivative(int k) {
+  const auto order = std::size_t(k);
+  const std::size_t outputs = model_.num_outputs();
+  if (!regular_) return Split(std::vector<Dual>(outputs, Dual(std::nan(""), std::nan(""))), 1.0);
+  while (q_.size() < order + 2) AddOrder();  // FillInputs reads q' to order k: q to k + 1
+  FillInputs(k);
+  EvaluateSeries(Quantity::kOutput, k);
+  double factorial = 1.0;
+  for (std::size_t j = 2; j <= order; ++j) factorial *= double(j);
+  std::vector<Dual> coefficients(outputs);
+  for (std::size_t i = 0; i < outputs; ++i) coefficients[i] = outputs_[i * (order + 1) + order];
+  return Split(coefficients, factorial);
+}
+
+}  // namespace servokit

@@ -1,0 +1,80 @@
+#pragma once
+// The Taylor series of a motion of a model, computed on its compiled programs (Taylor mode,
+// ExpressionProgram::EvaluateTaylor) and never by differentiating a formula: the derivatives of
+// the outputs along a motion, y^(k)(0), which the structure algorithm needs, cost a few
+// evaluations of M, f, B and h, however large their expanded derivatives would be (issue #31).
+//
+// The motion solves M(q) q'' + f(q, q') = B(q) u (paper Eq. 1) from q(0), q'(0) with the input
+// held constant. With q(t) = sum_k q_k t^k and q''(t) = sum_k a_k t^k, the coefficient of t^k of
+// the equations of motion reads
+//   sum_(l=0..k) M_l a_(k-l) + f_k = B_k u,
+// where M_l, f_k, B_k are the Taylor coefficients of M(q(t)), f(q(t), q'(t)), B(q(t)); they read
+// q_0..q_(k+1) only, so a_k follows from the orders before it with the one factorisation of
+// M_0 = M(q(0)), and q_(k+2) = a_k / ((k + 1)(k + 2)). This is the Taylor series method for
+// ODEs (Griewank and Walther, "Evaluating Derivatives", 2nd ed., 2008, Sect. 13.5).
+//
+// Every coefficient is a dual number (modeling/dual_number.h): it carries its derivative along a
+// direction of the start and the input, so that the derivative of y^(k) with respect to u or to
+// the state is exact, never a difference of two motions (whose rounding grows with a drift that
+// may dwarf the input's part).
+#include <Eigen/Dense>
+#include <vector>
+
+#include "modeling/dual_number.h"
+#include "modeling/model.h"
+
+namespace servokit {
+
+/// Where a motion starts and what drives it, or a direction in those.
+struct MotionStart {
+  Eigen::VectorXd q, q_dot, u;
+};
+
+/// One motion's Taylor series, extended an order at a time. Not thread-safe (it is its own
+/// scratch); the model is only read, so threads may each hold one for the same model.
+class MotionSeries {
+ public:
+  /// A value and its derivative along the direction.
+  struct Derivative {
+    Eigen::VectorXd value, tangent;
+  };
+
+  /// The motion from `start` at the parameter values `parameters` (SI units;
+  /// Model::parameters() for the nominal ones); the tangents are derivatives along `direction`
+  /// (all zero: none). Where M(q) is singular or not finite, every value and tangent is NaN
+  /// (nothing can be decided there).
+  MotionSeries(const Model& model,
+               const Eigen::VectorXd& parameters,
+               const MotionStart& start,
+               const MotionStart& direction);
+
+  /// y^(k)(0), the k-th time derivative of the outputs h(q(t)) at t = 0; extends the series as
+  /// far as that needs (order k of q). Not finite where the model is not (a pole on the way).
+  Derivative OutputDerivative(int k);
+  /// q''(0) = M^-1 (B u - f) at the start.
+  Derivative Acceleration();
+
+ private:
+  // Computes a_k for the next k, hence q_(k+2), from the orders before it.
+  void AddOrder();
+  // The Taylor coefficients 0..degree of the program inputs [parameters, q, q'] (degree + 1
+  // per input, input-major, as EvaluateTaylor reads them).
+  void FillInputs(int degree);
+  // EvaluateTaylor of `quantity`'s program to `degree` into outputs_.
+  void EvaluateSeries(Quantity quantity, int degree);
+  // M_0^-1 rhs, its tangent from the product rule: M_0 (a)' = rhs' - M_0' a.
+  std::vector<Dual> SolveMassMatrix(const std::vector<Dual>& rhs) const;
+  // A Derivative of a vector of duals, each multiplied by `scale`.
+  static Derivative Split(const std::vector<Dual>& duals, double scale);
+
+  const Model& model_;
+  std::vector<Dual> parameters_, u_;
+  bool regular_ = true;                               // M(q(0)) finite and invertible
+  Eigen::PartialPivLU<Eigen::MatrixXd> mass_matrix_;  // of M_0's values
+  Eigen::MatrixXd mass_matrix_tangent_;               // M_0's tangents
+  std::vector<std::vector<Dual>> q_;                  // q_0 .. q_(orders + 1)
+  std::vector<std::vector<Dual>> accelerations_;      // a_0 .. a_(orders - 1)
+  std::vector<Dual> inputs_, registers_, outputs_;
+};
+
+}  // namespace servokit

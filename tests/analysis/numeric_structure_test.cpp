@@ -1,0 +1,181 @@
+// The structure algorithm's numeric route (analysis/numeric_structure.h) and the Taylor series
+// of a motion it reads (modeling/motion_series.h): the series against a pendulum's closed-form
+// derivatives, and the numeric route against the symbolic one, a second derivation, on every
+// model file the tests and the shipped models have.
+#include "analysis/numeric_structure.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/nonlinear_structure.h"
+#include "base/errors.h"
+#include "modeling/motion_series.h"
+#include "modeling/symbolic_lock.h"
+#include "tests/test_paths.h"
+
+namespace servokit {
+namespace {
+
+using testing::ModelPath;
+using testing::TestDataPath;
+
+// m l^2 theta'' + m g l sin(theta) + d theta' = u, y = l sin(theta): the derivatives of y by
+// hand, with alpha = theta'' and its derivative theta''' from differentiating the equation.
+TEST_CASE("motion series: a damped pendulum's output derivatives in closed form",
+          "[modeling][motion_series]") {
+  const Model model = LoadModelFromString(R"(
+name: pendulum
+parameters: {m: 1.3, l: 0.7, g: 9.81, d: 0.4}
+coordinates: [theta]
+inputs: [u]
+mass_matrix: [[m*l^2]]
+forces: [m*g*l*sin(theta) + d*theta_dot]
+input_matrix: [[1]]
+outputs: [l*sin(theta)]
+)",
+                                          "pendulum");
+  const double m = 1.3, l = 0.7, g = 9.81, d = 0.4;
+  const double theta = 0.4, omega = -0.9, u = 2.5;
+  const double alpha = (u - m * g * l * std::sin(theta) - d * omega) / (m * l * l);
+  const double jerk = (-m * g * l * std::cos(theta) * omega - d * alpha) / (m * l * l);
+  const std::vector<double> expected = {
+      l * std::sin(theta),
+      l * std::cos(theta) * omega,
+      -l * std::sin(theta) * omega * omega + l * std::cos(theta) * alpha,
+      -l * std::cos(theta) * omega * omega * omega - 3 * l * std::sin(theta) * omega * alpha +
+          l * std::cos(theta) * jerk,
+  };
+  const auto one = [](double value) { return Eigen::VectorXd::Constant(1, value); };
+  const MotionStart start{one(theta), one(omega), one(u)};
+  MotionSeries motion(model, model.parameters(), start, {one(0), one(0), one(0)});
+  CHECK(motion.Acceleration().value[0] == Approx(alpha).epsilon(1e-14));
+  for (int k = 0; k < 4; ++k) {
+    INFO("order " << k);
+    CHECK(motion.OutputDerivative(k).value[0] == Approx(expected[std::size_t(k)]).epsilon(1e-13));
+  }
+  // The tangents along u: d alpha / du = 1 / (m l^2), and y's derivatives' by the same hand
+  // (omega and theta do not depend on u at t = 0; d jerk / du = -d / (m l^2)^2).
+  const double dalpha = 1.0 / (m * l * l), djerk = -d * dalpha / (m * l * l);
+  const std::vector<double> along_u = {
+      0.0, 0.0, l * std::cos(theta) * dalpha,
+      -3 * l * std::sin(theta) * omega * dalpha + l * std::cos(theta) * djerk};
+  MotionSeries along(model, model.parameters(), start, {one(0), one(0), one(1)});
+  CHECK(along.Acceleration().tangent[0] == Approx(dalpha).epsilon(1e-14));
+  for (int k = 0; k < 4; ++k) {
+    INFO("order " << k);
+    CHECK(along.OutputDerivative(k).value[0] == Approx(expected[std::size_t(k)]).epsilon(1e-13));
+    CHECK(along.OutputDerivative(k).tangent[0] ==
+          Approx(along_u[std::size_t(k)]).epsilon(1e-13).margin(1e-15));
+  }
+  // Along theta: d/dtheta of y' = -l sin(theta) omega.
+  MotionSeries along_theta(model, model.parameters(), start, {one(1), one(0), one(0)});
+  CHECK(along_theta.OutputDerivative(1).tangent[0] ==
+        Approx(-l * std::sin(theta) * omega).epsilon(1e-14));
+}
+
+TEST_CASE("motion series: a singular mass matrix gives NaN, not a number", "[modeling]") {
+  const Model model = LoadModelFromString(R"(
+name: degenerate
+parameters: {m: 1.0}
+coordinates: [x]
+inputs: [u]
+mass_matrix: [[m*x^2]]
+forces: [0]
+input_matrix: [[1]]
+outputs: [x]
+)",
+                                          "degenerate");
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(1), one = Eigen::VectorXd::Ones(1);
+  MotionSeries motion(model, model.parameters(), {zero, zero, one}, {zero, zero, one});
+  CHECK(std::isnan(motion.OutputDerivative(2).value[0]));
+  CHECK(std::isnan(motion.OutputDerivative(2).tangent[0]));
+}
+
+// The symbolic route's verdict on a model, or its error.
+struct SymbolicVerdict {
+  std::optional<NonlinearStructure> structure;
+  std::string error;
+};
+
+void CompareRoutes(const Model& model, const std::string& label) {
+  INFO(label);
+  const SymbolicLock lock;  // the symbolic structure's expressions
+  SymbolicVerdict symbolic;
+  try {
+    symbolic.structure = DeriveNonlinearStructure(model);
+  } catch (const NoSolution& error) {
+    symbolic.error = error.what();
+  }
+  std::optional<NumericStructure> numeric;
+  std::string numeric_error;
+  try {
+    numeric = DeriveNumericStructure(model, {});
+  } catch (const NoSolution& error) {
+    numeric_error = error.what();
+  }
+  const std::size_t m = model.num_outputs();
+  if (!numeric) {
+    // The numeric route fails only where the symbolic one fails the same way.
+    CHECK(numeric_error == symbolic.error);
+    return;
+  }
+  if (numeric->rank_nearby < m) {
+    // A dynamic extension: the symbolic route derives it (or finds it undefined there).
+    if (symbolic.structure) {
+      CHECK(symbolic.structure->extended());
+      CHECK(symbolic.structure->extension_steps.front().rank == numeric->rank_nearby);
+    } else {
+      CHECK_FALSE(symbolic.error.empty());
+    }
+    return;
+  }
+  REQUIRE(symbolic.structure);
+  CHECK_FALSE(symbolic.structure->extended());
+  CHECK(numeric->relative_degree == symbolic.structure->relative_degree);
+  CHECK(numeric->reference_rank == symbolic.structure->reference_rank);
+}
+
+std::vector<std::string> ModelFiles() {
+  std::vector<std::string> files;
+  for (const std::string& directory :
+       {ModelPath(""), TestDataPath(""), TestDataPath("energy_forms")}) {
+    for (const auto& entry : std::filesystem::directory_iterator(directory)) {
+      if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+TEST_CASE("numeric and symbolic routes agree on every model file", "[analysis][routes]") {
+  int compared = 0;
+  for (const std::string& file : ModelFiles()) {
+    std::optional<Model> model;
+    try {
+      model = LoadModel(file);
+    } catch (const Error&) {
+      continue;  // the error-case files, and linear models (another analysis)
+    }
+    CompareRoutes(*model, file);
+    ++compared;
+  }
+  CHECK(compared >= 25);
+}
+
+// The paper's four cases of the mass on car (Sect. 3): relative degrees 2, 2, 3 and 4 by the
+// zero parameters the symbolic route substitutes exactly and the numeric one evaluates.
+TEST_CASE("numeric and symbolic routes agree on the mass on car's four cases",
+          "[analysis][paper]") {
+  for (const auto& [alpha, d] : std::vector<std::pair<std::string, std::string>>{
+           {"5 deg", "1"}, {"5 deg", "0"}, {"0", "1"}, {"0", "0"}, {"90 deg", "1"}}) {
+    const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", alpha}, {"d", d}});
+    CompareRoutes(model, "alpha = " + alpha + ", d = " + d);
+  }
+}
+
+}  // namespace
+}  // namespace servokit
