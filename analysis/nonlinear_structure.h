@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/structure_options.h"
 #include "base/errors.h"
 #include "modeling/model.h"
 
@@ -45,14 +46,6 @@ namespace servokit {
 class UndefinedRelativeDegree : public NoSolution {
  public:
   using NoSolution::NoSolution;
-};
-
-struct NonlinearStructureOptions {
-  // As ClassificationOptions::rank_tolerance.
-  double rank_tolerance = 1e-10;
-  // q at the reference state (q' = 0, y_d at rest there): where the kept rows are chosen. Empty:
-  // q = 0.
-  Eigen::VectorXd reference_q;
 };
 
 // One step of the structure algorithm at which the inputs' coefficient matrix had rank < m on

@@ -13,8 +13,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "analysis/nonlinear_structure.h"
-#include "base/errors.h"
+#include "analysis/structure_options.h"
 #include "modeling/model.h"
 
 namespace servokit {
@@ -34,9 +33,5 @@ struct NumericStructure {
 /// derivatives or the outputs need more than 2 dof constraints. Thread-safe: no GiNaC.
 NumericStructure DeriveNumericStructure(const Model& model,
                                         const NonlinearStructureOptions& options);
-
-/// The two errors both routes raise, worded in one place.
-NoSolution OutputsNotIndependent(std::size_t output, std::size_t states);
-NoSolution OutputNeverDependsOnInputs(std::size_t output, std::size_t max_order);
 
 }  // namespace servokit

@@ -91,11 +91,7 @@ Workspace::Workspace(const Model& model)
   output_bias.setZero(outputs);
   forces_position_jacobian.setZero(dof, dof);
   forces_velocity_jacobian.setZero(dof, dof);
-  mass_matrix_derivatives.assign(dof_, Eigen::MatrixXd::Zero(dof, dof));
   input_matrix_derivatives.assign(dof_, Eigen::MatrixXd::Zero(dof, inputs));
-  output_jacobian_derivatives.assign(dof_, Eigen::MatrixXd::Zero(outputs, dof));
-  output_bias_position_jacobian.setZero(outputs, dof);
-  output_bias_velocity_jacobian.setZero(outputs, dof);
   zero_dynamics_polynomial.setZero(2 * dof + 1);
   zero_dynamics_polynomial_scale.setZero(2 * dof + 1);
 
@@ -153,18 +149,9 @@ void ForEachResultBlock(Quantity quantity, Workspace& workspace, Visit visit) {
     case Quantity::kForcesJacobians:
       block(workspace.forces_position_jacobian);
       return block(workspace.forces_velocity_jacobian);
-    case Quantity::kMassMatrixDerivatives:
-      for (Eigen::MatrixXd& matrix : workspace.mass_matrix_derivatives) block(matrix);
-      return;
     case Quantity::kInputMatrixDerivatives:
       for (Eigen::MatrixXd& matrix : workspace.input_matrix_derivatives) block(matrix);
       return;
-    case Quantity::kOutputJacobianDerivatives:
-      for (Eigen::MatrixXd& matrix : workspace.output_jacobian_derivatives) block(matrix);
-      return;
-    case Quantity::kOutputBiasJacobians:
-      block(workspace.output_bias_position_jacobian);
-      return block(workspace.output_bias_velocity_jacobian);
     case Quantity::kZeroDynamicsPolynomial:
       block(workspace.zero_dynamics_polynomial);
       return block(workspace.zero_dynamics_polynomial_scale);

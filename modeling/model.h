@@ -25,28 +25,25 @@ class ExpressionProgram;  // modeling/expression_program.h: a compiled evaluator
 
 /// What Evaluate() can compute; combine with |. Matrices are evaluated column-major.
 enum class Quantity : unsigned {
-  kMassMatrix = 1u << 0,                 // M(q), dof x dof
-  kForces = 1u << 1,                     // f(q, q_dot), dof
-  kInputMatrix = 1u << 2,                // B(q), dof x inputs
-  kOutput = 1u << 3,                     // h(q), outputs
-  kOutputJacobian = 1u << 4,             // H = dh/dq, outputs x dof (Eq. 4)
-  kOutputBias = 1u << 5,                 // h_bar = H_dot q_dot, outputs (Eq. 5)
-  kForcesJacobians = 1u << 6,            // df/dq and df/dq_dot, dof x dof each
-  kMassMatrixDerivatives = 1u << 7,      // dM/dq_k, dof matrices of dof x dof
-  kInputMatrixDerivatives = 1u << 8,     // dB/dq_k, dof matrices of dof x inputs
-  kOutputJacobianDerivatives = 1u << 9,  // dH/dq_k, dof matrices of outputs x dof
-  kOutputBiasJacobians = 1u << 10,       // d h_bar/dq and d h_bar/dq_dot, outputs x dof each
+  kMassMatrix = 1u << 0,              // M(q), dof x dof
+  kForces = 1u << 1,                  // f(q, q_dot), dof
+  kInputMatrix = 1u << 2,             // B(q), dof x inputs
+  kOutput = 1u << 3,                  // h(q), outputs
+  kOutputJacobian = 1u << 4,          // H = dh/dq, outputs x dof (Eq. 4)
+  kOutputBias = 1u << 5,              // h_bar = H_dot q_dot, outputs (Eq. 5)
+  kForcesJacobians = 1u << 6,         // df/dq and df/dq_dot, dof x dof each
+  kInputMatrixDerivatives = 1u << 7,  // dB/dq_k, dof matrices of dof x inputs
   // Coefficients a_0..a_(2 dof) of SymbolicModel::zero_dynamics_polynomial() at q (q_dot is
   // ignored), then their scales; all zero when the model is too large for it (check with
   // Model::has_zero_dynamics_polynomial()).
-  kZeroDynamicsPolynomial = 1u << 11,
+  kZeroDynamicsPolynomial = 1u << 8,
 };
 constexpr unsigned operator|(Quantity a, Quantity b) {
   return static_cast<unsigned>(a) | static_cast<unsigned>(b);
 }
 constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
-inline constexpr std::size_t kNumQuantities = 12;
+inline constexpr std::size_t kNumQuantities = 9;
 /// What a sweep's polynomial path (analysis/sweep_point.h) evaluates at every point, compiled
 /// also as one program (Model::combined_program).
 inline constexpr unsigned kPolynomialPathQuantities =
@@ -165,21 +162,17 @@ class Workspace {
   Eigen::VectorXd parameters;
 
   // Results of the last Evaluate(); only the quantities asked for are up to date.
-  Eigen::MatrixXd mass_matrix;                               // dof x dof
-  Eigen::VectorXd forces;                                    // dof
-  Eigen::MatrixXd input_matrix;                              // dof x inputs
-  Eigen::VectorXd output;                                    // outputs
-  Eigen::MatrixXd output_jacobian;                           // outputs x dof
-  Eigen::VectorXd output_bias;                               // outputs
-  Eigen::MatrixXd forces_position_jacobian;                  // dof x dof, df/dq
-  Eigen::MatrixXd forces_velocity_jacobian;                  // dof x dof, df/dq_dot
-  std::vector<Eigen::MatrixXd> mass_matrix_derivatives;      // dof of dof x dof
-  std::vector<Eigen::MatrixXd> input_matrix_derivatives;     // dof of dof x inputs
-  std::vector<Eigen::MatrixXd> output_jacobian_derivatives;  // dof of outputs x dof
-  Eigen::MatrixXd output_bias_position_jacobian;             // outputs x dof
-  Eigen::MatrixXd output_bias_velocity_jacobian;             // outputs x dof
-  Eigen::VectorXd zero_dynamics_polynomial;                  // a_0 .. a_(2 dof)
-  Eigen::VectorXd zero_dynamics_polynomial_scale;            // sum of |terms| of each a_k
+  Eigen::MatrixXd mass_matrix;                            // dof x dof
+  Eigen::VectorXd forces;                                 // dof
+  Eigen::MatrixXd input_matrix;                           // dof x inputs
+  Eigen::VectorXd output;                                 // outputs
+  Eigen::MatrixXd output_jacobian;                        // outputs x dof
+  Eigen::VectorXd output_bias;                            // outputs
+  Eigen::MatrixXd forces_position_jacobian;               // dof x dof, df/dq
+  Eigen::MatrixXd forces_velocity_jacobian;               // dof x dof, df/dq_dot
+  std::vector<Eigen::MatrixXd> input_matrix_derivatives;  // dof of dof x inputs
+  Eigen::VectorXd zero_dynamics_polynomial;               // a_0 .. a_(2 dof)
+  Eigen::VectorXd zero_dynamics_polynomial_scale;         // sum of |terms| of each a_k
 
   /// Factorizations an analysis redoes at every point of a sweep, kept here so that their
   /// memory is allocated once per thread. Nothing but memory carries over between calls.

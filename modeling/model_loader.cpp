@@ -799,18 +799,13 @@ class ModelBuilder {
         {Quantity::kForcesJacobians,
          "Jacobians of f",
          {symbolic.forces_position_jacobian(), symbolic.forces_velocity_jacobian()}},
-        {Quantity::kMassMatrixDerivatives, "dM/dq", symbolic.mass_matrix_derivatives()},
         {Quantity::kInputMatrixDerivatives, "dB/dq", symbolic.input_matrix_derivatives()},
-        {Quantity::kOutputJacobianDerivatives, "dH/dq", symbolic.output_jacobian_derivatives()},
-        {Quantity::kOutputBiasJacobians,
-         "Jacobians of h_bar",
-         {symbolic.output_bias_position_jacobian(), symbolic.output_bias_velocity_jacobian()}},
         {Quantity::kZeroDynamicsPolynomial,
          "zero-dynamics polynomial",
          {PolynomialBlock(symbolic.zero_dynamics_polynomial(), symbolic.dof()),
           PolynomialBlock(symbolic.zero_dynamics_polynomial_scale(), symbolic.dof())}},
     };
-    static_assert(kNumQuantities == 12, "compile every Quantity");
+    static_assert(kNumQuantities == 9, "compile every Quantity");
     model_.has_zero_dynamics_polynomial_ = !symbolic.zero_dynamics_polynomial().empty();
     model_.programs_.assign(kNumQuantities, nullptr);
     for (const Derived& derived : quantities) {

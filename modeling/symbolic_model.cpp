@@ -87,14 +87,11 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   assert(e.input_matrix.rows() == dof());
   assert(e.output.cols() == 1);
   e.output_jacobian = Jacobian(e.output, e.coordinates);
-  e.output_jacobian_derivatives = Derivatives(e.output_jacobian, e.coordinates);
-  e.output_bias = OutputBias(e.output_jacobian_derivatives, e.velocities, e.output.rows());
+  e.output_bias =
+      OutputBias(Derivatives(e.output_jacobian, e.coordinates), e.velocities, e.output.rows());
   e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
   e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
-  e.mass_matrix_derivatives = Derivatives(e.mass_matrix, e.coordinates);
   e.input_matrix_derivatives = Derivatives(e.input_matrix, e.coordinates);
-  e.output_bias_position_jacobian = Jacobian(e.output_bias, e.coordinates);
-  e.output_bias_velocity_jacobian = Jacobian(e.output_bias, e.velocities);
   if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs()) {
     GiNaC::exmap at_rest;
     for (const GiNaC::realsymbol& velocity : e.velocities) at_rest[velocity] = 0;

@@ -68,25 +68,9 @@ class SymbolicModel {
   const GiNaC::matrix& forces_velocity_jacobian() const {
     return expressions_->forces_velocity_jacobian;
   }
-  /// dM/dq_k for k = 0..dof-1, each dof x dof.
-  const std::vector<GiNaC::matrix>& mass_matrix_derivatives() const {
-    return expressions_->mass_matrix_derivatives;
-  }
   /// dB/dq_k for k = 0..dof-1, each dof x inputs.
   const std::vector<GiNaC::matrix>& input_matrix_derivatives() const {
     return expressions_->input_matrix_derivatives;
-  }
-  /// dH/dq_k for k = 0..dof-1, each outputs x dof.
-  const std::vector<GiNaC::matrix>& output_jacobian_derivatives() const {
-    return expressions_->output_jacobian_derivatives;
-  }
-  /// d h_bar/dq, outputs x dof.
-  const GiNaC::matrix& output_bias_position_jacobian() const {
-    return expressions_->output_bias_position_jacobian;
-  }
-  /// d h_bar/dq_dot, outputs x dof.
-  const GiNaC::matrix& output_bias_velocity_jacobian() const {
-    return expressions_->output_bias_velocity_jacobian;
   }
 
   /// det [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]] with `at` substituted (e.g.
@@ -138,9 +122,7 @@ class SymbolicModel {
     GiNaC::matrix mass_matrix, forces, input_matrix, output;
     GiNaC::matrix output_jacobian, output_bias;
     GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
-    std::vector<GiNaC::matrix> mass_matrix_derivatives, input_matrix_derivatives,
-        output_jacobian_derivatives;
-    GiNaC::matrix output_bias_position_jacobian, output_bias_velocity_jacobian;
+    std::vector<GiNaC::matrix> input_matrix_derivatives;
     std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
     double zero_dynamics_polynomial_terms = 0.0;
   };

@@ -25,8 +25,7 @@ std::vector<double> EvaluateMany(const Model& model) {
     for (const Eigen::MatrixXd& matrix :
          {workspace.mass_matrix, workspace.input_matrix, workspace.output_jacobian,
           workspace.forces_position_jacobian, workspace.forces_velocity_jacobian,
-          workspace.output_bias_position_jacobian, workspace.output_bias_velocity_jacobian,
-          workspace.mass_matrix_derivatives[1], workspace.output_jacobian_derivatives[1]}) {
+          workspace.input_matrix_derivatives[1]}) {
       values.insert(values.end(), matrix.data(), matrix.data() + matrix.size());
     }
     for (const Eigen::VectorXd& vector :
