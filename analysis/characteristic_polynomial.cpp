@@ -8,6 +8,7 @@
 #include "analysis/operating_point.h"
 #include "base/errors.h"
 #include "modeling/canonical_expression.h"
+#include "modeling/expansion_bound.h"
 #include "modeling/expression_program.h"
 #include "modeling/symbolic_lock.h"
 #include "modeling/symbolic_model.h"
@@ -17,6 +18,10 @@ namespace servokit {
 namespace {
 
 using GiNaC::ex;
+
+// Rows up to which LeibnizDeterminant writes the Laplace expansion the budget bounds (5! = 120
+// products); larger determinants (up to kMaxClosedFormSize) are taken unbounded.
+constexpr unsigned kMaxBoundedRows = 5;
 
 // Scan resolution and bisection accuracy for the sign changes printed with the conditions.
 constexpr int kSignScanPoints = 400;
@@ -161,7 +166,7 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
                                                                        double high) {
   const SymbolicModel& symbolic = model.symbolic();
   const std::size_t dof = symbolic.dof(), inputs = symbolic.num_inputs();
-  if (dof + inputs > kMaxClosedFormSize) return std::nullopt;
+  if (dof + inputs > kMaxClosedFormSize || !symbolic.has_symbolic_jacobians()) return std::nullopt;
 
   // The closed form is taken at q = 0, u = 0: check that this is the operating point at the
   // nominal values and at both ends of the range.
@@ -184,9 +189,16 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     at_rest[symbolic.velocities()[k]] = 0;
   }
   const GiNaC::realsymbol lambda("lambda");
+  const GiNaC::matrix rosenbrock = symbolic.RosenbrockMatrix(lambda, at_rest);
+  // The zero-dynamics polynomial's expansion budget (modeling/symbolic_model.h), bounded before
+  // anything is expanded where the Laplace expansion is small enough to write.
+  if (rosenbrock.rows() <= kMaxBoundedRows &&
+      BoundExpandedTerms(LeibnizDeterminant(rosenbrock)).numerator >
+          SymbolicModel::kMaxPolynomialTerms) {
+    return std::nullopt;
+  }
   // Clearing denominators multiplies every coefficient by the same factor: same roots.
-  ex polynomial =
-      GiNaC::numer(GiNaC::normal(symbolic.RosenbrockDeterminant(lambda, at_rest))).expand();
+  ex polynomial = GiNaC::numer(GiNaC::normal(rosenbrock.determinant())).expand();
   const int degree = polynomial.degree(lambda);
 
   const Eigen::VectorXd& nominal = model.parameters();

@@ -43,8 +43,10 @@ struct CharacteristicPolynomial {
 /// Derives the closed form for `parameter` swept over [low, high]. Returns nullopt when the
 /// closed form does not apply: the operating point is not q = 0, u = 0 (then M, K, D would
 /// depend on where the equilibrium moves), or the model is too large for a symbolic
-/// determinant (more than kMaxClosedFormSize rows). Sign changes are located to relative 1e-12
-/// by GSL's Brent solver on the expression evaluated numerically.
+/// determinant (more than kMaxClosedFormSize rows, no symbolic Jacobians, or an expansion past
+/// SymbolicModel::kMaxPolynomialTerms terms, bounded before expanding for up to 5 rows). Sign
+/// changes are located to relative 1e-12 by GSL's Brent solver on the expression evaluated
+/// numerically.
 std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Model& model,
                                                                        std::size_t parameter,
                                                                        double low,

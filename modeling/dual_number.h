@@ -9,6 +9,9 @@
 #include <cmath>
 
 namespace servokit {
+// Its own namespace, so that its functions are found by argument-dependent lookup for dual
+// numbers only: an unqualified cos(double) elsewhere in servokit never meets cos(Dual).
+namespace dual {
 
 struct Dual {
   double value = 0.0;
@@ -100,5 +103,11 @@ inline Dual abs(const Dual& a) {
                                      : (a.tangent > 0 ? 1.0 : (a.tangent < 0 ? -1.0 : 0.0));
   return {std::abs(a.value), sign * a.tangent};
 }
+
+}  // namespace dual
+
+using dual::Dual;
+using dual::IsZero;
+using dual::ValueOf;
 
 }  // namespace servokit

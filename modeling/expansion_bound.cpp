@@ -74,4 +74,12 @@ GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix) {
   return determinant;
 }
 
+double TreeSize(const GiNaC::ex& expression) {
+  double size = 0.0;
+  for (auto node = expression.preorder_begin(); node != expression.preorder_end(); ++node) {
+    size += 1.0;
+  }
+  return size;
+}
+
 }  // namespace servokit

@@ -24,4 +24,9 @@ ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression);
 /// before GiNaC's own determinant() normalizes it.
 GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix);
 
+/// The nodes of an expression's tree (symbols, numbers, sums, products, powers, functions), each
+/// shared subexpression counted wherever it occurs: what differentiating it once walks. Hold a
+/// SymbolicLock.
+double TreeSize(const GiNaC::ex& expression);
+
 }  // namespace servokit

@@ -11,7 +11,10 @@
 
 namespace servokit {
 
+namespace dual {
 struct Dual;  // modeling/dual_number.h
+}  // namespace dual
+using dual::Dual;
 
 /// An immutable, thread-shareable evaluator of several expressions in the same inputs.
 ///

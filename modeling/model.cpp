@@ -53,8 +53,13 @@ std::optional<std::size_t> Model::FindParameter(std::string_view name) const {
 
 const ExpressionProgram& Model::program(Quantity quantity) const {
   const std::size_t index = ProgramIndex(quantity);
-  assert(index < programs_.size() && programs_[index] && "model was not built by LoadModel");
+  assert(index < programs_.size() && programs_[index] && "no program: see has_program");
   return *programs_[index];
+}
+
+bool Model::has_program(Quantity quantity) const {
+  const std::size_t index = ProgramIndex(quantity);
+  return index < programs_.size() && programs_[index] != nullptr;
 }
 
 std::size_t Model::max_registers() const {
@@ -67,7 +72,9 @@ std::size_t Model::max_outputs() const {
 
 std::size_t Model::LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const {
   std::size_t largest = 0;
-  for (const auto& program : programs_) largest = std::max(largest, ((*program).*size)());
+  for (const auto& program : programs_) {
+    if (program) largest = std::max(largest, ((*program).*size)());
+  }
   for (const auto& [combination, program] : combined_programs_) {
     largest = std::max(largest, ((*program).*size)());
   }
@@ -181,19 +188,62 @@ double* InPlaceResult(Quantity quantity, Workspace& workspace) {
 
 }  // namespace
 
+void Workspace::SetProgramInputs(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 const Eigen::Ref<const Eigen::VectorXd>& q_dot) {
+  assert(static_cast<std::size_t>(q.size()) == dof_ && "q must have size dof");
+  assert(static_cast<std::size_t>(q_dot.size()) == dof_ && "q_dot must have size dof");
+  double* inputs = program_inputs_.data();
+  inputs = std::copy_n(parameters.data(), parameters.size(), inputs);
+  inputs = std::copy_n(q.data(), q.size(), inputs);
+  std::copy_n(q_dot.data(), q_dot.size(), inputs);
+}
+
+// Column j of a Jacobian is the tangent of the program's outputs when input `first + j` carries
+// tangent 1: one pass over dual numbers per column.
+void Workspace::DifferentiateForwardMode(const Model& model, Quantity quantity) {
+  const Quantity differentiated =
+      quantity == Quantity::kForcesJacobians ? Quantity::kForces : Quantity::kInputMatrix;
+  const ExpressionProgram& program = model.program(differentiated);
+  dual_inputs_.assign(program_inputs_.begin(), program_inputs_.end());
+  dual_registers_.resize(program.num_registers());
+  dual_outputs_.resize(program.num_outputs());
+  const auto column = [&](std::size_t input, double* destination) {
+    dual_inputs_[input].tangent = 1.0;
+    program.EvaluateTaylor(0, dual_inputs_.data(), dual_registers_.data(), dual_outputs_.data());
+    dual_inputs_[input].tangent = 0.0;
+    for (const Dual& result : dual_outputs_) *destination++ = result.tangent;
+  };
+  const std::size_t first_q = num_parameters_, first_q_dot = num_parameters_ + dof_;
+  for (std::size_t j = 0; j < dof_; ++j) {
+    const auto col = static_cast<Eigen::Index>(j);
+    if (quantity == Quantity::kForcesJacobians) {
+      column(first_q + j, forces_position_jacobian.col(col).data());
+      column(first_q_dot + j, forces_velocity_jacobian.col(col).data());
+    } else {
+      column(first_q + j, input_matrix_derivatives[j].data());  // column-major, as B's program
+    }
+  }
+}
+
+void EvaluateByForwardMode(const Model& model,
+                           Workspace& workspace,
+                           const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+                           unsigned quantities) {
+  assert(workspace.Fits(model) && "workspace was built for another model");
+  workspace.SetProgramInputs(q, q_dot);
+  for (const Quantity quantity : {Quantity::kForcesJacobians, Quantity::kInputMatrixDerivatives}) {
+    if (Wants(quantities, quantity)) workspace.DifferentiateForwardMode(model, quantity);
+  }
+}
+
 void Evaluate(const Model& model,
               Workspace& workspace,
               const Eigen::Ref<const Eigen::VectorXd>& q,
               const Eigen::Ref<const Eigen::VectorXd>& q_dot,
               unsigned quantities) {
   assert(workspace.Fits(model) && "workspace was built for another model");
-  assert(static_cast<std::size_t>(q.size()) == model.dof() && "q must have size dof");
-  assert(static_cast<std::size_t>(q_dot.size()) == model.dof() && "q_dot must have size dof");
-
-  double* inputs = workspace.program_inputs_.data();
-  inputs = std::copy_n(workspace.parameters.data(), workspace.parameters.size(), inputs);
-  inputs = std::copy_n(q.data(), q.size(), inputs);
-  std::copy_n(q_dot.data(), q_dot.size(), inputs);
+  workspace.SetProgramInputs(q, q_dot);
 
   const auto run = [&](const ExpressionProgram& program, double* destination) {
     program.Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(), destination);
@@ -222,7 +272,9 @@ void Evaluate(const Model& model,
   for (unsigned bit = 0; bit < kNumQuantities; ++bit) {
     const auto quantity = static_cast<Quantity>(1u << bit);
     if (!Wants(quantities, quantity)) continue;
-    if (double* destination = InPlaceResult(quantity, workspace)) {
+    if (!model.has_program(quantity)) {
+      workspace.DifferentiateForwardMode(model, quantity);
+    } else if (double* destination = InPlaceResult(quantity, workspace)) {
       run(model.program(quantity), destination);
     } else {
       run(model.program(quantity), workspace.outputs_.data());

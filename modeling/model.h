@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "modeling/dual_number.h"
 #include "modeling/units.h"
 
 namespace servokit {
@@ -44,6 +45,12 @@ constexpr unsigned operator|(Quantity a, Quantity b) {
 constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
 inline constexpr std::size_t kNumQuantities = 9;
+/// The quantities a model too large for symbolic Jacobians (SymbolicModel::has_symbolic_jacobians)
+/// has no program for: Evaluate computes them by forward-mode differentiation of the programs
+/// of f and B (dual numbers, modeling/dual_number.h), a column per q and q_dot.
+constexpr bool IsForwardModeQuantity(Quantity quantity) {
+  return quantity == Quantity::kForcesJacobians || quantity == Quantity::kInputMatrixDerivatives;
+}
 /// What a sweep's polynomial path (analysis/sweep_point.h) evaluates at every point, compiled
 /// also as one program (Model::combined_program).
 inline constexpr unsigned kPolynomialPathQuantities =
@@ -89,8 +96,10 @@ class Model {
   /// The GiNaC expressions (for closed forms and reports; not for numeric loops). Hold a
   /// SymbolicLock (modeling/symbolic_lock.h) while you use them: other threads may be using them.
   const SymbolicModel& symbolic() const { return *symbolic_; }
-  /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot].
+  /// The compiled evaluator of one quantity; inputs are [parameters, q, q_dot]. Every quantity
+  /// has one but those IsForwardModeQuantity names, on a model too large for symbolic Jacobians.
   const ExpressionProgram& program(Quantity quantity) const;
+  bool has_program(Quantity quantity) const;
   /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
   /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
   bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
@@ -187,6 +196,16 @@ class Workspace {
                        const Eigen::Ref<const Eigen::VectorXd>&,
                        const Eigen::Ref<const Eigen::VectorXd>&,
                        unsigned);
+  friend void EvaluateByForwardMode(const Model&,
+                                    Workspace&,
+                                    const Eigen::Ref<const Eigen::VectorXd>&,
+                                    const Eigen::Ref<const Eigen::VectorXd>&,
+                                    unsigned);
+  // The inputs [parameters, q, q_dot] of every program.
+  void SetProgramInputs(const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& q_dot);
+  // One forward-mode quantity from the programs of f or B (program_inputs_ set).
+  void DifferentiateForwardMode(const Model& model, Quantity quantity);
   std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0, num_parameters_ = 0;
   std::vector<double> program_inputs_;  // [parameters, q, q_dot]
   std::vector<double> registers_;       // scratch for the largest program
@@ -194,6 +213,9 @@ class Workspace {
   // Each combined program's registers (its constants loaded once), and where its outputs go.
   std::vector<std::vector<double>> combined_registers_;
   std::vector<double*> combined_destinations_;
+  // Forward mode's dual numbers (IsForwardModeQuantity): the programs' inputs, registers and
+  // outputs, sized at the first use.
+  std::vector<Dual> dual_inputs_, dual_registers_, dual_outputs_;
 };
 
 /// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with
@@ -204,6 +226,15 @@ void Evaluate(const Model& model,
               const Eigen::Ref<const Eigen::VectorXd>& q,
               const Eigen::Ref<const Eigen::VectorXd>& q_dot,
               unsigned quantities);
+
+/// The quantities of `quantities` that IsForwardModeQuantity names, by forward-mode
+/// differentiation of the programs of f and B whether or not the model has programs for them:
+/// the route Evaluate takes without one, callable on any model so that tests compare the two.
+void EvaluateByForwardMode(const Model& model,
+                           Workspace& workspace,
+                           const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& q_dot,
+                           unsigned quantities);
 
 /// Evaluate() for one quantity, so that a single Quantity needs no cast.
 inline void Evaluate(const Model& model,

@@ -811,6 +811,9 @@ class ModelBuilder {
     for (const Derived& derived : quantities) {
       const auto index =
           static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(derived.quantity)));
+      if (IsForwardModeQuantity(derived.quantity) && !symbolic.has_symbolic_jacobians()) {
+        continue;  // no program: Evaluate differentiates those of f and B in forward mode
+      }
       try {
         model_.programs_[index] = std::make_shared<const ExpressionProgram>(
             CompileExpressions(ColumnMajor(derived.blocks), inputs));

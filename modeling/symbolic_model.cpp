@@ -54,6 +54,18 @@ GiNaC::matrix OutputBias(const std::vector<GiNaC::matrix>& output_jacobian_deriv
   return bias;
 }
 
+// The nodes GiNaC walks to differentiate f by every q and q_dot and B by every q.
+double JacobianWork(const GiNaC::matrix& forces,
+                    const GiNaC::matrix& input_matrix,
+                    std::size_t dof) {
+  double forces_size = 0.0, input_size = 0.0;
+  for (unsigned i = 0; i < forces.rows(); ++i) forces_size += TreeSize(forces(i, 0));
+  for (unsigned i = 0; i < input_matrix.rows(); ++i) {
+    for (unsigned j = 0; j < input_matrix.cols(); ++j) input_size += TreeSize(input_matrix(i, j));
+  }
+  return double(dof) * (2.0 * forces_size + input_size);
+}
+
 // Sum of |terms| of an expanded expression: what its value is compared with to call it zero.
 GiNaC::ex SumOfAbsoluteTerms(const GiNaC::ex& expanded) {
   if (!GiNaC::is_a<GiNaC::add>(expanded)) return GiNaC::abs(expanded);
@@ -89,6 +101,8 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.output_jacobian = Jacobian(e.output, e.coordinates);
   e.output_bias =
       OutputBias(Derivatives(e.output_jacobian, e.coordinates), e.velocities, e.output.rows());
+  e.jacobian_work = JacobianWork(e.forces, e.input_matrix, dof());
+  if (e.jacobian_work > kMaxJacobianWork) return;  // Evaluate differentiates the programs
   e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
   e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
   e.input_matrix_derivatives = Derivatives(e.input_matrix, e.coordinates);
@@ -120,6 +134,7 @@ GiNaC::matrix SymbolicModel::RosenbrockMatrix(const GiNaC::realsymbol& lambda,
                                               const GiNaC::exmap& at) const {
   const SymbolicLock lock;
   const Expressions& e = *expressions_;
+  assert(has_symbolic_jacobians() && "the Rosenbrock matrix needs df/dq and df/dq_dot");
   const unsigned n = unsigned(dof()), m = unsigned(num_inputs());
   GiNaC::matrix rosenbrock(n + m, n + m);
   for (unsigned i = 0; i < n; ++i) {

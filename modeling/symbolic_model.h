@@ -60,15 +60,24 @@ class SymbolicModel {
   const GiNaC::matrix& output_jacobian() const { return expressions_->output_jacobian; }
   /// h_bar = H_dot q_dot = sum_jk d2h/dq_j dq_k q_dot_j q_dot_k, outputs x 1 (paper Eq. 5).
   const GiNaC::matrix& output_bias() const { return expressions_->output_bias; }
-  /// df/dq, dof x dof.
+  /// True when df/dq, df/dq_dot and dB/dq were derived: when differentiating f and B walks at
+  /// most kMaxJacobianWork nodes (dof (2 |f| + |B|), TreeSize, modeling/expansion_bound.h).
+  /// Larger models get them by forward-mode differentiation of the compiled programs of f and
+  /// B at every evaluation (Evaluate, modeling/model.h), and no zero-dynamics polynomial.
+  bool has_symbolic_jacobians() const { return expressions_->jacobian_work <= kMaxJacobianWork; }
+  // Every shipped and test model needs at most about 2000; a chain of 10 pendulums written as
+  // energies about 3.3e4, a sum of 1000 monomials in the forces 4.1e4 (issue #31's benchmark),
+  // a chain of 50 pendulums 3.8e6, whose symbolic Jacobians took seconds.
+  static constexpr double kMaxJacobianWork = 1e4;
+  /// df/dq, dof x dof (empty without has_symbolic_jacobians()).
   const GiNaC::matrix& forces_position_jacobian() const {
     return expressions_->forces_position_jacobian;
   }
-  /// df/dq_dot, dof x dof.
+  /// df/dq_dot, dof x dof (empty without has_symbolic_jacobians()).
   const GiNaC::matrix& forces_velocity_jacobian() const {
     return expressions_->forces_velocity_jacobian;
   }
-  /// dB/dq_k for k = 0..dof-1, each dof x inputs.
+  /// dB/dq_k for k = 0..dof-1, each dof x inputs (empty without has_symbolic_jacobians()).
   const std::vector<GiNaC::matrix>& input_matrix_derivatives() const {
     return expressions_->input_matrix_derivatives;
   }
@@ -76,7 +85,8 @@ class SymbolicModel {
   /// det [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]] with `at` substituted (e.g.
   /// q_dot -> 0): the characteristic polynomial of the linearized zero dynamics at an
   /// equilibrium where B u0 does not vary with q (u0 = 0 or B constant); its roots are the
-  /// invariant zeros. The one place this determinant is formed.
+  /// invariant zeros. The one place this determinant is formed. Needs
+  /// has_symbolic_jacobians().
   GiNaC::ex RosenbrockDeterminant(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
   /// The matrix of that determinant, [[M lambda^2 + (df/dq_dot) lambda + df/dq, -B], [H, 0]].
   GiNaC::matrix RosenbrockMatrix(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
@@ -125,6 +135,7 @@ class SymbolicModel {
     std::vector<GiNaC::matrix> input_matrix_derivatives;
     std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
     double zero_dynamics_polynomial_terms = 0.0;
+    double jacobian_work = 0.0;
   };
   SymbolicPtr<Expressions> expressions_;
 };

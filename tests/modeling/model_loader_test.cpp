@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -194,6 +196,81 @@ TEST_CASE("every derived Jacobian matches central finite differences", "[models]
                  kFiniteDifferenceTolerance);
       CheckClose(workspace.output_jacobian.col(k), d_output_dq, kFiniteDifferenceTolerance);
     }
+  }
+}
+
+// The forward-mode route (dual numbers through the programs of f and B) against the symbolic
+// Jacobians' programs, a second derivation, on every model file that loads.
+TEST_CASE("forward-mode Jacobians equal the symbolic ones on every model file", "[models]") {
+  int compared = 0;
+  for (const std::string& directory :
+       {ModelPath(""), testing::TestDataPath(""), testing::TestDataPath("energy_forms")}) {
+    for (const auto& entry : std::filesystem::directory_iterator(directory)) {
+      if (entry.path().extension() != ".yaml") continue;
+      std::optional<Model> model;
+      try {
+        model = LoadModel(entry.path().string());
+      } catch (const Error&) {
+        continue;  // the error-case files and linear models
+      }
+      INFO(entry.path().string());
+      REQUIRE(model->symbolic().has_symbolic_jacobians());
+      const auto n = Eigen::Index(model->dof());
+      Eigen::VectorXd q(n), q_dot(n);
+      for (Eigen::Index j = 0; j < n; ++j) {
+        q[j] = 0.31 - 0.17 * double(j);
+        q_dot[j] = -0.23 + 0.11 * double(j);
+      }
+      Workspace symbolic(*model), forward(*model);
+      const unsigned jacobians = Quantity::kForcesJacobians | Quantity::kInputMatrixDerivatives;
+      Evaluate(*model, symbolic, q, q_dot, jacobians);
+      EvaluateByForwardMode(*model, forward, q, q_dot, jacobians);
+      CheckClose(forward.forces_position_jacobian, symbolic.forces_position_jacobian, 1e-13);
+      CheckClose(forward.forces_velocity_jacobian, symbolic.forces_velocity_jacobian, 1e-13);
+      for (std::size_t k = 0; k < model->dof(); ++k) {
+        CheckClose(forward.input_matrix_derivatives[k], symbolic.input_matrix_derivatives[k],
+                   1e-13);
+      }
+      ++compared;
+    }
+  }
+  CHECK(compared >= 25);
+}
+
+// A force with 1200 distinct monomials: past the budget for symbolic Jacobians, so the model has
+// no program for them and Evaluate differentiates f in forward mode, checked against central
+// differences.
+TEST_CASE("a model past the Jacobian budget is differentiated in forward mode", "[models]") {
+  std::string force = "k*s";
+  for (int a = 0; a < 12; ++a) {
+    for (int b = 0; b < 10; ++b) {
+      for (int c = 0; c < 10; ++c) {
+        force += " + 1e-4*x^" + std::to_string(a) + "*s^" + std::to_string(b) + "*s_dot^" +
+                 std::to_string(c);
+      }
+    }
+  }
+  const Model model = LoadModelFromString(
+      "name: large\nparameters: {m: 1.0, k: 5.0}\ncoordinates: [x, s]\ninputs: [F]\n"
+      "mass_matrix: [[2*m, m], [m, m]]\nforces: [0, \"" +
+          force + "\"]\ninput_matrix: [[1], [0]]\noutputs: [x + s]\n",
+      "large");
+  REQUIRE_FALSE(model.symbolic().has_symbolic_jacobians());
+  CHECK_FALSE(model.has_program(Quantity::kForcesJacobians));
+  CHECK_FALSE(model.has_zero_dynamics_polynomial());
+  Workspace workspace(model);
+  const Eigen::Vector2d q(0.3, -0.4), q_dot(0.2, 0.5);
+  const auto forces = [&](const Eigen::VectorXd& at_q, const Eigen::VectorXd& at_q_dot) {
+    Evaluate(model, workspace, at_q, at_q_dot, Quantity::kForces);
+    return Flat(workspace.forces);
+  };
+  for (Eigen::Index k = 0; k < 2; ++k) {
+    const Eigen::Vector2d unit = Eigen::Vector2d::Unit(k), none = Eigen::Vector2d::Zero();
+    const Eigen::VectorXd by_q = CentralDifference(forces, q, q_dot, unit, none);
+    const Eigen::VectorXd by_q_dot = CentralDifference(forces, q, q_dot, none, unit);
+    Evaluate(model, workspace, q, q_dot, Quantity::kForcesJacobians);
+    CheckClose(workspace.forces_position_jacobian.col(k), by_q, kFiniteDifferenceTolerance);
+    CheckClose(workspace.forces_velocity_jacobian.col(k), by_q_dot, kFiniteDifferenceTolerance);
   }
 }
 
