@@ -84,7 +84,7 @@ class NumericAlgorithm {
     double sum = 0.0;
     for (Eigen::Index j = 0; j < Eigen::Index(model_.num_inputs()); ++j) {
       point.motions.emplace_back(model_, model_.parameters(), point.start,
-                                 Direction(&MotionStart::u, j));
+                                 Direction(&MotionStart::u, j), scratch_);
       sum += point.motions.back().Acceleration().tangent.squaredNorm();
     }
     if (std::isfinite(sum)) point.input_size = std::sqrt(sum);
@@ -112,7 +112,8 @@ class NumericAlgorithm {
       for (Eigen::Index s = 0; s < 2 * n; ++s) {
         point.shifted.emplace_back(
             model_, model_.parameters(), point.start,
-            s < n ? Direction(&MotionStart::q, s) : Direction(&MotionStart::q_dot, s - n));
+            s < n ? Direction(&MotionStart::q, s) : Direction(&MotionStart::q_dot, s - n),
+            scratch_);
       }
     }
     double sum = 0.0;
@@ -167,6 +168,7 @@ class NumericAlgorithm {
   const Model& model_;
   const double tolerance_;
   const std::size_t states_, outputs_;
+  mutable MotionSeries::Scratch scratch_;  // shared by every motion: one at a time runs
   std::vector<DecisionPoint> points_;
 };
 

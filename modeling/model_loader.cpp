@@ -14,6 +14,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -625,16 +626,26 @@ class ModelBuilder {
               EquationsOfMotion& equations) const {
     try {
       equations.mass_matrix = detail::KineticMassMatrix(energies.kinetic, velocity_symbols_);
+      const std::set<GiNaC::ex, GiNaC::ex_is_less> velocities(velocity_symbols_.begin(),
+                                                              velocity_symbols_.end());
       for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
         for (unsigned j = 0; j < equations.mass_matrix.cols(); ++j) {
-          for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
-            if (equations.mass_matrix(i, j).has(velocity)) {
-              Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
-                                    velocity_symbols_[i].get_name() + " d" +
-                                    velocity_symbols_[j].get_name() + " = " +
-                                    CanonicalText(equations.mass_matrix(i, j)) +
-                                    " depends on the velocity '" + velocity.get_name() + "'");
+          // One walk per entry (has() per velocity would walk it dof times).
+          const GiNaC::ex& entry = equations.mass_matrix(i, j);
+          const GiNaC::realsymbol* found = nullptr;
+          for (auto node = entry.preorder_begin(); node != entry.preorder_end(); ++node) {
+            if (!velocities.contains(*node)) continue;
+            for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+              if (GiNaC::ex(velocity).is_equal(*node) && (found == nullptr || &velocity < found)) {
+                found = &velocity;  // the first in the coordinates' order, as the message was
+              }
             }
+          }
+          if (found != nullptr) {
+            Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
+                                  velocity_symbols_[i].get_name() + " d" +
+                                  velocity_symbols_[j].get_name() + " = " + CanonicalText(entry) +
+                                  " depends on the velocity '" + found->get_name() + "'");
           }
         }
       }

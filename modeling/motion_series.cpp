@@ -22,8 +22,10 @@ std::vector<Dual> Duals(const Eigen::VectorXd& values, const Eigen::VectorXd& ta
 MotionSeries::MotionSeries(const Model& model,
                            const Eigen::VectorXd& parameters,
                            const MotionStart& start,
-                           const MotionStart& direction)
+                           const MotionStart& direction,
+                           Scratch& scratch)
     : model_(model),
+      scratch_(&scratch),
       parameters_(Duals(parameters, Eigen::VectorXd())),
       u_(Duals(start.u, direction.u)),
       q_{Duals(start.q, direction.q), Duals(start.q_dot, direction.q_dot)} {
@@ -34,8 +36,8 @@ MotionSeries::MotionSeries(const Model& model,
   mass_matrix_tangent_.resize(n, n);
   for (Eigen::Index c = 0; c < n; ++c) {
     for (Eigen::Index r = 0; r < n; ++r) {
-      values(r, c) = outputs_[std::size_t(r + c * n)].value;
-      mass_matrix_tangent_(r, c) = outputs_[std::size_t(r + c * n)].tangent;
+      values(r, c) = scratch_->outputs[std::size_t(r + c * n)].value;
+      mass_matrix_tangent_(r, c) = scratch_->outputs[std::size_t(r + c * n)].tangent;
     }
   }
   regular_ = values.allFinite() && mass_matrix_tangent_.allFinite();
@@ -49,12 +51,12 @@ MotionSeries::MotionSeries(const Model& model,
 void MotionSeries::FillInputs(int degree) {
   const auto width = std::size_t(degree + 1);
   const std::size_t n = model_.dof(), p = parameters_.size();
-  inputs_.assign((p + 2 * n) * width, Dual());
-  for (std::size_t i = 0; i < p; ++i) inputs_[i * width] = parameters_[i];
+  scratch_->inputs.assign((p + 2 * n) * width, Dual());
+  for (std::size_t i = 0; i < p; ++i) scratch_->inputs[i * width] = parameters_[i];
   for (std::size_t j = 0; j < n; ++j) {
     for (std::size_t k = 0; k < width; ++k) {
-      inputs_[(p + j) * width + k] = q_[k][j];
-      inputs_[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
+      scratch_->inputs[(p + j) * width + k] = q_[k][j];
+      scratch_->inputs[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
     }
   }
 }
@@ -62,9 +64,10 @@ void MotionSeries::FillInputs(int degree) {
 void MotionSeries::EvaluateSeries(Quantity quantity, int degree) {
   const ExpressionProgram& program = model_.program(quantity);
   const auto width = std::size_t(degree + 1);
-  registers_.resize(program.num_registers() * width);
-  outputs_.resize(program.num_outputs() * width);
-  program.EvaluateTaylor(degree, inputs_.data(), registers_.data(), outputs_.data());
+  scratch_->registers.resize(program.num_registers() * width);
+  scratch_->outputs.resize(program.num_outputs() * width);
+  program.EvaluateTaylor(degree, scratch_->inputs.data(), scratch_->registers.data(),
+                         scratch_->outputs.data());
 }
 
 std::vector<Dual> MotionSeries::SolveMassMatrix(const std::vector<Dual>& rhs) const {
@@ -89,16 +92,17 @@ void MotionSeries::AddOrder() {
   EvaluateSeries(Quantity::kMassMatrix, int(k));
   for (std::size_t c = 0; c < n; ++c) {
     for (std::size_t r = 0; r < n; ++r) {
-      const Dual* series = &outputs_[(r + c * n) * width];
+      const Dual* series = &scratch_->outputs[(r + c * n) * width];
       for (std::size_t l = 1; l <= k; ++l) rhs[r] -= series[l] * accelerations_[k - l][c];
     }
   }
   EvaluateSeries(Quantity::kForces, int(k));
-  for (std::size_t r = 0; r < n; ++r) rhs[r] -= outputs_[r * width + k];
+  for (std::size_t r = 0; r < n; ++r) rhs[r] -= scratch_->outputs[r * width + k];
   EvaluateSeries(Quantity::kInputMatrix, int(k));
   for (std::size_t c = 0; c < u_.size(); ++c) {
     if (IsZero(u_[c])) continue;  // 0 * inf would make a motion at rest NaN
-    for (std::size_t r = 0; r < n; ++r) rhs[r] += outputs_[(r + c * n) * width + k] * u_[c];
+    for (std::size_t r = 0; r < n; ++r)
+      rhs[r] += scratch_->outputs[(r + c * n) * width + k] * u_[c];
   }
   std::vector<Dual> acceleration = SolveMassMatrix(rhs);
   std::vector<Dual> next(n);
@@ -133,7 +137,8 @@ MotionSeries::Derivative MotionSeries::OutputDerivative(int k) {
   double factorial = 1.0;
   for (std::size_t j = 2; j <= order; ++j) factorial *= double(j);
   std::vector<Dual> coefficients(outputs);
-  for (std::size_t i = 0; i < outputs; ++i) coefficients[i] = outputs_[i * (order + 1) + order];
+  for (std::size_t i = 0; i < outputs; ++i)
+    coefficients[i] = scratch_->outputs[i * (order + 1) + order];
   return Split(coefficients, factorial);
 }
 

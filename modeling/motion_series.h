@@ -30,10 +30,17 @@ struct MotionStart {
   Eigen::VectorXd q, q_dot, u;
 };
 
-/// One motion's Taylor series, extended an order at a time. Not thread-safe (it is its own
-/// scratch); the model is only read, so threads may each hold one for the same model.
+/// One motion's Taylor series, extended an order at a time. Not thread-safe (it writes its
+/// scratch); the model is only read, so threads may each hold motions for the same model.
 class MotionSeries {
  public:
+  /// The programs' dual-number inputs, registers and outputs: as large as the largest program,
+  /// so that many motions of one thread share one (a chain of 100 pendulums' motions would
+  /// take a gigabyte with one each).
+  struct Scratch {
+    std::vector<Dual> inputs, registers, outputs;
+  };
+
   /// A value and its derivative along the direction.
   struct Derivative {
     Eigen::VectorXd value, tangent;
@@ -41,12 +48,13 @@ class MotionSeries {
 
   /// The motion from `start` at the parameter values `parameters` (SI units;
   /// Model::parameters() for the nominal ones); the tangents are derivatives along `direction`
-  /// (all zero: none). Where M(q) is singular or not finite, every value and tangent is NaN
-  /// (nothing can be decided there).
+  /// (all zero: none); `scratch` outlives it. Where M(q) is singular or not finite, every value and
+  /// tangent is NaN (nothing can be decided there).
   MotionSeries(const Model& model,
                const Eigen::VectorXd& parameters,
                const MotionStart& start,
-               const MotionStart& direction);
+               const MotionStart& direction,
+               Scratch& scratch);
 
   /// y^(k)(0), the k-th time derivative of the outputs h(q(t)) at t = 0; extends the series as
   /// far as that needs (order k of q). Not finite where the model is not (a pole on the way).
@@ -68,13 +76,13 @@ class MotionSeries {
   static Derivative Split(const std::vector<Dual>& duals, double scale);
 
   const Model& model_;
+  Scratch* scratch_;
   std::vector<Dual> parameters_, u_;
   bool regular_ = true;                               // M(q(0)) finite and invertible
   Eigen::PartialPivLU<Eigen::MatrixXd> mass_matrix_;  // of M_0's values
   Eigen::MatrixXd mass_matrix_tangent_;               // M_0's tangents
   std::vector<std::vector<Dual>> q_;                  // q_0 .. q_(orders + 1)
   std::vector<std::vector<Dual>> accelerations_;      // a_0 .. a_(orders - 1)
-  std::vector<Dual> inputs_, registers_, outputs_;
 };
 
 }  // namespace servokit

@@ -51,7 +51,8 @@ outputs: [l*sin(theta)]
   };
   const auto one = [](double value) { return Eigen::VectorXd::Constant(1, value); };
   const MotionStart start{one(theta), one(omega), one(u)};
-  MotionSeries motion(model, model.parameters(), start, {one(0), one(0), one(0)});
+  MotionSeries::Scratch scratch;
+  MotionSeries motion(model, model.parameters(), start, {one(0), one(0), one(0)}, scratch);
   CHECK(motion.Acceleration().value[0] == Approx(alpha).epsilon(1e-14));
   for (int k = 0; k < 4; ++k) {
     INFO("order " << k);
@@ -63,7 +64,7 @@ outputs: [l*sin(theta)]
   const std::vector<double> along_u = {
       0.0, 0.0, l * std::cos(theta) * dalpha,
       -3 * l * std::sin(theta) * omega * dalpha + l * std::cos(theta) * djerk};
-  MotionSeries along(model, model.parameters(), start, {one(0), one(0), one(1)});
+  MotionSeries along(model, model.parameters(), start, {one(0), one(0), one(1)}, scratch);
   CHECK(along.Acceleration().tangent[0] == Approx(dalpha).epsilon(1e-14));
   for (int k = 0; k < 4; ++k) {
     INFO("order " << k);
@@ -72,7 +73,7 @@ outputs: [l*sin(theta)]
           Approx(along_u[std::size_t(k)]).epsilon(1e-13).margin(1e-15));
   }
   // Along theta: d/dtheta of y' = -l sin(theta) omega.
-  MotionSeries along_theta(model, model.parameters(), start, {one(1), one(0), one(0)});
+  MotionSeries along_theta(model, model.parameters(), start, {one(1), one(0), one(0)}, scratch);
   CHECK(along_theta.OutputDerivative(1).tangent[0] ==
         Approx(-l * std::sin(theta) * omega).epsilon(1e-14));
 }
@@ -90,7 +91,8 @@ outputs: [x]
 )",
                                           "degenerate");
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(1), one = Eigen::VectorXd::Ones(1);
-  MotionSeries motion(model, model.parameters(), {zero, zero, one}, {zero, zero, one});
+  MotionSeries::Scratch scratch;
+  MotionSeries motion(model, model.parameters(), {zero, zero, one}, {zero, zero, one}, scratch);
   CHECK(std::isnan(motion.OutputDerivative(2).value[0]));
   CHECK(std::isnan(motion.OutputDerivative(2).tangent[0]));
 }
