@@ -1,6 +1,7 @@
 #include "modeling/planar_bodies.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <optional>
 #include <utility>
@@ -45,12 +46,45 @@ struct ExpandAngleSums : GiNaC::map_function {
   }
 };
 
+// An upper bound on the terms of ExpandAngleSums(expression).expand() without expanding: the
+// sine or cosine of a sum of k terms becomes 2^(k-1) products, a product multiplies its factors'
+// counts, a sum adds them, an integer power raises its base's. Saturates at infinity.
+double AngleExpansionTerms(const GiNaC::ex& expression) {
+  if (GiNaC::is_a<GiNaC::add>(expression)) {
+    double sum = 0.0;
+    for (const GiNaC::ex& term : expression) sum += AngleExpansionTerms(term);
+    return sum;
+  }
+  if (GiNaC::is_a<GiNaC::mul>(expression)) {
+    double product = 1.0;
+    for (const GiNaC::ex& factor : expression) product *= AngleExpansionTerms(factor);
+    return product;
+  }
+  if (GiNaC::is_a<GiNaC::power>(expression) && expression.op(1).info(GiNaC::info_flags::posint)) {
+    return std::pow(AngleExpansionTerms(expression.op(0)),
+                    GiNaC::ex_to<GiNaC::numeric>(expression.op(1)).to_double());
+  }
+  if ((GiNaC::is_the_function<GiNaC::sin_SERIAL>(expression) ||
+       GiNaC::is_the_function<GiNaC::cos_SERIAL>(expression)) &&
+      GiNaC::is_a<GiNaC::add>(expression.op(0))) {
+    return std::pow(2.0, double(expression.op(0).nops()) - 1.0);
+  }
+  return 1.0;
+}
+
+// The most terms AngleExpansionTerms may promise before ReduceTrigonometric is skipped: a chain
+// of n links with relative joint angles has sines of sums of up to n angles, 2^(n-1) products
+// each (issue #31: ten links never finished loading). The shipped and test models need at most
+// 644 (the three-link arm); past the budget T stays as written, correct and larger.
+constexpr double kMaxAngleExpansionTerms = 2e4;
+
 // The kinetic energy of bodies written with positions as the user gives them holds
 // sin(u)^2 + cos(u)^2 and the angle-addition products of a chain uncancelled, which makes M and
 // f several times larger than the hand-written ones (and the symbolic steps of the analysis
 // slower). Angle sums expanded, sin^2 replaced by 1 - cos^2 and expanded again, they cancel:
 // the same function, in a form as small as a hand derivation.
 GiNaC::ex ReduceTrigonometric(const GiNaC::ex& expression) {
+  if (AngleExpansionTerms(expression) > kMaxAngleExpansionTerms) return expression;
   ExpandAngleSums expand_sums;
   const GiNaC::ex expanded = expand_sums(expression).expand();
   const GiNaC::ex u = GiNaC::wild(0);

@@ -94,6 +94,69 @@ TEST_CASE("energies and bodies give the hand-written M, f, B and h of the shippe
   }
 }
 
+// A chain of nine point masses with relative joint angles: the bodies' sines of sums of up to
+// nine angles would expand to 2^8 products each, past the angle-expansion budget, so T stays as
+// written. Checked against the same chain written as energies in absolute angles theta_j = q_1 +
+// ... + q_j by the closed form of a serial chain, T = m l^2/2 sum_i sum_(j,k <= i) theta_j'
+// theta_k' cos(theta_j - theta_k).
+TEST_CASE("a chain of nine bodies past the angle-expansion budget keeps its M and f", "[models]") {
+  constexpr int kLinks = 9;
+  std::string coordinates, bodies, kinetic = "0", input_rows;
+  const auto angle = [](int j) {  // theta_j, 1-based
+    std::string sum = "(q1";
+    for (int i = 2; i <= j; ++i) sum += " + q" + std::to_string(i);
+    return sum + ")";
+  };
+  const auto rate = [](int j) {
+    std::string sum = "(q1_dot";
+    for (int i = 2; i <= j; ++i) sum += " + q" + std::to_string(i) + "_dot";
+    return sum + ")";
+  };
+  for (int i = 1; i <= kLinks; ++i) {
+    coordinates += std::string(i > 1 ? ", " : "") + "q" + std::to_string(i);
+    std::string x = "0", y = "0";
+    for (int j = 1; j <= i; ++j) {
+      x += " + l*cos" + angle(j);
+      y += " + l*sin" + angle(j);
+      for (int k = 1; k <= i; ++k) {
+        kinetic +=
+            " + m*l^2/2*" + rate(j) + "*" + rate(k) + "*cos(" + angle(j) + " - " + angle(k) + ")";
+      }
+    }
+    bodies += "  p" + std::to_string(i) + ": {mass: m, inertia: 0, position: [" + x + ", " + y +
+              "], angle: " + angle(i) + "}\n";
+    input_rows += std::string("  - [") + (i == 1 ? "1" : "0") + "]\n";
+  }
+  const std::string common = "parameters: {m: 1.5, l: 0.4}\ncoordinates: [" + coordinates +
+                             "]\ninputs: [tau]\noutputs: [q1]\n";
+  const Model from_bodies =
+      LoadModelFromString("kind: planar-bodies\nname: chain\n" + common + "bodies:\n" + bodies +
+                              "actuators:\n  tau: {on: p1, torque: 1}\n",
+                          "bodies");
+  const Model from_energies =
+      LoadModelFromString("kind: lagrangian\nname: chain\n" + common + "kinetic_energy: \"" +
+                              kinetic + "\"\npotential_energy: \"0\"\ninput_matrix:\n" + input_rows,
+                          "energies");
+  Workspace a(from_energies), b(from_bodies);
+  std::mt19937 random(9);
+  std::uniform_real_distribution<double> angle_value(-3.0, 3.0), rate_value(-2.0, 2.0);
+  const unsigned quantities = Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix;
+  for (int point = 0; point < 5; ++point) {
+    Eigen::VectorXd q(kLinks), q_dot(kLinks);
+    for (Eigen::Index k = 0; k < kLinks; ++k) {
+      q(k) = angle_value(random);
+      q_dot(k) = rate_value(random);
+    }
+    Evaluate(from_energies, a, q, q_dot, quantities);
+    Evaluate(from_bodies, b, q, q_dot, quantities);
+    // Two arrangements of sums of hundreds of terms: their round-off, not 1e-13.
+    const double scale = a.forces.norm() + a.mass_matrix.norm();
+    CHECK((b.mass_matrix - a.mass_matrix).norm() <= 1e-11 * scale);
+    CHECK((b.forces - a.forces).norm() <= 1e-11 * scale);
+    CHECK((b.input_matrix - a.input_matrix).norm() == 0.0);
+  }
+}
+
 // Q(q, q') enters f with a minus sign, so viscous friction written as a generalized force
 // -b x' is the same as the Rayleigh function b x'^2 / 2.
 TEST_CASE("a generalized force -b x_dot is the same as the dissipation b x_dot^2/2", "[models]") {
