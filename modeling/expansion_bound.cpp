@@ -5,6 +5,8 @@
 #include <cstddef>
 #include <limits>
 #include <numeric>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace servokit {
@@ -18,7 +20,57 @@ double PowerTerms(double terms, long n) {
   return count;
 }
 
+// BoundExpandTerms with a memo of the nodes seen (by address: GiNaC shares a subexpression's
+// node wherever it was reused). Returns {terms of the expansion, terms made inside function
+// arguments and powers with other exponents}; the second is added for every occurrence, since
+// expand() expands a shared argument again wherever it occurs.
+class ExpandBound {
+ public:
+  std::pair<double, double> Of(const GiNaC::ex& expression) {
+    const auto found = seen_.find(&GiNaC::ex_to<GiNaC::basic>(expression));
+    if (found != seen_.end()) return found->second;
+    std::pair<double, double> bound{1.0, 0.0};
+    if (GiNaC::is_a<GiNaC::add>(expression) || GiNaC::is_a<GiNaC::mul>(expression)) {
+      const bool sum = GiNaC::is_a<GiNaC::add>(expression);
+      bound.first = sum ? 0.0 : 1.0;
+      for (const GiNaC::ex& operand : expression) {
+        const auto [terms, inner] = Of(operand);
+        bound.first = sum ? bound.first + terms : bound.first * terms;
+        bound.second += inner;
+      }
+    } else if (GiNaC::is_a<GiNaC::power>(expression)) {
+      const auto [terms, inner] = Of(expression.op(0));
+      const GiNaC::ex& exponent = expression.op(1);
+      bound.second = inner + Of(exponent).second;
+      if (exponent.info(GiNaC::info_flags::nonnegint)) {
+        bound.first = PowerTerms(terms, GiNaC::ex_to<GiNaC::numeric>(exponent).to_long());
+      } else {
+        bound.second += terms;  // the base is expanded on its own
+      }
+    } else {
+      for (const GiNaC::ex& argument : expression) {
+        const auto [terms, inner] = Of(argument);
+        bound.second += terms + inner;
+      }
+    }
+    seen_.emplace(&GiNaC::ex_to<GiNaC::basic>(expression), bound);
+    return bound;
+  }
+
+ private:
+  std::unordered_map<const GiNaC::basic*, std::pair<double, double>> seen_;
+};
+
 }  // namespace
+
+double BoundExpandTerms(const GiNaC::ex& expression) {
+  const auto [terms, inner] = ExpandBound().Of(expression);
+  return terms + inner;
+}
+
+GiNaC::ex ExpandWithinBudget(const GiNaC::ex& expression, double max_terms) {
+  return BoundExpandTerms(expression) <= max_terms ? expression.expand() : expression;
+}
 
 ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression) {
   if (GiNaC::is_a<GiNaC::add>(expression)) {

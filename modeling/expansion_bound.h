@@ -19,6 +19,19 @@ struct ExpandedTerms {
 };
 ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression);
 
+/// An upper bound on the terms expression.expand() makes: those of the result, plus those of
+/// every function argument inside it, wherever it occurs (expand() expands arguments too, one
+/// occurrence at a time). Computed without expanding: a sum adds its terms' counts, a product
+/// multiplies them, a non-negative integer power raises its base's; anything else is one term.
+/// Each distinct node is visited once, so an expression built from shared subexpressions costs
+/// its DAG. Saturates at infinity. Hold a SymbolicLock.
+double BoundExpandTerms(const GiNaC::ex& expression);
+
+/// expression.expand() when BoundExpandTerms(expression) <= max_terms, else the expression as it
+/// is: terms that cancel do so exactly where that is cheap, and nothing is multiplied out past
+/// the budget (a product of sums, a linkage's loop closure). Hold a SymbolicLock.
+GiNaC::ex ExpandWithinBudget(const GiNaC::ex& expression, double max_terms);
+
 /// The Laplace expansion of det(matrix), a sum of signed products of entries, built without
 /// normal() or expand() (a square matrix of at most 5 rows): what BoundExpandedTerms bounds
 /// before GiNaC's own determinant() normalizes it.

@@ -5,6 +5,9 @@
 #include <set>
 #include <utility>
 
+#include "modeling/expansion_bound.h"
+#include "modeling/time_derivative.h"
+
 namespace servokit::detail {
 namespace {
 
@@ -14,7 +17,7 @@ namespace {
 // than n^3 (issue #31). The sum is the same as GiNaC's: every other term's derivative is 0.
 class IndexedSum {
  public:
-  explicit IndexedSum(const GiNaC::ex& expression) {
+  explicit IndexedSum(const GiNaC::ex& expression) : expression_(expression) {
     if (GiNaC::is_a<GiNaC::add>(expression)) {
       for (const GiNaC::ex& term : expression) terms_.push_back(term);
     } else {
@@ -39,12 +42,15 @@ class IndexedSum {
     return Sum(std::move(derivatives));
   }
 
+  const GiNaC::ex& expression() const { return expression_; }
+
   // A sum built at once: repeated += would merge k terms k times.
   static GiNaC::ex Sum(GiNaC::exvector terms) {
     return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
   }
 
  private:
+  GiNaC::ex expression_;
   std::vector<GiNaC::ex> terms_;
   std::map<GiNaC::ex, std::vector<std::size_t>, GiNaC::ex_is_less> by_symbol_;
 };
@@ -70,7 +76,7 @@ GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
   GiNaC::matrix mass(dof, dof);
   for (unsigned i = 0; i < dof; ++i) {
     for (unsigned j = i; j < dof; ++j) {
-      mass(i, j) = momenta[i].Derivative(velocities[j]).expand();
+      mass(i, j) = ExpandWithinBudget(momenta[i].Derivative(velocities[j]), kMaxExpandedTerms);
       mass(j, i) = mass(i, j);
     }
   }
@@ -86,19 +92,18 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
   const std::vector<IndexedSum> momenta = Momenta(energies.kinetic, velocities);
   const IndexedSum kinetic(energies.kinetic), potential(energies.potential),
       dissipation(energies.dissipation);
+  TimeDerivative rate(coordinates, velocities);
   GiNaC::matrix forces(dof, 1);
   for (unsigned i = 0; i < dof; ++i) {
     GiNaC::exvector terms;
     // d/dt dT/dq'_i = sum_j d2T/dq'_i dq'_j q''_j + sum_j d2T/dq'_i dq_j q'_j; the first sum
-    // is M q'', the second belongs to f.
-    for (unsigned j = 0; j < dof; ++j) {
-      terms.push_back(momenta[i].Derivative(coordinates[j]) * velocities[j]);
-    }
+    // is M q'', the second, D(dT/dq'_i) with the accelerations zero, belongs to f.
+    terms.push_back(rate(momenta[i].expression()));
     terms.push_back(-kinetic.Derivative(coordinates[i]));
     terms.push_back(potential.Derivative(coordinates[i]));
     terms.push_back(dissipation.Derivative(velocities[i]));
     terms.push_back(-energies.generalized_forces(i, 0));
-    forces(i, 0) = IndexedSum::Sum(std::move(terms)).expand();
+    forces(i, 0) = ExpandWithinBudget(IndexedSum::Sum(std::move(terms)), kMaxExpandedTerms);
   }
   return forces;
 }
@@ -113,7 +118,8 @@ GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,
       quadratic_form.push_back(mass_matrix(i, j) * velocities[i] * velocities[j]);
     }
   }
-  return (kinetic - IndexedSum::Sum(std::move(quadratic_form)) / 2).expand();
+  return ExpandWithinBudget(kinetic - IndexedSum::Sum(std::move(quadratic_form)) / 2,
+                            kMaxExpandedTerms);
 }
 
 }  // namespace servokit::detail

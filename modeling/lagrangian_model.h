@@ -12,6 +12,13 @@
 
 namespace servokit::detail {
 
+/// The most terms BoundExpandTerms (modeling/expansion_bound.h) may promise for an entry of M
+/// or f, or for T - 1/2 q'^T M q', before it is left unexpanded: expanded, terms that cancel do
+/// so exactly (the shipped and test models need at most ...); past it, a product of sums or a
+/// linkage's loop closure would be multiplied out without bound (issue #31), and the entry stays
+/// as derived, the same function.
+inline constexpr double kMaxExpandedTerms = 2000;
+
 /// T(q, q'), V(q), R(q, q') (zero when absent) and Q(q, q') (dof x 1, zeros when absent), in the
 /// symbols of the model.
 struct Energies {
@@ -28,14 +35,16 @@ GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
 
 /// Lagrange's equations d/dt dT/dq' - dT/dq + dV/dq + dR/dq' = Q (+ B u) written as
 /// M q'' + f = B u: f = (d2T/dq' dq) q' - dT/dq + dV/dq + dR/dq' - Q, dof x 1, each entry
-/// expanded so that terms which cancel do so exactly.
+/// expanded within kMaxExpandedTerms. (d2T/dq' dq) q' is the time derivative of dT/dq' with the
+/// accelerations zero (modeling/time_derivative.h): one walk, not one per coordinate.
 GiNaC::matrix LagrangeForces(const Energies& energies,
                              const std::vector<GiNaC::realsymbol>& coordinates,
                              const std::vector<GiNaC::realsymbol>& velocities);
 
 /// T - 1/2 q'^T M q' with M = KineticMassMatrix(T): zero exactly when T is a quadratic form in
 /// the velocities, T(q, s q') = s^2 T(q, q') with M free of q' (no term linear in q' and none
-/// free of it). Expanded; a caller decides "zero" symbolically or numerically.
+/// free of it). Expanded within kMaxExpandedTerms; a caller decides "zero" symbolically (when
+/// that is cheap, BoundExpandedTerms) or numerically.
 GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,
                                  const GiNaC::matrix& mass_matrix,
                                  const std::vector<GiNaC::realsymbol>& velocities);

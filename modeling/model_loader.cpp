@@ -24,6 +24,7 @@
 
 #include "base/errors.h"
 #include "modeling/canonical_expression.h"
+#include "modeling/expansion_bound.h"
 #include "modeling/expression_program.h"
 #include "modeling/lagrangian_model.h"
 #include "modeling/loader_support.h"
@@ -250,7 +251,7 @@ class ModelBuilder {
     auto symbolic = std::make_shared<const SymbolicModel>(
         parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
         std::move(forces), std::move(input_matrix), std::move(output));
-    Compile(*symbolic);
+    Compile(*symbolic, nullptr);
     model_.symbolic_ = std::move(symbolic);
     return std::move(model_);
   }
@@ -267,6 +268,8 @@ class ModelBuilder {
     MakeSymbols();
 
     EquationsOfMotion equations = ReadEquationsOfMotion();
+    std::shared_ptr<const ExpressionProgram> mass_matrix_program =
+        std::move(equations.mass_matrix_program);
     GiNaC::matrix output = ReadOutputs();
     model_.num_outputs_ = model_.num_inputs();
 
@@ -275,7 +278,7 @@ class ModelBuilder {
           parameter_symbols_, coordinate_symbols_, velocity_symbols_,
           std::move(equations.mass_matrix), std::move(equations.forces),
           std::move(equations.input_matrix), std::move(output));
-      Compile(*symbolic);
+      Compile(*symbolic, std::move(mass_matrix_program));
       model_.symbolic_ = std::move(symbolic);
     } catch (const Error&) {
       throw;
@@ -558,6 +561,8 @@ class ModelBuilder {
 
   struct EquationsOfMotion {
     GiNaC::matrix mass_matrix, forces, input_matrix;
+    // M's program when the derivation compiled it to check M (Derive); Compile reuses it.
+    std::shared_ptr<const ExpressionProgram> mass_matrix_program;
   };
 
   // M, f and B as the file's form gives them: written out, or derived from the energies.
@@ -593,7 +598,7 @@ class ModelBuilder {
                                           : GiNaC::matrix(unsigned(dof), 1);
         equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
         CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
-        Derive(energies, kinetic_key, equations);
+        Derive(energies, kinetic_key, KineticEnergy::kWritten, equations);
         return equations;
       }
       case Form::kPlanarBodies: {
@@ -612,17 +617,22 @@ class ModelBuilder {
                std::string("cannot differentiate the positions and angles: ") + error.what());
         }
         equations.input_matrix = std::move(bodies.input_matrix);
-        Derive(bodies.energies, "bodies", equations);
+        Derive(bodies.energies, "bodies", KineticEnergy::kOfBodies, equations);
         return equations;
       }
     }
     return equations;
   }
 
+  // Where T comes from: a file's expression, to be checked, or bodies' velocities, a quadratic
+  // form by construction (positions and angles free of the velocities, ReadPlanarBodies).
+  enum class KineticEnergy { kWritten, kOfBodies };
+
   // M and f from the energies (modeling/lagrangian_model.h), checked: T a quadratic form in the
   // velocities, M positive definite at q = 0. `kinetic_key` names where T comes from.
   void Derive(const detail::Energies& energies,
               const std::string& kinetic_key,
+              KineticEnergy kinetic_energy,
               EquationsOfMotion& equations) const {
     try {
       equations.mass_matrix = detail::KineticMassMatrix(energies.kinetic, velocity_symbols_);
@@ -649,17 +659,12 @@ class ModelBuilder {
           }
         }
       }
-      const GiNaC::ex remainder = detail::QuadraticFormRemainder(
-          energies.kinetic, equations.mass_matrix, velocity_symbols_);
-      if (!remainder.is_zero() && !GiNaC::normal(remainder).is_zero() &&
-          !AgreeNumerically(energies.kinetic, energies.kinetic - remainder)) {
-        Fail(kinetic_key,
-             "T is not quadratic in the velocities: T - 1/2 q_dot^T M q_dot = " +
-                 CanonicalText(remainder) +
-                 " (terms linear in or free of the velocities; T(q, s q_dot) must be s^2 "
-                 "T(q, q_dot))");
+      if (kinetic_energy == KineticEnergy::kWritten) {
+        CheckQuadratic(energies.kinetic, equations.mass_matrix, kinetic_key);
       }
-      CheckPositiveDefinite(equations.mass_matrix, kinetic_key);
+      equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
+          CompileExpressions(ColumnMajor({equations.mass_matrix}), ProgramInputs()));
+      CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
       equations.forces = detail::LagrangeForces(energies, coordinate_symbols_, velocity_symbols_);
     } catch (const Error&) {
       throw;
@@ -668,24 +673,47 @@ class ModelBuilder {
     }
   }
 
+  // T - 1/2 q_dot^T M q_dot vanishes: symbolically where that is cheap, else numerically.
+  void CheckQuadratic(const GiNaC::ex& kinetic,
+                      const GiNaC::matrix& mass_matrix,
+                      const std::string& kinetic_key) const {
+    const GiNaC::ex remainder =
+        detail::QuadraticFormRemainder(kinetic, mass_matrix, velocity_symbols_);
+    // normal() only where its result stays small; a remainder past the budget (a loop closure's
+    // T) is decided by the numeric check alone.
+    const bool cheap = BoundExpandedTerms(remainder).numerator <= detail::kMaxExpandedTerms;
+    if (!remainder.is_zero() && !(cheap && GiNaC::normal(remainder).is_zero()) &&
+        !AgreeNumerically(kinetic, kinetic - remainder)) {
+      Fail(kinetic_key,
+           "T is not quadratic in the velocities: T - 1/2 q_dot^T M q_dot = " +
+               CanonicalText(remainder) +
+               " (terms linear in or free of the velocities; T(q, s q_dot) must be s^2 "
+               "T(q, q_dot))");
+    }
+  }
+
+  // The symbols of a program's inputs, as SymbolicModel::ProgramInputs orders them.
+  std::vector<GiNaC::ex> ProgramInputs() const {
+    std::vector<GiNaC::ex> inputs(parameter_symbols_.begin(), parameter_symbols_.end());
+    inputs.insert(inputs.end(), coordinate_symbols_.begin(), coordinate_symbols_.end());
+    inputs.insert(inputs.end(), velocity_symbols_.begin(), velocity_symbols_.end());
+    return inputs;
+  }
+
   // M(0) with the nominal parameters is positive definite; a point where an entry is
-  // undefined tells nothing (the analysis checks M again at its operating point).
-  void CheckPositiveDefinite(const GiNaC::matrix& mass_matrix, const std::string& key) const {
-    GiNaC::exmap values;
+  // undefined tells nothing (the analysis checks M again at its operating point). Evaluated by
+  // M's compiled program: substituting into dof^2 GiNaC expressions took seconds for 400
+  // coordinates (issue #31).
+  void CheckPositiveDefinite(const ExpressionProgram& mass_program, const std::string& key) const {
+    const auto dof = static_cast<Eigen::Index>(model_.dof());
+    std::vector<double> inputs(parameter_symbols_.size() + 2 * model_.dof(), 0.0);
     for (std::size_t k = 0; k < parameter_symbols_.size(); ++k) {
-      values[parameter_symbols_[k]] = model_.parameters_[static_cast<Eigen::Index>(k)];
+      inputs[k] = model_.parameters_[static_cast<Eigen::Index>(k)];
     }
-    for (const GiNaC::realsymbol& coordinate : coordinate_symbols_) values[coordinate] = 0;
-    const auto dof = static_cast<Eigen::Index>(mass_matrix.rows());
+    std::vector<double> registers(mass_program.num_registers());
     Eigen::MatrixXd mass(dof, dof);
-    for (Eigen::Index i = 0; i < dof; ++i) {
-      for (Eigen::Index j = 0; j < dof; ++j) {
-        const std::optional<double> value =
-            EvaluateAt(mass_matrix(unsigned(i), unsigned(j)), values);
-        if (!value || !std::isfinite(*value)) return;
-        mass(i, j) = *value;
-      }
-    }
+    mass_program.Evaluate(inputs.data(), registers.data(), mass.data());
+    if (!mass.allFinite()) return;
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(mass, Eigen::EigenvaluesOnly);
     const double smallest = eigen.eigenvalues()(0), largest = eigen.eigenvalues()(dof - 1);
     if (smallest > kPositiveDefiniteTolerance * std::abs(largest)) return;
@@ -793,7 +821,9 @@ class ModelBuilder {
   }
 
   // One program per Quantity, at the Quantity's bit position (model.h).
-  void Compile(const SymbolicModel& symbolic) {
+  // `mass_matrix_program`: M's, when the derivation compiled it already (else null).
+  void Compile(const SymbolicModel& symbolic,
+               std::shared_ptr<const ExpressionProgram> mass_matrix_program) {
     const std::vector<GiNaC::ex> inputs = symbolic.ProgramInputs();
     struct Derived {
       Quantity quantity;
@@ -822,6 +852,10 @@ class ModelBuilder {
     for (const Derived& derived : quantities) {
       const auto index =
           static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(derived.quantity)));
+      if (derived.quantity == Quantity::kMassMatrix && mass_matrix_program != nullptr) {
+        model_.programs_[index] = std::move(mass_matrix_program);
+        continue;
+      }
       if (IsForwardModeQuantity(derived.quantity) && !symbolic.has_symbolic_jacobians()) {
         continue;  // no program: Evaluate differentiates those of f and B in forward mode
       }

@@ -8,6 +8,7 @@
 
 #include "base/errors.h"
 #include "modeling/loader_support.h"
+#include "modeling/time_derivative.h"
 
 namespace servokit::detail {
 namespace {
@@ -107,7 +108,8 @@ class Reader {
         read_(read),
         coordinate_names_(coordinate_names),
         coordinates_(coordinates),
-        velocities_(velocities) {}
+        velocities_(velocities),
+        rate_(coordinates, velocities) {}
 
   PlanarBodies Read(const std::vector<std::string>& input_names) {
     PlanarBodies result;
@@ -172,14 +174,9 @@ class Reader {
     return {Positional(node[0], Indexed(where, 0)), Positional(node[1], Indexed(where, 1))};
   }
 
-  // d expression / dt = sum_k d expression / dq_k q'_k.
-  GiNaC::ex Rate(const GiNaC::ex& expression) const {
-    GiNaC::ex rate = 0;
-    for (std::size_t k = 0; k < coordinates_.size(); ++k) {
-      rate += expression.diff(coordinates_[k]) * velocities_[k];
-    }
-    return rate;
-  }
+  // d expression / dt = sum_k d expression / dq_k q'_k (modeling/time_derivative.h: one walk,
+  // each subexpression shared by the bodies of a chain differentiated once).
+  GiNaC::ex Rate(const GiNaC::ex& expression) const { return rate_(expression); }
 
   void ReadBodies() {
     const YAML::Node bodies = Entry("bodies");
@@ -417,6 +414,7 @@ class Reader {
   const std::vector<std::string>& coordinate_names_;
   const std::vector<GiNaC::realsymbol>& coordinates_;
   const std::vector<GiNaC::realsymbol>& velocities_;
+  mutable TimeDerivative rate_;  // its memo only: Rate is a function of its argument
   std::vector<std::pair<std::string, Body>> bodies_;  // in the file's order
 };
 

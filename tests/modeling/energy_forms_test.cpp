@@ -21,10 +21,12 @@
 //      lambda^2 = g / (s - 2 l / 3) (b does not enter). s = l: +-sqrt(3 g / l), unstable;
 //      s < 2 l / 3: an undamped pair; s = 2 l / 3: P = 0, flat with relative degree 4.
 // 3. The new errors name the file, the key and the body or entry.
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <complex>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -154,6 +156,123 @@ TEST_CASE("a chain of nine bodies past the angle-expansion budget keeps its M an
     CHECK((b.mass_matrix - a.mass_matrix).norm() <= 1e-11 * scale);
     CHECK((b.forces - a.forces).norm() <= 1e-11 * scale);
     CHECK((b.input_matrix - a.input_matrix).norm() == 0.0);
+  }
+}
+
+// A five-bar linkage written in its two crank angles (issue #31): ground pivots A = (0, 0) and
+// E = (w, 0), crank AB driven, crank ED passive (spring c, damper d), the coupler's point C
+// found by the loop closure (intersection of the circles about B and D, elbow up) and its two
+// rods' angles through atan2 and sqrt, as a user writes a closed chain in minimal coordinates.
+// T, written out, is far past the expansion budget: M and f stay as derived, never multiplied
+// out. Checked against the linkage computed afresh, without T: the points B, C, D in complex
+// arithmetic, their Jacobians by the complex step (exact to rounding), M = sum m J^T J + I j^T j
+// over the centres of mass and rods, f = (dM/dq q') q' - 1/2 d(q'^T M q')/dq + dV/dq + dR/dq'
+// with dM/dq by central differences.
+struct FiveBar {
+  double l1 = 1.0, l2 = 1.5, l3 = 1.5, l4 = 1.0, w = 2.0, m1 = 1.0, m2 = 1.5, m3 = 1.5, m4 = 1.0,
+         c = 10.0, d = 0.1;
+
+  std::string ModelText() const {
+    const std::string bx = "(-l1*sin(q1))", by = "(l1*cos(q1))", ex = "(w - l4*sin(q2))",
+                      ey = "(l4*cos(q2))";
+    const std::string dx = "(" + ex + " - " + bx + ")", dy = "(" + ey + " - " + by + ")";
+    const std::string dd2 = "(" + dx + "^2 + " + dy + "^2)", dd = "sqrt" + dd2;
+    const std::string a = "((l2^2 - l3^2 + " + dd2 + ")/(2*" + dd + "))";
+    const std::string h = "sqrt(l2^2 - " + a + "^2)", a3 = "(" + a + " - " + dd + ")";
+    const auto angle = [&](const std::string& along) {
+      return "atan2(" + along + "*" + dy + " + " + h + "*" + dx + ", " + along + "*" + dx + " - " +
+             h + "*" + dy + ")";
+    };
+    const std::string phi2 = angle(a), phi3 = angle(a3);
+    const std::string w2 = "((l1*q1_dot*cos(q1 - " + phi3 + ") - l4*q2_dot*cos(q2 - " + phi3 +
+                           "))/(l2*sin(" + phi3 + " - " + phi2 + ")))";
+    const std::string w3 = "((l4*q2_dot*cos(q2 - " + phi2 + ") - l1*q1_dot*cos(q1 - " + phi2 +
+                           "))/(l3*sin(" + phi2 + " - " + phi3 + ")))";
+    const std::string kinetic =
+        "m1*l1^2/6*q1_dot^2 + m4*l4^2/6*q2_dot^2 + m2/2*l1^2*q1_dot^2 + m2/2*l2*l1*q1_dot*sin(" +
+        phi2 + " - q1)*" + w2 + " + m2*l2^2/6*" + w2 + "^2 + m3/2*l4^2*q2_dot^2 + " +
+        "m3/2*l3*l4*q2_dot*sin(" + phi3 + " - q2)*" + w3 + " + m3*l3^2/6*" + w3 + "^2";
+    std::ostringstream text;
+    text.precision(17);
+    text << "kind: lagrangian\nname: five_bar\nparameters: {l1: " << l1 << ", l2: " << l2
+         << ", l3: " << l3 << ", l4: " << l4 << ", w: " << w << ", m1: " << m1 << ", m2: " << m2
+         << ", m3: " << m3 << ", m4: " << m4 << ", c: " << c << ", d: " << d
+         << "}\ncoordinates: [q1, q2]\ninputs: [u]\nkinetic_energy: \"" << kinetic
+         << "\"\npotential_energy: \"c/2*q2^2\"\ndissipation: \"d/2*q2_dot^2\"\n"
+         << "input_matrix:\n  - [1]\n  - [0]\noutputs:\n  - \"" << bx << "\"\n";
+    return text.str();
+  }
+
+  // B, C, D as (x, y) pairs.
+  template <typename T>
+  std::array<std::array<T, 2>, 3> Points(T q1, T q2) const {
+    const T bx = -l1 * sin(q1), by = l1 * cos(q1), ex = w - l4 * sin(q2), ey = l4 * cos(q2);
+    const T dx = ex - bx, dy = ey - by, dd = sqrt(dx * dx + dy * dy);
+    const T a = (l2 * l2 - l3 * l3 + dd * dd) / (2.0 * dd), h = sqrt(l2 * l2 - a * a);
+    return {{{bx, by}, {bx + (a * dx - h * dy) / dd, by + (a * dy + h * dx) / dd}, {ex, ey}}};
+  }
+
+  Eigen::Matrix2d MassMatrix(const Eigen::Vector2d& q) const {
+    constexpr double kStep = 1e-30;  // the complex step: no difference, so no cancellation
+    std::array<Eigen::Matrix2d, 3> jacobians;  // of B, C, D
+    for (int k = 0; k < 2; ++k) {
+      using Complex = std::complex<double>;
+      const auto points =
+          Points(Complex(q(0), k == 0 ? kStep : 0.0), Complex(q(1), k == 1 ? kStep : 0.0));
+      for (int p = 0; p < 3; ++p) {
+        for (int r = 0; r < 2; ++r) jacobians[p](r, k) = points[p][r].imag() / kStep;
+      }
+    }
+    const auto points = Points(q(0), q(1));
+    const auto vector = [&](int p) { return Eigen::Vector2d(points[p][0], points[p][1]); };
+    // A rod from point p to point s: its centre's Jacobian and its angular rate's row.
+    Eigen::Matrix2d mass = Eigen::Matrix2d::Zero();
+    mass(0, 0) = m1 * l1 * l1 / 3;
+    mass(1, 1) = m4 * l4 * l4 / 3;
+    const auto add_rod = [&](int p, int s, double m, double l) {
+      const Eigen::Matrix2d centre = (jacobians[p] + jacobians[s]) / 2;
+      const Eigen::Vector2d along = vector(s) - vector(p);
+      const Eigen::Matrix2d relative = jacobians[s] - jacobians[p];
+      const Eigen::RowVector2d rate =
+          (along(0) * relative.row(1) - along(1) * relative.row(0)) / (l * l);
+      mass += m * centre.transpose() * centre + m * l * l / 12 * rate.transpose() * rate;
+    };
+    add_rod(0, 1, m2, l2);  // BC
+    add_rod(2, 1, m3, l3);  // DC
+    return mass;
+  }
+
+  Eigen::Vector2d Forces(const Eigen::Vector2d& q, const Eigen::Vector2d& q_dot) const {
+    constexpr double kStep = 1e-5;
+    Eigen::Vector2d forces = Eigen::Vector2d::Zero();
+    for (int j = 0; j < 2; ++j) {
+      Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+      shift(j) = kStep;
+      const Eigen::Matrix2d slope = (MassMatrix(q + shift) - MassMatrix(q - shift)) / (2 * kStep);
+      forces += slope * q_dot * q_dot(j);           // (dM/dq_j q'_j) q'
+      forces(j) -= 0.5 * q_dot.dot(slope * q_dot);  // -1/2 q'^T dM/dq_j q'
+    }
+    forces(1) += c * q(1) + d * q_dot(1);
+    return forces;
+  }
+};
+
+TEST_CASE("a five-bar in minimal coordinates keeps its M and f past the expansion budget",
+          "[models]") {
+  const FiveBar linkage;
+  const Model model = LoadModelFromString(linkage.ModelText(), "five_bar");
+  Workspace workspace(model);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> angle(-0.4, 0.4), rate(-2.0, 2.0);
+  for (int point = 0; point < 10; ++point) {
+    const Eigen::Vector2d q(angle(random), angle(random)), q_dot(rate(random), rate(random));
+    Evaluate(model, workspace, q, q_dot, Quantity::kMassMatrix | Quantity::kForces);
+    INFO("q = " << q.transpose() << ", q_dot = " << q_dot.transpose());
+    const Eigen::Matrix2d mass = linkage.MassMatrix(q);
+    CHECK((workspace.mass_matrix - mass).norm() <= 1e-13 * mass.norm());
+    const Eigen::Vector2d forces = linkage.Forces(q, q_dot);
+    // The central differences' error, some 1e-10 of the Coriolis terms.
+    CHECK((workspace.forces - forces).norm() <= 1e-8 * (forces.norm() + mass.norm()));
   }
 }
 

@@ -4,6 +4,7 @@
 #include "modeling/expansion_bound.h"
 
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -105,6 +106,35 @@ TEST_CASE("a product of sums in the forces is not expanded at load", "[modeling]
     INFO(factors << " factors: " << model.symbolic().zero_dynamics_polynomial_terms());
     CHECK(model.has_zero_dynamics_polynomial() == (factors == 2));
   }
+}
+
+// BoundExpandTerms bounds the terms expand() makes: the result's, and those of every function
+// argument it expands on the way (counted once per occurrence).
+TEST_CASE("the expand bound holds against GiNaC's expand, arguments included",
+          "[modeling][expansion]") {
+  const SymbolicLock lock;
+  const GiNaC::realsymbol x("x"), y("y"), z("z");
+  const GiNaC::ex inner = (x + y) * (y + z);  // 4 terms expanded
+  const std::vector<GiNaC::ex> expressions = {
+      x,
+      (x + y) * (x - z),
+      GiNaC::pow(x + y + z, 3),
+      GiNaC::sin(inner) * (x + 1),
+      GiNaC::sin(inner) + GiNaC::cos(inner),  // the argument twice
+      GiNaC::sqrt(inner) * (z + 2),
+      GiNaC::atan2(inner, x * (y + 1)),
+  };
+  for (const GiNaC::ex& e : expressions) {
+    INFO(e);
+    CHECK(Terms(e.expand()) <= BoundExpandTerms(e));
+  }
+  CHECK(BoundExpandTerms(GiNaC::sin(inner) + GiNaC::cos(inner)) == 2.0 + 4.0 + 4.0);
+  // A product of ten sums of five terms: 5^10 terms, never expanded within a budget.
+  GiNaC::ex product = 1;
+  for (int i = 0; i < 10; ++i) product *= x + y + z + (i + 1) * x * y + GiNaC::pow(z, i + 2);
+  CHECK(BoundExpandTerms(product) == Approx(std::pow(5.0, 10)));
+  CHECK(ExpandWithinBudget(product, 2000).is_equal(product));
+  CHECK(ExpandWithinBudget((x + y) * (x - y), 2000).is_equal(GiNaC::pow(x, 2) - GiNaC::pow(y, 2)));
 }
 
 }  // namespace servokit

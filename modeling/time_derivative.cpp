@@ -1,0 +1,111 @@
+#include "modeling/time_derivative.h"
+
+#include <cassert>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace servokit::detail {
+namespace {
+
+// A sum or product built at once from its operands (repeated += or *= would merge k operands
+// k times).
+GiNaC::ex Sum(GiNaC::exvector terms) {
+  if (terms.empty()) return 0;
+  if (terms.size() == 1) return terms.front();
+  return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
+}
+
+GiNaC::ex Product(GiNaC::exvector factors) {
+  return GiNaC::dynallocate<GiNaC::mul>(std::move(factors));
+}
+
+}  // namespace
+
+TimeDerivative::TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
+                               const std::vector<GiNaC::realsymbol>& velocities)
+    : argument_("time_derivative_argument") {
+  assert(coordinates.size() == velocities.size());
+  for (std::size_t k = 0; k < coordinates.size(); ++k) {
+    rates_.emplace(coordinates[k], velocities[k]);
+    rates_.emplace(velocities[k], 0);  // the accelerations are not part of D
+  }
+}
+
+GiNaC::ex TimeDerivative::operator()(const GiNaC::ex& expression) { return Derive(expression); }
+
+GiNaC::ex TimeDerivative::Derive(const GiNaC::ex& expression) {
+  if (const auto found = rates_.find(expression); found != rates_.end()) return found->second;
+  GiNaC::ex rate;
+  if (GiNaC::is_a<GiNaC::add>(expression)) {
+    GiNaC::exvector terms;
+    for (const GiNaC::ex& term : expression) {
+      GiNaC::ex term_rate = Derive(term);
+      if (!term_rate.is_zero()) terms.push_back(std::move(term_rate));
+    }
+    rate = Sum(std::move(terms));
+  } else if (GiNaC::is_a<GiNaC::mul>(expression)) {
+    rate = DeriveProduct(expression);
+  } else if (GiNaC::is_a<GiNaC::power>(expression)) {
+    rate = DerivePower(expression);
+  } else if (GiNaC::is_a<GiNaC::function>(expression)) {
+    rate = DeriveFunction(expression);
+  } else if (GiNaC::is_a<GiNaC::numeric>(expression) || GiNaC::is_a<GiNaC::symbol>(expression) ||
+             GiNaC::is_a<GiNaC::constant>(expression)) {
+    rate = 0;  // a number, a parameter or a constant: the seeds name every symbol that moves
+  } else {
+    throw std::invalid_argument("cannot take the time derivative of " +
+                                std::string(GiNaC::ex_to<GiNaC::basic>(expression).class_name()));
+  }
+  rates_.emplace(expression, rate);
+  return rate;
+}
+
+// sum_i D(a_i) prod_(j != i) a_j, as GiNaC's mul::derivative.
+GiNaC::ex TimeDerivative::DeriveProduct(const GiNaC::ex& product) {
+  GiNaC::exvector terms;
+  for (std::size_t i = 0; i < product.nops(); ++i) {
+    GiNaC::ex factor_rate = Derive(product.op(i));
+    if (factor_rate.is_zero()) continue;
+    GiNaC::exvector factors;
+    factors.reserve(product.nops());
+    for (std::size_t j = 0; j < product.nops(); ++j) {
+      factors.push_back(j == i ? factor_rate : product.op(j));
+    }
+    terms.push_back(Product(std::move(factors)));
+  }
+  return Sum(std::move(terms));
+}
+
+// a^b: b a^(b-1) D(a) for a constant exponent, a^b (D(b) log a + b D(a) / a) otherwise, as
+// GiNaC's power::derivative.
+GiNaC::ex TimeDerivative::DerivePower(const GiNaC::ex& power) {
+  const GiNaC::ex& base = power.op(0);
+  const GiNaC::ex& exponent = power.op(1);
+  const GiNaC::ex exponent_rate = Derive(exponent);
+  if (exponent_rate.is_zero()) {
+    return GiNaC::mul(GiNaC::mul(exponent, GiNaC::power(base, exponent + -1)), Derive(base));
+  }
+  return GiNaC::mul(power, GiNaC::add(GiNaC::mul(exponent_rate, GiNaC::log(base)),
+                                      GiNaC::mul(GiNaC::mul(exponent, Derive(base)),
+                                                 GiNaC::power(base, -1))));
+}
+
+// f(a_1..a_m): sum_i (df/da_i)(a) D(a_i), df/da_i by GiNaC's own rule for f, found by
+// differentiating f with a symbol in place of a_i.
+GiNaC::ex TimeDerivative::DeriveFunction(const GiNaC::ex& function) {
+  GiNaC::exvector terms;
+  for (std::size_t i = 0; i < function.nops(); ++i) {
+    GiNaC::ex argument_rate = Derive(function.op(i));
+    if (argument_rate.is_zero()) continue;
+    GiNaC::exvector arguments(function.begin(), function.end());
+    arguments[i] = argument_;
+    const GiNaC::ex stand_in =
+        GiNaC::function(GiNaC::ex_to<GiNaC::function>(function).get_serial(), arguments);
+    const GiNaC::ex partial = stand_in.diff(argument_).subs(argument_ == function.op(i));
+    terms.push_back(GiNaC::mul(partial, argument_rate));
+  }
+  return Sum(std::move(terms));
+}
+
+}  // namespace servokit::detail
