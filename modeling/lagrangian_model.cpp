@@ -108,6 +108,47 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
   return forces;
 }
 
+EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positions,
+                                     const Energies& energies,
+                                     const std::vector<GiNaC::realsymbol>& coordinates,
+                                     const std::vector<GiNaC::realsymbol>& velocities) {
+  assert(coordinates.size() == velocities.size());
+  const std::size_t dof = coordinates.size();
+  TimeDerivative rate(coordinates, velocities);
+  std::vector<GiNaC::exvector> mass_terms(dof * dof), force_terms(dof);
+  for (const WeightedPosition& moving : positions) {
+    if (moving.weight.is_zero()) continue;
+    const GiNaC::ex convective = rate(rate(moving.position));  // D of q' is 0: q'' = 0
+    const IndexedSum position(moving.position);
+    std::vector<GiNaC::ex> jacobian(dof);
+    for (std::size_t k = 0; k < dof; ++k) jacobian[k] = position.Derivative(coordinates[k]);
+    for (std::size_t i = 0; i < dof; ++i) {
+      if (jacobian[i].is_zero()) continue;
+      force_terms[i].push_back(moving.weight * jacobian[i] * convective);
+      for (std::size_t j = i; j < dof; ++j) {
+        if (!jacobian[j].is_zero()) {
+          mass_terms[i * dof + j].push_back(moving.weight * jacobian[i] * jacobian[j]);
+        }
+      }
+    }
+  }
+  const IndexedSum potential(energies.potential), dissipation(energies.dissipation);
+  EquationsOfMotion equations{GiNaC::matrix(unsigned(dof), unsigned(dof)),
+                              GiNaC::matrix(unsigned(dof), 1)};
+  for (unsigned i = 0; i < dof; ++i) {
+    for (unsigned j = i; j < dof; ++j) {
+      equations.mass_matrix(i, j) = IndexedSum::Sum(std::move(mass_terms[i * dof + j]));
+      equations.mass_matrix(j, i) = equations.mass_matrix(i, j);
+    }
+    GiNaC::exvector& terms = force_terms[i];
+    terms.push_back(potential.Derivative(coordinates[i]));
+    terms.push_back(dissipation.Derivative(velocities[i]));
+    terms.push_back(-energies.generalized_forces(i, 0));
+    equations.forces(i, 0) = IndexedSum::Sum(std::move(terms));
+  }
+  return equations;
+}
+
 GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,
                                  const GiNaC::matrix& mass_matrix,
                                  const std::vector<GiNaC::realsymbol>& velocities) {

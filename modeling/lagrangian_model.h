@@ -41,6 +41,30 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
                              const std::vector<GiNaC::realsymbol>& coordinates,
                              const std::vector<GiNaC::realsymbol>& velocities);
 
+/// One scalar position of a body, p(q) (a centre's x or y, an angle), and its constant weight w
+/// (the mass, or the inertia about the centre): T = 1/2 sum w (dp/dt)^2 over a model's
+/// positions.
+struct WeightedPosition {
+  GiNaC::ex weight;
+  GiNaC::ex position;
+};
+
+/// M and f for T = 1/2 sum_c w_c (dp_c/dt)^2 with weights free of q, by projecting each
+/// position's equation of motion (Jourdain's principle, the projected Newton-Euler equations of
+/// multibody codes): with J_c = dp_c/dq and the convective acceleration gamma_c = d2p_c/dt2 at
+/// q'' = 0 (modeling/time_derivative.h), M = sum_c w_c J_c^T J_c and
+/// f = sum_c w_c J_c^T gamma_c + dV/dq + dR/dq' - Q: Lagrange's equations of that T, since
+/// d/dt dT/dq'_i - dT/dq_i = sum_c w_c J_c,i d2p_c/dt2. Nothing is multiplied out: each J_c and
+/// gamma_c is built once and shared by the entries that use it, so a chain of n bodies costs
+/// about n^3, where differentiating its unexpanded T twice costs n^4 or more (issue #31).
+struct EquationsOfMotion {
+  GiNaC::matrix mass_matrix, forces;
+};
+EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positions,
+                                     const Energies& energies,
+                                     const std::vector<GiNaC::realsymbol>& coordinates,
+                                     const std::vector<GiNaC::realsymbol>& velocities);
+
 /// T - 1/2 q'^T M q' with M = KineticMassMatrix(T): zero exactly when T is a quadratic form in
 /// the velocities, T(q, s q') = s^2 T(q, q') with M free of q' (no term linear in q' and none
 /// free of it). Expanded within kMaxExpandedTerms; a caller decides "zero" symbolically (when

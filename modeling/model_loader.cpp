@@ -617,7 +617,20 @@ class ModelBuilder {
                std::string("cannot differentiate the positions and angles: ") + error.what());
         }
         equations.input_matrix = std::move(bodies.input_matrix);
-        Derive(bodies.energies, "bodies", KineticEnergy::kOfBodies, equations);
+        if (!bodies.projected) {
+          Derive(bodies.energies, "bodies", KineticEnergy::kOfBodies, equations);
+          return equations;
+        }
+        equations.mass_matrix = std::move(bodies.projected->mass_matrix);
+        equations.forces = std::move(bodies.projected->forces);
+        try {
+          CompileAndCheckMassMatrix(equations, "bodies");
+        } catch (const Error&) {
+          throw;
+        } catch (const std::exception& error) {
+          Fail("bodies",
+               std::string("cannot differentiate the positions and angles: ") + error.what());
+        }
         return equations;
       }
     }
@@ -662,9 +675,7 @@ class ModelBuilder {
       if (kinetic_energy == KineticEnergy::kWritten) {
         CheckQuadratic(energies.kinetic, equations.mass_matrix, kinetic_key);
       }
-      equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
-          CompileExpressions(ColumnMajor({equations.mass_matrix}), ProgramInputs()));
-      CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
+      CompileAndCheckMassMatrix(equations, kinetic_key);
       equations.forces = detail::LagrangeForces(energies, coordinate_symbols_, velocity_symbols_);
     } catch (const Error&) {
       throw;
@@ -690,6 +701,13 @@ class ModelBuilder {
                " (terms linear in or free of the velocities; T(q, s q_dot) must be s^2 "
                "T(q, q_dot))");
     }
+  }
+
+  // M's program (kept for Compile) and the check that M is positive definite.
+  void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
+    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
+        CompileExpressions(ColumnMajor({equations.mass_matrix}), ProgramInputs()));
+    CheckPositiveDefinite(*equations.mass_matrix_program, key);
   }
 
   // The symbols of a program's inputs, as SymbolicModel::ProgramInputs orders them.

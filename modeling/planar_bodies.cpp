@@ -76,7 +76,8 @@ double AngleExpansionTerms(const GiNaC::ex& expression) {
 // The most terms AngleExpansionTerms may promise before ReduceTrigonometric is skipped: a chain
 // of n links with relative joint angles has sines of sums of up to n angles, 2^(n-1) products
 // each (issue #31: ten links never finished loading). The shipped and test models need at most
-// 644 (the three-link arm); past the budget T stays as written, correct and larger.
+// 644 (the three-link arm); past the budget M and f are projected from the bodies' positions
+// (ProjectedEquations), or, where a mass depends on q, derived from T as written.
 constexpr double kMaxAngleExpansionTerms = 2e4;
 
 // The kinetic energy of bodies written with positions as the user gives them holds
@@ -85,7 +86,6 @@ constexpr double kMaxAngleExpansionTerms = 2e4;
 // slower). Angle sums expanded, sin^2 replaced by 1 - cos^2 and expanded again, they cancel:
 // the same function, in a form as small as a hand derivation.
 GiNaC::ex ReduceTrigonometric(const GiNaC::ex& expression) {
-  if (AngleExpansionTerms(expression) > kMaxAngleExpansionTerms) return expression;
   ExpandAngleSums expand_sums;
   const GiNaC::ex expanded = expand_sums(expression).expand();
   const GiNaC::ex u = GiNaC::wild(0);
@@ -115,6 +115,7 @@ class Reader {
     PlanarBodies result;
     ReadBodies();
     const Vector2 gravity = ReadGravity();
+    std::vector<WeightedPosition> positions;
     for (const auto& [name, body] : bodies_) {
       const Vector2 velocity = {Rate(body.position[0]), Rate(body.position[1])};
       const GiNaC::ex angular_rate = Rate(body.angle);
@@ -123,11 +124,21 @@ class Reader {
           body.inertia * angular_rate * angular_rate / 2;
       result.energies.potential -=
           body.mass * (gravity[0] * body.position[0] + gravity[1] * body.position[1]);
+      positions.push_back({body.mass, body.position[0]});
+      positions.push_back({body.mass, body.position[1]});
+      positions.push_back({body.inertia, body.angle});
     }
-    result.energies.kinetic = ReduceTrigonometric(result.energies.kinetic);
     result.energies.potential += ReadSprings();
     result.energies.dissipation = ReadDampers();
     result.energies.generalized_forces = GiNaC::matrix(unsigned(coordinates_.size()), 1);
+    if (AngleExpansionTerms(result.energies.kinetic) <= kMaxAngleExpansionTerms) {
+      result.energies.kinetic = ReduceTrigonometric(result.energies.kinetic);
+    } else if (std::none_of(positions.begin(), positions.end(), [this](const auto& moving) {
+                 return DependsOnCoordinates(moving.weight);
+               })) {
+      // Too large to reduce: project instead of differentiating T twice.
+      result.projected = ProjectedEquations(positions, result.energies, coordinates_, velocities_);
+    }
     result.input_matrix = ReadActuators(input_names);
     return result;
   }
@@ -150,6 +161,11 @@ class Reader {
         Fail(where + "." + key, "unknown key (expected " + Join(keys) + ")");
       }
     }
+  }
+
+  bool DependsOnCoordinates(const GiNaC::ex& expression) const {
+    return std::any_of(coordinates_.begin(), coordinates_.end(),
+                       [&](const GiNaC::realsymbol& q) { return expression.has(q); });
   }
 
   // An expression of the parameters and coordinates only.

@@ -3,13 +3,15 @@
 // a plane, each with a mass, an inertia about its centre, a centre position r(q) and an angle
 // theta(q); gravity; springs and dampers between two points or on a coordinate; inputs as forces or
 // torques. Read into the energies T, V, R of modeling/lagrangian_model.h and the input matrix B,
-// which then go the Lagrangian way. Internal to modeling/ (namespace detail); runs under the
+// which then go the Lagrangian way, or, for a chain too long to reduce T, into M and f projected
+// from the positions. Internal to modeling/ (namespace detail); runs under the
 // loader's SymbolicLock (modeling/symbolic_lock.h).
 #include <ginac/ginac.h>
 #include <yaml-cpp/yaml.h>
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -36,6 +38,10 @@ using ExpressionReader = std::function<GiNaC::ex(const YAML::Node& node, const s
 struct PlanarBodies {
   Energies energies;
   GiNaC::matrix input_matrix;
+  /// M and f projected from the bodies' positions (ProjectedEquations), set when T is too large
+  /// to reduce by trigonometric identities (a long chain) and no mass or inertia depends on q;
+  /// otherwise the loader derives them from the energies.
+  std::optional<EquationsOfMotion> projected;
 };
 
 /// Reads gravity, bodies, springs, dampers and actuators from the model file's `root`.

@@ -86,9 +86,9 @@ GiNaC::ex TimeDerivative::DerivePower(const GiNaC::ex& power) {
   if (exponent_rate.is_zero()) {
     return GiNaC::mul(GiNaC::mul(exponent, GiNaC::power(base, exponent + -1)), Derive(base));
   }
-  return GiNaC::mul(power, GiNaC::add(GiNaC::mul(exponent_rate, GiNaC::log(base)),
-                                      GiNaC::mul(GiNaC::mul(exponent, Derive(base)),
-                                                 GiNaC::power(base, -1))));
+  return GiNaC::mul(
+      power, GiNaC::add(GiNaC::mul(exponent_rate, GiNaC::log(base)),
+                        GiNaC::mul(GiNaC::mul(exponent, Derive(base)), GiNaC::power(base, -1))));
 }
 
 // f(a_1..a_m): sum_i (df/da_i)(a) D(a_i), df/da_i by GiNaC's own rule for f, found by

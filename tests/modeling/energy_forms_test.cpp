@@ -97,11 +97,13 @@ TEST_CASE("energies and bodies give the hand-written M, f, B and h of the shippe
 }
 
 // A chain of nine point masses with relative joint angles: the bodies' sines of sums of up to
-// nine angles would expand to 2^8 products each, past the angle-expansion budget, so T stays as
-// written. Checked against the same chain written as energies in absolute angles theta_j = q_1 +
+// nine angles would expand to 2^8 products each, past the angle-expansion budget, so M and f are
+// projected from the positions (ProjectedEquations, modeling/lagrangian_model.h) instead of
+// derived from T. Checked against the same chain written as energies in absolute angles theta_j =
+// q_1 +
 // ... + q_j by the closed form of a serial chain, T = m l^2/2 sum_i sum_(j,k <= i) theta_j'
 // theta_k' cos(theta_j - theta_k).
-TEST_CASE("a chain of nine bodies past the angle-expansion budget keeps its M and f", "[models]") {
+TEST_CASE("a chain of nine bodies past the angle-expansion budget: projected M and f", "[models]") {
   constexpr int kLinks = 9;
   std::string coordinates, bodies, kinetic = "0", input_rows;
   const auto angle = [](int j) {  // theta_j, 1-based

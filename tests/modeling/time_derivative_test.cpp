@@ -43,8 +43,7 @@ TEST_CASE("D e is sum_k de/dq_k q'_k for every kind of node", "[modeling][time_d
   for (const GiNaC::ex& e : expressions) {
     INFO(e);
     TimeDerivative rate(coordinates, velocities);
-    const GiNaC::ex difference =
-        (rate(e) - ByDefinition(e, coordinates, velocities)).expand();
+    const GiNaC::ex difference = (rate(e) - ByDefinition(e, coordinates, velocities)).expand();
     CHECK(GiNaC::normal(difference).is_zero());
   }
 }
