@@ -12,6 +12,7 @@
 #include "analysis/numeric_structure.h"
 #include "base/errors.h"
 #include "modeling/canonical_expression.h"
+#include "modeling/expansion_bound.h"
 #include "modeling/symbolic_lock.h"
 #include "modeling/symbolic_model.h"
 
@@ -89,6 +90,15 @@ Dynamics BuildDynamics(const Model& model) {
   return dynamics;
 }
 
+// The most terms BoundExpandedTerms may promise for a derivative's numerator and denominator
+// before it is kept as derived instead of brought onto one denominator: normal() cancels common
+// factors by multivariate gcds, whose cost grows much faster than the result (issue #31: a
+// two-link arm with an elastic joint, relative degrees {2, 4} after a dynamic extension, spent
+// 5 s there; its fourth derivative promises 1.8e15). The decisions are numeric at the decision
+// points either way; normalised forms are only smaller. The gantry crane's largest derivative
+// (3.1e5) is kept as derived, which moves its algebraic solve by 1.5e-13 relative.
+constexpr double kMaxNormalTerms = 1e5;
+
 // The time derivative of a u-free function phi(q, q', Y) along the motion:
 // drift + sum_k u_k input_coefficients[k].
 struct TimeDerivative {
@@ -114,8 +124,10 @@ TimeDerivative Differentiate(const ex& function, const Dynamics& dynamics) {
       if (function.has(symbols[k])) drift += function.diff(symbols[k]) * symbols[k + 1];
     }
   }
-  derivative.drift = CanonicalNormal(drift);
-  for (ex& coefficient : derivative.input_coefficients) coefficient = CanonicalNormal(coefficient);
+  derivative.drift = NormalWithinBudget(drift, kMaxNormalTerms);
+  for (ex& coefficient : derivative.input_coefficients) {
+    coefficient = NormalWithinBudget(coefficient, kMaxNormalTerms);
+  }
   return derivative;
 }
 

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "modeling/canonical_expression.h"
+
 namespace servokit {
 namespace {
 
@@ -28,7 +30,7 @@ class ExpandBound {
  public:
   std::pair<double, double> Of(const GiNaC::ex& expression) {
     const auto found = seen_.find(&GiNaC::ex_to<GiNaC::basic>(expression));
-    if (found != seen_.end()) return found->second;
+    if (found != seen_.end()) return found->second.second;
     std::pair<double, double> bound{1.0, 0.0};
     if (GiNaC::is_a<GiNaC::add>(expression) || GiNaC::is_a<GiNaC::mul>(expression)) {
       const bool sum = GiNaC::is_a<GiNaC::add>(expression);
@@ -53,12 +55,14 @@ class ExpandBound {
         bound.second += terms + inner;
       }
     }
-    seen_.emplace(&GiNaC::ex_to<GiNaC::basic>(expression), bound);
+    seen_.emplace(&GiNaC::ex_to<GiNaC::basic>(expression), std::make_pair(expression, bound));
     return bound;
   }
 
  private:
-  std::unordered_map<const GiNaC::basic*, std::pair<double, double>> seen_;
+  // Each node kept alive with its bound: the operands of a sum or product are made afresh when
+  // read (coefficient times rest), and a freed one's address could be another's next.
+  std::unordered_map<const GiNaC::basic*, std::pair<GiNaC::ex, std::pair<double, double>>> seen_;
 };
 
 }  // namespace
@@ -72,39 +76,70 @@ GiNaC::ex ExpandWithinBudget(const GiNaC::ex& expression, double max_terms) {
   return BoundExpandTerms(expression) <= max_terms ? expression.expand() : expression;
 }
 
+namespace {
+
+// BoundExpandedTerms with a memo of the nodes seen (by address), so that an expression built from
+// shared subexpressions (derivatives of derivatives) costs its DAG, not its tree.
+class NormalBound {
+ public:
+  ExpandedTerms Of(const GiNaC::ex& expression) {
+    const GiNaC::basic* node = &GiNaC::ex_to<GiNaC::basic>(expression);
+    if (const auto found = seen_.find(node); found != seen_.end()) return found->second.second;
+    const ExpandedTerms terms = Compute(expression);
+    seen_.emplace(node, std::make_pair(expression, terms));
+    return terms;
+  }
+
+ private:
+  ExpandedTerms Compute(const GiNaC::ex& expression) {
+    if (GiNaC::is_a<GiNaC::add>(expression)) {
+      // Over the common denominator, term i's numerator is multiplied by every other denominator.
+      std::vector<ExpandedTerms> operands;
+      for (const GiNaC::ex& operand : expression) operands.push_back(Of(operand));
+      ExpandedTerms sum{0.0, 1.0};
+      for (const ExpandedTerms& operand : operands) sum.denominator *= operand.denominator;
+      for (const ExpandedTerms& operand : operands) {
+        sum.numerator += operand.numerator * (sum.denominator / operand.denominator);
+      }
+      return sum;
+    }
+    if (GiNaC::is_a<GiNaC::mul>(expression)) {
+      ExpandedTerms product;
+      for (const GiNaC::ex& factor : expression) {
+        const ExpandedTerms terms = Of(factor);
+        product.numerator *= terms.numerator;
+        product.denominator *= terms.denominator;
+      }
+      return product;
+    }
+    if (GiNaC::is_a<GiNaC::power>(expression)) {
+      const GiNaC::ex exponent = expression.op(1);
+      if (GiNaC::is_a<GiNaC::numeric>(exponent) &&
+          GiNaC::ex_to<GiNaC::numeric>(exponent).is_integer()) {
+        const long n = GiNaC::ex_to<GiNaC::numeric>(exponent).to_long();
+        const ExpandedTerms base = Of(expression.op(0));
+        const ExpandedTerms raised{PowerTerms(base.numerator, std::labs(n)),
+                                   PowerTerms(base.denominator, std::labs(n))};
+        return n >= 0 ? raised : ExpandedTerms{raised.denominator, raised.numerator};
+      }
+    }
+    return {};  // a number, a symbol, a function or a power kept whole: one term
+  }
+
+  // Each node kept alive with its bound, as in ExpandBound.
+  std::unordered_map<const GiNaC::basic*, std::pair<GiNaC::ex, ExpandedTerms>> seen_;
+};
+
+}  // namespace
+
 ExpandedTerms BoundExpandedTerms(const GiNaC::ex& expression) {
-  if (GiNaC::is_a<GiNaC::add>(expression)) {
-    // Over the common denominator, term i's numerator is multiplied by every other denominator.
-    std::vector<ExpandedTerms> operands;
-    for (const GiNaC::ex& operand : expression) operands.push_back(BoundExpandedTerms(operand));
-    ExpandedTerms sum{0.0, 1.0};
-    for (const ExpandedTerms& operand : operands) sum.denominator *= operand.denominator;
-    for (const ExpandedTerms& operand : operands) {
-      sum.numerator += operand.numerator * (sum.denominator / operand.denominator);
-    }
-    return sum;
-  }
-  if (GiNaC::is_a<GiNaC::mul>(expression)) {
-    ExpandedTerms product;
-    for (const GiNaC::ex& factor : expression) {
-      const ExpandedTerms terms = BoundExpandedTerms(factor);
-      product.numerator *= terms.numerator;
-      product.denominator *= terms.denominator;
-    }
-    return product;
-  }
-  if (GiNaC::is_a<GiNaC::power>(expression)) {
-    const GiNaC::ex exponent = expression.op(1);
-    if (GiNaC::is_a<GiNaC::numeric>(exponent) &&
-        GiNaC::ex_to<GiNaC::numeric>(exponent).is_integer()) {
-      const long n = GiNaC::ex_to<GiNaC::numeric>(exponent).to_long();
-      const ExpandedTerms base = BoundExpandedTerms(expression.op(0));
-      const ExpandedTerms raised{PowerTerms(base.numerator, std::labs(n)),
-                                 PowerTerms(base.denominator, std::labs(n))};
-      return n >= 0 ? raised : ExpandedTerms{raised.denominator, raised.numerator};
-    }
-  }
-  return {};  // a number, a symbol, a function or a power kept whole: one term
+  return NormalBound().Of(expression);
+}
+
+GiNaC::ex NormalWithinBudget(const GiNaC::ex& expression, double max_terms) {
+  const ExpandedTerms terms = BoundExpandedTerms(expression);
+  return terms.numerator + terms.denominator <= max_terms ? CanonicalNormal(expression)
+                                                          : expression;
 }
 
 GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix) {

@@ -32,6 +32,11 @@ double BoundExpandTerms(const GiNaC::ex& expression);
 /// the budget (a product of sums, a linkage's loop closure). Hold a SymbolicLock.
 GiNaC::ex ExpandWithinBudget(const GiNaC::ex& expression, double max_terms);
 
+/// CanonicalNormal(expression) (modeling/canonical_expression.h) when BoundExpandedTerms promises
+/// at most max_terms terms for its numerator and denominator together, else the expression as
+/// it is: the same function, left unsimplified where simplifying would cost without bound.
+GiNaC::ex NormalWithinBudget(const GiNaC::ex& expression, double max_terms);
+
 /// The Laplace expansion of det(matrix), a sum of signed products of entries, built without
 /// normal() or expand() (a square matrix of at most 5 rows): what BoundExpandedTerms bounds
 /// before GiNaC's own determinant() normalizes it.
