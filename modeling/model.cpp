@@ -52,14 +52,28 @@ std::optional<std::size_t> Model::FindParameter(std::string_view name) const {
 }
 
 const ExpressionProgram& Model::program(Quantity quantity) const {
+  if (quantity == Quantity::kZeroDynamicsPolynomial) {
+    assert(has_zero_dynamics_polynomial() && "no program: see has_program");
+    return *polynomial_programs().alone;
+  }
   const std::size_t index = ProgramIndex(quantity);
   assert(index < programs_.size() && programs_[index] && "no program: see has_program");
   return *programs_[index];
 }
 
 bool Model::has_program(Quantity quantity) const {
+  if (quantity == Quantity::kZeroDynamicsPolynomial) return has_zero_dynamics_polynomial();
   const std::size_t index = ProgramIndex(quantity);
   return index < programs_.size() && programs_[index] != nullptr;
+}
+
+const Model::PolynomialPrograms& Model::polynomial_programs() const {
+  LazyPolynomial& lazy = *polynomial_;
+  std::call_once(lazy.once, [&lazy] {
+    if (lazy.compile) lazy.programs = lazy.compile();
+    lazy.compile = nullptr;  // its captures (the symbolic model) are not needed again
+  });
+  return lazy.programs;
 }
 
 std::size_t Model::max_registers() const {
@@ -74,9 +88,6 @@ std::size_t Model::LargestOfPrograms(std::size_t (ExpressionProgram::*size)() co
   std::size_t largest = 0;
   for (const auto& program : programs_) {
     if (program) largest = std::max(largest, ((*program).*size)());
-  }
-  for (const auto& [combination, program] : combined_programs_) {
-    largest = std::max(largest, ((*program).*size)());
   }
   return largest;
 }
@@ -105,11 +116,6 @@ Workspace::Workspace(const Model& model)
   program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
   registers_.assign(model.max_registers(), 0.0);
   outputs_.assign(model.max_outputs(), 0.0);
-  for (const auto& [quantities, program] : model.combined_programs()) {
-    std::vector<double>& registers = combined_registers_.emplace_back(program->num_registers());
-    program->LoadConstants(registers.data());
-  }
-  combined_destinations_.reserve(model.max_outputs());
 }
 
 bool Workspace::Fits(const Model& model) const {
@@ -119,16 +125,7 @@ bool Workspace::Fits(const Model& model) const {
     return false;
   }
   // Same shape is not enough: a different model may need more scratch registers.
-  if (model.max_registers() > registers_.size() || model.max_outputs() > outputs_.size() ||
-      model.combined_programs().size() != combined_registers_.size()) {
-    return false;
-  }
-  for (std::size_t i = 0; i < combined_registers_.size(); ++i) {
-    if (model.combined_programs()[i].second->num_registers() != combined_registers_[i].size()) {
-      return false;
-    }
-  }
-  return true;
+  return model.max_registers() <= registers_.size() && model.max_outputs() <= outputs_.size();
 }
 
 namespace {
@@ -246,14 +243,23 @@ void Evaluate(const Model& model,
   workspace.SetProgramInputs(q, q_dot);
 
   const auto run = [&](const ExpressionProgram& program, double* destination) {
+    // The polynomial's programs come after the workspace: its scratch grows for them.
+    if (workspace.registers_.size() < program.num_registers()) {
+      workspace.registers_.resize(program.num_registers());
+    }
     program.Evaluate(workspace.program_inputs_.data(), workspace.registers_.data(), destination);
   };
-  // A request the loader compiled as one program: its shared subexpressions computed once, on
+  // The polynomial path, compiled as one program: its shared subexpressions computed once, on
   // registers of its own that keep its constants, its results written in place.
-  const auto& combined = model.combined_programs();
-  for (std::size_t i = 0; i < combined.size(); ++i) {
-    if (combined[i].first != quantities) continue;
-    std::vector<double>& registers = workspace.combined_registers_[i];
+  if (quantities == kPolynomialPathQuantities && model.has_zero_dynamics_polynomial()) {
+    const std::shared_ptr<const ExpressionProgram>& combined = model.polynomial_programs().combined;
+    const ExpressionProgram& program = *combined;
+    std::vector<double>& registers = workspace.combined_registers_;
+    if (workspace.combined_program_ != combined) {
+      registers.assign(program.num_registers(), 0.0);
+      program.LoadConstants(registers.data());
+      workspace.combined_program_ = combined;
+    }
     std::copy(workspace.program_inputs_.begin(), workspace.program_inputs_.end(),
               registers.begin());
     std::vector<double*>& destinations = workspace.combined_destinations_;
@@ -265,7 +271,7 @@ void Evaluate(const Model& model,
         for (std::size_t k = 0; k < size; ++k) destinations.push_back(data + k);
       });
     }
-    combined[i].second->EvaluateLoaded(registers.data(), destinations.data());
+    program.EvaluateLoaded(registers.data(), destinations.data());
     return;
   }
   // One program per quantity.
@@ -277,7 +283,11 @@ void Evaluate(const Model& model,
     } else if (double* destination = InPlaceResult(quantity, workspace)) {
       run(model.program(quantity), destination);
     } else {
-      run(model.program(quantity), workspace.outputs_.data());
+      const ExpressionProgram& program = model.program(quantity);
+      if (workspace.outputs_.size() < program.num_outputs()) {
+        workspace.outputs_.resize(program.num_outputs());
+      }
+      run(program, workspace.outputs_.data());
       CopyResults(quantity, workspace.outputs_.data(), workspace);
     }
   }

@@ -8,7 +8,9 @@
 // SymbolicLock (modeling/symbolic_lock.h), and so does the destruction of a model's expressions.
 #include <Eigen/Dense>
 #include <cstddef>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -52,7 +54,7 @@ constexpr bool IsForwardModeQuantity(Quantity quantity) {
   return quantity == Quantity::kForcesJacobians || quantity == Quantity::kInputMatrixDerivatives;
 }
 /// What a sweep's polynomial path (analysis/sweep_point.h) evaluates at every point, compiled
-/// also as one program (Model::combined_program).
+/// also as one program (Model::PolynomialPrograms::combined).
 inline constexpr unsigned kPolynomialPathQuantities =
     Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutputJacobian |
     Quantity::kZeroDynamicsPolynomial;
@@ -100,19 +102,24 @@ class Model {
   /// has one but those IsForwardModeQuantity names, on a model too large for symbolic Jacobians.
   const ExpressionProgram& program(Quantity quantity) const;
   bool has_program(Quantity quantity) const;
-  /// True when the zero-dynamics polynomial was derived (small models, as many outputs as
-  /// inputs), so Quantity::kZeroDynamicsPolynomial is meaningful.
-  bool has_zero_dynamics_polynomial() const { return has_zero_dynamics_polynomial_; }
-  /// Programs compiled for a combination of quantities (their results one after another, in
-  /// Quantity order), with the combination. Evaluate runs one for exactly its combination
-  /// instead of one program each, so that the subexpressions they share (the cosine of a
-  /// parameter, ...) are computed once. One for kPolynomialPathQuantities when the polynomial was
-  /// derived.
-  const std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>>&
-  combined_programs() const {
-    return combined_programs_;
-  }
-  /// The most registers and outputs of any of its programs (Workspace's scratch).
+  /// The zero-dynamics polynomial's programs (SymbolicModel::DeriveZeroDynamicsPolynomial): the
+  /// polynomial alone (Quantity::kZeroDynamicsPolynomial), and kPolynomialPathQuantities as one
+  /// program, their results one after another in Quantity order, which Evaluate runs for exactly
+  /// that combination so that the subexpressions they share (the cosine of a parameter, ...) are
+  /// computed once. Null where the model has none.
+  struct PolynomialPrograms {
+    std::shared_ptr<const ExpressionProgram> alone, combined;
+  };
+  /// Derived and compiled on the first call, once, whichever thread asks first: loading does not
+  /// (the determinant, normal() and expand() were more than half of loading a small model, and
+  /// only a sweep's polynomial path reads them).
+  const PolynomialPrograms& polynomial_programs() const;
+  /// True when the zero-dynamics polynomial is available (small models, as many outputs as
+  /// inputs, an expansion within budget), so Quantity::kZeroDynamicsPolynomial is meaningful.
+  /// The first call derives it (polynomial_programs()).
+  bool has_zero_dynamics_polynomial() const { return polynomial_programs().alone != nullptr; }
+  /// The most registers and outputs of any of its programs but the polynomial's (Workspace's
+  /// scratch; Evaluate grows it for those).
   std::size_t max_registers() const;
   std::size_t max_outputs() const;
 
@@ -124,12 +131,18 @@ class Model {
   std::vector<std::string> coordinates_, inputs_, parameter_names_;
   std::vector<DisplayUnit> parameter_units_;
   std::size_t num_outputs_ = 0;
-  bool has_zero_dynamics_polynomial_ = false;
   Eigen::VectorXd parameters_;
   std::shared_ptr<const SymbolicModel> symbolic_;
-  std::vector<std::shared_ptr<const ExpressionProgram>> programs_;  // by Quantity bit position
-  // Programs for combinations of quantities (combined_programs), with their combination.
-  std::vector<std::pair<unsigned, std::shared_ptr<const ExpressionProgram>>> combined_programs_;
+  // By Quantity bit position; the polynomial's slot stays empty (polynomial_programs()).
+  std::vector<std::shared_ptr<const ExpressionProgram>> programs_;
+  // The polynomial's programs, made by `compile` (set by the loader) on first use; shared by
+  // the model's copies.
+  struct LazyPolynomial {
+    std::once_flag once;
+    std::function<PolynomialPrograms()> compile;
+    PolynomialPrograms programs;
+  };
+  std::shared_ptr<LazyPolynomial> polynomial_ = std::make_shared<LazyPolynomial>();
 };
 
 /// Reads a model file (YAML, docs/model-files.md), checks it, derives H, h_bar and the
@@ -210,8 +223,10 @@ class Workspace {
   std::vector<double> program_inputs_;  // [parameters, q, q_dot]
   std::vector<double> registers_;       // scratch for the largest program
   std::vector<double> outputs_;         // scratch for programs with several result blocks
-  // Each combined program's registers (its constants loaded once), and where its outputs go.
-  std::vector<std::vector<double>> combined_registers_;
+  // The polynomial path's combined program's registers (its constants loaded for
+  // `combined_program_`, on first use), and where its outputs go.
+  std::vector<double> combined_registers_;
+  std::shared_ptr<const ExpressionProgram> combined_program_;  // held: its address is the key
   std::vector<double*> combined_destinations_;
   // Forward mode's dual numbers (IsForwardModeQuantity): the programs' inputs, registers and
   // outputs, sized at the first use.

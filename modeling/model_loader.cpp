@@ -11,6 +11,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <random>
@@ -252,6 +253,7 @@ class ModelBuilder {
         parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
         std::move(forces), std::move(input_matrix), std::move(output));
     Compile(*symbolic, nullptr);
+    model_.polynomial_->compile = PolynomialCompiler(symbolic);
     model_.symbolic_ = std::move(symbolic);
     return std::move(model_);
   }
@@ -279,6 +281,7 @@ class ModelBuilder {
           std::move(equations.mass_matrix), std::move(equations.forces),
           std::move(equations.input_matrix), std::move(output));
       Compile(*symbolic, std::move(mass_matrix_program));
+      model_.polynomial_->compile = PolynomialCompiler(symbolic);
       model_.symbolic_ = std::move(symbolic);
     } catch (const Error&) {
       throw;
@@ -859,13 +862,8 @@ class ModelBuilder {
          "Jacobians of f",
          {symbolic.forces_position_jacobian(), symbolic.forces_velocity_jacobian()}},
         {Quantity::kInputMatrixDerivatives, "dB/dq", symbolic.input_matrix_derivatives()},
-        {Quantity::kZeroDynamicsPolynomial,
-         "zero-dynamics polynomial",
-         {PolynomialBlock(symbolic.zero_dynamics_polynomial(), symbolic.dof()),
-          PolynomialBlock(symbolic.zero_dynamics_polynomial_scale(), symbolic.dof())}},
     };
-    static_assert(kNumQuantities == 9, "compile every Quantity");
-    model_.has_zero_dynamics_polynomial_ = !symbolic.zero_dynamics_polynomial().empty();
+    static_assert(kNumQuantities == 9, "compile every Quantity (the polynomial on first use)");
     model_.programs_.assign(kNumQuantities, nullptr);
     for (const Derived& derived : quantities) {
       const auto index =
@@ -886,18 +884,44 @@ class ModelBuilder {
         Fail("derived " + std::string(derived.name), error.what());
       }
     }
-    if (model_.has_zero_dynamics_polynomial_) {
-      // Already compiled one by one above: this cannot meet an unknown form.
-      std::vector<GiNaC::matrix> blocks;
-      for (const Derived& derived : quantities) {
-        if ((kPolynomialPathQuantities & static_cast<unsigned>(derived.quantity)) != 0) {
-          blocks.insert(blocks.end(), derived.blocks.begin(), derived.blocks.end());
-        }
+  }
+
+  // What Model::polynomial_programs() runs on first use: the polynomial derived, then compiled
+  // alone and with M, f, B and H (kPolynomialPathQuantities, in Quantity order). A form the
+  // compiler does not know (none is known: the polynomial's entries are polynomials in those
+  // compiled above), or a derivation GiNaC refuses, leaves the model without a polynomial:
+  // sweeps then take the eigenvalue route.
+  static std::function<Model::PolynomialPrograms()> PolynomialCompiler(
+      std::shared_ptr<const SymbolicModel> symbolic) {
+    if (!symbolic->has_zero_dynamics_polynomial()) return nullptr;
+    return [symbolic = std::move(symbolic)]() -> Model::PolynomialPrograms {
+      const SymbolicLock lock;
+      SymbolicModel::ZeroDynamicsPolynomial polynomial;
+      try {
+        polynomial = symbolic->DeriveZeroDynamicsPolynomial();
+      } catch (const std::exception&) {
+        return {};  // GiNaC found no normal form (a pole): the eigenvalue route, as at load
       }
-      model_.combined_programs_.emplace_back(kPolynomialPathQuantities,
-                                             std::make_shared<const ExpressionProgram>(
-                                                 CompileExpressions(ColumnMajor(blocks), inputs)));
-    }
+      const std::vector<GiNaC::matrix> alone = {
+          PolynomialBlock(polynomial.coefficients, symbolic->dof()),
+          PolynomialBlock(polynomial.scales, symbolic->dof())};
+      const std::vector<GiNaC::matrix> combined = {
+          symbolic->mass_matrix(),     symbolic->forces(), symbolic->input_matrix(),
+          symbolic->output_jacobian(), alone[0],           alone[1]};
+      static_assert(kPolynomialPathQuantities ==
+                        (Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix |
+                         Quantity::kOutputJacobian | Quantity::kZeroDynamicsPolynomial),
+                    "the combined program's blocks, in Quantity order");
+      const std::vector<GiNaC::ex> inputs = symbolic->ProgramInputs();
+      try {
+        return Model::PolynomialPrograms{std::make_shared<const ExpressionProgram>(
+                                             CompileExpressions(ColumnMajor(alone), inputs)),
+                                         std::make_shared<const ExpressionProgram>(
+                                             CompileExpressions(ColumnMajor(combined), inputs))};
+      } catch (const std::exception&) {
+        return Model::PolynomialPrograms{};
+      }
+    };
   }
 
   Model model_;

@@ -114,14 +114,25 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
     // Derived only when its expansion stays within the budget; else sweeps take the numeric
     // route (the eigenvalues of the linearized zero dynamics) for this model too.
     e.zero_dynamics_polynomial_terms = BoundExpandedTerms(LeibnizDeterminant(rosenbrock)).numerator;
-    if (e.zero_dynamics_polynomial_terms > kMaxPolynomialTerms) return;
-    const GiNaC::ex polynomial = GiNaC::numer(GiNaC::normal(rosenbrock.determinant())).expand();
-    for (int k = 0; k <= int(2 * dof()); ++k) {
-      const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
-      e.zero_dynamics_polynomial.push_back(coefficient);
-      e.zero_dynamics_polynomial_scale.push_back(SumOfAbsoluteTerms(coefficient));
-    }
+    e.has_zero_dynamics_polynomial = e.zero_dynamics_polynomial_terms <= kMaxPolynomialTerms;
   }
+}
+
+SymbolicModel::ZeroDynamicsPolynomial SymbolicModel::DeriveZeroDynamicsPolynomial() const {
+  const SymbolicLock lock;
+  ZeroDynamicsPolynomial result;
+  if (!has_zero_dynamics_polynomial()) return result;
+  GiNaC::exmap at_rest;
+  for (const GiNaC::realsymbol& velocity : expressions_->velocities) at_rest[velocity] = 0;
+  const GiNaC::realsymbol lambda("lambda");
+  const GiNaC::ex determinant = LeibnizDeterminant(RosenbrockMatrix(lambda, at_rest));
+  const GiNaC::ex polynomial = GiNaC::numer(GiNaC::normal(determinant)).expand();
+  for (int k = 0; k <= int(2 * dof()); ++k) {
+    const GiNaC::ex coefficient = polynomial.coeff(lambda, k);
+    result.coefficients.push_back(coefficient);
+    result.scales.push_back(SumOfAbsoluteTerms(coefficient));
+  }
+  return result;
 }
 
 GiNaC::ex SymbolicModel::RosenbrockDeterminant(const GiNaC::realsymbol& lambda,

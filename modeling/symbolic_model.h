@@ -92,19 +92,21 @@ class SymbolicModel {
   GiNaC::matrix RosenbrockMatrix(const GiNaC::realsymbol& lambda, const GiNaC::exmap& at) const;
 
   /// Its coefficients a_0 .. a_(2 dof) in lambda at q_dot = 0, as functions of the parameters
-  /// and q, derived at load for models with dof + inputs <= kMaxPolynomialSize (empty for
-  /// larger ones: a symbolic determinant costs like n!). Denominators are cleared, which
-  /// scales every coefficient alike and keeps the roots.
-  const std::vector<GiNaC::ex>& zero_dynamics_polynomial() const {
-    return expressions_->zero_dynamics_polynomial;
-  }
-  /// For each coefficient, the sum of the absolute values of its terms: the size against which
-  /// "this coefficient is zero" is decided (cancellation down to round-off).
-  const std::vector<GiNaC::ex>& zero_dynamics_polynomial_scale() const {
-    return expressions_->zero_dynamics_polynomial_scale;
-  }
-  /// Rows of the Rosenbrock matrix (dof + inputs) up to which zero_dynamics_polynomial() is
-  /// derived at load; keeps loading well under the 100 ms goal.
+  /// and q (Denominators are cleared, which scales every coefficient alike and keeps the
+  /// roots), and for each coefficient the sum of the absolute values of its terms: the size
+  /// against which "this coefficient is zero" is decided (cancellation down to round-off).
+  struct ZeroDynamicsPolynomial {
+    std::vector<GiNaC::ex> coefficients, scales;
+  };
+  /// True for models with dof + inputs <= kMaxPolynomialSize (a symbolic determinant costs like
+  /// n!), as many outputs as inputs and an expansion within kMaxPolynomialTerms: decided at
+  /// load, before anything is expanded.
+  bool has_zero_dynamics_polynomial() const { return expressions_->has_zero_dynamics_polynomial; }
+  /// Derives the polynomial (empty without has_zero_dynamics_polynomial()): the determinant,
+  /// normal() and expand(), more than half of loading a small model, so only a caller that
+  /// needs it (a sweep's polynomial path, Model::polynomial_programs) pays. Takes a SymbolicLock.
+  ZeroDynamicsPolynomial DeriveZeroDynamicsPolynomial() const;
+  /// Rows of the Rosenbrock matrix (dof + inputs) up to which the polynomial is derived.
   static constexpr std::size_t kMaxPolynomialSize = 4;
   /// The most terms the polynomial's expanded numerator may have, by BoundExpandedTerms
   /// (modeling/expansion_bound.h) before anything is expanded: beyond it the polynomial is not
@@ -133,7 +135,7 @@ class SymbolicModel {
     GiNaC::matrix output_jacobian, output_bias;
     GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
     std::vector<GiNaC::matrix> input_matrix_derivatives;
-    std::vector<GiNaC::ex> zero_dynamics_polynomial, zero_dynamics_polynomial_scale;
+    bool has_zero_dynamics_polynomial = false;
     double zero_dynamics_polynomial_terms = 0.0;
     double jacobian_work = 0.0;
   };

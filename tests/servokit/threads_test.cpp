@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <exception>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <utility>
@@ -200,6 +201,32 @@ TEST_CASE("analyze from 8 threads at once gives the single-threaded answer on ev
     calls.push_back({file + " (shared)", [shared] { return Fingerprint(sk::Analyze(shared)); }});
     calls.push_back({file + " (loaded per call)", [file] {
                        return Fingerprint(sk::Analyze(sk::Model::FromFile(ModelPath(file))));
+                     }});
+  }
+  CheckThreadedAnswersEqualSingleThreaded(calls);
+}
+
+// A sweep's polynomial path reads the zero-dynamics polynomial, which a model derives and
+// compiles on first use (Model::polynomial_programs, once, whichever thread asks first): each
+// call loads the model afresh and sweeps it on 4 threads, so that the first use is a race.
+TEST_CASE("sweep fresh models from 8 threads at once, each on 4 threads", "[servokit]") {
+  std::vector<Call> calls;
+  for (const auto& [file, parameter] : std::vector<std::pair<std::string, std::string>>{
+           {"mass_on_car.yaml", "d"}, {"rotational_arm.yaml", "s"}}) {
+    calls.push_back({file + " swept", [file, parameter] {
+                       sk::SweepOptions options;
+                       options.threads = 4;
+                       const std::vector<sk::SweepPoint> points = sk::Sweep(
+                           sk::Model::FromFile(ModelPath(file)),
+                           {sk::SweepAxis(parameter, {0.1, 0.3, 0.5, 0.7, 0.9})}, options);
+                       std::ostringstream bytes;
+                       bytes << std::hexfloat;  // every bit, so that any difference is seen
+                       for (const sk::SweepPoint& point : points) {
+                         bytes << point.solved << sk::ToString(point.stability);
+                         for (const std::complex<double>& zero : point.eigenvalues) bytes << zero;
+                         bytes << "\n";
+                       }
+                       return bytes.str();
                      }});
   }
   CheckThreadedAnswersEqualSingleThreaded(calls);
