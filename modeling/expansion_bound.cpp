@@ -161,10 +161,10 @@ GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix) {
   return determinant;
 }
 
-double TreeSize(const GiNaC::ex& expression) {
+double TreeSize(const GiNaC::ex& expression, double limit) {
   double size = 0.0;
   for (auto node = expression.preorder_begin(); node != expression.preorder_end(); ++node) {
-    size += 1.0;
+    if (++size > limit) break;
   }
   return size;
 }

@@ -8,6 +8,8 @@
 // where it is cheap).
 #include <ginac/ginac.h>
 
+#include <limits>
+
 namespace servokit {
 
 /// Upper bounds on the term counts of numer(normal(e)).expand() and denom(...).expand(). Functions
@@ -43,8 +45,10 @@ GiNaC::ex NormalWithinBudget(const GiNaC::ex& expression, double max_terms);
 GiNaC::ex LeibnizDeterminant(const GiNaC::matrix& matrix);
 
 /// The nodes of an expression's tree (symbols, numbers, sums, products, powers, functions), each
-/// shared subexpression counted wherever it occurs: what differentiating it once walks. Hold a
-/// SymbolicLock.
-double TreeSize(const GiNaC::ex& expression);
+/// shared subexpression counted wherever it occurs: what differentiating it once walks. Counting
+/// stops at the first node past `limit` (a tree built from shared subexpressions, a linkage's
+/// derivatives, can be far larger than its DAG). Hold a SymbolicLock.
+double TreeSize(const GiNaC::ex& expression,
+                double limit = std::numeric_limits<double>::infinity());
 
 }  // namespace servokit

@@ -693,9 +693,11 @@ class ModelBuilder {
                       const std::string& kinetic_key) const {
     const GiNaC::ex remainder =
         detail::QuadraticFormRemainder(kinetic, mass_matrix, velocity_symbols_);
-    // normal() only where its result stays small; a remainder past the budget (a loop closure's
-    // T) is decided by the numeric check alone.
-    const bool cheap = BoundExpandedTerms(remainder).numerator <= detail::kMaxExpandedTerms;
+    // normal() only where its result stays small, function arguments included (normal() works
+    // inside them too); a remainder past the budget (a loop closure's T) is decided by the
+    // numeric check alone.
+    const bool cheap = BoundExpandedTerms(remainder).numerator <= detail::kMaxExpandedTerms &&
+                       BoundExpandTerms(remainder) <= detail::kMaxExpandedTerms;
     if (!remainder.is_zero() && !(cheap && GiNaC::normal(remainder).is_zero()) &&
         !AgreeNumerically(kinetic, kinetic - remainder)) {
       Fail(kinetic_key,

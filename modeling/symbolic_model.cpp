@@ -54,16 +54,22 @@ GiNaC::matrix OutputBias(const std::vector<GiNaC::matrix>& output_jacobian_deriv
   return bias;
 }
 
-// The nodes GiNaC walks to differentiate f by every q and q_dot and B by every q.
+// The nodes GiNaC walks to differentiate f by every q and q_dot and B by every q,
+// dof (2 |f| + |B|); counting stops once that is past `limit`.
 double JacobianWork(const GiNaC::matrix& forces,
                     const GiNaC::matrix& input_matrix,
-                    std::size_t dof) {
-  double forces_size = 0.0, input_size = 0.0;
-  for (unsigned i = 0; i < forces.rows(); ++i) forces_size += TreeSize(forces(i, 0));
+                    std::size_t dof,
+                    double limit) {
+  const double nodes_limit = limit / double(dof);  // of 2 |f| + |B|
+  double nodes = 0.0;
+  const auto add = [&](const GiNaC::ex& entry, double weight) {
+    if (nodes <= nodes_limit) nodes += weight * TreeSize(entry, (nodes_limit - nodes) / weight);
+  };
+  for (unsigned i = 0; i < forces.rows(); ++i) add(forces(i, 0), 2.0);
   for (unsigned i = 0; i < input_matrix.rows(); ++i) {
-    for (unsigned j = 0; j < input_matrix.cols(); ++j) input_size += TreeSize(input_matrix(i, j));
+    for (unsigned j = 0; j < input_matrix.cols(); ++j) add(input_matrix(i, j), 1.0);
   }
-  return double(dof) * (2.0 * forces_size + input_size);
+  return double(dof) * nodes;
 }
 
 // Sum of |terms| of an expanded expression: what its value is compared with to call it zero.
@@ -101,7 +107,7 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.output_jacobian = Jacobian(e.output, e.coordinates);
   e.output_bias =
       OutputBias(Derivatives(e.output_jacobian, e.coordinates), e.velocities, e.output.rows());
-  e.jacobian_work = JacobianWork(e.forces, e.input_matrix, dof());
+  e.jacobian_work = JacobianWork(e.forces, e.input_matrix, dof(), kMaxJacobianWork);
   if (e.jacobian_work > kMaxJacobianWork) return;  // Evaluate differentiates the programs
   e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
   e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
