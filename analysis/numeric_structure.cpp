@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -24,6 +25,7 @@ class NumericAlgorithm {
   NumericAlgorithm(const Model& model, const NonlinearStructureOptions& options)
       : model_(model),
         tolerance_(options.rank_tolerance),
+        max_work_(options.max_work),
         states_(2 * model.dof()),
         outputs_(model.num_outputs()) {
     const auto n = Eigen::Index(model.dof());
@@ -132,6 +134,7 @@ class NumericAlgorithm {
   bool CoefficientsVanish(std::size_t i, int order) {
     bool decided = false;
     for (DecisionPoint& point : points_) {
+      if (scratch_.work > max_work_) throw PastWorkBudget(i, order);
       const std::optional<Eigen::VectorXd> values = CoefficientsAt(point, i, order);
       if (!values || !point.input_size) continue;
       if (values->isZero(0.0)) {
@@ -165,8 +168,19 @@ class NumericAlgorithm {
     return std::size_t((svd.singularValues().array() > threshold).count());
   }
 
+  // Each order is dearer than the last: its motions reach a higher degree, and a gradient takes
+  // 2 dof of them.
+  NoSolution PastWorkBudget(std::size_t i, int order) const {
+    std::ostringstream message;
+    message << "output y" << i + 1 << ": deciding whether the inputs appear in its derivative "
+            << "of order " << order << " takes the structure algorithm past its work budget ("
+            << max_work_ << " Taylor operations); in the orders below, the inputs' "
+            << "coefficients vanish to the rank tolerance";
+    return NoSolution(message.str());
+  }
+
   const Model& model_;
-  const double tolerance_;
+  const double tolerance_, max_work_;
   const std::size_t states_, outputs_;
   mutable MotionSeries::Scratch scratch_;  // shared by every motion: one at a time runs
   std::vector<DecisionPoint> points_;

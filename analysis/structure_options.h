@@ -14,6 +14,12 @@ struct NonlinearStructureOptions {
   // q at the reference state (q' = 0, y_d at rest there): where the kept rows are chosen. Empty:
   // q = 0.
   Eigen::VectorXd reference_q;
+  // The most work the numeric route's motions may take (MotionSeries::Scratch::work: program
+  // instructions times (degree + 1)^2, some 10 ns each): past it the algorithm stops with
+  // NoSolution instead of going on to ever dearer derivatives. The shipped models need at most
+  // 5e5, a chain of 100 pendulums 7e7 (0.6 s); a 50-link arm whose tip barely feels the base
+  // (P = 6e-15, below the rank tolerance) would go on to order 100.
+  double max_work = 1e9;
 };
 
 /// More than 2 dof constraints on the state: the outputs are not independent.

@@ -68,6 +68,7 @@ void MotionSeries::EvaluateSeries(Quantity quantity, int degree) {
   scratch_->outputs.resize(program.num_outputs() * width);
   program.EvaluateTaylor(degree, scratch_->inputs.data(), scratch_->registers.data(),
                          scratch_->outputs.data());
+  scratch_->work += double(program.num_instructions()) * double(width * width);
 }
 
 std::vector<Dual> MotionSeries::SolveMassMatrix(const std::vector<Dual>& rhs) const {

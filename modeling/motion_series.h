@@ -39,6 +39,9 @@ class MotionSeries {
   /// take a gigabyte with one each).
   struct Scratch {
     std::vector<Dual> inputs, registers, outputs;
+    /// The work of every evaluation made with it: instructions times (degree + 1)^2, what a
+    /// product costs in Taylor mode. Callers bound it (analysis/numeric_structure.cpp).
+    double work = 0.0;
   };
 
   /// A value and its derivative along the direction.

@@ -179,5 +179,26 @@ TEST_CASE("numeric and symbolic routes agree on the mass on car's four cases",
   }
 }
 
+// The numeric route stops at its work budget with NoSolution naming the output and the order,
+// rather than going on to ever dearer derivatives: here the mass on car with alpha = 0, d = 0,
+// whose relative degree is 4 (paper Sect. 3, case 4), under a budget too small for order 2's
+// gradient, and then under the default budget, where it is found.
+TEST_CASE("the numeric route stops at its work budget", "[analysis][routes]") {
+  const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  NonlinearStructureOptions options;
+  CHECK(DeriveNumericStructure(model, options).relative_degree == std::vector<int>{4});
+  options.max_work = 1.0;
+  try {
+    DeriveNumericStructure(model, options);
+    FAIL("no NoSolution past the work budget");
+  } catch (const NoSolution& error) {
+    const std::string message = error.what();
+    INFO(message);
+    CHECK(message.find("output y1: deciding whether the inputs appear in its derivative of "
+                       "order ") == 0);
+    CHECK(message.find("past its work budget (1 Taylor operations)") != std::string::npos);
+  }
+}
+
 }  // namespace
 }  // namespace servokit
