@@ -84,9 +84,14 @@ class NumericAlgorithm {
   // along u_j.
   void Prepare(DecisionPoint& point) const {
     double sum = 0.0;
+    point.motions.reserve(model_.num_inputs());  // front() is read while the others are made
     for (Eigen::Index j = 0; j < Eigen::Index(model_.num_inputs()); ++j) {
-      point.motions.emplace_back(model_, model_.parameters(), point.start,
-                                 Direction(&MotionStart::u, j), scratch_);
+      if (point.motions.empty()) {
+        point.motions.emplace_back(model_, model_.parameters(), point.start,
+                                   Direction(&MotionStart::u, j), scratch_);
+      } else {  // the same start: M(q(0)) factorised once
+        point.motions.emplace_back(point.motions.front(), Direction(&MotionStart::u, j));
+      }
       sum += point.motions.back().Acceleration().tangent.squaredNorm();
     }
     if (std::isfinite(sum)) point.input_size = std::sqrt(sum);
@@ -113,9 +118,8 @@ class NumericAlgorithm {
     if (point.shifted.empty()) {
       for (Eigen::Index s = 0; s < 2 * n; ++s) {
         point.shifted.emplace_back(
-            model_, model_.parameters(), point.start,
-            s < n ? Direction(&MotionStart::q, s) : Direction(&MotionStart::q_dot, s - n),
-            scratch_);
+            point.motions.front(),
+            s < n ? Direction(&MotionStart::q, s) : Direction(&MotionStart::q_dot, s - n));
       }
     }
     double sum = 0.0;

@@ -33,19 +33,33 @@ MotionSeries::MotionSeries(const Model& model,
   EvaluateSeries(Quantity::kMassMatrix, 0);
   const auto n = Eigen::Index(model_.dof());
   Eigen::MatrixXd values(n, n);
-  mass_matrix_tangent_.resize(n, n);
+  bool finite = true;
   for (Eigen::Index c = 0; c < n; ++c) {
     for (Eigen::Index r = 0; r < n; ++r) {
-      values(r, c) = scratch_->outputs[std::size_t(r + c * n)].value;
-      mass_matrix_tangent_(r, c) = scratch_->outputs[std::size_t(r + c * n)].tangent;
+      const Dual& entry = scratch_->outputs[std::size_t(r + c * n)];
+      values(r, c) = entry.value;
+      finite = finite && std::isfinite(entry.value) && std::isfinite(entry.tangent);
     }
   }
-  regular_ = values.allFinite() && mass_matrix_tangent_.allFinite();
-  if (regular_) {
-    mass_matrix_.compute(values);
-    // PartialPivLU does not report singularity; its reciprocal condition estimate does.
-    regular_ = mass_matrix_.rcond() > std::numeric_limits<double>::epsilon();
-  }
+  if (!finite) return;
+  auto factor = std::make_shared<Eigen::PartialPivLU<Eigen::MatrixXd>>(values);
+  // PartialPivLU does not report singularity; its reciprocal condition estimate does.
+  if (factor->rcond() > std::numeric_limits<double>::epsilon()) mass_matrix_ = std::move(factor);
+}
+
+MotionSeries::MotionSeries(const MotionSeries& same_start, const MotionStart& direction)
+    : model_(same_start.model_),
+      scratch_(same_start.scratch_),
+      parameters_(same_start.parameters_),
+      mass_matrix_(same_start.mass_matrix_) {
+  const auto values = [](const std::vector<Dual>& duals) {
+    Eigen::VectorXd result(Eigen::Index(duals.size()));
+    for (std::size_t i = 0; i < duals.size(); ++i) result[Eigen::Index(i)] = duals[i].value;
+    return result;
+  };
+  u_ = Duals(values(same_start.u_), direction.u);
+  q_ = {Duals(values(same_start.q_[0]), direction.q),
+        Duals(values(same_start.q_[1]), direction.q_dot)};
 }
 
 void MotionSeries::FillInputs(int degree) {
@@ -71,16 +85,24 @@ void MotionSeries::EvaluateSeries(Quantity quantity, int degree) {
   scratch_->work += double(program.num_instructions()) * double(width * width);
 }
 
-std::vector<Dual> MotionSeries::SolveMassMatrix(const std::vector<Dual>& rhs) const {
+std::vector<Dual> MotionSeries::SolveMassMatrix(const std::vector<Dual>& rhs,
+                                                const Dual* mass_series,
+                                                std::size_t width) const {
   const auto n = Eigen::Index(rhs.size());
-  if (!regular_) return std::vector<Dual>(rhs.size(), Dual(std::nan(""), std::nan("")));
+  if (!mass_matrix_) return std::vector<Dual>(rhs.size(), Dual(std::nan(""), std::nan("")));
   Eigen::VectorXd values(n), tangents(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     values[i] = rhs[std::size_t(i)].value;
     tangents[i] = rhs[std::size_t(i)].tangent;
   }
-  const Eigen::VectorXd solution = mass_matrix_.solve(values);
-  return Duals(solution, mass_matrix_.solve(tangents - mass_matrix_tangent_ * solution));
+  const Eigen::VectorXd solution = mass_matrix_->solve(values);
+  // tangents -= M_0' solution, entry (r, c) of M_0 being series r + c n at coefficient 0.
+  for (Eigen::Index c = 0; c < n; ++c) {
+    for (Eigen::Index r = 0; r < n; ++r) {
+      tangents[r] -= mass_series[std::size_t(r + c * n) * width].tangent * solution[c];
+    }
+  }
+  return Duals(solution, mass_matrix_->solve(tangents));
 }
 
 void MotionSeries::AddOrder() {
@@ -89,14 +111,8 @@ void MotionSeries::AddOrder() {
   const std::size_t n = model_.dof();
   FillInputs(int(k));
   // rhs = B_k u - f_k - sum_(l=1..k) M_l a_(k-l); entry (r, c) of a matrix is output r + c n.
+  // M's series last, so that the solve reads M_0's tangents from it.
   std::vector<Dual> rhs(n);
-  EvaluateSeries(Quantity::kMassMatrix, int(k));
-  for (std::size_t c = 0; c < n; ++c) {
-    for (std::size_t r = 0; r < n; ++r) {
-      const Dual* series = &scratch_->outputs[(r + c * n) * width];
-      for (std::size_t l = 1; l <= k; ++l) rhs[r] -= series[l] * accelerations_[k - l][c];
-    }
-  }
   EvaluateSeries(Quantity::kForces, int(k));
   for (std::size_t r = 0; r < n; ++r) rhs[r] -= scratch_->outputs[r * width + k];
   EvaluateSeries(Quantity::kInputMatrix, int(k));
@@ -105,7 +121,14 @@ void MotionSeries::AddOrder() {
     for (std::size_t r = 0; r < n; ++r)
       rhs[r] += scratch_->outputs[(r + c * n) * width + k] * u_[c];
   }
-  std::vector<Dual> acceleration = SolveMassMatrix(rhs);
+  EvaluateSeries(Quantity::kMassMatrix, int(k));
+  for (std::size_t c = 0; c < n; ++c) {
+    for (std::size_t r = 0; r < n; ++r) {
+      const Dual* series = &scratch_->outputs[(r + c * n) * width];
+      for (std::size_t l = 1; l <= k; ++l) rhs[r] -= series[l] * accelerations_[k - l][c];
+    }
+  }
+  std::vector<Dual> acceleration = SolveMassMatrix(rhs, scratch_->outputs.data(), width);
   std::vector<Dual> next(n);
   const auto divisor = double((k + 1) * (k + 2));
   for (std::size_t j = 0; j < n; ++j) next[j] = acceleration[j] / divisor;
@@ -131,7 +154,9 @@ MotionSeries::Derivative MotionSeries::Acceleration() {
 MotionSeries::Derivative MotionSeries::OutputDerivative(int k) {
   const auto order = std::size_t(k);
   const std::size_t outputs = model_.num_outputs();
-  if (!regular_) return Split(std::vector<Dual>(outputs, Dual(std::nan(""), std::nan(""))), 1.0);
+  if (!mass_matrix_) {
+    return Split(std::vector<Dual>(outputs, Dual(std::nan(""), std::nan(""))), 1.0);
+  }
   while (q_.size() < order + 2) AddOrder();  // FillInputs reads q' to order k: q to k + 1
   FillInputs(k);
   EvaluateSeries(Quantity::kOutput, k);

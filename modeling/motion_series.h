@@ -18,6 +18,8 @@
 // the state is exact, never a difference of two motions (whose rounding grows with a drift that
 // may dwarf the input's part).
 #include <Eigen/Dense>
+#include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "modeling/dual_number.h"
@@ -58,6 +60,11 @@ class MotionSeries {
                const MotionStart& start,
                const MotionStart& direction,
                Scratch& scratch);
+  /// The motion from the same start, parameters and input as `same_start`, with the tangents
+  /// along `direction`: it shares the factorisation of M(q(0)), which depends on the start
+  /// alone (a gradient takes 2 dof motions from one start: for 400 coordinates, 800 LU
+  /// factorisations of 400 x 400 and 2.6 MB each, issue #31).
+  MotionSeries(const MotionSeries& same_start, const MotionStart& direction);
 
   /// y^(k)(0), the k-th time derivative of the outputs h(q(t)) at t = 0; extends the series as
   /// far as that needs (order k of q). Not finite where the model is not (a pole on the way).
@@ -73,19 +80,23 @@ class MotionSeries {
   void FillInputs(int degree);
   // EvaluateTaylor of `quantity`'s program to `degree` into outputs_.
   void EvaluateSeries(Quantity quantity, int degree);
-  // M_0^-1 rhs, its tangent from the product rule: M_0 (a)' = rhs' - M_0' a.
-  std::vector<Dual> SolveMassMatrix(const std::vector<Dual>& rhs) const;
+  // M_0^-1 rhs, its tangent from the product rule: M_0 (a)' = rhs' - M_0' a, with M_0' the
+  // tangents of the coefficients 0 of `mass_series` (M's Taylor coefficients, 0..width - 1 per
+  // entry, as EvaluateSeries leaves them).
+  std::vector<Dual> SolveMassMatrix(const std::vector<Dual>& rhs,
+                                    const Dual* mass_series,
+                                    std::size_t width) const;
   // A Derivative of a vector of duals, each multiplied by `scale`.
   static Derivative Split(const std::vector<Dual>& duals, double scale);
 
   const Model& model_;
   Scratch* scratch_;
   std::vector<Dual> parameters_, u_;
-  bool regular_ = true;                               // M(q(0)) finite and invertible
-  Eigen::PartialPivLU<Eigen::MatrixXd> mass_matrix_;  // of M_0's values
-  Eigen::MatrixXd mass_matrix_tangent_;               // M_0's tangents
-  std::vector<std::vector<Dual>> q_;                  // q_0 .. q_(orders + 1)
-  std::vector<std::vector<Dual>> accelerations_;      // a_0 .. a_(orders - 1)
+  // The factorisation of M_0's values, shared by the motions from one start; null where M(q(0))
+  // is not finite or singular.
+  std::shared_ptr<const Eigen::PartialPivLU<Eigen::MatrixXd>> mass_matrix_;
+  std::vector<std::vector<Dual>> q_;              // q_0 .. q_(orders + 1)
+  std::vector<std::vector<Dual>> accelerations_;  // a_0 .. a_(orders - 1)
 };
 
 }  // namespace servokit
