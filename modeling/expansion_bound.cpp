@@ -22,6 +22,25 @@ double PowerTerms(double terms, long n) {
   return count;
 }
 
+// Values computed per node of an expression, found by the node's address (GiNaC shares a
+// subexpression's node wherever it was reused, so a walk with it costs the DAG, not the tree).
+// Each node is kept alive with its value: the operands of a sum or product are made afresh when
+// read (coefficient times rest), and a freed one's address could be another's next.
+template <typename Value>
+class NodeMemo {
+ public:
+  const Value* Find(const GiNaC::ex& expression) const {
+    const auto found = seen_.find(&GiNaC::ex_to<GiNaC::basic>(expression));
+    return found == seen_.end() ? nullptr : &found->second.second;
+  }
+  void Store(const GiNaC::ex& expression, const Value& value) {
+    seen_.emplace(&GiNaC::ex_to<GiNaC::basic>(expression), std::make_pair(expression, value));
+  }
+
+ private:
+  std::unordered_map<const GiNaC::basic*, std::pair<GiNaC::ex, Value>> seen_;
+};
+
 // BoundExpandTerms with a memo of the nodes seen (by address: GiNaC shares a subexpression's
 // node wherever it was reused). Returns {terms of the expansion, terms made inside function
 // arguments and powers with other exponents}; the second is added for every occurrence, since
@@ -29,8 +48,7 @@ double PowerTerms(double terms, long n) {
 class ExpandBound {
  public:
   std::pair<double, double> Of(const GiNaC::ex& expression) {
-    const auto found = seen_.find(&GiNaC::ex_to<GiNaC::basic>(expression));
-    if (found != seen_.end()) return found->second.second;
+    if (const auto* known = seen_.Find(expression)) return *known;
     std::pair<double, double> bound{1.0, 0.0};
     if (GiNaC::is_a<GiNaC::add>(expression) || GiNaC::is_a<GiNaC::mul>(expression)) {
       const bool sum = GiNaC::is_a<GiNaC::add>(expression);
@@ -55,14 +73,12 @@ class ExpandBound {
         bound.second += terms + inner;
       }
     }
-    seen_.emplace(&GiNaC::ex_to<GiNaC::basic>(expression), std::make_pair(expression, bound));
+    seen_.Store(expression, bound);
     return bound;
   }
 
  private:
-  // Each node kept alive with its bound: the operands of a sum or product are made afresh when
-  // read (coefficient times rest), and a freed one's address could be another's next.
-  std::unordered_map<const GiNaC::basic*, std::pair<GiNaC::ex, std::pair<double, double>>> seen_;
+  NodeMemo<std::pair<double, double>> seen_;
 };
 
 }  // namespace
@@ -83,10 +99,9 @@ namespace {
 class NormalBound {
  public:
   ExpandedTerms Of(const GiNaC::ex& expression) {
-    const GiNaC::basic* node = &GiNaC::ex_to<GiNaC::basic>(expression);
-    if (const auto found = seen_.find(node); found != seen_.end()) return found->second.second;
+    if (const ExpandedTerms* known = seen_.Find(expression)) return *known;
     const ExpandedTerms terms = Compute(expression);
-    seen_.emplace(node, std::make_pair(expression, terms));
+    seen_.Store(expression, terms);
     return terms;
   }
 
@@ -126,8 +141,7 @@ class NormalBound {
     return {};  // a number, a symbol, a function or a power kept whole: one term
   }
 
-  // Each node kept alive with its bound, as in ExpandBound.
-  std::unordered_map<const GiNaC::basic*, std::pair<GiNaC::ex, ExpandedTerms>> seen_;
+  NodeMemo<ExpandedTerms> seen_;
 };
 
 }  // namespace

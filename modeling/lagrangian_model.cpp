@@ -17,7 +17,7 @@ namespace {
 // than n^3 (issue #31). The sum is the same as GiNaC's: every other term's derivative is 0.
 class IndexedSum {
  public:
-  explicit IndexedSum(const GiNaC::ex& expression) : expression_(expression) {
+  explicit IndexedSum(const GiNaC::ex& expression) {
     if (GiNaC::is_a<GiNaC::add>(expression)) {
       for (const GiNaC::ex& term : expression) terms_.push_back(term);
     } else {
@@ -39,44 +39,25 @@ class IndexedSum {
     GiNaC::exvector derivatives;
     derivatives.reserve(found->second.size());
     for (const std::size_t t : found->second) derivatives.push_back(terms_[t].diff(symbol));
-    return Sum(std::move(derivatives));
-  }
-
-  const GiNaC::ex& expression() const { return expression_; }
-
-  // A sum built at once: repeated += would merge k terms k times.
-  static GiNaC::ex Sum(GiNaC::exvector terms) {
-    return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
+    return SumOf(std::move(derivatives));
   }
 
  private:
-  GiNaC::ex expression_;
   std::vector<GiNaC::ex> terms_;
   std::map<GiNaC::ex, std::vector<std::size_t>, GiNaC::ex_is_less> by_symbol_;
 };
-
-// dT/dq'_i for every i, each indexed for the next derivative.
-std::vector<IndexedSum> Momenta(const GiNaC::ex& kinetic,
-                                const std::vector<GiNaC::realsymbol>& velocities) {
-  const IndexedSum indexed(kinetic);
-  std::vector<IndexedSum> momenta;
-  momenta.reserve(velocities.size());
-  for (const GiNaC::realsymbol& velocity : velocities) {
-    momenta.emplace_back(indexed.Derivative(velocity));
-  }
-  return momenta;
-}
 
 }  // namespace
 
 GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
                                 const std::vector<GiNaC::realsymbol>& velocities) {
   const auto dof = static_cast<unsigned>(velocities.size());
-  const std::vector<IndexedSum> momenta = Momenta(kinetic, velocities);
+  const IndexedSum indexed(kinetic);
   GiNaC::matrix mass(dof, dof);
   for (unsigned i = 0; i < dof; ++i) {
+    const IndexedSum momentum(indexed.Derivative(velocities[i]));  // dT/dq'_i
     for (unsigned j = i; j < dof; ++j) {
-      mass(i, j) = ExpandWithinBudget(momenta[i].Derivative(velocities[j]), kMaxExpandedTerms);
+      mass(i, j) = ExpandWithinBudget(momentum.Derivative(velocities[j]), kMaxExpandedTerms);
       mass(j, i) = mass(i, j);
     }
   }
@@ -89,7 +70,6 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
   assert(coordinates.size() == velocities.size());
   const auto dof = static_cast<unsigned>(coordinates.size());
   assert(energies.generalized_forces.rows() == dof && energies.generalized_forces.cols() == 1);
-  const std::vector<IndexedSum> momenta = Momenta(energies.kinetic, velocities);
   const IndexedSum kinetic(energies.kinetic), potential(energies.potential),
       dissipation(energies.dissipation);
   TimeDerivative rate(coordinates, velocities);
@@ -98,12 +78,12 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
     GiNaC::exvector terms;
     // d/dt dT/dq'_i = sum_j d2T/dq'_i dq'_j q''_j + sum_j d2T/dq'_i dq_j q'_j; the first sum
     // is M q'', the second, D(dT/dq'_i) with the accelerations zero, belongs to f.
-    terms.push_back(rate(momenta[i].expression()));
+    terms.push_back(rate(kinetic.Derivative(velocities[i])));
     terms.push_back(-kinetic.Derivative(coordinates[i]));
     terms.push_back(potential.Derivative(coordinates[i]));
     terms.push_back(dissipation.Derivative(velocities[i]));
     terms.push_back(-energies.generalized_forces(i, 0));
-    forces(i, 0) = ExpandWithinBudget(IndexedSum::Sum(std::move(terms)), kMaxExpandedTerms);
+    forces(i, 0) = ExpandWithinBudget(SumOf(std::move(terms)), kMaxExpandedTerms);
   }
   return forces;
 }
@@ -137,14 +117,14 @@ EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positi
                               GiNaC::matrix(unsigned(dof), 1)};
   for (unsigned i = 0; i < dof; ++i) {
     for (unsigned j = i; j < dof; ++j) {
-      equations.mass_matrix(i, j) = IndexedSum::Sum(std::move(mass_terms[i * dof + j]));
+      equations.mass_matrix(i, j) = SumOf(std::move(mass_terms[i * dof + j]));
       equations.mass_matrix(j, i) = equations.mass_matrix(i, j);
     }
     GiNaC::exvector& terms = force_terms[i];
     terms.push_back(potential.Derivative(coordinates[i]));
     terms.push_back(dissipation.Derivative(velocities[i]));
     terms.push_back(-energies.generalized_forces(i, 0));
-    equations.forces(i, 0) = IndexedSum::Sum(std::move(terms));
+    equations.forces(i, 0) = SumOf(std::move(terms));
   }
   return equations;
 }
@@ -159,8 +139,7 @@ GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,
       quadratic_form.push_back(mass_matrix(i, j) * velocities[i] * velocities[j]);
     }
   }
-  return ExpandWithinBudget(kinetic - IndexedSum::Sum(std::move(quadratic_form)) / 2,
-                            kMaxExpandedTerms);
+  return ExpandWithinBudget(kinetic - SumOf(std::move(quadratic_form)) / 2, kMaxExpandedTerms);
 }
 
 }  // namespace servokit::detail

@@ -710,17 +710,10 @@ class ModelBuilder {
 
   // M's program (kept for Compile) and the check that M is positive definite.
   void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
-    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
-        CompileExpressions(ColumnMajor({equations.mass_matrix}), ProgramInputs()));
+    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(CompileExpressions(
+        ColumnMajor({equations.mass_matrix}),
+        ProgramInputSymbols(parameter_symbols_, coordinate_symbols_, velocity_symbols_)));
     CheckPositiveDefinite(*equations.mass_matrix_program, key);
-  }
-
-  // The symbols of a program's inputs, as SymbolicModel::ProgramInputs orders them.
-  std::vector<GiNaC::ex> ProgramInputs() const {
-    std::vector<GiNaC::ex> inputs(parameter_symbols_.begin(), parameter_symbols_.end());
-    inputs.insert(inputs.end(), coordinate_symbols_.begin(), coordinate_symbols_.end());
-    inputs.insert(inputs.end(), velocity_symbols_.begin(), velocity_symbols_.end());
-    return inputs;
   }
 
   // M(0) with the nominal parameters is positive definite; a point where an entry is

@@ -169,15 +169,22 @@ GiNaC::matrix SymbolicModel::RosenbrockMatrix(const GiNaC::realsymbol& lambda,
   return rosenbrock;
 }
 
+std::vector<GiNaC::ex> ProgramInputSymbols(const std::vector<GiNaC::realsymbol>& parameters,
+                                           const std::vector<GiNaC::realsymbol>& coordinates,
+                                           const std::vector<GiNaC::realsymbol>& velocities) {
+  const SymbolicLock lock;
+  std::vector<GiNaC::ex> inputs;
+  inputs.reserve(parameters.size() + coordinates.size() + velocities.size());
+  inputs.insert(inputs.end(), parameters.begin(), parameters.end());
+  inputs.insert(inputs.end(), coordinates.begin(), coordinates.end());
+  inputs.insert(inputs.end(), velocities.begin(), velocities.end());
+  return inputs;
+}
+
 std::vector<GiNaC::ex> SymbolicModel::ProgramInputs() const {
   const SymbolicLock lock;
-  const Expressions& e = *expressions_;
-  std::vector<GiNaC::ex> inputs;
-  inputs.reserve(e.parameters.size() + e.coordinates.size() + e.velocities.size());
-  inputs.insert(inputs.end(), e.parameters.begin(), e.parameters.end());
-  inputs.insert(inputs.end(), e.coordinates.begin(), e.coordinates.end());
-  inputs.insert(inputs.end(), e.velocities.begin(), e.velocities.end());
-  return inputs;
+  return ProgramInputSymbols(expressions_->parameters, expressions_->coordinates,
+                             expressions_->velocities);
 }
 
 GiNaC::exmap SymbolicModel::ParameterValues(const Eigen::VectorXd& values) const {

@@ -19,6 +19,12 @@ namespace servokit {
 /// M(q) q'' + f(q, q') = B(q) u, y = h(q) (paper Eqs. 1, 3) with the derived H, h_bar and the
 /// Jacobians. Vectors are GiNaC matrices with one column. Symbols are GiNaC::realsymbol, so that
 /// abs() differentiates to x/abs(x) and conjugate() is the identity.
+/// The inputs of every compiled program of a model, in Evaluate()'s order: [parameters, q,
+/// q_dot]. The loader compiles M with them before the SymbolicModel exists.
+std::vector<GiNaC::ex> ProgramInputSymbols(const std::vector<GiNaC::realsymbol>& parameters,
+                                           const std::vector<GiNaC::realsymbol>& coordinates,
+                                           const std::vector<GiNaC::realsymbol>& velocities);
+
 class SymbolicModel {
  public:
   /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
@@ -45,7 +51,7 @@ class SymbolicModel {
   const std::vector<GiNaC::realsymbol>& coordinates() const { return expressions_->coordinates; }
   /// q_dot; the symbol of coordinate c is named c_dot.
   const std::vector<GiNaC::realsymbol>& velocities() const { return expressions_->velocities; }
-  /// The inputs of every compiled program: [parameters, q, q_dot].
+  /// The inputs of every compiled program: [parameters, q, q_dot] (ProgramInputSymbols).
   std::vector<GiNaC::ex> ProgramInputs() const;
 
   /// M(q), dof x dof (paper Eq. 1).

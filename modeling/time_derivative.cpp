@@ -8,19 +8,18 @@
 namespace servokit::detail {
 namespace {
 
-// A sum or product built at once from its operands (repeated += or *= would merge k operands
-// k times).
-GiNaC::ex Sum(GiNaC::exvector terms) {
-  if (terms.empty()) return 0;
-  if (terms.size() == 1) return terms.front();
-  return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
-}
-
+// A product built at once from its factors, as SumOf.
 GiNaC::ex Product(GiNaC::exvector factors) {
   return GiNaC::dynallocate<GiNaC::mul>(std::move(factors));
 }
 
 }  // namespace
+
+GiNaC::ex SumOf(GiNaC::exvector terms) {
+  if (terms.empty()) return 0;
+  if (terms.size() == 1) return terms.front();
+  return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
+}
 
 TimeDerivative::TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
                                const std::vector<GiNaC::realsymbol>& velocities)
@@ -43,7 +42,7 @@ GiNaC::ex TimeDerivative::Derive(const GiNaC::ex& expression) {
       GiNaC::ex term_rate = Derive(term);
       if (!term_rate.is_zero()) terms.push_back(std::move(term_rate));
     }
-    rate = Sum(std::move(terms));
+    rate = SumOf(std::move(terms));
   } else if (GiNaC::is_a<GiNaC::mul>(expression)) {
     rate = DeriveProduct(expression);
   } else if (GiNaC::is_a<GiNaC::power>(expression)) {
@@ -74,7 +73,7 @@ GiNaC::ex TimeDerivative::DeriveProduct(const GiNaC::ex& product) {
     }
     terms.push_back(Product(std::move(factors)));
   }
-  return Sum(std::move(terms));
+  return SumOf(std::move(terms));
 }
 
 // a^b: b a^(b-1) D(a) for a constant exponent, a^b (D(b) log a + b D(a) / a) otherwise, as
@@ -105,7 +104,7 @@ GiNaC::ex TimeDerivative::DeriveFunction(const GiNaC::ex& function) {
     const GiNaC::ex partial = stand_in.diff(argument_).subs(argument_ == function.op(i));
     terms.push_back(GiNaC::mul(partial, argument_rate));
   }
-  return Sum(std::move(terms));
+  return SumOf(std::move(terms));
 }
 
 }  // namespace servokit::detail

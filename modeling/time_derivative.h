@@ -20,6 +20,9 @@
 
 namespace servokit::detail {
 
+/// The sum of `terms` built at once (repeated += would merge k terms k times); 0 for none.
+GiNaC::ex SumOf(GiNaC::exvector terms);
+
 class TimeDerivative {
  public:
   /// `velocities[k]` is the rate of `coordinates[k]`; every other symbol is constant.
