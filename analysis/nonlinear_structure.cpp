@@ -383,14 +383,7 @@ class StructureAlgorithm {
     Eigen::MatrixXd reference;
     const std::optional<std::size_t> reference_rank =
         RankAt(rows_, dynamics_, points_[0], tolerance_, &reference);
-    if (rank == 0 || !reference_rank || *reference_rank < rank) {
-      throw UndefinedRelativeDegree(
-          "the inputs' coefficients in the outputs' derivatives form a matrix of rank " +
-          std::to_string(rank) + " of " + std::to_string(m) +
-          " near the reference state but of lower rank there: the rows a dynamic extension "
-          "would keep are not defined at the operating point");
-    }
-    StructureStep step = KeptRowsAndColumns(reference, rank);
+    StructureStep step = KeptRowsAndColumns(reference, reference_rank.value_or(0), rank);
     const auto rho = static_cast<unsigned>(rank);
     GiNaC::matrix kept_block(rho, rho);
     for (unsigned a = 0; a < rho; ++a) {
@@ -406,26 +399,6 @@ class StructureAlgorithm {
       CombineWithKeptRows(d, step, kept_inverse);
       step.combined_rows.push_back(d);
     }
-    return step;
-  }
-
-  // The rows and columns to keep: the pivots of a full-pivoting LU at the reference state,
-  // rows scaled to unit size so that units do not choose.
-  static StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference, std::size_t rank) {
-    Eigen::VectorXd row_size = reference.rowwise().norm();
-    for (Eigen::Index i = 0; i < row_size.size(); ++i) {
-      if (row_size[i] == 0) row_size[i] = 1;
-    }
-    const Eigen::FullPivLU<Eigen::MatrixXd> lu(row_size.cwiseInverse().asDiagonal() * reference);
-    StructureStep step;
-    step.rank = rank;
-    for (std::size_t k = 0; k < rank; ++k) {
-      const auto pivot = static_cast<Eigen::Index>(k);
-      step.kept_rows.push_back(static_cast<std::size_t>(lu.permutationP().indices()[pivot]));
-      step.delayed_inputs.push_back(static_cast<std::size_t>(lu.permutationQ().indices()[pivot]));
-    }
-    std::sort(step.kept_rows.begin(), step.kept_rows.end());
-    std::sort(step.delayed_inputs.begin(), step.delayed_inputs.end());
     return step;
   }
 
@@ -453,8 +426,7 @@ class StructureAlgorithm {
     }
     for (ex& entry : remainder) entry = CanonicalNormal(entry);
     if (!CoefficientsVanish(remainder, row.function, dynamics_, points_, tolerance_)) {
-      throw NoSolution("the structure algorithm could not remove the inputs from output " +
-                       OutputName(d) + "'s equation (rank decision failed)");
+      throw InputsNotRemoved(d);
     }
     AddParametersOf(remainder, dynamics_, pinned_);
     row.function = CanonicalNormal(combined);
@@ -545,7 +517,7 @@ std::string StructureNote(const NonlinearStructureSummary& summary,
          (summary.integrators == 1 ? "" : "s");
 }
 
-// The summary of the numeric route, when A is regular nearby: no extension.
+// The summary of the numeric route: A regular nearby, or one step of a dynamic extension.
 NonlinearStructureSummary NumericSummary(const Model& model, const NumericStructure& numeric) {
   NonlinearStructureSummary summary;
   summary.derived = true;
@@ -553,10 +525,24 @@ NonlinearStructureSummary NumericSummary(const Model& model, const NumericStruct
   summary.extended_relative_degree = numeric.relative_degree;
   int constraints = 0;
   for (int order : numeric.relative_degree) constraints += order;
+  std::size_t reference_rank = numeric.reference_rank, extension_rank = 0;
+  if (numeric.extension) {
+    const NumericExtension& extension = *numeric.extension;
+    summary.extended = true;
+    for (std::size_t input : extension.step.delayed_inputs)
+      summary.delayed_inputs.push_back(model.inputs()[input]);
+    summary.extended_relative_degree = extension.highest_derivative;
+    constraints = int(extension.constraints);
+    int highest = 0;
+    for (int order : extension.highest_derivative) highest += order;
+    summary.integrators = highest - constraints;
+    reference_rank = extension.reference_rank;
+    extension_rank = extension.step.rank;
+  }
   summary.internal_order = 2 * model.dof() - std::size_t(constraints);
   const std::size_t m = model.num_outputs();
-  summary.defined_at_operating_point = numeric.reference_rank == m;
-  summary.note = StructureNote(summary, numeric.reference_rank, 0, m);
+  summary.defined_at_operating_point = reference_rank == m;
+  summary.note = StructureNote(summary, reference_rank, extension_rank, m);
   return summary;
 }
 
@@ -597,7 +583,9 @@ NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
                                                       const NonlinearStructureOptions& options) {
   try {
     const NumericStructure numeric = DeriveNumericStructure(model, options);
-    if (numeric.rank_nearby == model.num_outputs()) return NumericSummary(model, numeric);
+    if (numeric.rank_nearby == model.num_outputs() || numeric.extension) {
+      return NumericSummary(model, numeric);
+    }
   } catch (const NoSolution& error) {
     NonlinearStructureSummary summary;
     summary.note = error.what();

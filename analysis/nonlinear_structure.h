@@ -40,23 +40,6 @@
 
 namespace servokit {
 
-/// The relative degree (or the rows a dynamic extension keeps) is not defined at the reference
-/// state: the inputs' coefficient matrix is singular there but not nearby. No exact inverse
-/// passes through that point.
-class UndefinedRelativeDegree : public NoSolution {
- public:
-  using NoSolution::NoSolution;
-};
-
-// One step of the structure algorithm at which the inputs' coefficient matrix had rank < m on
-// a neighbourhood.
-struct StructureStep {
-  std::size_t rank = 0;
-  std::vector<std::size_t> kept_rows;       // outputs whose input equation stays
-  std::vector<std::size_t> combined_rows;   // replaced by g_d and differentiated further
-  std::vector<std::size_t> delayed_inputs;  // the columns C: delayed by the dynamic extension
-};
-
 // GiNaC expressions: hold a SymbolicLock (modeling/symbolic_lock.h) while you keep one.
 struct NonlinearStructure {
   std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;

@@ -1,5 +1,6 @@
 #include "analysis/structure_options.h"
 
+#include <algorithm>
 #include <string>
 
 namespace servokit {
@@ -20,6 +21,39 @@ NoSolution OutputNeverDependsOnInputs(std::size_t output, std::size_t max_order)
   return NoSolution("output " + OutputName(output) +
                     " never depends on the inputs (checked up to its derivative of order " +
                     std::to_string(max_order) + " = 2 dof), so it cannot be tracked");
+}
+
+NoSolution InputsNotRemoved(std::size_t output) {
+  return NoSolution("the structure algorithm could not remove the inputs from output " +
+                    OutputName(output) + "'s equation (rank decision failed)");
+}
+
+StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference,
+                                 std::size_t reference_rank,
+                                 std::size_t rank) {
+  const auto m = std::size_t(reference.rows());
+  if (rank == 0 || reference_rank < rank) {
+    throw UndefinedRelativeDegree(
+        "the inputs' coefficients in the outputs' derivatives form a matrix of rank " +
+        std::to_string(rank) + " of " + std::to_string(m) +
+        " near the reference state but of lower rank there: the rows a dynamic extension "
+        "would keep are not defined at the operating point");
+  }
+  Eigen::VectorXd row_size = reference.rowwise().norm();
+  for (Eigen::Index i = 0; i < row_size.size(); ++i) {
+    if (row_size[i] == 0) row_size[i] = 1;
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(row_size.cwiseInverse().asDiagonal() * reference);
+  StructureStep step;
+  step.rank = rank;
+  for (std::size_t k = 0; k < rank; ++k) {
+    const auto pivot = Eigen::Index(k);
+    step.kept_rows.push_back(std::size_t(lu.permutationP().indices()[pivot]));
+    step.delayed_inputs.push_back(std::size_t(lu.permutationQ().indices()[pivot]));
+  }
+  std::sort(step.kept_rows.begin(), step.kept_rows.end());
+  std::sort(step.delayed_inputs.begin(), step.delayed_inputs.end());
+  return step;
 }
 
 }  // namespace servokit

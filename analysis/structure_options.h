@@ -3,6 +3,7 @@
 // analysis/numeric_structure.h, numeric): their options and the errors they raise, worded once.
 #include <Eigen/Dense>
 #include <cstddef>
+#include <vector>
 
 #include "base/errors.h"
 
@@ -22,9 +23,37 @@ struct NonlinearStructureOptions {
   double max_work = 1e9;
 };
 
+/// The relative degree (or the rows a dynamic extension keeps) is not defined at the reference
+/// state: the inputs' coefficient matrix is singular there but not nearby. No exact inverse
+/// passes through that point.
+class UndefinedRelativeDegree : public NoSolution {
+ public:
+  using NoSolution::NoSolution;
+};
+
+// One step of the structure algorithm at which the inputs' coefficient matrix had rank < m on
+// a neighbourhood.
+struct StructureStep {
+  std::size_t rank = 0;
+  std::vector<std::size_t> kept_rows;       // outputs whose input equation stays
+  std::vector<std::size_t> combined_rows;   // replaced by g_d and differentiated further
+  std::vector<std::size_t> delayed_inputs;  // the columns C: delayed by the dynamic extension
+};
+
+/// The rows and columns a step keeps (combined_rows left empty): the pivots of a full-pivoting
+/// LU of `reference` (the inputs' coefficient matrix at the reference state), rows scaled to
+/// unit size so that units do not choose. Throws UndefinedRelativeDegree when its rank there,
+/// `reference_rank`, is below `rank` (the rank nearby) or `rank` is 0.
+StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference,
+                                 std::size_t reference_rank,
+                                 std::size_t rank);
+
 /// More than 2 dof constraints on the state: the outputs are not independent.
 NoSolution OutputsNotIndependent(std::size_t output, std::size_t states);
 /// No derivative up to 2 dof depends on the inputs.
 NoSolution OutputNeverDependsOnInputs(std::size_t output, std::size_t max_order);
+/// The inputs' coefficients in output `output`'s equation did not vanish after its combination
+/// with the kept rows.
+NoSolution InputsNotRemoved(std::size_t output);
 
 }  // namespace servokit

@@ -17,6 +17,30 @@ std::vector<Dual> Duals(const Eigen::VectorXd& values, const Eigen::VectorXd& ta
   return duals;
 }
 
+// x with A x = b for a small square matrix of duals (column-major): the values by LU, the
+// tangents by the product rule A x' = b' - A' x. Empty where A's values are singular or not
+// finite.
+std::vector<Dual> SolveSmallSystem(const std::vector<Dual>& matrix, const std::vector<Dual>& rhs) {
+  const auto n = Eigen::Index(rhs.size());
+  Eigen::MatrixXd values(n, n), tangents(n, n);
+  for (Eigen::Index c = 0; c < n; ++c) {
+    for (Eigen::Index r = 0; r < n; ++r) {
+      values(r, c) = matrix[std::size_t(r + c * n)].value;
+      tangents(r, c) = matrix[std::size_t(r + c * n)].tangent;
+    }
+  }
+  if (!values.allFinite() || !tangents.allFinite()) return {};
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(values);
+  if (!(lu.rcond() > std::numeric_limits<double>::epsilon())) return {};
+  Eigen::VectorXd b(n), b_tangent(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    b[i] = rhs[std::size_t(i)].value;
+    b_tangent[i] = rhs[std::size_t(i)].tangent;
+  }
+  const Eigen::VectorXd x = lu.solve(b);
+  return Duals(x, lu.solve(b_tangent - tangents * x));
+}
+
 }  // namespace
 
 MotionSeries::MotionSeries(const Model& model,
@@ -62,6 +86,81 @@ MotionSeries::MotionSeries(const MotionSeries& same_start, const MotionStart& di
         Duals(values(same_start.q_[1]), direction.q_dot)};
 }
 
+MotionSeries::MotionSeries(const MotionSeries& same_start,
+                           const MotionStart& direction,
+                           std::shared_ptr<const Tracking> tracking)
+    : MotionSeries(same_start, direction) {
+  tracking_ = std::move(tracking);
+  if (!mass_matrix_) return;
+  FillInputs(0);
+  EvaluateSeries(Quantity::kInputMatrix, 0);
+  KeepTrackingColumns(1);
+  EvaluateSeries(Quantity::kMassMatrix, 0);
+  if (!PrepareTracking(1)) mass_matrix_.reset();  // every value NaN: nothing to decide here
+}
+
+void MotionSeries::KeepTrackingColumns(std::size_t width) {
+  const std::size_t n = model_.dof();
+  tracking_columns_.clear();
+  for (std::size_t c : tracking_->inputs) {
+    std::vector<Dual> column(n);
+    for (std::size_t r = 0; r < n; ++r) column[r] = scratch_->outputs[(r + c * n) * width];
+    tracking_columns_.push_back(std::move(column));
+  }
+}
+
+bool MotionSeries::PrepareTracking(std::size_t width) {
+  const std::size_t n = model_.dof(), p = parameters_.size();
+  const std::size_t kept = tracking_->inputs.size();
+  tracking_directions_.clear();
+  for (const std::vector<Dual>& column : tracking_columns_) {
+    tracking_directions_.push_back(SolveMassMatrix(column, scratch_->outputs.data(), width));
+  }
+  // H_R v = the coefficient 1 of h_R(q_0 + t v); h reads no velocity.
+  tracking_matrix_.assign(kept * kept, Dual());
+  for (std::size_t c = 0; c < kept; ++c) {
+    scratch_->inputs.assign((p + 2 * n) * 2, Dual());
+    for (std::size_t i = 0; i < p; ++i) scratch_->inputs[i * 2] = parameters_[i];
+    for (std::size_t j = 0; j < n; ++j) {
+      scratch_->inputs[(p + j) * 2] = q_[0][j];
+      scratch_->inputs[(p + j) * 2 + 1] = tracking_directions_[c][j];
+    }
+    EvaluateSeries(Quantity::kOutput, 1);
+    for (std::size_t r = 0; r < kept; ++r) {
+      tracking_matrix_[r + c * kept] = scratch_->outputs[tracking_->outputs[r] * 2 + 1];
+    }
+  }
+  return !SolveSmallSystem(tracking_matrix_, std::vector<Dual>(kept)).empty();
+}
+
+void MotionSeries::SolveTrackingInputs(std::size_t k, std::vector<Dual>& acceleration) {
+  const auto divisor = double((k + 1) * (k + 2));
+  const std::size_t kept = tracking_->inputs.size(), order = k + 2;
+  double factorial = 1.0;
+  for (std::size_t j = 2; j <= order; ++j) factorial *= double(j);
+  // The residual of y_R's coefficient k + 2 with u_C,k = 0.
+  std::vector<Dual> provisional(acceleration.size());
+  for (std::size_t j = 0; j < acceleration.size(); ++j) provisional[j] = acceleration[j] / divisor;
+  q_.push_back(std::move(provisional));
+  FillInputs(int(order));
+  EvaluateSeries(Quantity::kOutput, int(order));
+  q_.pop_back();
+  std::vector<Dual> rhs(kept);
+  for (std::size_t r = 0; r < kept; ++r) {
+    const std::vector<double>& desired = tracking_->desired[r];
+    const double wanted = order < desired.size() ? desired[order] / factorial : 0.0;
+    rhs[r] = -divisor * (scratch_->outputs[tracking_->outputs[r] * (order + 1) + order] - wanted);
+  }
+  std::vector<Dual> inputs = SolveSmallSystem(tracking_matrix_, rhs);
+  if (inputs.empty()) inputs.assign(kept, Dual(std::nan(""), std::nan("")));
+  for (std::size_t c = 0; c < kept; ++c) {
+    for (std::size_t j = 0; j < acceleration.size(); ++j) {
+      acceleration[j] += tracking_directions_[c][j] * inputs[c];
+    }
+  }
+  tracking_inputs_.push_back(std::move(inputs));
+}
+
 void MotionSeries::FillInputs(int degree) {
   const auto width = std::size_t(degree + 1);
   const std::size_t n = model_.dof(), p = parameters_.size();
@@ -70,7 +169,10 @@ void MotionSeries::FillInputs(int degree) {
   for (std::size_t j = 0; j < n; ++j) {
     for (std::size_t k = 0; k < width; ++k) {
       scratch_->inputs[(p + j) * width + k] = q_[k][j];
-      scratch_->inputs[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
+      // A tracking motion reads h, which reads no velocity, one order ahead of q'.
+      if (k + 1 < q_.size()) {
+        scratch_->inputs[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
+      }
     }
   }
 }
@@ -121,6 +223,16 @@ void MotionSeries::AddOrder() {
     for (std::size_t r = 0; r < n; ++r)
       rhs[r] += scratch_->outputs[(r + c * n) * width + k] * u_[c];
   }
+  // A tracking motion's input series: coefficient k of B(q(t)) u_C(t), but u_C,k (solved below).
+  for (std::size_t l = 0; l < tracking_inputs_.size(); ++l) {
+    for (std::size_t i = 0; i < tracking_inputs_[l].size(); ++i) {
+      const Dual& input = tracking_inputs_[l][i];
+      if (IsZero(input)) continue;
+      const std::size_t c = tracking_->inputs[i];
+      for (std::size_t r = 0; r < n; ++r)
+        rhs[r] += scratch_->outputs[(r + c * n) * width + (k - l)] * input;
+    }
+  }
   EvaluateSeries(Quantity::kMassMatrix, int(k));
   for (std::size_t c = 0; c < n; ++c) {
     for (std::size_t r = 0; r < n; ++r) {
@@ -129,6 +241,7 @@ void MotionSeries::AddOrder() {
     }
   }
   std::vector<Dual> acceleration = SolveMassMatrix(rhs, scratch_->outputs.data(), width);
+  if (tracking_) SolveTrackingInputs(k, acceleration);
   std::vector<Dual> next(n);
   const auto divisor = double((k + 1) * (k + 2));
   for (std::size_t j = 0; j < n; ++j) next[j] = acceleration[j] / divisor;

@@ -17,6 +17,13 @@
 // direction of the start and the input, so that the derivative of y^(k) with respect to u or to
 // the state is exact, never a difference of two motions (whose rounding grows with a drift that
 // may dwarf the input's part).
+//
+// A tracking motion (Tracking) is the motion along which some outputs follow a desired second
+// derivative: some inputs are Taylor series solved an order at a time. u_k enters a_k through
+// M_0^-1 B_0 u_k and y_R's coefficient k + 2 through H_R q_(k+2) alone (y = h(q): a term with
+// q_(k+2) twice is of order 2 k + 4), so each order is one linear solve with P_RC = H_R M_0^-1 B_C
+// at the start, exactly. Along it, a dynamic extension's combined rows
+// g_d = y_d^(r_d) - kappa(q, q') (y_R'' - y_R_d'') are y_d^(r_d) (analysis/numeric_structure.cpp).
 #include <Eigen/Dense>
 #include <cstddef>
 #include <memory>
@@ -51,6 +58,15 @@ class MotionSeries {
     Eigen::VectorXd value, tangent;
   };
 
+  /// Outputs whose second derivative follows a desired one, by as many inputs: y_R''(t) =
+  /// y_R_d''(t), the input series u_C(t) solved for (every output in `outputs` has relative
+  /// degree 2 and P_RC is regular at the start).
+  struct Tracking {
+    std::vector<std::size_t> outputs, inputs;
+    /// desired[r][k]: the k-th derivative of output outputs[r] desired at t = 0 (0 beyond).
+    std::vector<std::vector<double>> desired;
+  };
+
   /// The motion from `start` at the parameter values `parameters` (SI units;
   /// Model::parameters() for the nominal ones); the tangents are derivatives along `direction`
   /// (all zero: none); `scratch` outlives it. Where M(q) is singular or not finite, every value and
@@ -65,6 +81,11 @@ class MotionSeries {
   /// alone (a gradient takes 2 dof motions from one start: for 400 coordinates, 800 LU
   /// factorisations of 400 x 400 and 2.6 MB each, issue #31).
   MotionSeries(const MotionSeries& same_start, const MotionStart& direction);
+  /// As above, a tracking motion: `tracking` (kept by the motion) says which outputs follow.
+  /// Where P_RC is singular at the start, every value and tangent is NaN.
+  MotionSeries(const MotionSeries& same_start,
+               const MotionStart& direction,
+               std::shared_ptr<const Tracking> tracking);
 
   /// y^(k)(0), the k-th time derivative of the outputs h(q(t)) at t = 0; extends the series as
   /// far as that needs (order k of q). Not finite where the model is not (a pole on the way).
@@ -88,6 +109,13 @@ class MotionSeries {
                                     std::size_t width) const;
   // A Derivative of a vector of duals, each multiplied by `scale`.
   static Derivative Split(const std::vector<Dual>& duals, double scale);
+  // Tracking: B_0's tracking columns, copied from the series of B before M's overwrites them.
+  void KeepTrackingColumns(std::size_t width);
+  // Tracking: M_0^-1 B_C (M's series in the scratch) and P_RC = H_R M_0^-1 B_C, the coefficient
+  // 1 of h_R(q_0 + t M_0^-1 B_C). False where M_0 or P_RC is singular.
+  bool PrepareTracking(std::size_t width);
+  // Tracking: u_C's coefficient k, from the provisional acceleration (u_C,k = 0); corrects it.
+  void SolveTrackingInputs(std::size_t k, std::vector<Dual>& acceleration);
 
   const Model& model_;
   Scratch* scratch_;
@@ -97,6 +125,13 @@ class MotionSeries {
   std::shared_ptr<const Eigen::PartialPivLU<Eigen::MatrixXd>> mass_matrix_;
   std::vector<std::vector<Dual>> q_;              // q_0 .. q_(orders + 1)
   std::vector<std::vector<Dual>> accelerations_;  // a_0 .. a_(orders - 1)
+  // Tracking: the rule, B_0's and M_0^-1 B_0's columns C, P_RC, and u_C's coefficients
+  // u_C,0 .. u_C,(orders - 1).
+  std::shared_ptr<const Tracking> tracking_;
+  std::vector<std::vector<Dual>> tracking_columns_, tracking_directions_;
+  std::vector<Dual> tracking_matrix_;  // P_RC, column-major
+  std::vector<std::vector<Dual>> tracking_inputs_;
+  bool tracking_failed_ = false;
 };
 
 }  // namespace servokit
