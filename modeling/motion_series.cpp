@@ -270,7 +270,9 @@ MotionSeries::Derivative MotionSeries::OutputDerivative(int k) {
   if (!mass_matrix_) {
     return Split(std::vector<Dual>(outputs, Dual(std::nan(""), std::nan(""))), 1.0);
   }
-  while (q_.size() < order + 2) AddOrder();  // FillInputs reads q' to order k: q to k + 1
+  // h reads q alone (y = h(q)), and its coefficient k reads q_0 .. q_k: the velocities' series,
+  // one order further, is left 0 beyond the orders known (the gradient of y' needs no solve).
+  while (q_.size() < order + 1) AddOrder();
   FillInputs(k);
   EvaluateSeries(Quantity::kOutput, k);
   double factorial = 1.0;

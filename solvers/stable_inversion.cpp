@@ -316,6 +316,22 @@ bool InputSettled(CollocatedDynamics& dynamics,
   return change <= kSettledFactor * tolerance * std::max(scale, std::numeric_limits<double>::min());
 }
 
+// The window [t_a, t_b] needs more mesh points at the fastest zero-dynamics rate than the
+// collocation may take: the zero dynamics span too many time scales for that window.
+NoSolution TooStiffForWindow(std::size_t points,
+                             double t_a,
+                             double t_b,
+                             double fastest,
+                             const BoundaryValueOptions& collocation) {
+  return NoSolution("stable inversion: the window from t = " + FormatNumber(t_a) + " s to " +
+                    FormatNumber(t_b) + " s, at the fastest zero-dynamics rate |lambda| = " +
+                    FormatNumber(fastest) + " 1/s, needs " + std::to_string(points) +
+                    " mesh points, more than the " + std::to_string(collocation.max_mesh_points) +
+                    " the collocation takes: the zero dynamics span too many time scales (the "
+                    "slowest mode sets the window's length, the fastest its mesh); a shorter "
+                    "pre- or post-actuation shortens the window");
+}
+
 // Solves on the window the margins give, widening it while the input still changes (until the
 // widenings run out, or at once when the caller fixed both sides). Writes the summary and the
 // window's ends, residual and widenings into `solution`; returns the last collocation solution,
@@ -335,8 +351,11 @@ std::optional<BoundaryValueSolution> SolveWideningWindow(
   std::optional<BoundaryValueSolution> previous;
   for (int widening = 0;; ++widening) {
     const double t_a = t0 - margins.pre, t_b = tf + margins.post;
-    BoundaryValueSolution bvp = SolveOnWindow(
-        problem, rhs, conditions, InitialMesh(breakpoints, t_a, t_b, fastest), t0, tf, collocation);
+    std::vector<double> mesh = InitialMesh(breakpoints, t_a, t_b, fastest);
+    if (long(mesh.size()) > collocation.max_mesh_points)
+      throw TooStiffForWindow(mesh.size(), t_a, t_b, fastest, collocation);
+    BoundaryValueSolution bvp =
+        SolveOnWindow(problem, rhs, conditions, std::move(mesh), t0, tf, collocation);
     solution.summary = bvp.summary;
     solution.window.boundary_value_residual = bvp.max_residual;
     solution.window.start = t_a;

@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <string>
 
 #include "base/errors.h"
 #include "solvers/internal_dynamics.h"
@@ -158,6 +159,28 @@ TEST_CASE("undamped zero dynamics are refused, naming the eigenvalues on the axi
   const RestToRestTrajectory trajectory = ArmTrajectory(0.1);
   CHECK_THROWS_WITH(SolveStableInversion(model, trajectory, ArmAt(0.0), ArmAt(0.1)),
                     Catch::Contains("imaginary axis"));
+}
+
+// A window of 10^6 s at the arm's fastest zero-dynamics rate (some 10 1/s, four time constants
+// per mesh interval) would take millions of mesh points: refused before any is allocated, in
+// the toolkit's words (it once named BoundaryValueOptions::max_mesh_points, as a usage error).
+TEST_CASE("a window too long for its fastest mode is refused before the mesh is built",
+          "[solvers]") {
+  const Model model = LoadModel(ModelPath("rotational_arm.yaml"));
+  StableInversionOptions options;
+  options.pre_actuation = 1.0;
+  options.post_actuation = 1e6;
+  try {
+    SolveStableInversion(model, ArmTrajectory(0.5), ArmAt(0.0), ArmAt(0.5), options);
+    FAIL("no NoSolution for a window of 10^6 s");
+  } catch (const NoSolution& error) {
+    const std::string message = error.what();
+    INFO(message);
+    CHECK(message.find("stable inversion: the window from t = 0 s to 1000003 s") == 0);
+    CHECK(message.find("mesh points, more than the 200000 the collocation takes") !=
+          std::string::npos);
+    CHECK(message.find("max_mesh_points") == std::string::npos);
+  }
 }
 
 }  // namespace
