@@ -9,12 +9,9 @@
 #include <cstdint>
 #include <vector>
 
-namespace servokit {
+#include "modeling/dual_number.h"
 
-namespace dual {
-struct Dual;  // modeling/dual_number.h
-}  // namespace dual
-using dual::Dual;
+namespace servokit {
 
 /// An immutable, thread-shareable evaluator of several expressions in the same inputs.
 ///
@@ -63,6 +60,13 @@ class ExpressionProgram {
                       const Dual* input_coefficients,
                       Dual* registers,
                       Dual* output_coefficients) const;
+  /// The same over kChunk directions at once (DualChunk): the values and each function's
+  /// derivative computed once for all of them (forward-mode Jacobians, a chunk of columns per
+  /// pass); every direction's tangent has the bits of a pass over Dual along it.
+  void EvaluateTaylor(int degree,
+                      const DualChunk* input_coefficients,
+                      DualChunk* registers,
+                      DualChunk* output_coefficients) const;
 
   /// For a caller that keeps `registers` (num_registers() values) for this program alone: writes
   /// the constants into them, once.

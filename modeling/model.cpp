@@ -196,7 +196,8 @@ void Workspace::SetProgramInputs(const Eigen::Ref<const Eigen::VectorXd>& q,
 }
 
 // Column j of a Jacobian is the tangent of the program's outputs when input `first + j` carries
-// tangent 1: one pass over dual numbers per column.
+// tangent 1: kChunk columns per pass over dual numbers with that many tangents (vector mode: the
+// values computed once per chunk, not once per column; each column's bits those of its own pass).
 void Workspace::DifferentiateForwardMode(const Model& model, Quantity quantity) {
   const Quantity differentiated =
       quantity == Quantity::kForcesJacobians ? Quantity::kForces : Quantity::kInputMatrix;
@@ -204,20 +205,27 @@ void Workspace::DifferentiateForwardMode(const Model& model, Quantity quantity) 
   dual_inputs_.assign(program_inputs_.begin(), program_inputs_.end());
   dual_registers_.resize(program.num_registers());
   dual_outputs_.resize(program.num_outputs());
-  const auto column = [&](std::size_t input, double* destination) {
-    dual_inputs_[input].tangent = 1.0;
-    program.EvaluateTaylor(0, dual_inputs_.data(), dual_registers_.data(), dual_outputs_.data());
-    dual_inputs_[input].tangent = 0.0;
-    for (const Dual& result : dual_outputs_) *destination++ = result.tangent;
-  };
+  // The columns: (program input, destination of the column's num_outputs() entries).
+  std::vector<std::pair<std::size_t, double*>> columns;
   const std::size_t first_q = num_parameters_, first_q_dot = num_parameters_ + dof_;
   for (std::size_t j = 0; j < dof_; ++j) {
     const auto col = static_cast<Eigen::Index>(j);
     if (quantity == Quantity::kForcesJacobians) {
-      column(first_q + j, forces_position_jacobian.col(col).data());
-      column(first_q_dot + j, forces_velocity_jacobian.col(col).data());
+      columns.emplace_back(first_q + j, forces_position_jacobian.col(col).data());
+      columns.emplace_back(first_q_dot + j, forces_velocity_jacobian.col(col).data());
     } else {
-      column(first_q + j, input_matrix_derivatives[j].data());  // column-major, as B's program
+      columns.emplace_back(first_q + j, input_matrix_derivatives[j].data());  // as B's program
+    }
+  }
+  for (std::size_t first = 0; first < columns.size(); first += kChunk) {
+    const std::size_t count = std::min(kChunk, columns.size() - first);
+    for (std::size_t c = 0; c < count; ++c)
+      dual_inputs_[columns[first + c].first].tangent.d[c] = 1.0;
+    program.EvaluateTaylor(0, dual_inputs_.data(), dual_registers_.data(), dual_outputs_.data());
+    for (std::size_t c = 0; c < count; ++c) {
+      dual_inputs_[columns[first + c].first].tangent.d[c] = 0.0;
+      double* destination = columns[first + c].second;
+      for (const DualChunk& result : dual_outputs_) *destination++ = result.tangent.d[c];
     }
   }
 }

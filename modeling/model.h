@@ -230,7 +230,7 @@ class Workspace {
   std::vector<double*> combined_destinations_;
   // Forward mode's dual numbers (IsForwardModeQuantity): the programs' inputs, registers and
   // outputs, sized at the first use.
-  std::vector<Dual> dual_inputs_, dual_registers_, dual_outputs_;
+  std::vector<DualChunk> dual_inputs_, dual_registers_, dual_outputs_;
 };
 
 /// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with

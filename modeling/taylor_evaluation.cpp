@@ -12,7 +12,8 @@
 //     k c_k w_0 = v_(k-1) - sum_(j=1)^(k-1) j c_j w_(k-j).
 //
 // The coefficients are doubles, or dual numbers (modeling/dual_number.h): then every coefficient
-// carries its derivative in one direction (a start or an input of a motion) along, exactly.
+// carries its derivative in one direction (a start or an input of a motion) along, exactly, or
+// in a chunk of directions at once.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -42,7 +43,7 @@ using std::tan;
 using std::tanh;
 
 // The recurrences, for coefficients of type T (the functions of <cmath> for double, of
-// modeling/dual_number.h for Dual, found by argument-dependent lookup).
+// modeling/dual_number.h for Dual and DualChunk, found by argument-dependent lookup).
 template <typename T>
 struct TaylorRules {
   using Series = std::span<T>;
@@ -331,6 +332,13 @@ void ExpressionProgram::EvaluateTaylor(int degree,
                                        const Dual* input_coefficients,
                                        Dual* registers,
                                        Dual* output_coefficients) const {
+  RunTaylor(degree, input_coefficients, registers, output_coefficients);
+}
+
+void ExpressionProgram::EvaluateTaylor(int degree,
+                                       const DualChunk* input_coefficients,
+                                       DualChunk* registers,
+                                       DualChunk* output_coefficients) const {
   RunTaylor(degree, input_coefficients, registers, output_coefficients);
 }
 
