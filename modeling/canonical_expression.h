@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -103,9 +104,12 @@ class CanonicalExpressions {
   };
   std::vector<Node> nodes_;
   std::unordered_set<NodeId, NodeHash, NodeEqual> interned_{16, NodeHash{this}, NodeEqual{this}};
-  // Expressions already converted (GiNaC's own order serves for lookups within one run).
-  std::map<GiNaC::ex, Scaled, GiNaC::ex_is_less> converted_;
-  std::map<GiNaC::ex, std::size_t, GiNaC::ex_is_less> symbol_ordinals_;
+  // Expressions already converted, and the listed symbols' ordinals: looked up by GiNaC's hash
+  // (cached in each node: an ordered map's compare walked whole trees, issue #31), never
+  // iterated, so that their order, which follows addresses, reaches no result.
+  std::unordered_map<GiNaC::ex, Scaled, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> converted_;
+  std::unordered_map<GiNaC::ex, std::size_t, std::hash<GiNaC::ex>, GiNaC::ex_is_equal>
+      symbol_ordinals_;
   std::map<std::string, GiNaC::ex> unlisted_symbols_;  // symbols outside the list, by name
   NodeId one_ = 0;
 };

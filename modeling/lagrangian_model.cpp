@@ -1,8 +1,8 @@
 #include "modeling/lagrangian_model.h"
 
 #include <cassert>
-#include <map>
-#include <set>
+#include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 #include "modeling/expansion_bound.h"
@@ -24,7 +24,7 @@ class IndexedSum {
       terms_.push_back(expression);
     }
     for (std::size_t t = 0; t < terms_.size(); ++t) {
-      std::set<GiNaC::ex, GiNaC::ex_is_less> symbols;
+      std::unordered_set<GiNaC::ex, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> symbols;
       for (auto node = terms_[t].preorder_begin(); node != terms_[t].preorder_end(); ++node) {
         if (GiNaC::is_a<GiNaC::symbol>(*node) && symbols.insert(*node).second) {
           by_symbol_[*node].push_back(t);
@@ -44,7 +44,9 @@ class IndexedSum {
 
  private:
   std::vector<GiNaC::ex> terms_;
-  std::map<GiNaC::ex, std::vector<std::size_t>, GiNaC::ex_is_less> by_symbol_;
+  // By GiNaC's hash, never iterated (each list is in term order).
+  std::unordered_map<GiNaC::ex, std::vector<std::size_t>, std::hash<GiNaC::ex>, GiNaC::ex_is_equal>
+      by_symbol_;
 };
 
 }  // namespace

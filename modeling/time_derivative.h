@@ -15,7 +15,7 @@
 // Internal to modeling/ (namespace detail); runs under the loader's SymbolicLock.
 #include <ginac/ginac.h>
 
-#include <map>
+#include <unordered_map>
 #include <vector>
 
 namespace servokit::detail {
@@ -38,7 +38,8 @@ class TimeDerivative {
   GiNaC::ex DerivePower(const GiNaC::ex& power);
   GiNaC::ex DeriveFunction(const GiNaC::ex& function);
 
-  std::map<GiNaC::ex, GiNaC::ex, GiNaC::ex_is_less> rates_;  // known: seeds and results
+  // Known: seeds and results; by GiNaC's hash, never iterated.
+  std::unordered_map<GiNaC::ex, GiNaC::ex, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> rates_;
   GiNaC::realsymbol argument_;  // stands for a function's argument while it is differentiated
 };
 
