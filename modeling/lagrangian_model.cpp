@@ -38,7 +38,9 @@ class IndexedSum {
     if (found == by_symbol_.end()) return 0;
     GiNaC::exvector derivatives;
     derivatives.reserve(found->second.size());
-    for (const std::size_t t : found->second) derivatives.push_back(terms_[t].diff(symbol));
+    for (const std::size_t t : found->second) {
+      derivatives.push_back(PartialDerivative(terms_[t], symbol));
+    }
     return SumOf(std::move(derivatives));
   }
 
@@ -51,13 +53,22 @@ class IndexedSum {
 
 }  // namespace
 
-GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
+std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
+                               const std::vector<GiNaC::realsymbol>& velocities) {
+  const IndexedSum indexed(kinetic);
+  std::vector<GiNaC::ex> momenta;
+  momenta.reserve(velocities.size());
+  for (const GiNaC::realsymbol& velocity : velocities)
+    momenta.push_back(indexed.Derivative(velocity));
+  return momenta;
+}
+
+GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
                                 const std::vector<GiNaC::realsymbol>& velocities) {
   const auto dof = static_cast<unsigned>(velocities.size());
-  const IndexedSum indexed(kinetic);
   GiNaC::matrix mass(dof, dof);
   for (unsigned i = 0; i < dof; ++i) {
-    const IndexedSum momentum(indexed.Derivative(velocities[i]));  // dT/dq'_i
+    const IndexedSum momentum(momenta[i]);  // dT/dq'_i
     for (unsigned j = i; j < dof; ++j) {
       mass(i, j) = ExpandWithinBudget(momentum.Derivative(velocities[j]), kMaxExpandedTerms);
       mass(j, i) = mass(i, j);
@@ -67,6 +78,7 @@ GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
 }
 
 GiNaC::matrix LagrangeForces(const Energies& energies,
+                             const std::vector<GiNaC::ex>& momenta,
                              const std::vector<GiNaC::realsymbol>& coordinates,
                              const std::vector<GiNaC::realsymbol>& velocities) {
   assert(coordinates.size() == velocities.size());
@@ -80,7 +92,7 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
     GiNaC::exvector terms;
     // d/dt dT/dq'_i = sum_j d2T/dq'_i dq'_j q''_j + sum_j d2T/dq'_i dq_j q'_j; the first sum
     // is M q'', the second, D(dT/dq'_i) with the accelerations zero, belongs to f.
-    terms.push_back(rate(kinetic.Derivative(velocities[i])));
+    terms.push_back(rate(momenta[i]));
     terms.push_back(-kinetic.Derivative(coordinates[i]));
     terms.push_back(potential.Derivative(coordinates[i]));
     terms.push_back(dissipation.Derivative(velocities[i]));

@@ -28,9 +28,13 @@ struct Energies {
   GiNaC::matrix generalized_forces;
 };
 
-/// M = d2T/dq' dq', dof x dof, symmetric by construction (each entry derived once, above the
-/// diagonal, and mirrored). `velocities[k]` is q'_k.
-GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
+/// The momenta dT/dq'_k, derived once for M and f. `velocities[k]` is q'_k.
+std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
+                               const std::vector<GiNaC::realsymbol>& velocities);
+
+/// M = d2T/dq' dq' from the momenta, dof x dof, symmetric by construction (each entry derived
+/// once, above the diagonal, and mirrored).
+GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
                                 const std::vector<GiNaC::realsymbol>& velocities);
 
 /// Lagrange's equations d/dt dT/dq' - dT/dq + dV/dq + dR/dq' = Q (+ B u) written as
@@ -38,6 +42,7 @@ GiNaC::matrix KineticMassMatrix(const GiNaC::ex& kinetic,
 /// expanded within kMaxExpandedTerms. (d2T/dq' dq) q' is the time derivative of dT/dq' with the
 /// accelerations zero (modeling/time_derivative.h): one walk, not one per coordinate.
 GiNaC::matrix LagrangeForces(const Energies& energies,
+                             const std::vector<GiNaC::ex>& momenta,
                              const std::vector<GiNaC::realsymbol>& coordinates,
                              const std::vector<GiNaC::realsymbol>& velocities);
 

@@ -651,7 +651,8 @@ class ModelBuilder {
               KineticEnergy kinetic_energy,
               EquationsOfMotion& equations) const {
     try {
-      equations.mass_matrix = detail::KineticMassMatrix(energies.kinetic, velocity_symbols_);
+      const std::vector<GiNaC::ex> momenta = detail::Momenta(energies.kinetic, velocity_symbols_);
+      equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_);
       const std::set<GiNaC::ex, GiNaC::ex_is_less> velocities(velocity_symbols_.begin(),
                                                               velocity_symbols_.end());
       for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
@@ -679,7 +680,8 @@ class ModelBuilder {
         CheckQuadratic(energies.kinetic, equations.mass_matrix, kinetic_key);
       }
       CompileAndCheckMassMatrix(equations, kinetic_key);
-      equations.forces = detail::LagrangeForces(energies, coordinate_symbols_, velocity_symbols_);
+      equations.forces =
+          detail::LagrangeForces(energies, momenta, coordinate_symbols_, velocity_symbols_);
     } catch (const Error&) {
       throw;
     } catch (const std::exception& error) {

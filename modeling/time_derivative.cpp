@@ -21,6 +21,22 @@ GiNaC::ex SumOf(GiNaC::exvector terms) {
   return GiNaC::dynallocate<GiNaC::add>(std::move(terms));
 }
 
+GiNaC::ex PartialDerivative(const GiNaC::ex& expression, const GiNaC::symbol& symbol) {
+  if (!GiNaC::is_a<GiNaC::mul>(expression)) return expression.diff(symbol);
+  GiNaC::exvector terms;
+  for (std::size_t i = 0; i < expression.nops(); ++i) {
+    const GiNaC::ex& factor = expression.op(i);
+    if (!factor.has(symbol)) continue;
+    GiNaC::exvector factors;
+    factors.reserve(expression.nops());
+    for (std::size_t j = 0; j < expression.nops(); ++j) {
+      factors.push_back(j == i ? factor.diff(symbol) : expression.op(j));
+    }
+    terms.push_back(Product(std::move(factors)));
+  }
+  return SumOf(std::move(terms));
+}
+
 TimeDerivative::TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
                                const std::vector<GiNaC::realsymbol>& velocities)
     : argument_("time_derivative_argument") {

@@ -23,6 +23,11 @@ namespace servokit::detail {
 /// The sum of `terms` built at once (repeated += would merge k terms k times); 0 for none.
 GiNaC::ex SumOf(GiNaC::exvector terms);
 
+/// d expression / d symbol, as expression.diff(symbol), but a product differentiates only the
+/// factors that contain the symbol: GiNaC's mul::derivative builds and evaluates one product
+/// per factor, most of them zero (a term of T has six factors and two velocities; issue #31).
+GiNaC::ex PartialDerivative(const GiNaC::ex& expression, const GiNaC::symbol& symbol);
+
 class TimeDerivative {
  public:
   /// `velocities[k]` is the rate of `coordinates[k]`; every other symbol is constant.
