@@ -120,14 +120,26 @@ template <typename T>
 BasicDual<T> operator-(const BasicDual<T>& a) {
   return {-a.value, -a.tangent};
 }
+// Products and quotients direction by direction, in place: the hot path of a chunk's pass
+// (temporaries of whole tangent arrays kept them out of line, 14% of a 400-pendulum analyze).
 template <typename T>
-BasicDual<T> operator*(const BasicDual<T>& a, const BasicDual<T>& b) {
-  return {a.value * b.value, a.tangent * b.value + a.value * b.tangent};
+[[gnu::always_inline]] inline BasicDual<T> operator*(const BasicDual<T>& a, const BasicDual<T>& b) {
+  BasicDual<T> product(a.value * b.value);
+  for (std::size_t i = 0; i < Directions(product.tangent); ++i) {
+    Direction(product.tangent, i) =
+        Direction(a.tangent, i) * b.value + a.value * Direction(b.tangent, i);
+  }
+  return product;
 }
 template <typename T>
-BasicDual<T> operator/(const BasicDual<T>& a, const BasicDual<T>& b) {
+[[gnu::always_inline]] inline BasicDual<T> operator/(const BasicDual<T>& a, const BasicDual<T>& b) {
   const double quotient = a.value / b.value;
-  return {quotient, (a.tangent - quotient * b.tangent) / b.value};
+  BasicDual<T> result(quotient);
+  for (std::size_t i = 0; i < Directions(result.tangent); ++i) {
+    Direction(result.tangent, i) =
+        (Direction(a.tangent, i) - quotient * Direction(b.tangent, i)) / b.value;
+  }
+  return result;
 }
 // Mixed with a double: the double is a constant (as BasicDual(double) would make it).
 template <typename T>
