@@ -19,8 +19,6 @@ namespace {
 // likewise for the tracking motions of a dynamic extension.
 struct DecisionPoint {
   MotionStart start;
-  // desired[i][k]: y_i_d^(k) at the point, as the symbolic route's decision points.
-  std::vector<std::vector<double>> desired;
   Eigen::MatrixXd input_acceleration;  // M^-1 B
   std::optional<double> input_size;    // |M^-1 B| (Frobenius), nullopt when not finite
   std::vector<MotionSeries> motions, shifted, tracked;
@@ -52,22 +50,6 @@ class NumericAlgorithm {
       points_[2].start.q_dot[j] = 0.177 + 0.029 * jj;
     }
     for (DecisionPoint& point : points_) Prepare(point);
-    // y_d at rest at the reference state; small, unrelated values elsewhere.
-    for (std::size_t i = 0; i < outputs_; ++i) {
-      const double ii = double(i);
-      for (std::size_t p = 0; p < points_.size(); ++p) {
-        std::vector<double> desired(states_ + 2);
-        for (std::size_t k = 0; k < desired.size(); ++k) {
-          const double kk = double(k);
-          desired[k] = p == 1 ? 0.31 - 0.13 * kk + 0.07 * ii : -0.23 + 0.11 * kk - 0.05 * ii;
-        }
-        if (p == 0) {
-          std::fill(desired.begin(), desired.end(), 0.0);
-          desired[0] = points_[0].motions.front().OutputDerivative(0).value[Eigen::Index(i)];
-        }
-        points_[p].desired.push_back(std::move(desired));
-      }
-    }
   }
 
   NumericStructure Run() {
@@ -340,13 +322,30 @@ class NumericAlgorithm {
     return false;
   }
 
+  // y_row_d^(k) at decision point p, k = 0 .. 2 dof + 1, as the symbolic route's decision
+  // points: at rest at the reference state, small unrelated values elsewhere.
+  std::vector<double> Desired(std::size_t p, std::size_t row) {
+    std::vector<double> desired(states_ + 2, 0.0);
+    const double ii = double(row);
+    if (p == 0) {
+      desired[0] = points_[0].motions.front().OutputDerivative(0).value[Eigen::Index(row)];
+      return desired;
+    }
+    for (std::size_t k = 0; k < desired.size(); ++k) {
+      const double kk = double(k);
+      desired[k] = p == 1 ? 0.31 - 0.13 * kk + 0.07 * ii : -0.23 + 0.11 * kk - 0.05 * ii;
+    }
+    return desired;
+  }
+
   // One tracking motion per state coordinate: the kept outputs follow the point's desired
   // derivatives through the delayed inputs.
-  void PrepareTracking(DecisionPoint& point, const StructureStep& step) const {
+  void PrepareTracking(DecisionPoint& point, const StructureStep& step) {
     auto tracking = std::make_shared<MotionSeries::Tracking>();
     tracking->outputs = step.kept_rows;
     tracking->inputs = step.delayed_inputs;
-    for (std::size_t row : step.kept_rows) tracking->desired.push_back(point.desired[row]);
+    const auto p = std::size_t(&point - points_.data());
+    for (std::size_t row : step.kept_rows) tracking->desired.push_back(Desired(p, row));
     point.tracked.reserve(states_);
     for (Eigen::Index s = 0; s < Eigen::Index(states_); ++s) {
       point.tracked.emplace_back(point.motions.front(), StateDirection(s), tracking);
