@@ -169,7 +169,7 @@ void MotionSeries::FillInputs(int degree) {
   for (std::size_t j = 0; j < n; ++j) {
     for (std::size_t k = 0; k < width; ++k) {
       scratch_->inputs[(p + j) * width + k] = q_[k][j];
-      // A tracking motion reads h, which reads no velocity, one order ahead of q'.
+      // h reads no velocity: an output's series may run an order past the velocities known.
       if (k + 1 < q_.size()) {
         scratch_->inputs[(p + n + j) * width + k] = double(k + 1) * q_[k + 1][j];
       }

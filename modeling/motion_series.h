@@ -131,7 +131,6 @@ class MotionSeries {
   std::vector<std::vector<Dual>> tracking_columns_, tracking_directions_;
   std::vector<Dual> tracking_matrix_;  // P_RC, column-major
   std::vector<std::vector<Dual>> tracking_inputs_;
-  bool tracking_failed_ = false;
 };
 
 }  // namespace servokit
