@@ -520,6 +520,7 @@ std::string StructureNote(const NonlinearStructureSummary& summary,
 // The summary of the numeric route: A regular nearby, or one step of a dynamic extension.
 NonlinearStructureSummary NumericSummary(const Model& model, const NumericStructure& numeric) {
   NonlinearStructureSummary summary;
+  summary.route = kNumericRoute;
   summary.derived = true;
   summary.relative_degree = numeric.relative_degree;
   summary.extended_relative_degree = numeric.relative_degree;
@@ -552,6 +553,7 @@ NonlinearStructureSummary SymbolicSummary(const Model& model,
   // The structure's expressions live in this scope: they are made and destroyed under the lock.
   const SymbolicLock lock;
   NonlinearStructureSummary summary;
+  summary.route = kSymbolicRoute;
   NonlinearStructure structure;
   try {
     structure = DeriveNonlinearStructure(model, options);
@@ -588,6 +590,7 @@ NonlinearStructureSummary SummarizeNonlinearStructure(const Model& model,
     }
   } catch (const NoSolution& error) {
     NonlinearStructureSummary summary;
+    summary.route = kNumericRoute;
     summary.note = error.what();
     return summary;
   }

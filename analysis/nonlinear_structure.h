@@ -79,6 +79,9 @@ struct NonlinearStructure {
 /// What `analyze` reports of the structure algorithm.
 struct NonlinearStructureSummary {
   bool derived = false;  // false: `note` says why the algorithm stopped
+  // Which route decided (or stopped): kNumericRoute, on the compiled programs, or
+  // kSymbolicRoute, GiNaC's (a dynamic extension the numeric route does not take).
+  std::string route;
   std::vector<int> relative_degree;
   bool extended = false;
   std::vector<std::string> delayed_inputs;  // names, over all steps
@@ -88,6 +91,9 @@ struct NonlinearStructureSummary {
   bool defined_at_operating_point = false;
   std::string note;
 };
+
+inline constexpr const char* kNumericRoute = "numeric";
+inline constexpr const char* kSymbolicRoute = "symbolic";
 
 /// Runs the structure algorithm and summarizes it; a NoSolution of the algorithm becomes the
 /// note of a summary that is not derived. The numeric route (analysis/numeric_structure.h)

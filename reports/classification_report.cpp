@@ -157,7 +157,7 @@ namespace {}  // namespace
 namespace {
 
 nlohmann::ordered_json NonlinearStructureToJson(const NonlinearStructureSummary& nonlinear) {
-  nlohmann::ordered_json json = {{"derived", nonlinear.derived}};
+  nlohmann::ordered_json json = {{"derived", nonlinear.derived}, {"route", nonlinear.route}};
   if (nonlinear.derived) {
     json["relative_degree"] = nonlinear.relative_degree;
     json["defined_at_operating_point"] = nonlinear.defined_at_operating_point;

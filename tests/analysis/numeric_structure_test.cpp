@@ -256,6 +256,34 @@ TEST_CASE("numeric and symbolic routes agree on the mass on car's four cases",
   }
 }
 
+// The summary says which route decided. The gantry crane's one-step extension with kept rows
+// of relative degree 2 is numeric: the load's accelerations both follow the rope tension, the
+// hoist W is delayed twice, (4, 4), flat. The spring chain's kept row has relative degree 4, so
+// the symbolic route takes it; its numbers by hand in tests/data/spring_chain_extension.yaml:
+// (4, 4) extended to (6, 6), 2 integrators, flat.
+TEST_CASE("the summary names its route, with the extensions' numbers by hand",
+          "[analysis][routes]") {
+  const NonlinearStructureSummary crane =
+      SummarizeNonlinearStructure(LoadModel(ModelPath("gantry_crane.yaml")), {});
+  CHECK(crane.route == kNumericRoute);
+  CHECK(crane.derived);
+  CHECK(crane.relative_degree == std::vector<int>{2, 2});
+  CHECK(crane.extended_relative_degree == std::vector<int>{4, 4});
+  CHECK(crane.delayed_inputs == std::vector<std::string>{"W"});
+  CHECK(crane.integrators == 2);
+  CHECK(crane.internal_order == 0);
+
+  const NonlinearStructureSummary chain =
+      SummarizeNonlinearStructure(LoadModel(TestDataPath("spring_chain_extension.yaml")), {});
+  CHECK(chain.route == kSymbolicRoute);
+  CHECK(chain.derived);
+  CHECK(chain.relative_degree == std::vector<int>{4, 4});
+  CHECK(chain.extended_relative_degree == std::vector<int>{6, 6});
+  CHECK(chain.integrators == 2);
+  CHECK(chain.internal_order == 0);
+  CHECK(chain.defined_at_operating_point);
+}
+
 // The numeric route stops at its work budget with NoSolution naming the output and the order,
 // rather than going on to ever dearer derivatives: here the mass on car with alpha = 0, d = 0,
 // whose relative degree is 4 (paper Sect. 3, case 4), under a budget too small for order 2's
