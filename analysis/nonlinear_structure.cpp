@@ -152,26 +152,23 @@ std::vector<DecisionPoint> DecisionPoints(const Dynamics& dynamics,
   }
   std::vector<DecisionPoint> points(3, DecisionPoint{nominal, std::nullopt});
   for (std::size_t j = 0; j < dynamics.coordinates.size(); ++j) {
-    const double jj = static_cast<double>(j);
     const auto index = static_cast<Eigen::Index>(j);
     points[0].values[dynamics.coordinates[j]] =
         GiNaC::numeric(reference_q.size() == 0 ? 0.0 : reference_q[index]);
     points[0].values[dynamics.velocities[j]] = 0;
-    // Small, unrelated values: no multiple of pi/2, no symmetry between coordinates.
-    points[1].values[dynamics.coordinates[j]] = GiNaC::numeric(0.137 + 0.071 * jj);
-    points[1].values[dynamics.velocities[j]] = GiNaC::numeric(0.093 - 0.041 * jj);
-    points[2].values[dynamics.coordinates[j]] = GiNaC::numeric(-0.211 + 0.053 * jj);
-    points[2].values[dynamics.velocities[j]] = GiNaC::numeric(0.177 + 0.029 * jj);
+    for (std::size_t p = 1; p < points.size(); ++p) {
+      points[p].values[dynamics.coordinates[j]] = GiNaC::numeric(GenericCoordinate(p, j));
+      points[p].values[dynamics.velocities[j]] = GiNaC::numeric(GenericVelocity(p, j));
+    }
   }
   for (std::size_t i = 0; i < dynamics.output_derivatives.size(); ++i) {
     const auto& symbols = dynamics.output_derivatives[i];
-    const double ii = static_cast<double>(i);
     const std::optional<double> rest = ValueAt(dynamics.outputs[i], points[0].values);
     for (std::size_t k = 0; k < symbols.size(); ++k) {
-      const double kk = static_cast<double>(k);
       points[0].values[symbols[k]] = GiNaC::numeric(k == 0 && rest ? *rest : 0.0);
-      points[1].values[symbols[k]] = GiNaC::numeric(0.31 - 0.13 * kk + 0.07 * ii);
-      points[2].values[symbols[k]] = GiNaC::numeric(-0.23 + 0.11 * kk - 0.05 * ii);
+      for (std::size_t p = 1; p < points.size(); ++p) {
+        points[p].values[symbols[k]] = GiNaC::numeric(GenericDesiredDerivative(p, i, k));
+      }
     }
   }
   for (DecisionPoint& point : points) {

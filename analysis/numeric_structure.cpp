@@ -41,13 +41,11 @@ class NumericAlgorithm {
     points_[0].start.q = options.reference_q.size() == 0 ? Eigen::VectorXd::Zero(n)
                                                          : Eigen::VectorXd(options.reference_q);
     points_[0].start.q_dot.setZero();
-    // As the symbolic route's generic points: small, unrelated values, no multiple of pi/2.
-    for (Eigen::Index j = 0; j < n; ++j) {
-      const double jj = double(j);
-      points_[1].start.q[j] = 0.137 + 0.071 * jj;
-      points_[1].start.q_dot[j] = 0.093 - 0.041 * jj;
-      points_[2].start.q[j] = -0.211 + 0.053 * jj;
-      points_[2].start.q_dot[j] = 0.177 + 0.029 * jj;
+    for (std::size_t p = 1; p < points_.size(); ++p) {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        points_[p].start.q[j] = GenericCoordinate(p, std::size_t(j));
+        points_[p].start.q_dot[j] = GenericVelocity(p, std::size_t(j));
+      }
     }
     for (DecisionPoint& point : points_) Prepare(point);
   }
@@ -71,7 +69,7 @@ class NumericAlgorithm {
     }
     Eigen::MatrixXd reference;
     const std::optional<std::size_t> reference_rank =
-        RankAt(points_[0], structure.relative_degree, &reference);
+        RankAt(points_[0], structure.relative_degree, {}, &reference);
     structure.reference_rank = reference_rank.value_or(0);
     if (structure.rank_nearby < outputs_) {
       structure.extension =
@@ -170,18 +168,33 @@ class NumericAlgorithm {
     return decided;
   }
 
-  // The rank of A at a point by the rule of the symbolic route's RankAt (singular values above
-  // tolerance max_i |grad phi_i| |M^-1 B|), nullopt when undecidable there.
+  // The rank of the input equations' matrix at a point by the rule of the symbolic route's
+  // RankAt (singular values above tolerance max_i |grad phi_i| |M^-1 B|), nullopt when
+  // undecidable there: row i at orders[i], from the tracking motions for the combined rows of a
+  // dynamic extension's step. `matrix_out` receives the matrix with the rows that count as zero
+  // by the rule set to zero, for the choice of the kept rows: the rounding residue of a
+  // coefficient that vanishes there (the crane's y1'' ~ sin(theta) at theta = 0), scaled to unit
+  // size, must not be chosen.
   std::optional<std::size_t> RankAt(DecisionPoint& point,
-                                    const std::vector<int>& relative_degree,
+                                    const std::vector<int>& orders,
+                                    const std::vector<std::size_t>& combined_rows = {},
                                     Eigen::MatrixXd* matrix_out = nullptr) const {
     if (!point.input_size) return std::nullopt;
     Eigen::MatrixXd matrix(Eigen::Index(outputs_), Eigen::Index(model_.num_inputs()));
     double gradient = 0.0;
     std::vector<Eigen::Index> zero_rows;
     for (std::size_t i = 0; i < outputs_; ++i) {
-      const std::optional<Eigen::VectorXd> values = CoefficientsAt(point, i, relative_degree[i]);
-      const std::optional<double> size = GradientSize(point, i, relative_degree[i] - 1);
+      std::optional<Eigen::VectorXd> values;
+      std::optional<double> size;
+      if (std::find(combined_rows.begin(), combined_rows.end(), i) != combined_rows.end()) {
+        if (auto combined = CombinedCoefficientsAt(point, i, orders[i])) {
+          values = std::move(combined->first);
+          size = combined->second;
+        }
+      } else {
+        values = CoefficientsAt(point, i, orders[i]);
+        size = GradientSize(point, i, orders[i] - 1);
+      }
       if (!values || !size) return std::nullopt;
       matrix.row(Eigen::Index(i)) = values->transpose();
       gradient = std::max(gradient, *size);
@@ -190,19 +203,11 @@ class NumericAlgorithm {
       }
     }
     if (matrix_out != nullptr) {
-      // A row that counts as zero by the rule is zero for the choice of the kept rows: the
-      // rounding residue of a coefficient that vanishes there (the crane's y1'' ~ sin(theta) at
-      // theta = 0), scaled to unit size, must not be chosen.
       *matrix_out = matrix;
       for (Eigen::Index row : zero_rows) matrix_out->row(row).setZero();
     }
-    return RankByRule(matrix, gradient, *point.input_size);
-  }
-
-  // The rank by the rule: singular values above tolerance |grad phi| |M^-1 B|.
-  std::size_t RankByRule(const Eigen::MatrixXd& matrix, double gradient, double input_size) const {
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(matrix);
-    const double threshold = tolerance_ * gradient * input_size;
+    const double threshold = tolerance_ * gradient * *point.input_size;
     return std::size_t((svd.singularValues().array() > threshold).count());
   }
 
@@ -239,11 +244,12 @@ class NumericAlgorithm {
     }
     std::size_t rank_nearby = 0;
     for (std::size_t p = 1; p < points_.size(); ++p) {
-      rank_nearby =
-          std::max(rank_nearby, FinalRankAt(points_[p], extension.final_order, step).value_or(0));
+      rank_nearby = std::max(
+          rank_nearby, RankAt(points_[p], extension.final_order, step.combined_rows).value_or(0));
     }
     if (rank_nearby < outputs_) return std::nullopt;  // a second step
-    extension.reference_rank = FinalRankAt(points_[0], extension.final_order, step).value_or(0);
+    extension.reference_rank =
+        RankAt(points_[0], extension.final_order, step.combined_rows).value_or(0);
     extension.constraints = constraints_;
     // Row d's equations read y_d_d to its final order, and each kept row's y_R_d to 2 plus as
     // many orders as g_d was differentiated, where kappa_dR is not zero.
@@ -326,14 +332,12 @@ class NumericAlgorithm {
   // points: at rest at the reference state, small unrelated values elsewhere.
   std::vector<double> Desired(std::size_t p, std::size_t row) {
     std::vector<double> desired(states_ + 2, 0.0);
-    const double ii = double(row);
     if (p == 0) {
       desired[0] = points_[0].motions.front().OutputDerivative(0).value[Eigen::Index(row)];
       return desired;
     }
     for (std::size_t k = 0; k < desired.size(); ++k) {
-      const double kk = double(k);
-      desired[k] = p == 1 ? 0.31 - 0.13 * kk + 0.07 * ii : -0.23 + 0.11 * kk - 0.05 * ii;
+      desired[k] = GenericDesiredDerivative(p, row, k);
     }
     return desired;
   }
@@ -392,32 +396,6 @@ class NumericAlgorithm {
       }
     }
     return decided;
-  }
-
-  // The rank of the input equations' matrix after the step, by the rule.
-  std::optional<std::size_t> FinalRankAt(DecisionPoint& point,
-                                         const std::vector<int>& final_order,
-                                         const StructureStep& step) const {
-    if (!point.input_size) return std::nullopt;
-    Eigen::MatrixXd matrix(Eigen::Index(outputs_), Eigen::Index(model_.num_inputs()));
-    double gradient = 0.0;
-    for (std::size_t i = 0; i < outputs_; ++i) {
-      const bool combined = std::find(step.combined_rows.begin(), step.combined_rows.end(), i) !=
-                            step.combined_rows.end();
-      if (combined) {
-        const auto coefficients = CombinedCoefficientsAt(point, i, final_order[i]);
-        if (!coefficients) return std::nullopt;
-        matrix.row(Eigen::Index(i)) = coefficients->first.transpose();
-        gradient = std::max(gradient, coefficients->second);
-      } else {
-        const std::optional<Eigen::VectorXd> values = CoefficientsAt(point, i, final_order[i]);
-        const std::optional<double> size = GradientSize(point, i, final_order[i] - 1);
-        if (!values || !size) return std::nullopt;
-        matrix.row(Eigen::Index(i)) = values->transpose();
-        gradient = std::max(gradient, *size);
-      }
-    }
-    return RankByRule(matrix, gradient, *point.input_size);
   }
 
   // Each order is dearer than the last: its motions reach a higher degree, and a gradient takes

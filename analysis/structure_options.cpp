@@ -10,6 +10,21 @@ std::string OutputName(std::size_t output) { return "y" + std::to_string(output 
 
 }  // namespace
 
+double GenericCoordinate(std::size_t point, std::size_t j) {
+  const double jj = double(j);
+  return point == 1 ? 0.137 + 0.071 * jj : -0.211 + 0.053 * jj;
+}
+
+double GenericVelocity(std::size_t point, std::size_t j) {
+  const double jj = double(j);
+  return point == 1 ? 0.093 - 0.041 * jj : 0.177 + 0.029 * jj;
+}
+
+double GenericDesiredDerivative(std::size_t point, std::size_t i, std::size_t k) {
+  const double ii = double(i), kk = double(k);
+  return point == 1 ? 0.31 - 0.13 * kk + 0.07 * ii : -0.23 + 0.11 * kk - 0.05 * ii;
+}
+
 NoSolution OutputsNotIndependent(std::size_t output, std::size_t states) {
   return NoSolution("the outputs do not determine the inputs: with output " + OutputName(output) +
                     " the structure algorithm needs more than 2 dof = " + std::to_string(states) +

@@ -48,6 +48,13 @@ StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference,
                                  std::size_t reference_rank,
                                  std::size_t rank);
 
+/// The generic decision points both routes decide at (point 1 or 2; point 0 is the reference
+/// state): small, unrelated values, no multiple of pi/2, no symmetry between coordinates.
+/// Coordinate j's value and velocity, and output i's desired k-th derivative.
+double GenericCoordinate(std::size_t point, std::size_t j);
+double GenericVelocity(std::size_t point, std::size_t j);
+double GenericDesiredDerivative(std::size_t point, std::size_t i, std::size_t k);
+
 /// More than 2 dof constraints on the state: the outputs are not independent.
 NoSolution OutputsNotIndependent(std::size_t output, std::size_t states);
 /// No derivative up to 2 dof depends on the inputs.
