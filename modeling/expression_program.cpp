@@ -101,6 +101,8 @@ class ExpressionCompiler {
     std::uint32_t exponent = 0;  // kPowInt only
   };
 
+  // For errors only: `source` is the node an error names, printed only when one is raised (the
+  // text of a power of a long sum is as long as the sum).
   std::string Text(const Scaled& value) const { return canonical_.Text(value); }
 
   // coefficient * node, the coefficient's multiplication shared like any subexpression.
@@ -142,9 +144,9 @@ class ExpressionCompiler {
       case Kind::kProduct:
         return BuildProduct(node);
       case Kind::kPower:
-        return BuildPower(node.operands[0], node.operands[1], Text({1, id}));
+        return BuildPower(node.operands[0], node.operands[1], id);
       case Kind::kFunction:
-        return BuildFunction(node, Text({1, id}));
+        return BuildFunction(node, id);
       case Kind::kOpaque:
         break;
     }
@@ -185,7 +187,7 @@ class ExpressionCompiler {
           node.operands[1].coefficient.is_real() && node.operands[1].coefficient.is_negative();
       if (reciprocal) {
         denominator.push_back(
-            PowerSlot(node.operands[0], -node.operands[1].coefficient, Text({1, factor.node})));
+            PowerSlot(node.operands[0], -node.operands[1].coefficient, factor.node));
       } else {
         numerator.push_back(RegisterNode(factor.node));
       }
@@ -195,20 +197,20 @@ class ExpressionCompiler {
     return Emit(OpCode::kDiv, Fold(OpCode::kMul, numerator), Fold(OpCode::kMul, denominator));
   }
 
-  Slot BuildPower(const Scaled& base, const Scaled& exponent, const std::string& text) {
+  Slot BuildPower(const Scaled& base, const Scaled& exponent, NodeId source) {
     if (exponent.node != canonical_.one()) {
       return Emit(OpCode::kPow, RegisterScaled(base), RegisterScaled(exponent));
     }
     const GiNaC::numeric& number = exponent.coefficient;
     if (number.is_real() && number.is_negative()) {
-      return Emit(OpCode::kReciprocal, PowerSlot(base, -number, text));
+      return Emit(OpCode::kReciprocal, PowerSlot(base, -number, source));
     }
-    return PowerSlot(base, number, text);
+    return PowerSlot(base, number, source);
   }
 
   // base^exponent for a positive numeric exponent, shared between every use: x^(1/2) and
   // x^(3/2) share one square root.
-  Slot PowerSlot(const Scaled& base, const GiNaC::numeric& exponent, const std::string& text) {
+  Slot PowerSlot(const Scaled& base, const GiNaC::numeric& exponent, NodeId source) {
     const auto key =
         std::make_tuple(base.node, NumericValue(base.coefficient), NumericValue(exponent));
     if (const auto found = power_slots_.find(key); found != power_slots_.end()) {
@@ -216,12 +218,13 @@ class ExpressionCompiler {
     }
     Slot slot;
     if (exponent.is_pos_integer()) {
-      slot = IntegerPower(RegisterScaled(base), exponent, text);
+      slot = IntegerPower(RegisterScaled(base), exponent, source);
     } else if (exponent.is_rational() && exponent.denom().is_equal(2)) {
       // x^(p/2) = sqrt(x)^p: one square root, shared with every other power of the same base.
-      const Slot root = exponent.numer().is_equal(1) ? Emit(OpCode::kSqrt, RegisterScaled(base))
-                                                     : PowerSlot(base, GiNaC::numeric(1, 2), text);
-      slot = exponent.numer().is_equal(1) ? root : IntegerPower(root, exponent.numer(), text);
+      const Slot root = exponent.numer().is_equal(1)
+                            ? Emit(OpCode::kSqrt, RegisterScaled(base))
+                            : PowerSlot(base, GiNaC::numeric(1, 2), source);
+      slot = exponent.numer().is_equal(1) ? root : IntegerPower(root, exponent.numer(), source);
     } else {
       slot = Emit(OpCode::kPow, RegisterScaled(base), Constant(NumericValue(exponent)));
     }
@@ -229,9 +232,9 @@ class ExpressionCompiler {
     return slot;
   }
 
-  Slot IntegerPower(Slot base, const GiNaC::numeric& exponent, const std::string& text) {
+  Slot IntegerPower(Slot base, const GiNaC::numeric& exponent, NodeId source) {
     if (exponent > GiNaC::numeric(kMaxIntegerExponent)) {
-      Unsupported("power with an exponent above 2^31", text);
+      Unsupported("power with an exponent above 2^31", Text({1, source}));
     }
     const auto power = static_cast<std::uint32_t>(exponent.to_long());
     if (power == 1) {
@@ -244,7 +247,7 @@ class ExpressionCompiler {
     return LastInstruction();
   }
 
-  Slot BuildFunction(const CanonicalExpressions::Node& call, const std::string& text) {
+  Slot BuildFunction(const CanonicalExpressions::Node& call, NodeId source) {
     static const std::unordered_map<std::string, OpCode> kUnary = {
         {"sin", OpCode::kSin},   {"cos", OpCode::kCos},   {"tan", OpCode::kTan},
         {"asin", OpCode::kAsin}, {"acos", OpCode::kAcos}, {"atan", OpCode::kAtan},
@@ -257,7 +260,7 @@ class ExpressionCompiler {
     }
     const auto found = kUnary.find(call.name);
     if (found == kUnary.end() || call.operands.size() != 1) {
-      Unsupported("function", text);
+      Unsupported("function", Text({1, source}));
     }
     return Emit(found->second, RegisterScaled(call.operands[0]));
   }

@@ -51,6 +51,35 @@ class IndexedSum {
       by_symbol_;
 };
 
+// The product of `factors` (evaluated expressions), with its sums kept as they are. GiNaC's
+// mul::eval pulls each sum's integer content out, a walk over the sum's terms and, where the
+// content is not 1, a copy of the sum, for every product built; a chain's projected M has n^3
+// products of Jacobian entries that are sums of n terms each, so n^4 time and memory (issue
+// #31). That is the only rule of eval left for two or more non-numeric factors once the
+// constructor has merged equal bases, so the product is marked evaluated as it is, unless a
+// number is among its factors: a sum that holds the product copies it without its number and
+// evaluates that copy again (add::split_ex_to_pair), so there the flag would buy nothing.
+GiNaC::ex ProductKeepingSums(GiNaC::exvector factors) {
+  const GiNaC::mul& product = GiNaC::dynallocate<GiNaC::mul>(std::move(factors));
+  bool keep = product.nops() >= 2;
+  for (std::size_t i = 0; keep && i < product.nops(); ++i) {
+    keep = !GiNaC::is_a<GiNaC::numeric>(product.op(i));
+  }
+  if (keep) product.setflag(GiNaC::status_flags::evaluated);
+  return product;
+}
+
+// `weight` as its number times the rest (1 for a number).
+std::pair<GiNaC::ex, GiNaC::ex> SplitNumericFactor(const GiNaC::ex& weight) {
+  if (GiNaC::is_a<GiNaC::numeric>(weight)) return {weight, 1};
+  if (!GiNaC::is_a<GiNaC::mul>(weight)) return {1, weight};
+  GiNaC::ex number = 1;
+  for (const GiNaC::ex& factor : weight) {
+    if (GiNaC::is_a<GiNaC::numeric>(factor)) number *= factor;
+  }
+  return {number, weight / number};
+}
+
 }  // namespace
 
 std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
@@ -109,20 +138,33 @@ EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positi
   assert(coordinates.size() == velocities.size());
   const std::size_t dof = coordinates.size();
   TimeDerivative rate(coordinates, velocities);
+  // d/dq_k with one memo each across all positions: a chain's positions share their terms (link
+  // a's sin(q_1 + ... + q_a) is in every later position), so each term is differentiated once
+  // per coordinate, and a function's outer derivative built once, not once per position.
+  std::vector<DirectionalDerivative> partials;
+  partials.reserve(dof);
+  for (const GiNaC::realsymbol& coordinate : coordinates) {
+    partials.emplace_back(std::vector<std::pair<GiNaC::ex, GiNaC::ex>>{{coordinate, 1}});
+  }
   std::vector<GiNaC::exvector> mass_terms(dof * dof), force_terms(dof);
   for (const WeightedPosition& moving : positions) {
     if (moving.weight.is_zero()) continue;
     const GiNaC::ex convective = rate(rate(moving.position));  // D of q' is 0: q'' = 0
-    const IndexedSum position(moving.position);
     std::vector<GiNaC::ex> jacobian(dof);
-    for (std::size_t k = 0; k < dof; ++k) jacobian[k] = position.Derivative(coordinates[k]);
+    for (std::size_t k = 0; k < dof; ++k) jacobian[k] = partials[k](moving.position);
+    // w dp/dq_i dp/dq_j as (number of w) dp/dq_i times the rest of w times dp/dq_j: the number
+    // goes into the row's entry once (a sum stays a sum), so the product has none.
+    const auto [number, rest] = SplitNumericFactor(moving.weight);
     for (std::size_t i = 0; i < dof; ++i) {
       if (jacobian[i].is_zero()) continue;
-      force_terms[i].push_back(moving.weight * jacobian[i] * convective);
+      const GiNaC::ex weighted_row = number * jacobian[i];
+      const auto term = [&rest = rest, &weighted_row](const GiNaC::ex& other) {
+        return rest.is_equal(1) ? ProductKeepingSums({weighted_row, other})
+                                : ProductKeepingSums({rest, weighted_row, other});
+      };
+      force_terms[i].push_back(term(convective));
       for (std::size_t j = i; j < dof; ++j) {
-        if (!jacobian[j].is_zero()) {
-          mass_terms[i * dof + j].push_back(moving.weight * jacobian[i] * jacobian[j]);
-        }
+        if (!jacobian[j].is_zero()) mass_terms[i * dof + j].push_back(term(jacobian[j]));
       }
     }
   }

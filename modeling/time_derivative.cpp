@@ -37,19 +37,41 @@ GiNaC::ex PartialDerivative(const GiNaC::ex& expression, const GiNaC::symbol& sy
   return SumOf(std::move(terms));
 }
 
-TimeDerivative::TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
-                               const std::vector<GiNaC::realsymbol>& velocities)
+DirectionalDerivative::DirectionalDerivative(
+    const std::vector<std::pair<GiNaC::ex, GiNaC::ex>>& seeds)
     : argument_("time_derivative_argument") {
-  assert(coordinates.size() == velocities.size());
-  for (std::size_t k = 0; k < coordinates.size(); ++k) {
-    rates_.emplace(coordinates[k], velocities[k]);
-    rates_.emplace(velocities[k], 0);  // the accelerations are not part of D
+  for (const auto& [symbol, rate] : seeds) {
+    assert(GiNaC::is_a<GiNaC::symbol>(symbol));
+    rates_.emplace(symbol, rate);
   }
 }
 
-GiNaC::ex TimeDerivative::operator()(const GiNaC::ex& expression) { return Derive(expression); }
+GiNaC::ex DirectionalDerivative::operator()(const GiNaC::ex& expression) {
+  return Derive(expression);
+}
 
-GiNaC::ex TimeDerivative::Derive(const GiNaC::ex& expression) {
+namespace {
+
+// q_k -> q'_k, and q'_k -> 0: the accelerations are not part of D.
+std::vector<std::pair<GiNaC::ex, GiNaC::ex>> VelocitySeeds(
+    const std::vector<GiNaC::realsymbol>& coordinates,
+    const std::vector<GiNaC::realsymbol>& velocities) {
+  assert(coordinates.size() == velocities.size());
+  std::vector<std::pair<GiNaC::ex, GiNaC::ex>> seeds;
+  for (std::size_t k = 0; k < coordinates.size(); ++k) {
+    seeds.emplace_back(coordinates[k], velocities[k]);
+    seeds.emplace_back(velocities[k], 0);
+  }
+  return seeds;
+}
+
+}  // namespace
+
+TimeDerivative::TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
+                               const std::vector<GiNaC::realsymbol>& velocities)
+    : DirectionalDerivative(VelocitySeeds(coordinates, velocities)) {}
+
+GiNaC::ex DirectionalDerivative::Derive(const GiNaC::ex& expression) {
   if (const auto found = rates_.find(expression); found != rates_.end()) return found->second;
   GiNaC::ex rate;
   if (GiNaC::is_a<GiNaC::add>(expression)) {
@@ -77,7 +99,7 @@ GiNaC::ex TimeDerivative::Derive(const GiNaC::ex& expression) {
 }
 
 // sum_i D(a_i) prod_(j != i) a_j, as GiNaC's mul::derivative.
-GiNaC::ex TimeDerivative::DeriveProduct(const GiNaC::ex& product) {
+GiNaC::ex DirectionalDerivative::DeriveProduct(const GiNaC::ex& product) {
   GiNaC::exvector terms;
   for (std::size_t i = 0; i < product.nops(); ++i) {
     GiNaC::ex factor_rate = Derive(product.op(i));
@@ -94,7 +116,7 @@ GiNaC::ex TimeDerivative::DeriveProduct(const GiNaC::ex& product) {
 
 // a^b: b a^(b-1) D(a) for a constant exponent, a^b (D(b) log a + b D(a) / a) otherwise, as
 // GiNaC's power::derivative.
-GiNaC::ex TimeDerivative::DerivePower(const GiNaC::ex& power) {
+GiNaC::ex DirectionalDerivative::DerivePower(const GiNaC::ex& power) {
   const GiNaC::ex& base = power.op(0);
   const GiNaC::ex& exponent = power.op(1);
   const GiNaC::ex exponent_rate = Derive(exponent);
@@ -108,7 +130,7 @@ GiNaC::ex TimeDerivative::DerivePower(const GiNaC::ex& power) {
 
 // f(a_1..a_m): sum_i (df/da_i)(a) D(a_i), df/da_i by GiNaC's own rule for f, found by
 // differentiating f with a symbol in place of a_i.
-GiNaC::ex TimeDerivative::DeriveFunction(const GiNaC::ex& function) {
+GiNaC::ex DirectionalDerivative::DeriveFunction(const GiNaC::ex& function) {
   GiNaC::exvector terms;
   for (std::size_t i = 0; i < function.nops(); ++i) {
     GiNaC::ex argument_rate = Derive(function.op(i));

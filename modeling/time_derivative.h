@@ -16,6 +16,7 @@
 #include <ginac/ginac.h>
 
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace servokit::detail {
@@ -28,11 +29,12 @@ GiNaC::ex SumOf(GiNaC::exvector terms);
 /// per factor, most of them zero (a term of T has six factors and two velocities; issue #31).
 GiNaC::ex PartialDerivative(const GiNaC::ex& expression, const GiNaC::symbol& symbol);
 
-class TimeDerivative {
+/// A derivative by the chain rule with given seeds: D s = seed of s for each seeded symbol, 0 for
+/// every other symbol. The seed {x: 1} is d/dx; TimeDerivative's are the velocities. Memoized
+/// by structure, so an expression built from shared (or equal) subexpressions costs its DAG.
+class DirectionalDerivative {
  public:
-  /// `velocities[k]` is the rate of `coordinates[k]`; every other symbol is constant.
-  TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
-                 const std::vector<GiNaC::realsymbol>& velocities);
+  explicit DirectionalDerivative(const std::vector<std::pair<GiNaC::ex, GiNaC::ex>>& seeds);
 
   /// D e. Throws std::invalid_argument for what has no derivative (a relation, a matrix).
   GiNaC::ex operator()(const GiNaC::ex& expression);
@@ -46,6 +48,13 @@ class TimeDerivative {
   // Known: seeds and results; by GiNaC's hash, never iterated.
   std::unordered_map<GiNaC::ex, GiNaC::ex, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> rates_;
   GiNaC::realsymbol argument_;  // stands for a function's argument while it is differentiated
+};
+
+class TimeDerivative : public DirectionalDerivative {
+ public:
+  /// `velocities[k]` is the rate of `coordinates[k]`; every other symbol is constant.
+  TimeDerivative(const std::vector<GiNaC::realsymbol>& coordinates,
+                 const std::vector<GiNaC::realsymbol>& velocities);
 };
 
 }  // namespace servokit::detail
