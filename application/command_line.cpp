@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <filesystem>
+#include <new>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -70,6 +71,11 @@ std::string_view FlagForOption(std::string_view owner, std::string_view field) {
 // flag where one set the value ("--set k=stiff: not a number" for a parameter override,
 // "... must be > 0 and < 1 (--rank-tolerance)" for an option).
 std::string CommandLineMessage(const std::exception& error) {
+  // Past the loader (which names the file and key), memory can still run out in an analysis
+  // or a solve: status 1, in words rather than "std::bad_alloc".
+  if (dynamic_cast<const std::bad_alloc*>(&error) != nullptr) {
+    return "out of memory (free memory, or raise the process's limit)";
+  }
   if (const auto* bad_override = dynamic_cast<const ParameterOverrideError*>(&error)) {
     return "--set " + bad_override->name() + "=" + bad_override->value() + ": " +
            bad_override->problem();

@@ -82,6 +82,19 @@ std::pair<GiNaC::ex, GiNaC::ex> SplitNumericFactor(const GiNaC::ex& weight) {
 
 }  // namespace
 
+void TermBudget::Charge(double terms, const std::function<std::string()>& entry) {
+  used_ += terms;
+  if (used_ > limit_) {
+    throw DerivationTooLarge("too large: its equations of motion pass the budget of " +
+                             std::to_string(static_cast<long long>(limit_)) +
+                             " terms (about 1 KB each; docs/model-files.md) at " + entry());
+  }
+}
+
+void TermBudget::Charge(const GiNaC::ex& derived, const std::function<std::string()>& entry) {
+  Charge(GiNaC::is_a<GiNaC::add>(derived) ? double(derived.nops()) : 1.0, entry);
+}
+
 std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
                                const std::vector<GiNaC::realsymbol>& velocities) {
   const IndexedSum indexed(kinetic);
@@ -93,13 +106,17 @@ std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
 }
 
 GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
-                                const std::vector<GiNaC::realsymbol>& velocities) {
+                                const std::vector<GiNaC::realsymbol>& velocities,
+                                TermBudget& budget) {
   const auto dof = static_cast<unsigned>(velocities.size());
   GiNaC::matrix mass(dof, dof);
   for (unsigned i = 0; i < dof; ++i) {
     const IndexedSum momentum(momenta[i]);  // dT/dq'_i
     for (unsigned j = i; j < dof; ++j) {
       mass(i, j) = ExpandWithinBudget(momentum.Derivative(velocities[j]), kMaxExpandedTerms);
+      budget.Charge(mass(i, j), [&] {
+        return "M's entry d2T/d" + velocities[i].get_name() + " d" + velocities[j].get_name();
+      });
       mass(j, i) = mass(i, j);
     }
   }
@@ -109,7 +126,8 @@ GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
 GiNaC::matrix LagrangeForces(const Energies& energies,
                              const std::vector<GiNaC::ex>& momenta,
                              const std::vector<GiNaC::realsymbol>& coordinates,
-                             const std::vector<GiNaC::realsymbol>& velocities) {
+                             const std::vector<GiNaC::realsymbol>& velocities,
+                             TermBudget& budget) {
   assert(coordinates.size() == velocities.size());
   const auto dof = static_cast<unsigned>(coordinates.size());
   assert(energies.generalized_forces.rows() == dof && energies.generalized_forces.cols() == 1);
@@ -127,6 +145,7 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
     terms.push_back(dissipation.Derivative(velocities[i]));
     terms.push_back(-energies.generalized_forces(i, 0));
     forces(i, 0) = ExpandWithinBudget(SumOf(std::move(terms)), kMaxExpandedTerms);
+    budget.Charge(forces(i, 0), [&] { return "f's entry for " + coordinates[i].get_name(); });
   }
   return forces;
 }
@@ -134,7 +153,8 @@ GiNaC::matrix LagrangeForces(const Energies& energies,
 EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positions,
                                      const Energies& energies,
                                      const std::vector<GiNaC::realsymbol>& coordinates,
-                                     const std::vector<GiNaC::realsymbol>& velocities) {
+                                     const std::vector<GiNaC::realsymbol>& velocities,
+                                     TermBudget& budget) {
   assert(coordinates.size() == velocities.size());
   const std::size_t dof = coordinates.size();
   TimeDerivative rate(coordinates, velocities);
@@ -163,8 +183,13 @@ EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positi
                                 : ProductKeepingSums({rest, weighted_row, other});
       };
       force_terms[i].push_back(term(convective));
+      budget.Charge(1.0, [&] { return "f's entry for " + coordinates[i].get_name(); });
       for (std::size_t j = i; j < dof; ++j) {
-        if (!jacobian[j].is_zero()) mass_terms[i * dof + j].push_back(term(jacobian[j]));
+        if (jacobian[j].is_zero()) continue;
+        mass_terms[i * dof + j].push_back(term(jacobian[j]));
+        budget.Charge(1.0, [&] {
+          return "M's entry for " + coordinates[i].get_name() + " and " + coordinates[j].get_name();
+        });
       }
     }
   }

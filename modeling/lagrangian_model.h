@@ -8,6 +8,9 @@
 // (modeling/symbolic_lock.h).
 #include <ginac/ginac.h>
 
+#include <functional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace servokit::detail {
@@ -18,6 +21,33 @@ namespace servokit::detail {
 /// linkage's loop closure would be multiplied out without bound (issue #31), and the entry stays
 /// as derived, the same function.
 inline constexpr double kMaxExpandedTerms = 2000;
+
+/// The most terms the derived M and f of one model may hold together (a sum counts its terms,
+/// anything else one): loading and analysing a chain of 400 pendulums takes about 1 KB a term
+/// (560 000 terms, 590 MB), so the budget keeps a model within about 2 GB. Past it, loading stops
+/// with an error that names the entry, before memory runs out (issue #31).
+inline constexpr double kMaxDerivedTerms = 2e6;
+
+/// A derivation past its TermBudget; what() is the problem, naming the entry.
+class DerivationTooLarge : public std::length_error {
+ public:
+  using std::length_error::length_error;
+};
+
+/// The terms of the entries derived so far, against a limit.
+class TermBudget {
+ public:
+  explicit TermBudget(double limit = kMaxDerivedTerms) : limit_(limit) {}
+  /// Adds `terms`; past the limit, throws DerivationTooLarge naming `entry()` (called only then).
+  void Charge(double terms, const std::function<std::string()>& entry);
+  /// Adds the terms of `derived` (its operands if a sum, else 1).
+  void Charge(const GiNaC::ex& derived, const std::function<std::string()>& entry);
+  double used() const { return used_; }
+
+ private:
+  double limit_;
+  double used_ = 0;
+};
 
 /// T(q, q'), V(q), R(q, q') (zero when absent) and Q(q, q') (dof x 1, zeros when absent), in the
 /// symbols of the model.
@@ -33,9 +63,11 @@ std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,
                                const std::vector<GiNaC::realsymbol>& velocities);
 
 /// M = d2T/dq' dq' from the momenta, dof x dof, symmetric by construction (each entry derived
-/// once, above the diagonal, and mirrored).
+/// once, above the diagonal, and mirrored). Each entry is charged to `budget`, as are f's in
+/// LagrangeForces and the products of ProjectedEquations.
 GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
-                                const std::vector<GiNaC::realsymbol>& velocities);
+                                const std::vector<GiNaC::realsymbol>& velocities,
+                                TermBudget& budget);
 
 /// Lagrange's equations d/dt dT/dq' - dT/dq + dV/dq + dR/dq' = Q (+ B u) written as
 /// M q'' + f = B u: f = (d2T/dq' dq) q' - dT/dq + dV/dq + dR/dq' - Q, dof x 1, each entry
@@ -44,7 +76,8 @@ GiNaC::matrix KineticMassMatrix(const std::vector<GiNaC::ex>& momenta,
 GiNaC::matrix LagrangeForces(const Energies& energies,
                              const std::vector<GiNaC::ex>& momenta,
                              const std::vector<GiNaC::realsymbol>& coordinates,
-                             const std::vector<GiNaC::realsymbol>& velocities);
+                             const std::vector<GiNaC::realsymbol>& velocities,
+                             TermBudget& budget);
 
 /// One scalar position of a body, p(q) (a centre's x or y, an angle), and its constant weight w
 /// (the mass, or the inertia about the centre): T = 1/2 sum w (dp/dt)^2 over a model's
@@ -68,7 +101,8 @@ struct EquationsOfMotion {
 EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positions,
                                      const Energies& energies,
                                      const std::vector<GiNaC::realsymbol>& coordinates,
-                                     const std::vector<GiNaC::realsymbol>& velocities);
+                                     const std::vector<GiNaC::realsymbol>& velocities,
+                                     TermBudget& budget);
 
 /// T - 1/2 q'^T M q' with M = KineticMassMatrix(T): zero exactly when T is a quadratic form in
 /// the velocities, T(q, s q') = s^2 T(q, q') with M free of q' (no term linear in q' and none

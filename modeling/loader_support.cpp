@@ -464,6 +464,14 @@ std::optional<std::string> ReservedNameProblem(const std::string& name) {
   return std::nullopt;
 }
 
+std::string Excerpt(const std::string& text) {
+  constexpr std::size_t kWhole = 200, kShown = 160;
+  if (text.size() <= kWhole) return text;
+  std::size_t end = kShown;
+  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xC0) == 0x80) --end;
+  return text.substr(0, end) + "... (" + std::to_string(text.size()) + " bytes)";
+}
+
 std::string Indexed(std::string_view key, std::size_t i) {
   return std::string(key) + "[" + std::to_string(i) + "]";
 }

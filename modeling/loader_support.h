@@ -120,6 +120,11 @@ std::optional<std::string> FreeTextProblem(std::string_view text, bool line_brea
 /// "key[i]".
 std::string Indexed(std::string_view key, std::size_t i);
 
+/// `text` as an error message quotes it: whole up to 200 bytes, else its first 160 (not cutting a
+/// UTF-8 character) and its length, so that the one-line message of a 10^5-term expression
+/// stays one line.
+std::string Excerpt(const std::string& text);
+
 /// The expression as GiNaC prints it.
 std::string Text(const GiNaC::ex& expression);
 

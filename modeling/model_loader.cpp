@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <new>
 #include <optional>
 #include <random>
 #include <set>
@@ -99,6 +100,7 @@ using detail::FreeTextProblem;
 using detail::kKindKey;
 
 using detail::Contains;
+using detail::Excerpt;
 using detail::FindUnsupported;
 using detail::Indexed;
 using detail::Join;
@@ -275,7 +277,9 @@ class ModelBuilder {
     GiNaC::matrix output = ReadOutputs();
     model_.num_outputs_ = model_.num_inputs();
 
-    try {
+    // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
+    // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
+    Guarded("derivatives", "cannot differentiate the model's expressions", [&] {
       auto symbolic = std::make_shared<const SymbolicModel>(
           parameter_symbols_, coordinate_symbols_, velocity_symbols_,
           std::move(equations.mass_matrix), std::move(equations.forces),
@@ -283,14 +287,7 @@ class ModelBuilder {
       Compile(*symbolic, std::move(mass_matrix_program));
       model_.polynomial_->compile = PolynomialCompiler(symbolic);
       model_.symbolic_ = std::move(symbolic);
-    } catch (const Error&) {
-      throw;
-    } catch (const std::exception& error) {
-      // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
-      // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
-      Fail("derivatives",
-           std::string("cannot differentiate the model's expressions: ") + error.what());
-    }
+    });
     return std::move(model_);
   }
 
@@ -300,6 +297,32 @@ class ModelBuilder {
 
   [[noreturn]] void Fail(const std::string& where, const std::string& problem) const {
     throw ModelError(model_.source_ + ": " + where + ": " + problem);
+  }
+
+  // Runs a derivation from the file's entries at `where`, its failures said in the file's
+  // terms: a derivation past its budget names the entry (ModelError); memory running out within
+  // the budgets is no fault of the file (kind kOther, status 1); anything else GiNaC throws is a
+  // derivative it cannot take (`cannot`).
+  template <class Derivation>
+  void Guarded(const std::string& where, const std::string& cannot, Derivation&& derive) const {
+    try {
+      derive();
+    } catch (const Error&) {
+      throw;
+    } catch (const detail::DerivationTooLarge& error) {
+      Fail(where, error.what());
+    } catch (const std::bad_alloc&) {
+      OutOfMemory(where, "deriving and compiling the equations of motion");
+    } catch (const std::exception& error) {
+      Fail(where, cannot + ": " + error.what());
+    }
+  }
+
+  // Memory ran out within the budgets: no fault of the file, so kind kOther (status 1).
+  [[noreturn]] void OutOfMemory(const std::string& where, const std::string& doing) const {
+    throw Error(model_.source_ + ": " + where + ": out of memory while " + doing +
+                ", within the budgets of docs/model-files.md (free memory, or raise the "
+                "process's limit)");
   }
 
   void CheckTopLevelKeys() const {
@@ -490,10 +513,12 @@ class ModelBuilder {
       GiNaC::parser reader(symbol_table_, /*strict=*/true);
       expression = reader(text);
     } catch (const GiNaC::parse_error& error) {
-      Fail(where, "syntax error in \"" + text + "\": " + ParseErrorMessage(error));
+      Fail(where, "syntax error in \"" + Excerpt(text) + "\": " + ParseErrorMessage(error));
+    } catch (const std::bad_alloc&) {
+      OutOfMemory(where, "parsing it");
     } catch (const std::exception& error) {
       // GiNaC evaluates while it parses: 1/0 or log(0) throw here.
-      Fail(where, "invalid expression \"" + text + "\": " + error.what());
+      Fail(where, "invalid expression \"" + Excerpt(text) + "\": " + error.what());
     }
     if (auto problem = FindUnsupported(expression)) {
       Fail(where, *problem + " in \"" + text + "\"");
@@ -610,15 +635,11 @@ class ModelBuilder {
           return ParseExpression(node, where);
         };
         detail::PlanarBodies bodies;
-        try {
+        const std::string cannot = "cannot differentiate the positions and angles";
+        Guarded("bodies", cannot, [&] {
           bodies = detail::ReadPlanarBodies(root_, model_.source_, read, model_.coordinates_,
                                             coordinate_symbols_, velocity_symbols_, model_.inputs_);
-        } catch (const Error&) {
-          throw;
-        } catch (const std::exception& error) {
-          Fail("bodies",
-               std::string("cannot differentiate the positions and angles: ") + error.what());
-        }
+        });
         equations.input_matrix = std::move(bodies.input_matrix);
         if (!bodies.projected) {
           Derive(bodies.energies, "bodies", KineticEnergy::kOfBodies, equations);
@@ -626,14 +647,7 @@ class ModelBuilder {
         }
         equations.mass_matrix = std::move(bodies.projected->mass_matrix);
         equations.forces = std::move(bodies.projected->forces);
-        try {
-          CompileAndCheckMassMatrix(equations, "bodies");
-        } catch (const Error&) {
-          throw;
-        } catch (const std::exception& error) {
-          Fail("bodies",
-               std::string("cannot differentiate the positions and angles: ") + error.what());
-        }
+        Guarded("bodies", cannot, [&] { CompileAndCheckMassMatrix(equations, "bodies"); });
         return equations;
       }
     }
@@ -650,9 +664,10 @@ class ModelBuilder {
               const std::string& kinetic_key,
               KineticEnergy kinetic_energy,
               EquationsOfMotion& equations) const {
-    try {
+    Guarded(kinetic_key, "cannot differentiate the energies", [&] {
       const std::vector<GiNaC::ex> momenta = detail::Momenta(energies.kinetic, velocity_symbols_);
-      equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_);
+      detail::TermBudget budget;
+      equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_, budget);
       const std::set<GiNaC::ex, GiNaC::ex_is_less> velocities(velocity_symbols_.begin(),
                                                               velocity_symbols_.end());
       for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
@@ -681,12 +696,8 @@ class ModelBuilder {
       }
       CompileAndCheckMassMatrix(equations, kinetic_key);
       equations.forces =
-          detail::LagrangeForces(energies, momenta, coordinate_symbols_, velocity_symbols_);
-    } catch (const Error&) {
-      throw;
-    } catch (const std::exception& error) {
-      Fail(kinetic_key, std::string("cannot differentiate the energies: ") + error.what());
-    }
+          detail::LagrangeForces(energies, momenta, coordinate_symbols_, velocity_symbols_, budget);
+    });
   }
 
   // T - 1/2 q_dot^T M q_dot vanishes: symbolically where that is cheap, else numerically.

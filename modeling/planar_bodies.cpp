@@ -138,7 +138,9 @@ class Reader {
                  return DependsOnCoordinates(moving.weight);
                })) {
       // Too large to reduce: project instead of differentiating T twice.
-      result.projected = ProjectedEquations(positions, result.energies, coordinates_, velocities_);
+      TermBudget budget;
+      result.projected =
+          ProjectedEquations(positions, result.energies, coordinates_, velocities_, budget);
     }
     result.input_matrix = ReadActuators(input_names);
     return result;

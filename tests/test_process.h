@@ -2,6 +2,7 @@
 // Child processes for tests that run a real binary (servokit, mpirun, timeout): started in a
 // directory with stdout and stderr in files there, waited for, and their output read back.
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -18,6 +19,7 @@ namespace servokit::testing {
 struct ProcessOptions {
   std::map<std::string, std::string> environment;  // added to the test's own
   bool append_stderr = false;  // keep stderr.txt across runs (a sweep killed and restarted)
+  rlim_t address_space_limit = RLIM_INFINITY;  // RLIMIT_AS of the child, bytes
 };
 
 /// Starts `command` (its first word looked up in PATH) in `directory`, which must exist, with
@@ -34,6 +36,10 @@ inline pid_t StartProcess(const std::filesystem::path& directory,
   REQUIRE(child >= 0);
   if (child == 0) {
     for (const auto& [name, value] : options.environment) ::setenv(name.c_str(), value.c_str(), 1);
+    if (options.address_space_limit != RLIM_INFINITY) {
+      const rlimit limit{options.address_space_limit, options.address_space_limit};
+      if (::setrlimit(RLIMIT_AS, &limit) != 0) ::_exit(127);
+    }
     const int out_fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const int err_fd = ::open(err.c_str(), err_flags, 0644);
     if (out_fd < 0 || err_fd < 0 || ::dup2(out_fd, STDOUT_FILENO) < 0 ||

@@ -1,7 +1,8 @@
 // Hostile files, paths and disks (issue #29), through the real program: a model file cannot
 // make servokit run a command or forge an output, only --out is written, a link or special file
 // is refused, a full disk loses nothing and leaves nothing under a final name, and a resume
-// after space is freed gives the bytes of an uninterrupted run.
+// after space is freed gives the bytes of an uninterrupted run. And memory running out while a
+// model is derived (issue #31) is one line naming the file and key, status 1, not a model error.
 #include <sys/mount.h>
 #include <sys/stat.h>
 
@@ -35,9 +36,11 @@ const std::vector<std::string> kRestToRest = {"--trajectory", "rest-to-rest",
                                               "--tf",         "1",
                                               "--t-end",      "2"};
 
-ProcessResult Servokit(const std::filesystem::path& directory, std::vector<std::string> arguments) {
+ProcessResult Servokit(const std::filesystem::path& directory,
+                       std::vector<std::string> arguments,
+                       const testing::ProcessOptions& options = {}) {
   arguments.insert(arguments.begin(), SERVOKIT_BINARY);
-  return RunProcess(directory, arguments);
+  return RunProcess(directory, arguments, options);
 }
 
 std::vector<std::string> Solve(const std::string& model, const std::string& out) {
@@ -77,6 +80,40 @@ std::vector<std::string> Files(const std::filesystem::path& directory) {
   std::sort(files.begin(), files.end());
   return files;
 }
+
+// AddressSanitizer reserves terabytes of address space at start, which RLIMIT_AS refuses.
+#if !defined(__SANITIZE_ADDRESS__)
+TEST_CASE("memory running out while a model is derived is status 1, naming the file and key",
+          "[application]") {
+  // 150 coordinates, T = 1/2 (sum q_i'^2) (1 + sum cos(q_i)/150): 9 KB of text, whose
+  // Lagrange equations hold 150^2 terms and take some 60 MB to derive and compile (1.1 s), so
+  // 40 MB of address space suffice to parse it but not to derive it.
+  const TemporaryDirectory directory;
+  std::string rates, cosines, springs, input_matrix, coordinates;
+  for (int i = 1; i <= 150; ++i) {
+    const std::string q = "q" + std::to_string(i);
+    coordinates += (i > 1 ? ", " : "") + q;
+    rates += (i > 1 ? " + " : "") + q + "_dot^2";
+    cosines += " + cos(" + q + ")/150";
+    springs += (i > 1 ? " + " : "") + std::string("k/2*") + q + "^2";
+    input_matrix += std::string("  - [") + (i == 1 ? "1" : "0") + "]\n";
+  }
+  std::ofstream(directory.path() / "wide.yaml")
+      << "kind: lagrangian\nname: wide\nparameters:\n  k: 1.0\ncoordinates: [" << coordinates
+      << "]\ninputs: [u]\nkinetic_energy: \"(" << rates << ")*(1" << cosines
+      << ")/2\"\npotential_energy: \"" << springs << "\"\ninput_matrix:\n"
+      << input_matrix << "outputs: [q1]\n";
+  testing::ProcessOptions limited;
+  limited.address_space_limit = rlim_t{40} << 20;
+  const ProcessResult result = Servokit(directory.path(), {"analyze", "wide.yaml"}, limited);
+  CHECK(result.status == 1);
+  CHECK(Lines(result.err).size() == 1);
+  CHECK(result.err.rfind("servokit: error: wide.yaml: ", 0) == 0);
+  CHECK(result.err.find(": out of memory while ") != std::string::npos);
+  // Unlimited, the same file loads: the limit, not the file, stopped it.
+  CHECK(Servokit(directory.path(), {"analyze", "wide.yaml"}).status == 0);
+}
+#endif
 
 TEST_CASE("a name with a line break is refused at load, naming the key", "[application]") {
   const TemporaryDirectory directory;

@@ -3,6 +3,7 @@
 // every kind of node a model holds (sums, products, powers with constant and varying
 // exponents, functions of one and two arguments, shared subexpressions), and zero for what
 // does not move (parameters, the velocities themselves: the accelerations are not part of D).
+// The same class seeded {q_k: 1} is GiNaC's diff by q_k on the same expressions.
 #include "modeling/time_derivative.h"
 
 #include <catch2/catch.hpp>
@@ -45,6 +46,11 @@ TEST_CASE("D e is sum_k de/dq_k q'_k for every kind of node", "[modeling][time_d
     TimeDerivative rate(coordinates, velocities);
     const GiNaC::ex difference = (rate(e) - ByDefinition(e, coordinates, velocities)).expand();
     CHECK(GiNaC::normal(difference).is_zero());
+    // The seed {q_k: 1} is d/dq_k (the projected equations' Jacobians), one memo for all e.
+    for (const GiNaC::realsymbol& coordinate : coordinates) {
+      DirectionalDerivative partial({{coordinate, 1}});
+      CHECK(GiNaC::normal((partial(e) - e.diff(coordinate)).expand()).is_zero());
+    }
   }
 }
 
