@@ -2,8 +2,10 @@
 
 #include <ginac/ginac.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "analysis/operating_point.h"
 #include "base/errors.h"
@@ -135,6 +137,33 @@ std::vector<double> SignChanges(const ParameterFunction& function, double low, d
   return changes;
 }
 
+// An upper bound on the expanded terms of a polynomial in the coefficients whose every monomial
+// is a product of `factors` of them, with at most `monomials` monomials: monomials * T^factors,
+// T the terms of the longest coefficient. What the Hurwitz determinants and the discriminant
+// are bounded by before GiNaC expands them (a parameter inside cosh and sin gives coefficients of
+// dozens of terms, whose discriminant of degree 6 never finished; issue #31).
+double ProductTermsBound(double monomials, double longest_coefficient, int factors) {
+  return monomials * std::pow(longest_coefficient, factors);
+}
+
+// An upper bound on the monomials of the discriminant of a polynomial of degree n in its
+// coefficients a_0..a_n: the discriminant is homogeneous of degree 2n - 2 and isobaric of
+// weight n(n - 1) (each a_k weighing k), so its monomials are among the exponent vectors e with
+// sum e_k = 2n - 2 and sum k e_k = n(n - 1), counted here (18 for n = 4 against 16 in fact, 338
+// for n = 6 against 246).
+double DiscriminantMonomialsBound(int degree) {
+  const int total = 2 * degree - 2, weight = degree * (degree - 1);
+  // count[d][w]: exponent vectors of the coefficients so far with sum d and weight w.
+  std::vector<std::vector<double>> count(total + 1, std::vector<double>(weight + 1, 0.0));
+  count[0][0] = 1;
+  for (int k = 0; k <= degree; ++k) {  // add a_k with exponents 1, 2, ... (as a coin change)
+    for (int d = 1; d <= total; ++d) {
+      for (int w = k; w <= weight; ++w) count[d][w] += count[d - 1][w - k];
+    }
+  }
+  return count[total][weight];
+}
+
 bool AtRest(const Model& model, Workspace& workspace) {
   const OperatingPoint point = FindOperatingPoint(model, workspace);
   return point.q.lpNorm<Eigen::Infinity>() <= kAtRestTolerance &&
@@ -217,6 +246,27 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     }
   }
 
+  // The conditions' budget, checked before any of them is expanded: a Hurwitz determinant of
+  // order k has at most k! products of k coefficients (bounded tighter through its Laplace
+  // expansion up to kMaxBoundedRows rows, below), the discriminant as above.
+  double longest = 1;
+  for (int k = 0; k <= degree; ++k) {
+    longest = std::max(longest, BoundExpandedTerms(polynomial.coeff(lambda, k)).numerator);
+  }
+  double factorial = 2;
+  for (int order = 2; order < degree; ++order) {
+    if (order > 2) factorial *= order;
+    if (order > int(kMaxBoundedRows) &&
+        ProductTermsBound(factorial, longest, order) > SymbolicModel::kMaxPolynomialTerms) {
+      return std::nullopt;
+    }
+  }
+  // resultant(p, p') = +-a_n disc(p): a product of 2n - 1 coefficients per monomial.
+  if (degree >= 2 && ProductTermsBound(DiscriminantMonomialsBound(degree), longest,
+                                       2 * degree - 1) > SymbolicModel::kMaxPolynomialTerms) {
+    return std::nullopt;
+  }
+
   CharacteristicPolynomial result;
   result.degree = degree;
   std::vector<ex> coefficients;  // a_0 .. a_n
@@ -250,6 +300,10 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     GiNaC::matrix hurwitz{static_cast<unsigned>(order), static_cast<unsigned>(order)};
     for (int i = 0; i < order; ++i) {
       for (int j = 0; j < order; ++j) hurwitz(unsigned(i), unsigned(j)) = c(2 * (j + 1) - (i + 1));
+    }
+    if (order <= int(kMaxBoundedRows) && BoundExpandedTerms(LeibnizDeterminant(hurwitz)).numerator >
+                                             SymbolicModel::kMaxPolynomialTerms) {
+      return std::nullopt;
     }
     add_condition("Delta" + std::to_string(order), Simplify(hurwitz.determinant()));
   }

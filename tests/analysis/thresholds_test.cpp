@@ -21,6 +21,7 @@
 //    where M22 = kappa M21(q2), i.e. (l1 = l2) kappa (2 + 3 cos q2) = 2.
 #include "analysis/thresholds.h"
 
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <numbers>
@@ -331,6 +332,51 @@ TEST_CASE("closed form of the mass on car: m2 sin^2(alpha) lambda^2 + d lambda +
   REQUIRE(closed_form->discriminant_sign_changes.size() == 1);
   CHECK(closed_form->discriminant_sign_changes[0] ==
         Approx(std::asin(1.0 / std::sqrt(40.0))).epsilon(1e-10));
+}
+
+TEST_CASE("a parameter inside cosh and sin: no closed form, bounded; the event where P = 0",
+          "[analysis]") {
+  // tests/data/flexible_link_modes.yaml: the output point xi enters each mode shape phi_i.
+  // The coefficients of the characteristic polynomial (degree 6) then hold dozens of terms, and
+  // the discriminant's budget (8000 terms, bounded from their lengths) refuses the closed form;
+  // before the bound GiNaC's resultant ran past 14 minutes and 1.1 GB.
+  const Model model = LoadModel(TestDataPath("flexible_link_modes.yaml"));
+  const std::size_t xi = *model.FindParameter("xi");
+  CHECK_FALSE(DeriveCharacteristicPolynomial(model, xi, 0.1, 1.0));
+  // The numeric route: the zero dynamics turn unstable through infinity where P vanishes. With
+  // M = [[a, c^T], [c, rho L I]] and B = e1, (M^-1)_i0 = -c_i / (rho L) (M^-1)_00, so
+  // P(xi) = (M^-1)_00 (1 - sum_i c_i phi_i(xi L) / (xi L rho L)), c_i = rho L^2 2 / b_i^2:
+  // its root by bisection, independent of the threshold search.
+  const std::array<double, 3> b = {1.8751, 4.6941, 7.8548}, s = {0.7341, 1.0185, 0.9992};
+  const auto p_factor = [&](double x) {
+    double sum = 0;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const double shape = std::cosh(b[i] * x) - std::cos(b[i] * x) -
+                           s[i] * (std::sinh(b[i] * x) - std::sin(b[i] * x));
+      sum += 2 / (b[i] * b[i]) * shape / x;  // rho = L = 1
+    }
+    return 1 - sum;
+  };
+  double low = 0.25, high = 0.35;
+  REQUIRE(p_factor(low) > 0);
+  REQUIRE(p_factor(high) < 0);
+  for (int i = 0; i < 100; ++i)
+    (p_factor(0.5 * (low + high)) > 0 ? low : high) = 0.5 * (low + high);
+  const ThresholdSearch search = FindThresholds(model, xi, 0.1, 0.4, ThresholdEvent::kStability);
+  REQUIRE(search.events.size() == 1);
+  CHECK(search.events[0].value == Approx(low).epsilon(1e-10));
+  CHECK(search.events[0].from == "asymptotically-stable");
+  CHECK(search.events[0].to == "unstable");
+}
+
+TEST_CASE("the three-link arm keeps its closed form of degree 4 within the budget", "[analysis]") {
+  // Its coefficients have at most 2 terms: the discriminant's bound, 18 monomials (isobaric
+  // count for degree 4) times 2^7, is 2304 of the 8000 allowed.
+  const Model model = LoadModel(ModelPath("three_link_arm.yaml"));
+  const auto closed_form = DeriveCharacteristicPolynomial(model, *model.FindParameter("l"), 0.5, 2);
+  REQUIRE(closed_form.has_value());
+  CHECK(closed_form->degree == 4);
+  CHECK_FALSE(closed_form->discriminant.empty());
 }
 
 TEST_CASE("no closed form where the operating point moves with the parameter", "[analysis]") {

@@ -37,8 +37,8 @@ struct TwoMasses {
       const std::vector<GiNaC::ex> momenta = Momenta(energies.kinetic, velocities);
       const GiNaC::matrix mass = KineticMassMatrix(momenta, velocities, budget);
       CHECK((mass(0, 1) - c).is_zero());
-      const GiNaC::matrix forces = LagrangeForces(energies, momenta, coordinates, velocities,
-                                                  budget);
+      const GiNaC::matrix forces =
+          LagrangeForces(energies, momenta, coordinates, velocities, budget);
       CHECK((forces(1, 0) - (k * y + e * x)).expand().is_zero());
     } catch (const DerivationTooLarge& error) {
       return error.what();
@@ -75,8 +75,8 @@ TEST_CASE("projected equations charge each product of Jacobians", "[modeling]") 
   const SymbolicLock lock;
   const GiNaC::realsymbol q1("q1"), q2("q2"), v1("q1_dot"), v2("q2_dot"), l("l"), m("m");
   const std::vector<GiNaC::realsymbol> coordinates = {q1, q2}, velocities = {v1, v2};
-  const std::vector<WeightedPosition> positions = {
-      {m, l * GiNaC::sin(q1)}, {m, l * GiNaC::sin(q1) + l * GiNaC::sin(q2)}};
+  const std::vector<WeightedPosition> positions = {{m, l * GiNaC::sin(q1)},
+                                                   {m, l * GiNaC::sin(q1) + l * GiNaC::sin(q2)}};
   Energies energies;
   energies.generalized_forces = GiNaC::matrix(2, 1);
   TermBudget enough(7);
