@@ -4,6 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "modeling/expairseq_pairs.h"
 #include "modeling/symbolic_lock.h"
 
 namespace servokit {
@@ -168,9 +169,17 @@ CanonicalExpressions::Scaled CanonicalExpressions::Convert(const GiNaC::ex& expr
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertSum(const GiNaC::ex& sum) {
+  // Each pair coefficient * rest as op(i) would recombine it, without building that product.
+  const auto& add = GiNaC::ex_to<GiNaC::add>(sum);
   std::vector<Scaled> terms;
   terms.reserve(sum.nops());
-  for (std::size_t i = 0; i < sum.nops(); ++i) terms.push_back(Convert(sum.op(i)));
+  for (const GiNaC::expair& pair : detail::ExpairseqPairs::Of(add)) {
+    Scaled term = Convert(pair.rest);
+    term.coefficient *= GiNaC::ex_to<GiNaC::numeric>(pair.coeff);
+    terms.push_back(std::move(term));
+  }
+  const GiNaC::numeric& constant = detail::ExpairseqPairs::OverallCoefficient(add);
+  if (!constant.is_zero()) terms.push_back({constant, one_});
   std::sort(terms.begin(), terms.end(),
             [this](const Scaled& a, const Scaled& b) { return Compare(a.node, b.node) < 0; });
   // Terms GiNaC kept apart can be one node here (the same sum signed two ways): merge them.
@@ -199,10 +208,14 @@ CanonicalExpressions::Scaled CanonicalExpressions::ConvertSum(const GiNaC::ex& s
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::ex& product) {
-  GiNaC::numeric coefficient = 1;
+  // Each pair rest ^ coefficient as op(i) would recombine it, without building that power.
+  const auto& mul = GiNaC::ex_to<GiNaC::mul>(product);
+  GiNaC::numeric coefficient = detail::ExpairseqPairs::OverallCoefficient(mul);
   std::vector<Scaled> factors;
-  for (std::size_t i = 0; i < product.nops(); ++i) {
-    const Scaled factor = Convert(product.op(i));
+  for (const GiNaC::expair& pair : detail::ExpairseqPairs::Of(mul)) {
+    const GiNaC::numeric& exponent = GiNaC::ex_to<GiNaC::numeric>(pair.coeff);
+    const Scaled factor =
+        exponent == 1 ? Convert(pair.rest) : PowerOf(Convert(pair.rest), {exponent, one_});
     coefficient *= factor.coefficient;
     if (factor.node == one_) continue;
     const Node& converted = nodes_[factor.node];
@@ -223,8 +236,11 @@ CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::e
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertPower(const GiNaC::ex& power) {
-  const Scaled base = Convert(power.op(0));
-  const Scaled exponent = Convert(power.op(1));
+  return PowerOf(Convert(power.op(0)), Convert(power.op(1)));
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::PowerOf(const Scaled& base,
+                                                           const Scaled& exponent) {
   Node node;
   node.kind = Kind::kPower;
   if (exponent.node == one_ && exponent.coefficient.is_integer()) {

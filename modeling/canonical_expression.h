@@ -84,6 +84,7 @@ class CanonicalExpressions {
   Scaled ConvertSum(const GiNaC::ex& sum);
   Scaled ConvertProduct(const GiNaC::ex& product);
   Scaled ConvertPower(const GiNaC::ex& power);
+  Scaled PowerOf(const Scaled& base, const Scaled& exponent);
   int CompareScaled(const Scaled& a, const Scaled& b) const;
   void Print(const Scaled& value, int context, std::string& out) const;
   void PrintNode(NodeId id, int context, std::string& out) const;

@@ -18,6 +18,7 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/input_file.h"
+#include "modeling/expairseq_pairs.h"
 #include "modeling/units.h"
 #include "modeling/yaml_document.h"
 
@@ -506,6 +507,15 @@ std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
       !GiNaC::is_a<GiNaC::add>(expression) && !GiNaC::is_a<GiNaC::mul>(expression) &&
       !GiNaC::is_a<GiNaC::power>(expression) && !GiNaC::is_a<GiNaC::function>(expression)) {
     return "unsupported expression " + Text(expression);
+  }
+  if (GiNaC::is_a<GiNaC::expairseq>(expression)) {
+    // A sum's or product's pairs as GiNaC keeps them (op(i) would rebuild each term).
+    const auto& sequence = GiNaC::ex_to<GiNaC::expairseq>(expression);
+    for (const GiNaC::expair& pair : ExpairseqPairs::Of(sequence)) {
+      if (auto problem = FindUnsupported(pair.rest)) return problem;
+      if (auto problem = FindUnsupported(pair.coeff)) return problem;
+    }
+    return FindUnsupported(ExpairseqPairs::OverallCoefficient(sequence));
   }
   for (std::size_t i = 0; i < expression.nops(); ++i) {
     if (auto problem = FindUnsupported(expression.op(i))) return problem;
