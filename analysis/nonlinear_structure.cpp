@@ -51,6 +51,17 @@ struct Dynamics {
   std::vector<std::size_t> zero_parameters;                        // substituted by 0
 };
 
+// The most terms BoundExpandedTerms may promise for a derivative's numerator and denominator
+// before it is kept as derived instead of brought onto one denominator: normal() cancels common
+// factors by multivariate gcds, whose cost grows much faster than the result (issue #31: a
+// two-link arm with an elastic joint, relative degrees {2, 4} after a dynamic extension, spent
+// 5 s there; its fourth derivative promises 1.8e15). The decisions are numeric at the decision
+// points either way; normalised forms are only smaller. The gantry crane's largest derivative
+// (3.1e5) is kept as derived, which moves its algebraic solve by 1.5e-13 relative. The
+// accelerations M^-1 (B u - f) are bounded the same way: a force that is a product of ten sums
+// of five terms would expand to 5^10 terms (solve ran past 120 s).
+constexpr double kMaxNormalTerms = 1e5;
+
 Dynamics BuildDynamics(const Model& model) {
   const SymbolicModel& symbolic = model.symbolic();
   Dynamics dynamics;
@@ -73,11 +84,13 @@ Dynamics BuildDynamics(const Model& model) {
   const GiNaC::matrix output = substitute(symbolic.output());
   const unsigned dof = static_cast<unsigned>(symbolic.dof());
   for (unsigned j = 0; j < dof; ++j) {
-    dynamics.acceleration_drift.push_back(CanonicalNormal(drift(j, 0)));
+    dynamics.acceleration_drift.push_back(NormalWithinBudget(drift(j, 0), kMaxNormalTerms));
   }
   for (unsigned k = 0; k < input.cols(); ++k) {
     std::vector<ex> column;
-    for (unsigned j = 0; j < dof; ++j) column.push_back(CanonicalNormal(input(j, k)));
+    for (unsigned j = 0; j < dof; ++j) {
+      column.push_back(NormalWithinBudget(input(j, k), kMaxNormalTerms));
+    }
     dynamics.acceleration_input.push_back(std::move(column));
   }
   for (unsigned i = 0; i < output.rows(); ++i) {
@@ -89,15 +102,6 @@ Dynamics BuildDynamics(const Model& model) {
   }
   return dynamics;
 }
-
-// The most terms BoundExpandedTerms may promise for a derivative's numerator and denominator
-// before it is kept as derived instead of brought onto one denominator: normal() cancels common
-// factors by multivariate gcds, whose cost grows much faster than the result (issue #31: a
-// two-link arm with an elastic joint, relative degrees {2, 4} after a dynamic extension, spent
-// 5 s there; its fourth derivative promises 1.8e15). The decisions are numeric at the decision
-// points either way; normalised forms are only smaller. The gantry crane's largest derivative
-// (3.1e5) is kept as derived, which moves its algebraic solve by 1.5e-13 relative.
-constexpr double kMaxNormalTerms = 1e5;
 
 // The time derivative of a u-free function phi(q, q', Y) along the motion:
 // drift + sum_k u_k input_coefficients[k].
@@ -421,12 +425,12 @@ class StructureAlgorithm {
         remainder[k] -= kappa[b] * kept_row.coefficients[k];
       }
     }
-    for (ex& entry : remainder) entry = CanonicalNormal(entry);
+    for (ex& entry : remainder) entry = NormalWithinBudget(entry, kMaxNormalTerms);
     if (!CoefficientsVanish(remainder, row.function, dynamics_, points_, tolerance_)) {
       throw InputsNotRemoved(d);
     }
     AddParametersOf(remainder, dynamics_, pinned_);
-    row.function = CanonicalNormal(combined);
+    row.function = NormalWithinBudget(combined, kMaxNormalTerms);
     if (row.function.is_zero()) throw NotIndependent(d);
     row.finished = false;
   }

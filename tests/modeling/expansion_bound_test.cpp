@@ -75,6 +75,8 @@ TEST_CASE("every shipped and test model keeps its closed-form zero-dynamics poly
   for (const std::string& directory : {testing::ModelPath(""), testing::TestDataPath("")}) {
     for (const auto& entry : std::filesystem::directory_iterator(directory)) {
       if (entry.path().extension() != ".yaml") continue;
+      // Past the budget by design: the product of eight sums, as in the next test case.
+      if (entry.path().filename() == "product_of_eight_sums.yaml") continue;
       std::optional<LoadedModel> loaded;
       try {
         loaded.emplace(LoadModelFile(entry.path().string()));
