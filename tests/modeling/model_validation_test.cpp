@@ -201,6 +201,18 @@ TEST_CASE("an expression with a syntax error is named with its text", "[models]"
   RequireError(Edit("k*s + d*s_dot", "cos(s, s)"), "forces[1]: cos() takes 1 argument, found 2");
 }
 
+TEST_CASE("a long expression's syntax error quotes its first 160 bytes and its length",
+          "[models]") {
+  // 1999 terms "k*s + " (6 bytes each) and "k*s +", a sum without its last operand: 11999
+  // bytes, of which the message quotes 160.
+  std::string sum;
+  for (int i = 0; i < 1999; ++i) sum += "k*s + ";
+  sum += "k*s +";
+  const std::string message = ErrorOf(Edit("k*s + d*s_dot", sum));
+  CHECK(message == kSource + ": forces[1]: syntax error in \"" + sum.substr(0, 160) +
+                       "... (11999 bytes)\": unexpected token, got: EOF");
+}
+
 // Found by fuzzing (issue #7; the inputs are in tests/fuzz/regressions/): GiNaC's parser
 // dereferences a null pointer on cos(), and computes number^number exactly, for ever.
 TEST_CASE("parentheses and function arguments are checked before GiNaC parses", "[models]") {
