@@ -246,22 +246,13 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
     }
   }
 
-  // The conditions' budget, checked before any of them is expanded: a Hurwitz determinant of
-  // order k has at most k! products of k coefficients (bounded tighter through its Laplace
-  // expansion up to kMaxBoundedRows rows, below), the discriminant as above.
+  // The conditions' budget, checked before any of them is expanded (the Hurwitz determinants'
+  // in their loop below). resultant(p, p') = +-a_n disc(p): a product of 2n - 1 coefficients
+  // per monomial.
   double longest = 1;
   for (int k = 0; k <= degree; ++k) {
     longest = std::max(longest, BoundExpandedTerms(polynomial.coeff(lambda, k)).numerator);
   }
-  double factorial = 2;
-  for (int order = 2; order < degree; ++order) {
-    if (order > 2) factorial *= order;
-    if (order > int(kMaxBoundedRows) &&
-        ProductTermsBound(factorial, longest, order) > SymbolicModel::kMaxPolynomialTerms) {
-      return std::nullopt;
-    }
-  }
-  // resultant(p, p') = +-a_n disc(p): a product of 2n - 1 coefficients per monomial.
   if (degree >= 2 && ProductTermsBound(DiscriminantMonomialsBound(degree), longest,
                                        2 * degree - 1) > SymbolicModel::kMaxPolynomialTerms) {
     return std::nullopt;
@@ -296,15 +287,19 @@ std::optional<CharacteristicPolynomial> DeriveCharacteristicPolynomial(const Mod
   auto c = [&](int index) -> ex {  // c_i = a_(n-i), zero outside 0..n
     return index < 0 || index > degree ? ex(0) : coefficients[std::size_t(degree - index)];
   };
+  double factorial = 1;  // order!, multiplied up in the loop
   for (int order = 2; order < degree; ++order) {
     GiNaC::matrix hurwitz{static_cast<unsigned>(order), static_cast<unsigned>(order)};
     for (int i = 0; i < order; ++i) {
       for (int j = 0; j < order; ++j) hurwitz(unsigned(i), unsigned(j)) = c(2 * (j + 1) - (i + 1));
     }
-    if (order <= int(kMaxBoundedRows) && BoundExpandedTerms(LeibnizDeterminant(hurwitz)).numerator >
-                                             SymbolicModel::kMaxPolynomialTerms) {
-      return std::nullopt;
-    }
+    // Bounded through its Laplace expansion where that is small enough to write, else as at
+    // most order! products of `order` coefficients.
+    factorial *= order;
+    const double bound = order <= int(kMaxBoundedRows)
+                             ? BoundExpandedTerms(LeibnizDeterminant(hurwitz)).numerator
+                             : ProductTermsBound(factorial, longest, order);
+    if (bound > SymbolicModel::kMaxPolynomialTerms) return std::nullopt;
     add_condition("Delta" + std::to_string(order), Simplify(hurwitz.determinant()));
   }
   if (degree >= 2) {

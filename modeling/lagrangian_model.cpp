@@ -5,6 +5,7 @@
 #include <unordered_set>
 #include <utility>
 
+#include "modeling/expairseq_pairs.h"
 #include "modeling/expansion_bound.h"
 #include "modeling/time_derivative.h"
 
@@ -55,17 +56,16 @@ class IndexedSum {
 // mul::eval pulls each sum's integer content out, a walk over the sum's terms and, where the
 // content is not 1, a copy of the sum, for every product built; a chain's projected M has n^3
 // products of Jacobian entries that are sums of n terms each, so n^4 time and memory (issue
-// #31). That is the only rule of eval left for two or more non-numeric factors once the
-// constructor has merged equal bases, so the product is marked evaluated as it is, unless a
-// number is among its factors: a sum that holds the product copies it without its number and
-// evaluates that copy again (add::split_ex_to_pair), so there the flag would buy nothing.
+// #31). That is the only rule of eval left for two or more factors once the constructor has
+// merged equal bases and gathered the numbers into the overall coefficient, so the product is
+// marked evaluated as it is, unless that coefficient is not 1: a sum that holds the product
+// copies it without its number and evaluates that copy again (add::split_ex_to_pair), so there
+// the flag would buy nothing.
 GiNaC::ex ProductKeepingSums(GiNaC::exvector factors) {
   const GiNaC::mul& product = GiNaC::dynallocate<GiNaC::mul>(std::move(factors));
-  bool keep = product.nops() >= 2;
-  for (std::size_t i = 0; keep && i < product.nops(); ++i) {
-    keep = !GiNaC::is_a<GiNaC::numeric>(product.op(i));
+  if (ExpairseqPairs::Of(product).size() >= 2 && ExpairseqPairs::OverallCoefficient(product) == 1) {
+    product.setflag(GiNaC::status_flags::evaluated);
   }
-  if (keep) product.setflag(GiNaC::status_flags::evaluated);
   return product;
 }
 
@@ -82,17 +82,10 @@ std::pair<GiNaC::ex, GiNaC::ex> SplitNumericFactor(const GiNaC::ex& weight) {
 
 }  // namespace
 
-void TermBudget::Charge(double terms, const std::function<std::string()>& entry) {
-  used_ += terms;
-  if (used_ > limit_) {
-    throw DerivationTooLarge("too large: its equations of motion pass the budget of " +
-                             std::to_string(static_cast<long long>(limit_)) +
-                             " terms (about 1 KB each; docs/model-files.md) at " + entry());
-  }
-}
-
-void TermBudget::Charge(const GiNaC::ex& derived, const std::function<std::string()>& entry) {
-  Charge(GiNaC::is_a<GiNaC::add>(derived) ? double(derived.nops()) : 1.0, entry);
+void TermBudget::Exceeded(const std::string& entry) const {
+  throw DerivationTooLarge("too large: its equations of motion pass the budget of " +
+                           std::to_string(static_cast<long long>(limit_)) +
+                           " terms (about 1 KB each; docs/model-files.md) at " + entry);
 }
 
 std::vector<GiNaC::ex> Momenta(const GiNaC::ex& kinetic,

@@ -8,7 +8,6 @@
 // (modeling/symbolic_lock.h).
 #include <ginac/ginac.h>
 
-#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,17 +33,28 @@ class DerivationTooLarge : public std::length_error {
   using std::length_error::length_error;
 };
 
-/// The terms of the entries derived so far, against a limit.
+/// The terms of the entries derived so far, against a limit. `entry` is a callable returning
+/// the entry's name, called only when the limit is passed (a projected chain charges n^3
+/// products: no name, no std::function is built per charge).
 class TermBudget {
  public:
   explicit TermBudget(double limit = kMaxDerivedTerms) : limit_(limit) {}
-  /// Adds `terms`; past the limit, throws DerivationTooLarge naming `entry()` (called only then).
-  void Charge(double terms, const std::function<std::string()>& entry);
+  /// Adds `terms`; past the limit, throws DerivationTooLarge naming `entry()`.
+  template <class Entry>
+  void Charge(double terms, const Entry& entry) {
+    used_ += terms;
+    if (used_ > limit_) Exceeded(entry());
+  }
   /// Adds the terms of `derived` (its operands if a sum, else 1).
-  void Charge(const GiNaC::ex& derived, const std::function<std::string()>& entry);
+  template <class Entry>
+  void Charge(const GiNaC::ex& derived, const Entry& entry) {
+    Charge(GiNaC::is_a<GiNaC::add>(derived) ? double(derived.nops()) : 1.0, entry);
+  }
   double used() const { return used_; }
 
  private:
+  [[noreturn]] void Exceeded(const std::string& entry) const;
+
   double limit_;
   double used_ = 0;
 };

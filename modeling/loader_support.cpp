@@ -12,6 +12,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -463,6 +464,18 @@ std::optional<std::string> ReservedNameProblem(const std::string& name) {
     return "name '" + name + "' is reserved for a constant";
   }
   return std::nullopt;
+}
+
+const GiNaC::realsymbol* FirstSymbolIn(const GiNaC::ex& expression,
+                                       const std::vector<GiNaC::realsymbol>& symbols) {
+  // By GiNaC's hash, never iterated.
+  std::unordered_set<GiNaC::ex, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> held;
+  for (auto node = expression.preorder_begin(); node != expression.preorder_end(); ++node) {
+    if (GiNaC::is_a<GiNaC::symbol>(*node)) held.insert(*node);
+  }
+  const auto found = std::find_if(symbols.begin(), symbols.end(),
+                                  [&](const GiNaC::realsymbol& s) { return held.contains(s); });
+  return found == symbols.end() ? nullptr : &*found;
 }
 
 std::string Excerpt(const std::string& text) {

@@ -120,6 +120,12 @@ std::optional<std::string> FreeTextProblem(std::string_view text, bool line_brea
 /// "key[i]".
 std::string Indexed(std::string_view key, std::size_t i);
 
+/// The first of `symbols` that `expression` holds, or nullptr. One walk: GiNaC's has() walks the
+/// tree once per symbol asked for and matches a pattern at every node, dof times a chain's
+/// positions, which hold n^2 nodes each (issue #31).
+const GiNaC::realsymbol* FirstSymbolIn(const GiNaC::ex& expression,
+                                       const std::vector<GiNaC::realsymbol>& symbols);
+
 /// `text` as an error message quotes it: whole up to 200 bytes, else its first 160 (not cutting a
 /// UTF-8 character) and its length, so that the one-line message of a 10^5-term expression
 /// stays one line.

@@ -16,7 +16,6 @@
 #include <new>
 #include <optional>
 #include <random>
-#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -102,6 +101,7 @@ using detail::kKindKey;
 using detail::Contains;
 using detail::Excerpt;
 using detail::FindUnsupported;
+using detail::FirstSymbolIn;
 using detail::Indexed;
 using detail::Join;
 using detail::kPiName;
@@ -668,22 +668,10 @@ class ModelBuilder {
       const std::vector<GiNaC::ex> momenta = detail::Momenta(energies.kinetic, velocity_symbols_);
       detail::TermBudget budget;
       equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_, budget);
-      const std::set<GiNaC::ex, GiNaC::ex_is_less> velocities(velocity_symbols_.begin(),
-                                                              velocity_symbols_.end());
       for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
         for (unsigned j = 0; j < equations.mass_matrix.cols(); ++j) {
-          // One walk per entry (has() per velocity would walk it dof times).
           const GiNaC::ex& entry = equations.mass_matrix(i, j);
-          const GiNaC::realsymbol* found = nullptr;
-          for (auto node = entry.preorder_begin(); node != entry.preorder_end(); ++node) {
-            if (!velocities.contains(*node)) continue;
-            for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
-              if (GiNaC::ex(velocity).is_equal(*node) && (found == nullptr || &velocity < found)) {
-                found = &velocity;  // the first in the coordinates' order, as the message was
-              }
-            }
-          }
-          if (found != nullptr) {
+          if (const GiNaC::realsymbol* found = FirstSymbolIn(entry, velocity_symbols_)) {
             Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
                                   velocity_symbols_[i].get_name() + " d" +
                                   velocity_symbols_[j].get_name() + " = " + CanonicalText(entry) +
@@ -767,12 +755,10 @@ class ModelBuilder {
                          bool listed = false) const {
     for (unsigned i = 0; i < matrix.rows(); ++i) {
       for (unsigned j = 0; j < matrix.cols(); ++j) {
-        for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
-          if (matrix(i, j).has(velocity)) {
-            Fail(listed ? Indexed(key, i) : Indexed(key, i, j),
-                 "depends on the velocity '" + velocity.get_name() + "'; " + quantity +
-                     " may depend on parameters and coordinates only");
-          }
+        if (const GiNaC::realsymbol* velocity = FirstSymbolIn(matrix(i, j), velocity_symbols_)) {
+          Fail(listed ? Indexed(key, i) : Indexed(key, i, j),
+               "depends on the velocity '" + velocity->get_name() + "'; " + quantity +
+                   " may depend on parameters and coordinates only");
         }
       }
     }
@@ -781,11 +767,9 @@ class ModelBuilder {
   void CheckNoVelocities(const GiNaC::ex& expression,
                          const std::string& key,
                          const std::string& quantity) const {
-    for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
-      if (expression.has(velocity)) {
-        Fail(key, "depends on the velocity '" + velocity.get_name() + "'; " + quantity +
-                      " may depend on parameters and coordinates only");
-      }
+    if (const GiNaC::realsymbol* velocity = FirstSymbolIn(expression, velocity_symbols_)) {
+      Fail(key, "depends on the velocity '" + velocity->get_name() + "'; " + quantity +
+                    " may depend on parameters and coordinates only");
     }
   }
 

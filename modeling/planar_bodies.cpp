@@ -4,7 +4,6 @@
 #include <cmath>
 #include <map>
 #include <optional>
-#include <unordered_set>
 #include <utility>
 
 #include "base/errors.h"
@@ -166,28 +165,14 @@ class Reader {
     }
   }
 
-  // The first of `symbols` that `expression` holds, or nullptr. One walk: GiNaC's has() walks
-  // the tree once per symbol asked for and matches a pattern at every node, n times a chain's
-  // positions, which hold n^2 nodes each (issue #31).
-  static const GiNaC::realsymbol* FirstHeld(const GiNaC::ex& expression,
-                                            const std::vector<GiNaC::realsymbol>& symbols) {
-    std::unordered_set<GiNaC::ex, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> held;
-    for (auto node = expression.preorder_begin(); node != expression.preorder_end(); ++node) {
-      if (GiNaC::is_a<GiNaC::symbol>(*node)) held.insert(*node);
-    }
-    const auto found = std::find_if(symbols.begin(), symbols.end(),
-                                    [&](const GiNaC::realsymbol& s) { return held.count(s) > 0; });
-    return found == symbols.end() ? nullptr : &*found;
-  }
-
   bool DependsOnCoordinates(const GiNaC::ex& expression) const {
-    return FirstHeld(expression, coordinates_) != nullptr;
+    return FirstSymbolIn(expression, coordinates_) != nullptr;
   }
 
   // An expression of the parameters and coordinates only.
   GiNaC::ex Positional(const YAML::Node& node, const std::string& where) const {
     const GiNaC::ex expression = read_(node, where);
-    if (const GiNaC::realsymbol* velocity = FirstHeld(expression, velocities_)) {
+    if (const GiNaC::realsymbol* velocity = FirstSymbolIn(expression, velocities_)) {
       Fail(where, "depends on the velocity '" + velocity->get_name() +
                       "'; positions, angles, masses, forces and directions may depend on "
                       "parameters and coordinates only");
