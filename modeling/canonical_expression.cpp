@@ -127,7 +127,9 @@ CanonicalExpressions::Scaled CanonicalExpressions::Convert(const GiNaC::ex& expr
     node.kind = Kind::kSymbol;
     node.name = GiNaC::ex_to<GiNaC::symbol>(expression).get_name();
     node.original = expression;
-    if (!symbol_ordinals_.contains(expression)) {
+    const auto ordinal = symbol_ordinals_.find(expression);
+    node.ordinal = ordinal == symbol_ordinals_.end() ? symbol_ordinals_.size() : ordinal->second;
+    if (ordinal == symbol_ordinals_.end()) {
       // A symbol outside the ordered list is known by its name alone.
       const auto [previous, inserted] = unlisted_symbols_.emplace(node.name, expression);
       if (!inserted && !previous->second.is_equal(expression)) {
@@ -180,15 +182,41 @@ CanonicalExpressions::Scaled CanonicalExpressions::ConvertSum(const GiNaC::ex& s
   }
   const GiNaC::numeric& constant = detail::ExpairseqPairs::OverallCoefficient(add);
   if (!constant.is_zero()) terms.push_back({constant, one_});
-  std::sort(terms.begin(), terms.end(),
-            [this](const Scaled& a, const Scaled& b) { return Compare(a.node, b.node) < 0; });
+  return Sum(std::move(terms));
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::Sum(std::vector<Scaled> terms) {
+  // A multiple of a sum: GiNaC would have distributed the number (mul::eval) and flattened the
+  // sum into this one (add's make_flat).
+  // A sum's terms are sorted already: the other terms are sorted, and each sorted run merged in,
+  // so that adding a term to a long sum costs a merge, not a sort of the whole.
+  const auto before = [this](const Scaled& a, const Scaled& b) {
+    return Compare(a.node, b.node) < 0;
+  };
+  std::vector<Scaled> flat;
+  std::vector<const Scaled*> runs;  // the multiples of sums, merged in after the others
+  for (Scaled& term : terms) {
+    if (nodes_[term.node].kind == Kind::kSum) {
+      runs.push_back(&term);
+    } else {
+      flat.push_back(std::move(term));
+    }
+  }
+  std::sort(flat.begin(), flat.end(), before);
+  for (const Scaled* run : runs) {
+    const std::size_t middle = flat.size();
+    for (const Scaled& inner : nodes_[run->node].operands) {
+      flat.push_back({inner.coefficient * run->coefficient, inner.node});
+    }
+    std::inplace_merge(flat.begin(), flat.begin() + std::ptrdiff_t(middle), flat.end(), before);
+  }
   // Terms GiNaC kept apart can be one node here (the same sum signed two ways): merge them.
   std::vector<Scaled> merged;
-  for (const Scaled& term : terms) {
+  for (Scaled& term : flat) {
     if (!merged.empty() && merged.back().node == term.node) {
       merged.back().coefficient += term.coefficient;
     } else {
-      merged.push_back(term);
+      merged.push_back(std::move(term));
     }
   }
   std::erase_if(merged, [](const Scaled& term) { return term.coefficient.is_zero(); });
@@ -205,6 +233,69 @@ CanonicalExpressions::Scaled CanonicalExpressions::ConvertSum(const GiNaC::ex& s
   node.kind = Kind::kSum;
   node.operands = std::move(merged);
   return {sign, Intern(std::move(node))};
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::Monomial(
+    GiNaC::numeric coefficient, std::vector<std::pair<NodeId, GiNaC::numeric>> powers) {
+  std::sort(powers.begin(), powers.end(),
+            [this](const auto& a, const auto& b) { return Compare(a.first, b.first) < 0; });
+  std::vector<Scaled> factors;
+  for (std::size_t i = 0; i < powers.size();) {
+    const NodeId base = powers[i].first;
+    GiNaC::numeric exponent = 0;
+    for (; i < powers.size() && powers[i].first == base; ++i) exponent += powers[i].second;
+    if (exponent.is_zero()) continue;
+    factors.push_back({1, PowerOf({1, base}, {exponent, one_}).node});
+  }
+  if (factors.empty() || coefficient.is_zero()) return {coefficient, one_};
+  if (factors.size() == 1) return {coefficient, factors.front().node};
+  std::sort(factors.begin(), factors.end(),
+            [this](const Scaled& a, const Scaled& b) { return Compare(a.node, b.node) < 0; });
+  Node node;
+  node.kind = Kind::kProduct;
+  node.operands = std::move(factors);
+  return {coefficient, Intern(std::move(node))};
+}
+
+GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
+  if (value.node == one_) return value.coefficient;
+  const GiNaC::ex node = NodeExpression(value.node);
+  return value.coefficient == 1 ? node : value.coefficient * node;
+}
+
+GiNaC::ex CanonicalExpressions::NodeExpression(NodeId id) {
+  if (id < expressions_.size() && expressions_[id].has_value()) return *expressions_[id];
+  const Node& node = nodes_[id];  // building expressions adds no node
+  GiNaC::exvector operands;
+  operands.reserve(node.operands.size());
+  for (const Scaled& operand : node.operands) operands.push_back(Expression(operand));
+  GiNaC::ex result;
+  switch (node.kind) {
+    case Kind::kNumber:
+      result = node.number;
+      break;
+    case Kind::kConstant:
+    case Kind::kSymbol:
+    case Kind::kOpaque:
+      result = node.original;
+      break;
+    case Kind::kPower:
+      result = GiNaC::pow(operands[0], operands[1]);
+      break;
+    case Kind::kProduct:
+      result = GiNaC::mul(operands);
+      break;
+    case Kind::kSum:
+      result = GiNaC::add(operands);
+      break;
+    case Kind::kFunction:
+      result = GiNaC::function(GiNaC::function::find_function(node.name, unsigned(operands.size())),
+                               operands);
+      break;
+  }
+  if (expressions_.size() <= id) expressions_.resize(nodes_.size());
+  expressions_[id] = result;
+  return result;
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::ex& product) {
@@ -274,12 +365,7 @@ int CanonicalExpressions::Compare(NodeId a, NodeId b) const {
       return Sign(x.name.compare(y.name));
     case Kind::kSymbol: {
       if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
-      const auto ordinal_x = symbol_ordinals_.find(x.original);
-      const auto ordinal_y = symbol_ordinals_.find(y.original);
-      const std::size_t unlisted = symbol_ordinals_.size();
-      const std::size_t first = ordinal_x == symbol_ordinals_.end() ? unlisted : ordinal_x->second;
-      const std::size_t second = ordinal_y == symbol_ordinals_.end() ? unlisted : ordinal_y->second;
-      return first < second ? -1 : (first > second ? 1 : 0);
+      return x.ordinal < y.ordinal ? -1 : (x.ordinal > y.ordinal ? 1 : 0);
     }
     case Kind::kOpaque:
       return Sign(GinacText(x.original).compare(GinacText(y.original)));

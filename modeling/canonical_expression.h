@@ -25,9 +25,11 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 namespace servokit {
@@ -58,7 +60,8 @@ class CanonicalExpressions {
     std::string name;
     GiNaC::numeric number;
     std::vector<Scaled> operands;
-    GiNaC::ex original;  // kSymbol: the symbol; kOpaque: the expression; unused otherwise
+    GiNaC::ex original;       // kSymbol: the symbol; kOpaque: the expression; unused otherwise
+    std::size_t ordinal = 0;  // kSymbol: its place in the ordered list (its size if unlisted)
   };
 
   /// `ordered_symbols` breaks ties between distinct symbols of the same name (their order in
@@ -71,6 +74,25 @@ class CanonicalExpressions {
   /// The canonical form of `expression` (GiNaC's automatic evaluation having happened).
   Scaled Add(const GiNaC::ex& expression);
 
+  // Building canonical forms without GiNaC (servokit's reader of expressions,
+  // modeling/expression_parser.h). Each applies the rules GiNaC's automatic evaluation applies
+  // to the same operation, so that the result is what Add() gives for the GiNaC expression; a
+  // test holds the two routes equal (tests/modeling/expression_parser_test.cpp).
+
+  /// A number.
+  Scaled Number(const GiNaC::numeric& value) const { return {value, one_}; }
+  /// The sum of `terms` (GiNaC's add): a term that is a multiple of a sum is replaced by the
+  /// multiples of its terms, equal terms are combined and zero terms dropped. A number times a
+  /// sum alone is such a sum: GiNaC's mul distributes a number over a single sum.
+  Scaled Sum(std::vector<Scaled> terms);
+  /// coefficient * prod_k base_k^exponent_k for symbols base_k and integer exponents (GiNaC's
+  /// mul of such factors): the exponents of a base added, zero ones dropped.
+  Scaled Monomial(GiNaC::numeric coefficient,
+                  std::vector<std::pair<NodeId, GiNaC::numeric>> powers);
+  /// The GiNaC expression of `value`, built (and so evaluated by GiNaC) from its nodes; each node
+  /// is built once. For the operations the builders above do not take.
+  GiNaC::ex Expression(const Scaled& value);
+
   const Node& node(NodeId id) const { return nodes_[id]; }
   NodeId one() const { return one_; }
   /// The total order of nodes: <0, 0 or >0, as a before, equal to or after b.
@@ -80,6 +102,7 @@ class CanonicalExpressions {
 
  private:
   NodeId Intern(Node node);
+  GiNaC::ex NodeExpression(NodeId id);
   Scaled Convert(const GiNaC::ex& expression);
   Scaled ConvertSum(const GiNaC::ex& sum);
   Scaled ConvertProduct(const GiNaC::ex& product);
@@ -112,6 +135,7 @@ class CanonicalExpressions {
   std::unordered_map<GiNaC::ex, std::size_t, std::hash<GiNaC::ex>, GiNaC::ex_is_equal>
       symbol_ordinals_;
   std::map<std::string, GiNaC::ex> unlisted_symbols_;  // symbols outside the list, by name
+  std::vector<std::optional<GiNaC::ex>> expressions_;  // Expression() of the nodes, by NodeId
   NodeId one_ = 0;
 };
 
