@@ -1,6 +1,7 @@
 #include "modeling/canonical_expression.h"
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -167,6 +168,7 @@ CanonicalExpressions::Scaled CanonicalExpressions::Convert(const GiNaC::ex& expr
     result = {1, Intern(std::move(node))};
   }
   converted_.emplace(expression, result);
+  Remember(result, expression);
   return result;
 }
 
@@ -245,7 +247,7 @@ CanonicalExpressions::Scaled CanonicalExpressions::Monomial(
     GiNaC::numeric exponent = 0;
     for (; i < powers.size() && powers[i].first == base; ++i) exponent += powers[i].second;
     if (exponent.is_zero()) continue;
-    factors.push_back({1, PowerOf({1, base}, {exponent, one_}).node});
+    factors.push_back({1, SymbolPower(base, exponent)});
   }
   if (factors.empty() || coefficient.is_zero()) return {coefficient, one_};
   if (factors.size() == 1) return {coefficient, factors.front().node};
@@ -257,14 +259,56 @@ CanonicalExpressions::Scaled CanonicalExpressions::Monomial(
   return {coefficient, Intern(std::move(node))};
 }
 
-GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
-  if (value.node == one_) return value.coefficient;
-  const GiNaC::ex node = NodeExpression(value.node);
-  return value.coefficient == 1 ? node : value.coefficient * node;
+double CanonicalExpressions::TreeSize(const Scaled& value, double limit) const {
+  double size = 0.0;
+  std::vector<Scaled> pending = {value};
+  while (!pending.empty() && size <= limit) {
+    const Scaled next = std::move(pending.back());
+    pending.pop_back();
+    size += next.coefficient == 1 || next.node == one_ ? 1.0 : 2.0;
+    const Node& node = nodes_[next.node];
+    pending.insert(pending.end(), node.operands.begin(), node.operands.end());
+  }
+  return size;
 }
 
-GiNaC::ex CanonicalExpressions::NodeExpression(NodeId id) {
-  if (id < expressions_.size() && expressions_[id].has_value()) return *expressions_[id];
+void CanonicalExpressions::Remember(const Scaled& value, const GiNaC::ex& expression) {
+  if (value.node == one_) return;
+  if (expressions_.size() <= value.node) expressions_.resize(nodes_.size());
+  if (!expressions_[value.node].has_value()) {
+    expressions_[value.node] = KnownExpression{value.coefficient, expression};
+  }
+}
+
+CanonicalExpressions::NodeId CanonicalExpressions::SymbolPower(NodeId base,
+                                                               const GiNaC::numeric& exponent) {
+  // The powers of a model's symbols recur in every term of a polynomial: each is interned once.
+  constexpr int kMaxKeptExponent = 1 << 20;
+  if (!exponent.is_integer() || GiNaC::abs(exponent) > kMaxKeptExponent) {
+    return PowerOf({1, base}, {exponent, one_}).node;
+  }
+  const auto key = std::make_pair(base, exponent.to_int());
+  if (const auto found = symbol_powers_.find(key); found != symbol_powers_.end()) {
+    return found->second;
+  }
+  const NodeId power = PowerOf({1, base}, {exponent, one_}).node;
+  symbol_powers_.emplace(key, power);
+  return power;
+}
+
+GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
+  if (value.node == one_) return value.coefficient;
+  if (value.node >= expressions_.size() || !expressions_[value.node].has_value()) {
+    BuildExpression(value.node);
+  }
+  const KnownExpression& known = *expressions_[value.node];
+  if (known.coefficient.is_equal(value.coefficient)) return known.expression;
+  const GiNaC::ex scaled = (value.coefficient / known.coefficient) * known.expression;
+  converted_.emplace(scaled, value);  // Add() of it finds its form without converting it
+  return scaled;
+}
+
+void CanonicalExpressions::BuildExpression(NodeId id) {
   const Node& node = nodes_[id];  // building expressions adds no node
   GiNaC::exvector operands;
   operands.reserve(node.operands.size());
@@ -293,9 +337,8 @@ GiNaC::ex CanonicalExpressions::NodeExpression(NodeId id) {
                                operands);
       break;
   }
-  if (expressions_.size() <= id) expressions_.resize(nodes_.size());
-  expressions_[id] = result;
-  return result;
+  converted_.emplace(result, Scaled{1, id});
+  Remember({1, id}, result);
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::ex& product) {
@@ -336,7 +379,8 @@ CanonicalExpressions::Scaled CanonicalExpressions::PowerOf(const Scaled& base,
   node.kind = Kind::kPower;
   if (exponent.node == one_ && exponent.coefficient.is_integer()) {
     // (c b)^n = c^n b^n: the sign and the factor go outward, as for a product.
-    const GiNaC::numeric coefficient = base.coefficient.power(exponent.coefficient);
+    const GiNaC::numeric coefficient =
+        base.coefficient == 1 ? base.coefficient : base.coefficient.power(exponent.coefficient);
     if (base.node == one_ || exponent.coefficient.is_zero()) return {coefficient, one_};
     if (exponent.coefficient == 1) return {coefficient, base.node};
     node.operands = {{1, base.node}, exponent};
@@ -372,8 +416,18 @@ int CanonicalExpressions::Compare(NodeId a, NodeId b) const {
     case Kind::kFunction:
       if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
       [[fallthrough]];
-    case Kind::kPower:
     case Kind::kProduct:
+      // Factors have coefficient 1: their nodes decide.
+      if (x.operands.size() != y.operands.size()) {
+        return x.operands.size() < y.operands.size() ? -1 : 1;
+      }
+      for (std::size_t i = 0; i < x.operands.size(); ++i) {
+        if (const int factors = Compare(x.operands[i].node, y.operands[i].node); factors != 0) {
+          return factors;
+        }
+      }
+      return 0;
+    case Kind::kPower:
     case Kind::kSum:
       if (x.operands.size() != y.operands.size()) {
         return x.operands.size() < y.operands.size() ? -1 : 1;

@@ -89,6 +89,10 @@ class CanonicalExpressions {
   /// mul of such factors): the exponents of a base added, zero ones dropped.
   Scaled Monomial(GiNaC::numeric coefficient,
                   std::vector<std::pair<NodeId, GiNaC::numeric>> powers);
+  /// The number of nodes of `value` as a tree (a shared node counted where it is used, a
+  /// coefficient other than 1 as one more), counted up to just past `limit`: about the nodes
+  /// GiNaC's walk over the same expression visits (TreeSize, modeling/expansion_bound.h).
+  double TreeSize(const Scaled& value, double limit) const;
   /// The GiNaC expression of `value`, built (and so evaluated by GiNaC) from its nodes; each node
   /// is built once. For the operations the builders above do not take.
   GiNaC::ex Expression(const Scaled& value);
@@ -102,12 +106,16 @@ class CanonicalExpressions {
 
  private:
   NodeId Intern(Node node);
-  GiNaC::ex NodeExpression(NodeId id);
+  // The GiNaC expression of node `id` (coefficient 1), built from its operands' expressions.
+  void BuildExpression(NodeId id);
+  // Keeps `expression` as the GiNaC form of `value` for Expression(), unless one is known.
+  void Remember(const Scaled& value, const GiNaC::ex& expression);
   Scaled Convert(const GiNaC::ex& expression);
   Scaled ConvertSum(const GiNaC::ex& sum);
   Scaled ConvertProduct(const GiNaC::ex& product);
   Scaled ConvertPower(const GiNaC::ex& power);
   Scaled PowerOf(const Scaled& base, const Scaled& exponent);
+  NodeId SymbolPower(NodeId base, const GiNaC::numeric& exponent);
   int CompareScaled(const Scaled& a, const Scaled& b) const;
   void Print(const Scaled& value, int context, std::string& out) const;
   void PrintNode(NodeId id, int context, std::string& out) const;
@@ -134,8 +142,16 @@ class CanonicalExpressions {
   std::unordered_map<GiNaC::ex, Scaled, std::hash<GiNaC::ex>, GiNaC::ex_is_equal> converted_;
   std::unordered_map<GiNaC::ex, std::size_t, std::hash<GiNaC::ex>, GiNaC::ex_is_equal>
       symbol_ordinals_;
-  std::map<std::string, GiNaC::ex> unlisted_symbols_;  // symbols outside the list, by name
-  std::vector<std::optional<GiNaC::ex>> expressions_;  // Expression() of the nodes, by NodeId
+  std::map<std::string, GiNaC::ex> unlisted_symbols_;       // symbols outside the list, by name
+  std::map<std::pair<NodeId, int>, NodeId> symbol_powers_;  // Monomial's powers, interned
+  // A GiNaC expression of each node known so far, by NodeId: one that Add() converted, or one
+  // Expression() built. It equals coefficient * node, so that a product GiNaC evaluated with
+  // its number (2*x*sin(y)) is used again as it is, not built once more.
+  struct KnownExpression {
+    GiNaC::numeric coefficient;
+    GiNaC::ex expression;
+  };
+  std::vector<std::optional<KnownExpression>> expressions_;
   NodeId one_ = 0;
 };
 

@@ -4,10 +4,10 @@
 // GiNaC keeps a sum's terms and a product's factors as pairs (rest, coefficient): coefficient *
 // rest in a sum, rest ^ coefficient in a product, beside an overall number. op(i) hands each out
 // recombined: a new product or power, built and evaluated on every call, which whoever walks
-// the expression takes apart again. For a sum of 10^5 terms that was a tenth of compiling it,
-// and as much again of checking it for unsupported nodes (issue #31). The pairs are protected
-// members of GiNaC::expairseq, meant for its subclasses; this subclass only reads them, and is
-// never instantiated. Internal to modeling/; hold a SymbolicLock (modeling/symbolic_lock.h).
+// the expression takes apart again. For a sum of 10^5 terms that was a tenth of compiling it
+// (issue #31). The pairs are protected members of GiNaC::expairseq, meant for its subclasses;
+// this subclass only reads them, and is never instantiated. Internal to modeling/; hold a
+// SymbolicLock (modeling/symbolic_lock.h).
 #include <ginac/ginac.h>
 
 namespace servokit::detail {

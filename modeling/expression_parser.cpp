@@ -108,8 +108,8 @@ class Reader {
     std::size_t others = 0;
     for (const Factor& factor : factors) {
       // x/c divides by the number: GiNaC's pow(c, -1), which refuses 0 as GiNaC's parser does.
-      coefficient *= factor.divides ? Reciprocal(factor.value.coefficient)
-                                    : factor.value.coefficient;
+      coefficient *=
+          factor.divides ? Reciprocal(factor.value.coefficient) : factor.value.coefficient;
       if (factor.value.node == canonical_.one()) continue;
       const std::size_t known = powers.size();
       if (!AppendSymbolPowers(factor.value.node, factor.divides, powers)) {
@@ -151,8 +151,7 @@ class Reader {
         canonical_.node(base.node).kind == Kind::kSymbol) {
       return canonical_.Monomial(1, {{base.node, exponent.coefficient}});
     }
-    return canonical_.Add(
-        GiNaC::pow(canonical_.Expression(base), canonical_.Expression(exponent)));
+    return canonical_.Add(GiNaC::pow(canonical_.Expression(base), canonical_.Expression(exponent)));
   }
 
   Scaled Primary() {
@@ -192,13 +191,20 @@ class Reader {
       if (!is_digit(position_)) throw SyntaxFailure{};
       while (is_digit(position_)) digits += text_[position_++];
     }
+    // An integer of a few digits is the same number built from a long, without CLN's reader.
+    constexpr std::size_t kLongDigits = 18;
+    if (digits.size() <= kLongDigits &&
+        digits.find_first_not_of("0123456789") == std::string::npos) {
+      return canonical_.Number(GiNaC::numeric(std::stol(digits)));
+    }
     return canonical_.Number(GiNaC::numeric(digits.c_str()));
   }
 
   std::string Name() {
     const std::size_t start = position_;
-    while (position_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[position_])) ||
-                                         text_[position_] == '_')) {
+    while (
+        position_ < text_.size() &&
+        (std::isalnum(static_cast<unsigned char>(text_[position_])) || text_[position_] == '_')) {
       ++position_;
     }
     return std::string(text_.substr(start, position_ - start));

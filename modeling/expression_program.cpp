@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -45,8 +46,11 @@ class ExpressionCompiler {
   using Kind = CanonicalExpressions::Kind;
   using NodeId = CanonicalExpressions::NodeId;
 
-  explicit ExpressionCompiler(const std::vector<GiNaC::ex>& input_symbols)
-      : canonical_(input_symbols) {
+  // Compiles in `canonical`, or in a store of its own when that is null.
+  ExpressionCompiler(const std::vector<GiNaC::ex>& input_symbols, CanonicalExpressions* canonical)
+      : own_canonical_(canonical == nullptr ? std::make_unique<CanonicalExpressions>(input_symbols)
+                                            : nullptr),
+        canonical_(canonical == nullptr ? *own_canonical_ : *canonical) {
     program_.num_inputs_ = input_symbols.size();
     for (std::size_t i = 0; i < input_symbols.size(); ++i) {
       if (!GiNaC::is_a<GiNaC::symbol>(input_symbols[i])) {
@@ -61,11 +65,17 @@ class ExpressionCompiler {
   }
 
   ExpressionProgram Compile(const std::vector<GiNaC::ex>& outputs) && {
+    std::vector<Scaled> values;
+    values.reserve(outputs.size());
+    for (const GiNaC::ex& output : outputs) values.push_back(canonical_.Add(output));
+    return std::move(*this).Compile(values);
+  }
+
+  // `outputs` are forms in the compiler's store.
+  ExpressionProgram Compile(const std::vector<Scaled>& outputs) && {
     std::vector<Slot> output_slots;
     output_slots.reserve(outputs.size());
-    for (const GiNaC::ex& output : outputs) {
-      output_slots.push_back(RegisterScaled(canonical_.Add(output)));
-    }
+    for (const Scaled& output : outputs) output_slots.push_back(RegisterScaled(output));
     // Registers hold [inputs | constants | instructions], but constants were numbered apart
     // while compiling; now that their count is known, place them and the instructions.
     const auto constant_base = static_cast<std::uint32_t>(program_.num_inputs_);
@@ -295,7 +305,8 @@ class ExpressionCompiler {
   // Integer exponents are stored in 32 bits; any power beyond this over- or underflows anyway.
   static constexpr long kMaxIntegerExponent = 1L << 31;
 
-  CanonicalExpressions canonical_;
+  std::unique_ptr<CanonicalExpressions> own_canonical_;
+  CanonicalExpressions& canonical_;
   ExpressionProgram program_;
   std::unordered_map<NodeId, Slot> node_slots_;
   std::map<std::pair<NodeId, double>, Slot> scaled_slots_;
@@ -307,7 +318,19 @@ class ExpressionCompiler {
 
 ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
                                      const std::vector<GiNaC::ex>& input_symbols) {
-  return ExpressionCompiler(input_symbols).Compile(outputs);
+  return ExpressionCompiler(input_symbols, nullptr).Compile(outputs);
+}
+
+ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
+                                     const std::vector<GiNaC::ex>& input_symbols,
+                                     CanonicalExpressions& canonical) {
+  return ExpressionCompiler(input_symbols, &canonical).Compile(outputs);
+}
+
+ExpressionProgram CompileExpressions(const std::vector<CanonicalExpressions::Scaled>& outputs,
+                                     const std::vector<GiNaC::ex>& input_symbols,
+                                     CanonicalExpressions& canonical) {
+  return ExpressionCompiler(input_symbols, &canonical).Compile(outputs);
 }
 
 // Hot loop of every numeric algorithm (sweeps call it ~1e6 times per second): one switch per

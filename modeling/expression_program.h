@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "modeling/canonical_expression.h"
 #include "modeling/dual_number.h"
 
 namespace servokit {
@@ -136,5 +137,17 @@ class ExpressionProgram {
 /// non-symbol entry in `input_symbols`.
 ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
                                      const std::vector<GiNaC::ex>& input_symbols);
+
+/// The same, in `canonical`: a store whose ordered symbols are `input_symbols` and which may
+/// hold the expressions already (read by ExpressionParser and handed out by
+/// CanonicalExpressions::Expression), so that they are not converted again. The loader compiles
+/// all of a model's programs in one store.
+ExpressionProgram CompileExpressions(const std::vector<GiNaC::ex>& outputs,
+                                     const std::vector<GiNaC::ex>& input_symbols,
+                                     CanonicalExpressions& canonical);
+/// The same for forms already in `canonical` (ExpressionParser's), without GiNaC.
+ExpressionProgram CompileExpressions(const std::vector<CanonicalExpressions::Scaled>& outputs,
+                                     const std::vector<GiNaC::ex>& input_symbols,
+                                     CanonicalExpressions& canonical);
 
 }  // namespace servokit

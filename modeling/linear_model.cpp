@@ -23,6 +23,8 @@
 #include "base/number_format.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
+#include "modeling/canonical_expression.h"
+#include "modeling/expression_parser.h"
 #include "modeling/expression_program.h"
 #include "modeling/loader_support.h"
 #include "modeling/matrix_market.h"
@@ -317,20 +319,23 @@ class LinearModelBuilder {
   std::shared_ptr<const ExpressionProgram> CompileFactor(const std::string& where,
                                                          const std::string& text) const {
     if (auto problem = FindNameProblem(text)) Fail(where, *problem + " in \"" + text + "\"");
-    GiNaC::ex expression;
+    std::vector<GiNaC::ex> inputs(parameter_symbols_.begin(), parameter_symbols_.end());
+    CanonicalExpressions canonical(inputs);
+    CanonicalExpressions::Scaled expression;
     try {
-      GiNaC::parser reader(symbol_table_, /*strict=*/true);
-      expression = reader(text);
+      expression = ExpressionParser(canonical, symbol_table_).Parse(text);
     } catch (const std::exception& error) {
-      // Syntax errors, and what GiNaC evaluates while it parses (1/0).
+      // Syntax errors, and what GiNaC evaluates for the reader (1/0).
       std::string message = error.what();
       Fail(where, "invalid expression \"" + text + "\": " + message.substr(0, message.find('\n')));
     }
-    if (auto problem = FindUnsupported(expression)) Fail(where, *problem + " in \"" + text + "\"");
-    std::vector<GiNaC::ex> inputs(parameter_symbols_.begin(), parameter_symbols_.end());
+    if (auto problem = FindUnsupported(canonical, expression)) {
+      Fail(where, *problem + " in \"" + text + "\"");
+    }
     std::shared_ptr<const ExpressionProgram> program;
     try {
-      program = std::make_shared<const ExpressionProgram>(CompileExpressions({expression}, inputs));
+      program = std::make_shared<const ExpressionProgram>(
+          CompileExpressions(std::vector{expression}, inputs, canonical));
     } catch (const std::invalid_argument& error) {
       Fail(where, error.what());
     }

@@ -19,7 +19,6 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/input_file.h"
-#include "modeling/expairseq_pairs.h"
 #include "modeling/units.h"
 #include "modeling/yaml_document.h"
 
@@ -502,36 +501,42 @@ std::optional<std::string> FindLexicalProblem(const std::string& text,
   return PowerChecker(text).Check();
 }
 
-std::optional<std::string> FindUnsupported(const GiNaC::ex& expression) {
-  if (GiNaC::is_a<GiNaC::numeric>(expression)) {
-    const auto& number = GiNaC::ex_to<GiNaC::numeric>(expression);
-    if (!number.is_real()) return "complex number " + Text(expression);
-    if (!std::isfinite(number.to_double())) return "number out of range " + Text(expression);
+std::optional<std::string> FindUnsupported(const CanonicalExpressions& canonical,
+                                           const CanonicalExpressions::Scaled& value) {
+  using Kind = CanonicalExpressions::Kind;
+  const auto number_problem = [](const GiNaC::numeric& number) -> std::optional<std::string> {
+    if (!number.is_real()) return "complex number " + Text(number);
+    if (!std::isfinite(number.to_double())) return "number out of range " + Text(number);
     return std::nullopt;
-  }
-  if (GiNaC::is_a<GiNaC::constant>(expression) && !expression.is_equal(GiNaC::Pi)) {
-    return "unsupported constant " + Text(expression);
-  }
-  if (GiNaC::is_a<GiNaC::function>(expression) &&
-      !Contains(kModelFunctions, GiNaC::ex_to<GiNaC::function>(expression).get_name())) {
-    return "unsupported function " + GiNaC::ex_to<GiNaC::function>(expression).get_name();
-  }
-  if (!GiNaC::is_a<GiNaC::symbol>(expression) && !GiNaC::is_a<GiNaC::constant>(expression) &&
-      !GiNaC::is_a<GiNaC::add>(expression) && !GiNaC::is_a<GiNaC::mul>(expression) &&
-      !GiNaC::is_a<GiNaC::power>(expression) && !GiNaC::is_a<GiNaC::function>(expression)) {
-    return "unsupported expression " + Text(expression);
-  }
-  if (GiNaC::is_a<GiNaC::expairseq>(expression)) {
-    // A sum's or product's pairs as GiNaC keeps them (op(i) would rebuild each term).
-    const auto& sequence = GiNaC::ex_to<GiNaC::expairseq>(expression);
-    for (const GiNaC::expair& pair : ExpairseqPairs::Of(sequence)) {
-      if (auto problem = FindUnsupported(pair.rest)) return problem;
-      if (auto problem = FindUnsupported(pair.coeff)) return problem;
+  };
+  // Depth first, each node once; its operands in their order.
+  std::unordered_set<CanonicalExpressions::NodeId> seen;
+  std::vector<CanonicalExpressions::Scaled> pending = {value};
+  while (!pending.empty()) {
+    const CanonicalExpressions::Scaled next = std::move(pending.back());
+    pending.pop_back();
+    if (auto problem = number_problem(next.coefficient)) return problem;
+    if (!seen.insert(next.node).second) continue;
+    const CanonicalExpressions::Node& node = canonical.node(next.node);
+    switch (node.kind) {
+      case Kind::kNumber:
+        if (auto problem = number_problem(node.number)) return problem;
+        break;
+      case Kind::kConstant:
+        if (!node.original.is_equal(GiNaC::Pi)) return "unsupported constant " + node.name;
+        break;
+      case Kind::kFunction:
+        if (!Contains(kModelFunctions, node.name)) return "unsupported function " + node.name;
+        break;
+      case Kind::kOpaque:
+        return "unsupported expression " + Text(node.original);
+      case Kind::kSymbol:
+      case Kind::kPower:
+      case Kind::kProduct:
+      case Kind::kSum:
+        break;
     }
-    return FindUnsupported(ExpairseqPairs::OverallCoefficient(sequence));
-  }
-  for (std::size_t i = 0; i < expression.nops(); ++i) {
-    if (auto problem = FindUnsupported(expression.op(i))) return problem;
+    pending.insert(pending.end(), node.operands.rbegin(), node.operands.rend());
   }
   return std::nullopt;
 }

@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "modeling/canonical_expression.h"
 #include "modeling/model.h"
 
 namespace servokit::detail {
@@ -147,10 +148,12 @@ using NameCheck = std::function<std::optional<std::string>(const std::string& na
 /// something else, or crash on (issue #7's fuzzing: "cos()").
 std::optional<std::string> FindLexicalProblem(const std::string& text, const NameCheck& check_name);
 
-/// The first construct a parsed expression may not contain, or nullopt. The parser only builds
-/// what docs/model-files.md allows from the names it is given, but GiNaC evaluates while it parses:
-/// sqrt(-1) becomes I and 1e400 a float no double holds.
-std::optional<std::string> FindUnsupported(const GiNaC::ex& expression);
+/// The first construct an expression read by ExpressionParser (in `canonical`) may not contain,
+/// or nullopt, in canonical order. The reader only builds what docs/model-files.md allows from
+/// the names it is given, but GiNaC evaluates what the reader hands it: sqrt(-1) becomes I and
+/// 1e400 a float no double holds.
+std::optional<std::string> FindUnsupported(const CanonicalExpressions& canonical,
+                                           const CanonicalExpressions::Scaled& value);
 
 /// Applies the parameter overrides to `parameters` (in the order of `parameter_names`). Throws
 /// ParameterOverrideError for an unknown name (listing the known ones) or a value that is not a

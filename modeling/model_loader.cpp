@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <new>
 #include <optional>
 #include <random>
@@ -26,6 +27,7 @@
 #include "base/errors.h"
 #include "modeling/canonical_expression.h"
 #include "modeling/expansion_bound.h"
+#include "modeling/expression_parser.h"
 #include "modeling/expression_program.h"
 #include "modeling/lagrangian_model.h"
 #include "modeling/loader_support.h"
@@ -468,6 +470,17 @@ class ModelBuilder {
       add(name + std::string(kVelocitySuffix), velocity_symbols_);
     }
     symbol_table_[std::string(kPiName)] = GiNaC::Pi;
+    canonical_ = std::make_shared<CanonicalExpressions>(
+        ProgramInputSymbols(parameter_symbols_, coordinate_symbols_, velocity_symbols_));
+  }
+
+  // Compiles in the model's store of canonical forms, where the expressions read from the file
+  // are already (ExpressionParser): they are not converted again.
+  ExpressionProgram CompileInModel(const std::vector<GiNaC::ex>& outputs) const {
+    const std::vector<GiNaC::ex> inputs =
+        ProgramInputSymbols(parameter_symbols_, coordinate_symbols_, velocity_symbols_);
+    if (canonical_ == nullptr) return CompileExpressions(outputs, inputs);
+    return CompileExpressions(outputs, inputs, *canonical_);
   }
 
   // Names in `text` that the parser would reject with a less helpful message, or read as
@@ -497,7 +510,9 @@ class ModelBuilder {
     return "unknown symbol '" + name + "'";
   }
 
-  GiNaC::ex ParseExpression(const YAML::Node& node, const std::string& where) const {
+  // The expression at `node` in the model's store of canonical forms, checked.
+  CanonicalExpressions::Scaled ParseExpression(const YAML::Node& node,
+                                               const std::string& where) const {
     if (node.IsNull()) {
       Fail(where, "empty expression");
     }
@@ -508,22 +523,26 @@ class ModelBuilder {
     if (auto problem = FindLexicalProblem(text)) {
       Fail(where, *problem);
     }
-    GiNaC::ex expression;
+    CanonicalExpressions::Scaled expression;
     try {
-      GiNaC::parser reader(symbol_table_, /*strict=*/true);
-      expression = reader(text);
+      expression = ExpressionParser(*canonical_, symbol_table_).Parse(text);
     } catch (const GiNaC::parse_error& error) {
       Fail(where, "syntax error in \"" + Excerpt(text) + "\": " + ParseErrorMessage(error));
     } catch (const std::bad_alloc&) {
       OutOfMemory(where, "parsing it");
     } catch (const std::exception& error) {
-      // GiNaC evaluates while it parses: 1/0 or log(0) throw here.
+      // GiNaC evaluates what the reader hands it: 1/0 or log(0) throw here.
       Fail(where, "invalid expression \"" + Excerpt(text) + "\": " + error.what());
     }
-    if (auto problem = FindUnsupported(expression)) {
+    if (auto problem = FindUnsupported(*canonical_, expression)) {
       Fail(where, *problem + " in \"" + text + "\"");
     }
     return expression;
+  }
+
+  // The same as a GiNaC expression, for what is derived or checked symbolically.
+  GiNaC::ex ParseGiNaC(const YAML::Node& node, const std::string& where) const {
+    return canonical_->Expression(ParseExpression(node, where));
   }
 
   GiNaC::matrix ReadMatrix(const std::string& key,
@@ -549,15 +568,16 @@ class ModelBuilder {
       }
       for (std::size_t j = 0; j < cols; ++j) {
         matrix(static_cast<unsigned>(i), static_cast<unsigned>(j)) =
-            ParseExpression(row[j], Indexed(key, i, j));
+            ParseGiNaC(row[j], Indexed(key, i, j));
       }
     }
     return matrix;
   }
 
-  GiNaC::matrix ReadVector(const std::string& key,
-                           std::size_t size,
-                           const std::string& size_meaning) const {
+  // A list of `size` expressions at `key`, in canonical form.
+  CanonicalColumn ReadColumn(const std::string& key,
+                             std::size_t size,
+                             const std::string& size_meaning) const {
     const YAML::Node node = Entry(key);
     if (!node.IsSequence()) {
       Fail(key, "expected a list of expressions");
@@ -566,9 +586,20 @@ class ModelBuilder {
       Fail(key, "expected " + Count(size, "entry", "entries") + " (" + size_meaning + "), found " +
                     std::to_string(node.size()));
     }
+    CanonicalColumn column{canonical_, {}};
+    for (std::size_t i = 0; i < size; ++i) {
+      column.entries.push_back(ParseExpression(node[i], Indexed(key, i)));
+    }
+    return column;
+  }
+
+  GiNaC::matrix ReadVector(const std::string& key,
+                           std::size_t size,
+                           const std::string& size_meaning) const {
+    const CanonicalColumn column = ReadColumn(key, size, size_meaning);
     GiNaC::matrix vector(static_cast<unsigned>(size), 1);
     for (std::size_t i = 0; i < size; ++i) {
-      vector(static_cast<unsigned>(i), 0) = ParseExpression(node[i], Indexed(key, i));
+      vector(static_cast<unsigned>(i), 0) = canonical_->Expression(column.entries[i]);
     }
     return vector;
   }
@@ -588,7 +619,8 @@ class ModelBuilder {
   }
 
   struct EquationsOfMotion {
-    GiNaC::matrix mass_matrix, forces, input_matrix;
+    GiNaC::matrix mass_matrix, input_matrix;
+    SymbolicModel::Forces forces;  // canonical as the file writes it, GiNaC as derived
     // M's program when the derivation compiled it to check M (Derive); Compile reuses it.
     std::shared_ptr<const ExpressionProgram> mass_matrix_program;
   };
@@ -605,7 +637,7 @@ class ModelBuilder {
         equations.mass_matrix = ReadMatrix(mass_matrix_key, dof, dof, "coordinate");
         CheckNoVelocities(equations.mass_matrix, mass_matrix_key, "M(q)");
         CheckSymmetric(equations.mass_matrix);
-        equations.forces = ReadVector(std::string(kForcesKey), dof, "one per coordinate");
+        equations.forces = ReadColumn(std::string(kForcesKey), dof, "one per coordinate");
         equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
         CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
         return equations;
@@ -613,12 +645,12 @@ class ModelBuilder {
       case Form::kLagrangian: {
         detail::Energies energies;
         const std::string kinetic_key(kKineticEnergyKey), potential_key(kPotentialEnergyKey);
-        energies.kinetic = ParseExpression(Entry(kinetic_key), kinetic_key);
-        energies.potential = ParseExpression(Entry(potential_key), potential_key);
+        energies.kinetic = ParseGiNaC(Entry(kinetic_key), kinetic_key);
+        energies.potential = ParseGiNaC(Entry(potential_key), potential_key);
         CheckNoVelocities(energies.potential, potential_key, "V(q)");
         const std::string dissipation_key(kDissipationKey);
         if (const YAML::Node dissipation = Entry(dissipation_key)) {
-          energies.dissipation = ParseExpression(dissipation, dissipation_key);
+          energies.dissipation = ParseGiNaC(dissipation, dissipation_key);
         }
         const std::string generalized_key(kGeneralizedForcesKey);
         energies.generalized_forces = Entry(generalized_key)
@@ -632,7 +664,7 @@ class ModelBuilder {
       case Form::kPlanarBodies: {
         const detail::ExpressionReader read = [this](const YAML::Node& node,
                                                      const std::string& where) {
-          return ParseExpression(node, where);
+          return ParseGiNaC(node, where);
         };
         detail::PlanarBodies bodies;
         const std::string cannot = "cannot differentiate the positions and angles";
@@ -711,9 +743,8 @@ class ModelBuilder {
 
   // M's program (kept for Compile) and the check that M is positive definite.
   void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
-    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(CompileExpressions(
-        ColumnMajor({equations.mass_matrix}),
-        ProgramInputSymbols(parameter_symbols_, coordinate_symbols_, velocity_symbols_)));
+    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
+        CompileInModel(ColumnMajor({equations.mass_matrix})));
     CheckPositiveDefinite(*equations.mass_matrix_program, key);
   }
 
@@ -837,7 +868,6 @@ class ModelBuilder {
   // `mass_matrix_program`: M's, when the derivation compiled it already (else null).
   void Compile(const SymbolicModel& symbolic,
                std::shared_ptr<const ExpressionProgram> mass_matrix_program) {
-    const std::vector<GiNaC::ex> inputs = symbolic.ProgramInputs();
     struct Derived {
       Quantity quantity;
       std::string_view name;  // for the error message only
@@ -845,7 +875,10 @@ class ModelBuilder {
     };
     const std::vector<Derived> quantities = {
         {Quantity::kMassMatrix, "mass matrix", {symbolic.mass_matrix()}},
-        {Quantity::kForces, "forces", {symbolic.forces()}},
+        // f read from the file is compiled from its canonical form (below), never built in GiNaC.
+        {Quantity::kForces, "forces",
+         symbolic.canonical_forces() != nullptr ? std::vector<GiNaC::matrix>{}
+                                                : std::vector<GiNaC::matrix>{symbolic.forces()}},
         {Quantity::kInputMatrix, "input matrix", {symbolic.input_matrix()}},
         {Quantity::kOutput, "outputs", {symbolic.output()}},
         {Quantity::kOutputJacobian, "output Jacobian H", {symbolic.output_jacobian()}},
@@ -867,9 +900,13 @@ class ModelBuilder {
       if (IsForwardModeQuantity(derived.quantity) && !symbolic.has_symbolic_jacobians()) {
         continue;  // no program: Evaluate differentiates those of f and B in forward mode
       }
+      const CanonicalColumn* canonical = symbolic.canonical_forces();
       try {
         model_.programs_[index] = std::make_shared<const ExpressionProgram>(
-            CompileExpressions(ColumnMajor(derived.blocks), inputs));
+            derived.quantity == Quantity::kForces && canonical != nullptr
+                ? CompileExpressions(canonical->entries, symbolic.ProgramInputs(),
+                                     *canonical->store)
+                : CompileInModel(ColumnMajor(derived.blocks)));
       } catch (const std::invalid_argument& error) {
         // Every entry passed FindUnsupported, so this is a derivative GiNaC wrote in a form
         // the compiler does not know; it still comes from the file, so report it as such.
@@ -921,6 +958,8 @@ class ModelBuilder {
   Form form_;
   GiNaC::symtab symbol_table_;
   std::vector<GiNaC::realsymbol> parameter_symbols_, coordinate_symbols_, velocity_symbols_;
+  // Every expression of the model in canonical form, from reading to compiling (MakeSymbols).
+  std::shared_ptr<CanonicalExpressions> canonical_;
 };
 
 Model ModelFromLinearEquations(const LinearEquations& equations) {

@@ -86,7 +86,7 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                              std::vector<GiNaC::realsymbol> coordinates,
                              std::vector<GiNaC::realsymbol> velocities,
                              GiNaC::matrix mass_matrix,
-                             GiNaC::matrix forces,
+                             Forces forces,
                              GiNaC::matrix input_matrix,
                              GiNaC::matrix output) {
   const SymbolicLock lock;
@@ -96,17 +96,35 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.coordinates = std::move(coordinates);
   e.velocities = std::move(velocities);
   e.mass_matrix = std::move(mass_matrix);
-  e.forces = std::move(forces);
+  if (auto* column = std::get_if<CanonicalColumn>(&forces)) {
+    e.canonical_forces = std::move(*column);
+    e.forces_built = false;
+  } else {
+    e.forces = std::move(std::get<GiNaC::matrix>(forces));
+  }
   e.input_matrix = std::move(input_matrix);
   e.output = std::move(output);
   assert(e.velocities.size() == e.coordinates.size());
   assert(e.mass_matrix.rows() == dof() && e.mass_matrix.cols() == dof());
-  assert(e.forces.rows() == dof() && e.forces.cols() == 1);
+  assert(e.forces_built ? e.forces.rows() == dof() && e.forces.cols() == 1
+                        : e.canonical_forces->entries.size() == dof());
   assert(e.input_matrix.rows() == dof());
   assert(e.output.cols() == 1);
   e.output_jacobian = Jacobian(e.output, e.coordinates);
   e.output_bias =
       OutputBias(Derivatives(e.output_jacobian, e.coordinates), e.velocities, e.output.rows());
+  if (!e.forces_built) {
+    const double limit = kMaxEagerForcesWork / (2.0 * double(dof()));  // of |f|
+    double size = 0.0;
+    for (const CanonicalExpressions::Scaled& entry : e.canonical_forces->entries) {
+      if (size <= limit) size += e.canonical_forces->store->TreeSize(entry, limit - size);
+    }
+    if (size > limit) {
+      e.jacobian_work = 2.0 * double(dof()) * size;
+      return;  // Evaluate differentiates the programs; f stays canonical until asked for
+    }
+    static_cast<void>(this->forces());  // small: built now, as a model derived in GiNaC
+  }
   e.jacobian_work = JacobianWork(e.forces, e.input_matrix, dof(), kMaxJacobianWork);
   if (e.jacobian_work > kMaxJacobianWork) return;  // Evaluate differentiates the programs
   e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
@@ -122,6 +140,20 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
     e.zero_dynamics_polynomial_terms = BoundExpandedTerms(LeibnizDeterminant(rosenbrock)).numerator;
     e.has_zero_dynamics_polynomial = e.zero_dynamics_polynomial_terms <= kMaxPolynomialTerms;
   }
+}
+
+const GiNaC::matrix& SymbolicModel::forces() const {
+  const SymbolicLock lock;
+  Expressions& e = *expressions_;
+  if (!e.forces_built) {
+    GiNaC::matrix forces(unsigned(dof()), 1);
+    for (unsigned i = 0; i < forces.rows(); ++i) {
+      forces(i, 0) = e.canonical_forces->store->Expression(e.canonical_forces->entries[i]);
+    }
+    e.forces = std::move(forces);
+    e.forces_built = true;
+  }
+  return e.forces;
 }
 
 SymbolicModel::ZeroDynamicsPolynomial SymbolicModel::DeriveZeroDynamicsPolynomial() const {

@@ -10,8 +10,12 @@
 
 #include <Eigen/Dense>
 #include <cstddef>
+#include <memory>
+#include <optional>
+#include <variant>
 #include <vector>
 
+#include "modeling/canonical_expression.h"
 #include "modeling/symbolic_lock.h"
 
 namespace servokit {
@@ -25,8 +29,20 @@ std::vector<GiNaC::ex> ProgramInputSymbols(const std::vector<GiNaC::realsymbol>&
                                            const std::vector<GiNaC::realsymbol>& coordinates,
                                            const std::vector<GiNaC::realsymbol>& velocities);
 
+/// Expressions read in canonical form (modeling/expression_parser.h) in `store`, one per row of
+/// a column: a model's f as the file writes it. The SymbolicModel builds their GiNaC forms only
+/// when they are asked for, so that a force of 10^5 terms, compiled straight from its canonical
+/// form, is never built in GiNaC for a model that does not need it (issue #31).
+struct CanonicalColumn {
+  std::shared_ptr<CanonicalExpressions> store;
+  std::vector<CanonicalExpressions::Scaled> entries;
+};
+
 class SymbolicModel {
  public:
+  /// f: GiNaC's (derived from energies or bodies), or the file's in canonical form.
+  using Forces = std::variant<GiNaC::matrix, CanonicalColumn>;
+
   /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
   /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`. The caller
   /// holds a SymbolicLock (it made the arguments); the derivation takes one too.
@@ -34,7 +50,7 @@ class SymbolicModel {
                 std::vector<GiNaC::realsymbol> coordinates,
                 std::vector<GiNaC::realsymbol> velocities,
                 GiNaC::matrix mass_matrix,
-                GiNaC::matrix forces,
+                Forces forces,
                 GiNaC::matrix input_matrix,
                 GiNaC::matrix output);
 
@@ -56,8 +72,13 @@ class SymbolicModel {
 
   /// M(q), dof x dof (paper Eq. 1).
   const GiNaC::matrix& mass_matrix() const { return expressions_->mass_matrix; }
-  /// f(q, q_dot), dof x 1 (paper Eq. 1).
-  const GiNaC::matrix& forces() const { return expressions_->forces; }
+  /// f(q, q_dot), dof x 1 (paper Eq. 1); built from its canonical form on the first call when
+  /// the model was given one (takes a SymbolicLock).
+  const GiNaC::matrix& forces() const;
+  /// f's canonical form when the model was given one (then compile from it), else null.
+  const CanonicalColumn* canonical_forces() const {
+    return expressions_->canonical_forces ? &*expressions_->canonical_forces : nullptr;
+  }
   /// B(q), dof x inputs (paper Eq. 1).
   const GiNaC::matrix& input_matrix() const { return expressions_->input_matrix; }
   /// h(q), outputs x 1 (paper Eq. 3).
@@ -75,6 +96,11 @@ class SymbolicModel {
   // energies about 3.3e4, a sum of 1000 monomials in the forces 4.1e4 (issue #31's benchmark),
   // a chain of 50 pendulums 3.8e6, whose symbolic Jacobians took seconds.
   static constexpr double kMaxJacobianWork = 1e4;
+  /// f given in canonical form is built in GiNaC at load (to count that work exactly, and for
+  /// its Jacobians) only when its canonical form promises at most this work (counted the same
+  /// way: its tree size is about GiNaC's). Beyond, the Jacobians are past kMaxJacobianWork
+  /// anyway, and f is built in GiNaC only if something asks for it.
+  static constexpr double kMaxEagerForcesWork = 10 * kMaxJacobianWork;
   /// df/dq, dof x dof (empty without has_symbolic_jacobians()).
   const GiNaC::matrix& forces_position_jacobian() const {
     return expressions_->forces_position_jacobian;
@@ -138,6 +164,8 @@ class SymbolicModel {
   struct Expressions {
     std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
     GiNaC::matrix mass_matrix, forces, input_matrix, output;
+    std::optional<CanonicalColumn> canonical_forces;
+    bool forces_built = true;  // false while f is only in canonical_forces
     GiNaC::matrix output_jacobian, output_bias;
     GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
     std::vector<GiNaC::matrix> input_matrix_derivatives;

@@ -117,8 +117,8 @@ std::size_t CompareRoutes(const std::vector<std::string>& texts) {
   const SymbolicLock lock;
   std::size_t compared = 0;
   const auto check_name = [](const std::string& name, bool called) -> std::optional<std::string> {
-    if (called && !std::count(detail::kModelFunctions.begin(), detail::kModelFunctions.end(),
-                              name)) {
+    if (called &&
+        !std::count(detail::kModelFunctions.begin(), detail::kModelFunctions.end(), name)) {
       return "not a function";
     }
     return std::nullopt;
@@ -182,8 +182,8 @@ TEST_CASE("the reader reports GiNaC's errors for text it does not take", "[model
     }
     return "";
   };
-  for (const std::string text : {"x +", "x**2", "x^2^3", "(x", "x)", "1/0", "x/0", "log(0)",
-                                 "0^(-1)", "y", "x y"}) {
+  for (const std::string text :
+       {"x +", "x**2", "x^2^3", "(x", "x)", "1/0", "x/0", "log(0)", "0^(-1)", "y", "x y"}) {
     INFO(text);
     const std::string message = message_of(text);
     CHECK(!message.empty());

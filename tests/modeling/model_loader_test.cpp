@@ -17,6 +17,7 @@
 
 #include "base/errors.h"
 #include "modeling/model.h"
+#include "modeling/symbolic_lock.h"
 #include "modeling/symbolic_model.h"
 #include "tests/test_paths.h"
 
@@ -362,6 +363,56 @@ TEST_CASE("an override in degrees marks its parameter as given in degrees", "[mo
   CHECK(model.parameter_display_units()[4] == DisplayUnit::kDegree);
   CHECK(model.parameters()[4] == 0.1);
   CHECK(model.parameter_display_units()[2] == DisplayUnit::kSI);
+}
+
+// A force of thousands of terms (issue #31): compiled from the canonical form servokit reads it
+// into, its GiNaC form built only when asked for. Both must give the value the terms add up to,
+// summed here in double precision.
+TEST_CASE("a force of thousands of terms is compiled as read and built in GiNaC on demand",
+          "[models]") {
+  constexpr int kTerms = 4000;
+  const double x = 0.3, s = -0.7, k = 5.0;
+  std::ostringstream forces;
+  double expected = k * s;
+  forces << "k*s";
+  for (int i = 0; i < kTerms; ++i) {
+    const int coefficient = 1 + i % 9, power_of_x = i % 17, power_of_s = i / 17;
+    forces << " + 1e-6*" << coefficient << "*x^" << power_of_x << "*s^" << power_of_s;
+    expected += 1e-6 * coefficient * std::pow(x, power_of_x) * std::pow(s, power_of_s);
+  }
+  const Model model = LoadModelFromString(
+      "name: big_force\nparameters: {k: 5}\n"
+      "coordinates: [x, s]\ninputs: [u]\n"
+      "mass_matrix: [[2, 1], [1, 1]]\n"
+      "forces: [\"0\", \"" +
+          forces.str() +
+          "\"]\n"
+          "input_matrix: [[1], [0]]\noutputs: [x]\n",
+      "big_force.yaml");
+  const SymbolicModel& symbolic = model.symbolic();
+  REQUIRE(symbolic.canonical_forces() != nullptr);
+  CHECK_FALSE(symbolic.has_symbolic_jacobians());
+
+  Workspace workspace(model);
+  Evaluate(model, workspace, Eigen::Vector2d(x, s), Eigen::Vector2d(0.0, 0.0), Quantity::kForces);
+  CHECK(std::abs(workspace.forces(1) - expected) <= kRoundOff * std::abs(expected));
+  CHECK(workspace.forces(0) == 0.0);
+
+  const SymbolicLock lock;
+  const GiNaC::ex built = symbolic.forces()(1, 0);
+  GiNaC::exmap at;
+  at[symbolic.parameters()[0]] = k;
+  at[symbolic.coordinates()[0]] = GiNaC::numeric(x);
+  at[symbolic.coordinates()[1]] = GiNaC::numeric(s);
+  const double value = GiNaC::ex_to<GiNaC::numeric>(built.subs(at).evalf()).to_double();
+  CHECK(std::abs(value - expected) <= kRoundOff * std::abs(expected));
+}
+
+TEST_CASE("a small force read from the file is built in GiNaC at load, for its Jacobians",
+          "[models]") {
+  const Model car = LoadModel(ModelPath("mass_on_car.yaml"));
+  CHECK(car.symbolic().canonical_forces() != nullptr);
+  CHECK(car.symbolic().has_symbolic_jacobians());
 }
 
 }  // namespace
