@@ -604,6 +604,33 @@ void CanonicalExpressions::PrintNode(NodeId id, int context, std::string& out) c
   }
 }
 
+DependenceOn::DependenceOn(const CanonicalExpressions& canonical,
+                           const std::vector<CanonicalExpressions::NodeId>& symbols)
+    : canonical_(canonical) {
+  for (const CanonicalExpressions::NodeId symbol : symbols) {
+    if (decided_.size() <= symbol) decided_.resize(symbol + 1, -1);
+    decided_[symbol] = 1;
+  }
+}
+
+bool DependenceOn::operator()(const CanonicalExpressions::Scaled& value) {
+  return Decide(value.node);
+}
+
+bool DependenceOn::Decide(CanonicalExpressions::NodeId id) {
+  if (id < decided_.size() && decided_[id] >= 0) return decided_[id] == 1;
+  bool contains = false;
+  for (const CanonicalExpressions::Scaled& operand : canonical_.node(id).operands) {
+    if (Decide(operand.node)) {
+      contains = true;
+      break;
+    }
+  }
+  if (decided_.size() <= id) decided_.resize(id + 1, -1);
+  decided_[id] = contains ? 1 : 0;
+  return contains;
+}
+
 std::string CanonicalText(const GiNaC::ex& expression) {
   const SymbolicLock lock;
   CanonicalExpressions canonical;

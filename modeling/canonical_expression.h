@@ -155,6 +155,23 @@ class CanonicalExpressions {
   NodeId one_ = 0;
 };
 
+/// Whether forms in a store contain any of some symbols: each node is decided once, however
+/// many forms share it (the dof^2 entries of a mass matrix share most of theirs).
+class DependenceOn {
+ public:
+  /// `symbols`: symbol nodes of `canonical`, which must outlive this.
+  DependenceOn(const CanonicalExpressions& canonical,
+               const std::vector<CanonicalExpressions::NodeId>& symbols);
+  /// True when `value` (a form in the store) contains one of the symbols.
+  bool operator()(const CanonicalExpressions::Scaled& value);
+
+ private:
+  bool Decide(CanonicalExpressions::NodeId id);
+
+  const CanonicalExpressions& canonical_;
+  std::vector<signed char> decided_;  // by NodeId: -1 not yet, 0 free of them, 1 contains one
+};
+
 /// GiNaC's default text of `expression` (x^2, 1/2*y, sqrt(x), sin(x)...), with the terms of
 /// every sum and the factors of every product in the canonical order and sums signed as
 /// above, so that the same expression prints the same in every run.

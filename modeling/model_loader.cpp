@@ -700,21 +700,12 @@ class ModelBuilder {
       const std::vector<GiNaC::ex> momenta = detail::Momenta(energies.kinetic, velocity_symbols_);
       detail::TermBudget budget;
       equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_, budget);
-      for (unsigned i = 0; i < equations.mass_matrix.rows(); ++i) {
-        for (unsigned j = 0; j < equations.mass_matrix.cols(); ++j) {
-          const GiNaC::ex& entry = equations.mass_matrix(i, j);
-          if (const GiNaC::realsymbol* found = FirstSymbolIn(entry, velocity_symbols_)) {
-            Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
-                                  velocity_symbols_[i].get_name() + " d" +
-                                  velocity_symbols_[j].get_name() + " = " + CanonicalText(entry) +
-                                  " depends on the velocity '" + found->get_name() + "'");
-          }
-        }
-      }
+      CompileMassMatrix(equations);
+      CheckMassMatrixFreeOfVelocities(equations.mass_matrix, kinetic_key);
       if (kinetic_energy == KineticEnergy::kWritten) {
         CheckQuadratic(energies.kinetic, equations.mass_matrix, kinetic_key);
       }
-      CompileAndCheckMassMatrix(equations, kinetic_key);
+      CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
       equations.forces =
           detail::LagrangeForces(energies, momenta, coordinate_symbols_, velocity_symbols_, budget);
     });
@@ -741,11 +732,41 @@ class ModelBuilder {
     }
   }
 
-  // M's program (kept for Compile) and the check that M is positive definite.
-  void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
+  // M's program, kept for Compile; M's entries are in the model's store from then on.
+  void CompileMassMatrix(EquationsOfMotion& equations) const {
     equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
         CompileInModel(ColumnMajor({equations.mass_matrix})));
+  }
+
+  // M's program and the check that M is positive definite.
+  void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
+    CompileMassMatrix(equations);
     CheckPositiveDefinite(*equations.mass_matrix_program, key);
+  }
+
+  // d2T/dq_dot2 free of the velocities, as T quadratic in them makes it. Decided on the
+  // canonical forms compiling M left in the store, each shared node once (a walk of each of the
+  // dof^2 GiNaC entries took 2 s for 400 coordinates, issue #31); the entry that fails is named
+  // from its GiNaC form.
+  void CheckMassMatrixFreeOfVelocities(const GiNaC::matrix& mass_matrix,
+                                       const std::string& kinetic_key) const {
+    std::vector<CanonicalExpressions::NodeId> velocities;
+    for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
+      velocities.push_back(canonical_->Add(velocity).node);
+    }
+    DependenceOn depends(*canonical_, velocities);
+    for (unsigned i = 0; i < mass_matrix.rows(); ++i) {
+      for (unsigned j = 0; j < mass_matrix.cols(); ++j) {
+        const GiNaC::ex& entry = mass_matrix(i, j);
+        if (!depends(canonical_->Add(entry))) continue;
+        const GiNaC::realsymbol* found = FirstSymbolIn(entry, velocity_symbols_);
+        Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
+                              velocity_symbols_[i].get_name() + " d" +
+                              velocity_symbols_[j].get_name() + " = " + CanonicalText(entry) +
+                              " depends on the velocity '" +
+                              (found != nullptr ? found->get_name() : std::string("?")) + "'");
+      }
+    }
   }
 
   // M(0) with the nominal parameters is positive definite; a point where an entry is
