@@ -69,6 +69,25 @@ class ExpressionProgram {
                       DualChunk* registers,
                       DualChunk* output_coefficients) const;
 
+  /// Forward-mode Jacobian columns that cost what the seeded inputs reach, not the whole program
+  /// per chunk of columns (Workspace::DifferentiateForwardMode). `registers` hold a pass of
+  /// EvaluateTaylor(0, ...) over DualChunk at the point with every tangent zero; the caller
+  /// seeds the tangents of some inputs and lists them in `carrying`. Runs each instruction that
+  /// reads a register carrying a tangent, as that pass runs it (the same bits), and appends its
+  /// result to `carrying`; every other instruction's tangent is zero and its value unchanged, so
+  /// those are skipped. Then the outputs' registers hold the directional derivatives.
+  /// `carries` is the caller's scratch (a flag per register, all 0 between calls).
+  void PropagateTangents(DualChunk* registers,
+                         std::vector<std::uint32_t>& carrying,
+                         std::vector<char>& carries) const;
+  /// Sets the tangents of `carrying` back to zero (values kept) and empties it: `registers` are
+  /// ready for the next PropagateTangents.
+  void ClearTangents(DualChunk* registers,
+                     std::vector<std::uint32_t>& carrying,
+                     std::vector<char>& carries) const;
+  /// The register that holds output k.
+  std::uint32_t output_register(std::size_t k) const { return output_registers_[k]; }
+
   /// For a caller that keeps `registers` (num_registers() values) for this program alone: writes
   /// the constants into them, once.
   void LoadConstants(double* registers) const;
@@ -114,6 +133,15 @@ class ExpressionProgram {
 
   // Runs the instructions on registers holding the inputs and the constants.
   void Run(double* registers) const;
+  // One instruction of RunTaylor, series of n coefficients, scratch of 4 n (taylor_evaluation).
+  template <typename T>
+  static void RunInstruction(const Instruction& instruction,
+                             std::size_t n,
+                             T* registers,
+                             std::uint32_t result_index,
+                             T* scratch);
+  // Binary operations read register b; kPowInt's b is its exponent.
+  static bool ReadsSecondRegister(OpCode op);
   // EvaluateTaylor for coefficients of type T (modeling/taylor_evaluation.cpp).
   template <typename T>
   void RunTaylor(int degree,

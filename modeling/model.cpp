@@ -217,16 +217,25 @@ void Workspace::DifferentiateForwardMode(const Model& model, Quantity quantity) 
       columns.emplace_back(first_q + j, input_matrix_derivatives[j].data());  // as B's program
     }
   }
+  // Every value once, then per chunk of columns only the instructions its inputs reach: in a
+  // chain of 400 pendulums an instruction reads two or three coordinates, so most of the
+  // program carries no tangent in most chunks (issue #31).
+  program.EvaluateTaylor(0, dual_inputs_.data(), dual_registers_.data(), dual_outputs_.data());
   for (std::size_t first = 0; first < columns.size(); first += kChunk) {
     const std::size_t count = std::min(kChunk, columns.size() - first);
-    for (std::size_t c = 0; c < count; ++c)
-      dual_inputs_[columns[first + c].first].tangent.d[c] = 1.0;
-    program.EvaluateTaylor(0, dual_inputs_.data(), dual_registers_.data(), dual_outputs_.data());
     for (std::size_t c = 0; c < count; ++c) {
-      dual_inputs_[columns[first + c].first].tangent.d[c] = 0.0;
-      double* destination = columns[first + c].second;
-      for (const DualChunk& result : dual_outputs_) *destination++ = result.tangent.d[c];
+      const auto input = static_cast<std::uint32_t>(columns[first + c].first);
+      dual_registers_[input].tangent.d[c] = 1.0;
+      tangent_carrying_.push_back(input);
     }
+    program.PropagateTangents(dual_registers_.data(), tangent_carrying_, tangent_flags_);
+    for (std::size_t c = 0; c < count; ++c) {
+      double* destination = columns[first + c].second;
+      for (std::size_t k = 0; k < program.num_outputs(); ++k) {
+        *destination++ = dual_registers_[program.output_register(k)].tangent.d[c];
+      }
+    }
+    program.ClearTangents(dual_registers_.data(), tangent_carrying_, tangent_flags_);
   }
 }
 

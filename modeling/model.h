@@ -231,6 +231,9 @@ class Workspace {
   // Forward mode's dual numbers (IsForwardModeQuantity): the programs' inputs, registers and
   // outputs, sized at the first use.
   std::vector<DualChunk> dual_inputs_, dual_registers_, dual_outputs_;
+  // ExpressionProgram::PropagateTangents's registers that carry a tangent, and their flags.
+  std::vector<std::uint32_t> tangent_carrying_;
+  std::vector<char> tangent_flags_;
 };
 
 /// Evaluates the quantities in `quantities` (Quantity values or'ed together) at (q, q_dot) with

@@ -203,121 +203,172 @@ struct TaylorRules {
 }  // namespace
 
 template <typename T>
+void ExpressionProgram::RunInstruction(const Instruction& instruction,
+                                       std::size_t n,
+                                       T* registers,
+                                       std::uint32_t result_index,
+                                       T* scratch) {
+  using Rules = TaylorRules<T>;
+  using Series = typename Rules::Series;
+  using ConstSeries = typename Rules::ConstSeries;
+  const auto row = [&](std::uint32_t index) { return Series(registers + index * n, n); };
+  const Series c = row(result_index);
+  const ConstSeries a = row(instruction.a);
+  const auto b = [&] { return ConstSeries(row(instruction.b)); };
+  // Scratch series: a partner function, an auxiliary w, and two for powers.
+  const Series partner(scratch, n), auxiliary(scratch + n, n), spare(scratch + 2 * n, n),
+      spare2(scratch + 3 * n, n);
+  switch (instruction.op) {
+    case OpCode::kAdd:
+      for (std::size_t k = 0; k < n; ++k) c[k] = a[k] + b()[k];
+      break;
+    case OpCode::kSub:
+      for (std::size_t k = 0; k < n; ++k) c[k] = a[k] - b()[k];
+      break;
+    case OpCode::kMul:
+      Rules::Multiply(a, b(), c);
+      break;
+    case OpCode::kDiv:
+      Rules::Divide(a, b(), c);
+      break;
+    case OpCode::kNeg:
+      for (std::size_t k = 0; k < n; ++k) c[k] = -a[k];
+      break;
+    case OpCode::kReciprocal:
+      Rules::Divide({}, a, c);
+      break;
+    case OpCode::kPowInt:
+      Rules::PowerInteger(a, instruction.b, c, spare, spare2);
+      break;
+    case OpCode::kPow: {
+      const ConstSeries exponent = b();
+      c[0] = pow(a[0], exponent[0]);
+      if (std::all_of(exponent.begin() + 1, exponent.end(), [](const T& e) { return IsZero(e); })) {
+        Rules::PowerConstant(a, exponent[0], c);
+      } else {
+        // a^b = exp(b log a): the exponent's series is b * log(a).
+        Rules::Logarithm(a, spare);
+        Rules::Multiply(exponent, spare, spare2);
+        Rules::Exponential(spare2, c);
+      }
+      break;
+    }
+    case OpCode::kSqrt:
+      Rules::SquareRoot(a, c);
+      break;
+    case OpCode::kSin:
+      Rules::SineCosine(a, false, c, partner);
+      break;
+    case OpCode::kCos:
+      Rules::SineCosine(a, false, partner, c);
+      break;
+    case OpCode::kTan:
+      Rules::Tangent(a, false, c, auxiliary);
+      break;
+    case OpCode::kAsin:
+    case OpCode::kAcos: {
+      // c' sqrt(1 - a^2) = +-a'.
+      Rules::SumOfSquares(a, {}, 1.0, -1.0, spare);
+      Rules::SquareRoot(spare, auxiliary);
+      const bool sine = instruction.op == OpCode::kAsin;
+      c[0] = sine ? asin(a[0]) : acos(a[0]);
+      Rules::IntegrateQuotient(a, auxiliary, sine ? 1.0 : -1.0, c);
+      break;
+    }
+    case OpCode::kAtan:
+      // c' (1 + a^2) = a'.
+      Rules::SumOfSquares(a, {}, 1.0, 1.0, auxiliary);
+      c[0] = atan(a[0]);
+      Rules::IntegrateQuotient(a, auxiliary, 1.0, c);
+      break;
+    case OpCode::kAtan2:
+      Rules::ArcTangent2(a, b(), auxiliary, c);
+      break;
+    case OpCode::kExp:
+      c[0] = exp(a[0]);
+      Rules::Exponential(a, c);
+      break;
+    case OpCode::kLog:
+      Rules::Logarithm(a, c);
+      break;
+    case OpCode::kSinh:
+      Rules::SineCosine(a, true, c, partner);
+      break;
+    case OpCode::kCosh:
+      Rules::SineCosine(a, true, partner, c);
+      break;
+    case OpCode::kTanh:
+      Rules::Tangent(a, true, c, auxiliary);
+      break;
+    case OpCode::kAbs:
+      Rules::AbsoluteValue(a, c);
+      break;
+  }
+}
+
+template <typename T>
 void ExpressionProgram::RunTaylor(int degree,
                                   const T* input_coefficients,
                                   T* registers,
                                   T* output_coefficients) const {
-  using Rules = TaylorRules<T>;
-  using Series = typename Rules::Series;
-  using ConstSeries = typename Rules::ConstSeries;
   const auto n = static_cast<std::size_t>(degree) + 1;
-  const auto row = [&](std::uint32_t index) { return Series(registers + index * n, n); };
   std::copy_n(input_coefficients, num_inputs_ * n, registers);
   for (std::size_t i = 0; i < constants_.size(); ++i) {
-    const Series constant = row(static_cast<std::uint32_t>(num_inputs_ + i));
-    std::fill(constant.begin(), constant.end(), T(0.0));
+    T* constant = registers + (num_inputs_ + i) * n;
+    std::fill(constant, constant + n, T(0.0));
     constant[0] = constants_[i];
   }
-  // Scratch series: a partner function, an auxiliary w, and two for powers.
   std::vector<T> scratch(4 * n);
-  const Series partner(scratch.data(), n), auxiliary(scratch.data() + n, n),
-      spare(scratch.data() + 2 * n, n), spare2(scratch.data() + 3 * n, n);
   auto result_index = static_cast<std::uint32_t>(num_inputs_ + constants_.size());
   for (const Instruction& instruction : instructions_) {
-    const Series c = row(result_index++);
-    const ConstSeries a = row(instruction.a);
-    const auto b = [&] { return ConstSeries(row(instruction.b)); };
-    switch (instruction.op) {
-      case OpCode::kAdd:
-        for (std::size_t k = 0; k < n; ++k) c[k] = a[k] + b()[k];
-        break;
-      case OpCode::kSub:
-        for (std::size_t k = 0; k < n; ++k) c[k] = a[k] - b()[k];
-        break;
-      case OpCode::kMul:
-        Rules::Multiply(a, b(), c);
-        break;
-      case OpCode::kDiv:
-        Rules::Divide(a, b(), c);
-        break;
-      case OpCode::kNeg:
-        for (std::size_t k = 0; k < n; ++k) c[k] = -a[k];
-        break;
-      case OpCode::kReciprocal:
-        Rules::Divide({}, a, c);
-        break;
-      case OpCode::kPowInt:
-        Rules::PowerInteger(a, instruction.b, c, spare, spare2);
-        break;
-      case OpCode::kPow: {
-        const ConstSeries exponent = b();
-        c[0] = pow(a[0], exponent[0]);
-        if (std::all_of(exponent.begin() + 1, exponent.end(),
-                        [](const T& e) { return IsZero(e); })) {
-          Rules::PowerConstant(a, exponent[0], c);
-        } else {
-          // a^b = exp(b log a): the exponent's series is b * log(a).
-          Rules::Logarithm(a, spare);
-          Rules::Multiply(exponent, spare, spare2);
-          Rules::Exponential(spare2, c);
-        }
-        break;
-      }
-      case OpCode::kSqrt:
-        Rules::SquareRoot(a, c);
-        break;
-      case OpCode::kSin:
-        Rules::SineCosine(a, false, c, partner);
-        break;
-      case OpCode::kCos:
-        Rules::SineCosine(a, false, partner, c);
-        break;
-      case OpCode::kTan:
-        Rules::Tangent(a, false, c, auxiliary);
-        break;
-      case OpCode::kAsin:
-      case OpCode::kAcos: {
-        // c' sqrt(1 - a^2) = +-a'.
-        Rules::SumOfSquares(a, {}, 1.0, -1.0, spare);
-        Rules::SquareRoot(spare, auxiliary);
-        const bool sine = instruction.op == OpCode::kAsin;
-        c[0] = sine ? asin(a[0]) : acos(a[0]);
-        Rules::IntegrateQuotient(a, auxiliary, sine ? 1.0 : -1.0, c);
-        break;
-      }
-      case OpCode::kAtan:
-        // c' (1 + a^2) = a'.
-        Rules::SumOfSquares(a, {}, 1.0, 1.0, auxiliary);
-        c[0] = atan(a[0]);
-        Rules::IntegrateQuotient(a, auxiliary, 1.0, c);
-        break;
-      case OpCode::kAtan2:
-        Rules::ArcTangent2(a, b(), auxiliary, c);
-        break;
-      case OpCode::kExp:
-        c[0] = exp(a[0]);
-        Rules::Exponential(a, c);
-        break;
-      case OpCode::kLog:
-        Rules::Logarithm(a, c);
-        break;
-      case OpCode::kSinh:
-        Rules::SineCosine(a, true, c, partner);
-        break;
-      case OpCode::kCosh:
-        Rules::SineCosine(a, true, partner, c);
-        break;
-      case OpCode::kTanh:
-        Rules::Tangent(a, true, c, auxiliary);
-        break;
-      case OpCode::kAbs:
-        Rules::AbsoluteValue(a, c);
-        break;
-    }
+    RunInstruction(instruction, n, registers, result_index++, scratch.data());
   }
   for (std::size_t i = 0; i < output_registers_.size(); ++i) {
-    const ConstSeries output = row(output_registers_[i]);
-    std::copy(output.begin(), output.end(), output_coefficients + i * n);
+    std::copy_n(registers + output_registers_[i] * n, n, output_coefficients + i * n);
+  }
+}
+
+void ExpressionProgram::PropagateTangents(DualChunk* registers,
+                                          std::vector<std::uint32_t>& carrying,
+                                          std::vector<char>& carries) const {
+  // An instruction whose operands carry no tangent has a zero tangent and keeps its value:
+  // only the instructions the seeded inputs reach run, each as a full pass would run it.
+  carries.resize(num_registers(), 0);
+  for (const std::uint32_t seeded : carrying) carries[seeded] = 1;
+  DualChunk scratch[4];
+  auto result_index = static_cast<std::uint32_t>(num_inputs_ + constants_.size());
+  for (const Instruction& instruction : instructions_) {
+    if (carries[instruction.a] != 0 ||
+        (ReadsSecondRegister(instruction.op) && carries[instruction.b] != 0)) {
+      RunInstruction(instruction, 1, registers, result_index, scratch);
+      carries[result_index] = 1;
+      carrying.push_back(result_index);
+    }
+    ++result_index;
+  }
+}
+
+void ExpressionProgram::ClearTangents(DualChunk* registers,
+                                      std::vector<std::uint32_t>& carrying,
+                                      std::vector<char>& carries) const {
+  for (const std::uint32_t index : carrying) {
+    registers[index].tangent = {};
+    carries[index] = 0;
+  }
+  carrying.clear();
+}
+
+bool ExpressionProgram::ReadsSecondRegister(OpCode op) {
+  switch (op) {
+    case OpCode::kAdd:
+    case OpCode::kSub:
+    case OpCode::kMul:
+    case OpCode::kDiv:
+    case OpCode::kPow:
+    case OpCode::kAtan2:
+      return true;
+    default:
+      return false;  // unary; kPowInt's b is its exponent
   }
 }
 

@@ -240,4 +240,55 @@ TEST_CASE("coefficient 0 is the value Evaluate computes, to the bit", "[modeling
   CHECK(series[0] == value[0]);
 }
 
+// Jacobian columns that skip the instructions a chunk's inputs do not reach
+// (PropagateTangents) against full passes over DualChunk seeded the same way: every tangent the
+// same number (a skipped instruction's tangent is +0 where a full pass may give -0, which ==
+// does not tell apart), chunk after chunk on the same registers.
+TEST_CASE("tangents propagated through the reached instructions equal full passes",
+          "[modeling][taylor]") {
+  const SymbolicLock lock;
+  const GiNaC::realsymbol x("x"), y("y"), z("z"), w("w");
+  const std::vector<GiNaC::ex> inputs = {x, y, z, w};
+  const std::vector<GiNaC::ex> outputs = {GiNaC::sin(x) * y + GiNaC::pow(z, 3) / y,
+                                          GiNaC::exp(z) - GiNaC::log(y) * GiNaC::sqrt(x),
+                                          GiNaC::atan2(y, x) + GiNaC::pow(x, y) + GiNaC::abs(z - 1),
+                                          GiNaC::cos(w) * w + 2,
+                                          GiNaC::ex(7),
+                                          z};
+  const ExpressionProgram program = CompileExpressions(outputs, inputs);
+  const std::vector<double> point = {0.7, 1.3, -0.4, 0.9};
+  std::vector<DualChunk> values(inputs.size()), registers(program.num_registers()),
+      unused(program.num_outputs());
+  for (std::size_t i = 0; i < inputs.size(); ++i) values[i] = point[i];
+  program.EvaluateTaylor(0, values.data(), registers.data(), unused.data());
+  std::vector<std::uint32_t> carrying;
+  std::vector<char> carries;
+  // Two chunks on the same registers: {x, z} in directions 0 and 1, then {w, y}.
+  for (const std::vector<std::uint32_t>& seeds :
+       {std::vector<std::uint32_t>{0, 2}, std::vector<std::uint32_t>{3, 1}}) {
+    std::vector<DualChunk> seeded = values, full_registers(program.num_registers()),
+                           full(program.num_outputs());
+    for (std::size_t c = 0; c < seeds.size(); ++c) {
+      seeded[seeds[c]].tangent.d[c] = 1.0;
+      registers[seeds[c]].tangent.d[c] = 1.0;
+      carrying.push_back(seeds[c]);
+    }
+    program.EvaluateTaylor(0, seeded.data(), full_registers.data(), full.data());
+    program.PropagateTangents(registers.data(), carrying, carries);
+    for (std::size_t k = 0; k < program.num_outputs(); ++k) {
+      INFO("output " << k);
+      const DualChunk& propagated = registers[program.output_register(k)];
+      CHECK(propagated.value == full[k].value);
+      for (std::size_t c = 0; c < kChunk; ++c) {
+        CHECK(propagated.tangent.d[c] == full[k].tangent.d[c]);
+      }
+    }
+    program.ClearTangents(registers.data(), carrying, carries);
+    CHECK(carrying.empty());
+  }
+  for (const DualChunk& r : registers) {
+    for (std::size_t c = 0; c < kChunk; ++c) CHECK(r.tangent.d[c] == 0.0);
+  }
+}
+
 }  // namespace servokit
