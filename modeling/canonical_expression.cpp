@@ -324,7 +324,7 @@ void CanonicalExpressions::BuildExpression(NodeId id) {
       result = node.original;
       break;
     case Kind::kPower:
-      result = GiNaC::pow(operands[0], operands[1]);
+      result = EvaluatedPower(operands[0], operands[1]);
       break;
     case Kind::kProduct:
       result = GiNaC::mul(operands);
@@ -629,6 +629,11 @@ bool DependenceOn::Decide(CanonicalExpressions::NodeId id) {
   if (decided_.size() <= id) decided_.resize(id + 1, -1);
   decided_[id] = contains ? 1 : 0;
   return contains;
+}
+
+GiNaC::ex EvaluatedPower(const GiNaC::ex& base, const GiNaC::ex& exponent) {
+  const GiNaC::power power(base, exponent);
+  return GiNaC::ex(power);  // evaluates; copied to the heap only once that succeeded
 }
 
 std::string CanonicalText(const GiNaC::ex& expression) {

@@ -172,6 +172,11 @@ class DependenceOn {
   std::vector<signed char> decided_;  // by NodeId: -1 not yet, 0 free of them, 1 contains one
 };
 
+/// base^exponent, evaluated by GiNaC. Not GiNaC::pow: that allocates the power on the heap and
+/// loses it when evaluating it throws (0^(-1): "division by zero"; found by fuzzing), where a
+/// power built here is freed on the way out.
+GiNaC::ex EvaluatedPower(const GiNaC::ex& base, const GiNaC::ex& exponent);
+
 /// GiNaC's default text of `expression` (x^2, 1/2*y, sqrt(x), sin(x)...), with the terms of
 /// every sum and the factors of every product in the canonical order and sums signed as
 /// above, so that the same expression prints the same in every run.

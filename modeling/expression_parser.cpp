@@ -107,7 +107,7 @@ class Reader {
     const Factor* other = nullptr;  // the one factor that is neither, if only one
     std::size_t others = 0;
     for (const Factor& factor : factors) {
-      // x/c divides by the number: GiNaC's pow(c, -1), which refuses 0 as GiNaC's parser does.
+      // x/c divides by the number: c^(-1), which GiNaC refuses for 0 as its parser does.
       coefficient *=
           factor.divides ? Reciprocal(factor.value.coefficient) : factor.value.coefficient;
       if (factor.value.node == canonical_.one()) continue;
@@ -130,13 +130,13 @@ class Reader {
     operands.reserve(factors.size());
     for (const Factor& factor : factors) {
       const GiNaC::ex value = canonical_.Expression(factor.value);
-      operands.push_back(factor.divides ? GiNaC::pow(value, -1) : value);
+      operands.push_back(factor.divides ? EvaluatedPower(value, -1) : value);
     }
     return canonical_.Add(GiNaC::mul(operands));
   }
 
   GiNaC::numeric Reciprocal(const GiNaC::numeric& number) const {
-    return GiNaC::ex_to<GiNaC::numeric>(GiNaC::pow(number, -1));
+    return GiNaC::ex_to<GiNaC::numeric>(EvaluatedPower(number, -1));
   }
 
   Scaled Power() {
@@ -151,7 +151,8 @@ class Reader {
         canonical_.node(base.node).kind == Kind::kSymbol) {
       return canonical_.Monomial(1, {{base.node, exponent.coefficient}});
     }
-    return canonical_.Add(GiNaC::pow(canonical_.Expression(base), canonical_.Expression(exponent)));
+    return canonical_.Add(
+        EvaluatedPower(canonical_.Expression(base), canonical_.Expression(exponent)));
   }
 
   Scaled Primary() {
@@ -228,7 +229,7 @@ class Reader {
     // GiNaC's parser reads sqrt as a power; every other function of the model language is a
     // GiNaC function of that name.
     if (name == "sqrt" && arguments.size() == 1) {
-      return canonical_.Add(GiNaC::sqrt(arguments.front()));
+      return canonical_.Add(EvaluatedPower(arguments.front(), GiNaC::numeric(1, 2)));
     }
     unsigned serial = 0;
     try {
