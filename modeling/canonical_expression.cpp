@@ -298,9 +298,20 @@ CanonicalExpressions::NodeId CanonicalExpressions::SymbolPower(NodeId base,
 
 GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
   if (value.node == one_) return value.coefficient;
-  if (value.node >= expressions_.size() || !expressions_[value.node].has_value()) {
-    BuildExpression(value.node);
+  const bool known_node = value.node < expressions_.size() && expressions_[value.node].has_value();
+  if (!known_node && nodes_[value.node].kind == Kind::kProduct) {
+    // A product with its number, built as one GiNaC product (the terms of a sum are mostly
+    // such), not as the node's product times the number.
+    GiNaC::exvector factors;
+    factors.reserve(nodes_[value.node].operands.size() + 1);
+    for (const Scaled& factor : nodes_[value.node].operands) factors.push_back(Expression(factor));
+    factors.push_back(value.coefficient);
+    const GiNaC::ex product = GiNaC::mul(factors);
+    converted_.emplace(product, value);
+    Remember(value, product);
+    return product;
   }
+  if (!known_node) BuildExpression(value.node);
   const KnownExpression& known = *expressions_[value.node];
   if (known.coefficient.is_equal(value.coefficient)) return known.expression;
   const GiNaC::ex scaled = (value.coefficient / known.coefficient) * known.expression;

@@ -85,8 +85,9 @@ class CanonicalExpressions {
   /// multiples of its terms, equal terms are combined and zero terms dropped. A number times a
   /// sum alone is such a sum: GiNaC's mul distributes a number over a single sum.
   Scaled Sum(std::vector<Scaled> terms);
-  /// coefficient * prod_k base_k^exponent_k for symbols base_k and integer exponents (GiNaC's
-  /// mul of such factors): the exponents of a base added, zero ones dropped.
+  /// coefficient * prod_k base_k^exponent_k for symbols base_k and integer exponents, and
+  /// functions or constants to the power 1, each once (GiNaC's mul of such factors): the
+  /// exponents of a base added, zero ones dropped.
   Scaled Monomial(GiNaC::numeric coefficient,
                   std::vector<std::pair<NodeId, GiNaC::numeric>> powers);
   /// The number of nodes of `value` as a tree (a shared node counted where it is used, a

@@ -1,5 +1,6 @@
 #include "modeling/expression_parser.h"
 
+#include <algorithm>
 #include <cctype>
 #include <string_view>
 #include <utility>
@@ -69,16 +70,26 @@ class Reader {
     return Multiply(factors);
   }
 
-  // The powers of symbols `value` is a product of, appended to `powers` (negated when it
-  // divides), or false when it is not such a product.
-  bool AppendSymbolPowers(NodeId id,
-                          bool divides,
-                          std::vector<std::pair<NodeId, GiNaC::numeric>>& powers) const {
+  // The factors of node `id` as (base, exponent) pairs, appended to `powers` (exponents negated
+  // when it divides): powers of symbols with integer exponents, and functions and constants to
+  // the power 1, which `atoms` lists. False when `id` has another factor. A function or constant
+  // stays out of a quotient: GiNaC has rules for some of their powers (exp(x)^(-1) is
+  // exp(-x)).
+  bool AppendFactors(NodeId id,
+                     bool divides,
+                     std::vector<std::pair<NodeId, GiNaC::numeric>>& powers,
+                     std::vector<NodeId>& atoms) const {
     const CanonicalExpressions::Node& node = canonical_.node(id);
     const GiNaC::numeric sign = divides ? -1 : 1;
     switch (node.kind) {
       case Kind::kSymbol:
         powers.emplace_back(id, sign);
+        return true;
+      case Kind::kFunction:
+      case Kind::kConstant:
+        if (divides) return false;
+        powers.emplace_back(id, 1);
+        atoms.push_back(id);
         return true;
       case Kind::kPower: {
         const Scaled& base = node.operands[0];
@@ -92,7 +103,7 @@ class Reader {
       }
       case Kind::kProduct:
         for (const Scaled& factor : node.operands) {
-          if (!AppendSymbolPowers(factor.node, divides, powers)) return false;
+          if (!AppendFactors(factor.node, divides, powers, atoms)) return false;
         }
         return true;
       default:
@@ -101,9 +112,11 @@ class Reader {
   }
 
   Scaled Multiply(const std::vector<Factor>& factors) {
-    // Numbers and powers of symbols with integer exponents: a monomial, built here.
+    // Numbers, powers of symbols with integer exponents and functions or constants each once:
+    // a monomial, built here.
     GiNaC::numeric coefficient = 1;
     std::vector<std::pair<NodeId, GiNaC::numeric>> powers;
+    std::vector<NodeId> atoms;
     const Factor* other = nullptr;  // the one factor that is neither, if only one
     std::size_t others = 0;
     for (const Factor& factor : factors) {
@@ -111,16 +124,22 @@ class Reader {
       coefficient *=
           factor.divides ? Reciprocal(factor.value.coefficient) : factor.value.coefficient;
       if (factor.value.node == canonical_.one()) continue;
-      const std::size_t known = powers.size();
-      if (!AppendSymbolPowers(factor.value.node, factor.divides, powers)) {
-        powers.resize(known);
+      const std::size_t known_powers = powers.size(), known_atoms = atoms.size();
+      if (!AppendFactors(factor.value.node, factor.divides, powers, atoms)) {
+        powers.resize(known_powers);
+        atoms.resize(known_atoms);
         other = &factor;
         ++others;
       }
     }
-    if (others == 0) return canonical_.Monomial(std::move(coefficient), std::move(powers));
+    // A function twice is a power of it, for GiNaC's rules (exp(x)*exp(x) is exp(2*x)).
+    std::sort(atoms.begin(), atoms.end());
+    const bool atoms_once = std::adjacent_find(atoms.begin(), atoms.end()) == atoms.end();
+    if (others == 0 && atoms_once) {
+      return canonical_.Monomial(std::move(coefficient), std::move(powers));
+    }
     // A number times one sum: GiNaC's mul distributes the number over the terms.
-    if (others == 1 && powers.empty() && !other->divides &&
+    if (others == 1 && atoms_once && powers.empty() && !other->divides &&
         canonical_.node(other->value.node).kind == Kind::kSum) {
       return canonical_.Sum({{coefficient, other->value.node}});
     }

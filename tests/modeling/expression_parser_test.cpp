@@ -111,6 +111,17 @@ const std::vector<std::string> kRuleCases = {
     "(x + y)^(1/2)*(x + y)^(3/2)",
     "sin(-x) + cos(-x) + tan(0)",
     "(x*y^2*3)/(6*y)",
+    "m*l^2*9*cos(x - y)*x_dot*y_dot",
+    "2*sin(x)*y/3 + Pi*x",
+    "exp(x)*exp(x)",
+    "cos(x)*cos(x)*y",
+    "x/cos(x)",
+    "x/exp(y)",
+    "Pi*x*Pi",
+    "(2*cos(x)*y)*(3*sin(x)*y)",
+    "(cos(x)*y)*(cos(x)*z)",
+    "abs(x)*abs(x)",
+    "-exp(x)*(x + y)",
 };
 
 std::size_t CompareRoutes(const std::vector<std::string>& texts) {
