@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "base/number_format.h"
+#include "modeling/symbolic_model.h"
 #include "reports/escaping.h"
 
 namespace servokit {
@@ -231,6 +232,12 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
       {"tolerances",
        {{"rank_tolerance", options.rank_tolerance},
         {"imaginary_axis_tolerance", options.imaginary_axis_tolerance}}},
+      // How the model's derivatives are taken: the routes its size allowed (docs/model-files.md,
+      // "How servokit reads a model").
+      {"derivatives",
+       {{"jacobians", model.has_program(Quantity::kForcesJacobians) ? "symbolic" : "forward-mode"},
+        // The load-time decision (Model::has_zero_dynamics_polynomial would derive it).
+        {"zero_dynamics_polynomial", model.symbolic().has_zero_dynamics_polynomial()}}},
   };
   if (c.nonlinear_structure) {
     json["nonlinear_structure"] = NonlinearStructureToJson(*c.nonlinear_structure);

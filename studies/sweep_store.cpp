@@ -27,6 +27,7 @@
 #include "base/vocabulary.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
+#include "modeling/symbolic_model.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_mat.h"
 #include "reports/sweep_records.h"
@@ -408,6 +409,9 @@ SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& 
       },
       model.variant());
   if (model.linear()) info.linear = options.linear;
+  if (const Model* multibody = model.multibody()) {
+    info.zero_dynamics_polynomial = multibody->symbolic().has_zero_dynamics_polynomial();
+  }
   return info;
 }
 
@@ -794,6 +798,15 @@ void SweepOutput::WriteRecord(bool completed) const {
       {"servokit_version", SERVOKIT_VERSION},
       {"fingerprint", fingerprint_},
       {"completed", completed}};
+  if (!model_.linear) {
+    // Which route classifies the points: the closed-form polynomial first (points it cannot
+    // decide take the eigenvalues), or the eigenvalues of the linearized zero dynamics at every
+    // point (the polynomial past its budget, or not defined for these options).
+    record["zero_dynamics_route"] =
+        model_.zero_dynamics_polynomial && model_.outputs == 1 && !point.y0 && !point.q_guess
+            ? "polynomial"
+            : "eigenvalues";
+  }
   if (model_.linear) {
     // A linear model is analysed at q = 0, u = 0 (no Newton, no y0/q0) with its own options.
     const LinearAnalysisOptions& linear = *model_.linear;

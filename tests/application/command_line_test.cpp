@@ -43,6 +43,28 @@ TEST_CASE("analyze --format json prints one object with every key of docs/analyz
   CHECK(run.err.empty());
 }
 
+// The routes a model's size allowed (docs/analyze.md): the mass on a car has symbolic Jacobians
+// and its polynomial (two coordinates, one input); a chain of six masses has seven rows in
+// its Rosenbrock matrix, over the polynomial's four; a force of 1200 monomials in q and q'
+// is past the Jacobians' budget of 10^4 nodes.
+TEST_CASE("analyze --format json says how the model's derivatives are taken", "[reports]") {
+  const auto derivatives_of = [](const std::string& model) {
+    const Run run = RunServokit({"analyze", model, "--format", "json"});
+    INFO(model << ": " << run.err);
+    REQUIRE(run.status == 0);
+    return nlohmann::json::parse(run.out)["derivatives"];
+  };
+  const nlohmann::json car = derivatives_of(ModelPath("mass_on_car.yaml"));
+  CHECK(car["jacobians"] == "symbolic");
+  CHECK(car["zero_dynamics_polynomial"] == true);
+  const nlohmann::json chain = derivatives_of(ModelPath("mass_spring_chain.yaml"));
+  CHECK(chain["jacobians"] == "symbolic");
+  CHECK(chain["zero_dynamics_polynomial"] == false);
+  const nlohmann::json large = derivatives_of(TestDataPath("sizes/large_force.yaml"));
+  CHECK(large["jacobians"] == "forward-mode");
+  CHECK(large["zero_dynamics_polynomial"] == false);
+}
+
 TEST_CASE("--set with deg, and the case-4 verdict in JSON", "[reports]") {
   const Run run = RunServokit({"analyze", ModelPath("mass_on_car.yaml"), "--set", "alpha=0 deg",
                                "--set", "d=0", "--format", "json"});

@@ -325,6 +325,23 @@ TEST_CASE("a point without a solution gets its message in quotes and the sweep g
   CHECK(record["points_without_solution"] == 1);
 }
 
+TEST_CASE("sweep.json names the route that classifies the points", "[reports]") {
+  const TemporaryDirectory work;
+  const auto route_of = [&](const std::string& model, const std::string& axis,
+                            const std::string& out, std::vector<std::string> extra) {
+    const Run run = RunServokit(Sweep(model, {axis}, work / out, std::move(extra)));
+    INFO(model << ": " << run.err);
+    REQUIRE(run.status == 0);
+    return nlohmann::json::parse(ReadFile(work / out / "sweep.json"))["zero_dynamics_route"];
+  };
+  // The mass on a car has its closed-form polynomial; with a starting point for Newton the
+  // polynomial (of the equilibrium at q = 0) does not apply; the chain of six masses has none.
+  CHECK(route_of(ModelPath("mass_on_car.yaml"), "d=1,2", "car", {}) == "polynomial");
+  CHECK(route_of(ModelPath("mass_on_car.yaml"), "d=1,2", "car_q0", {"--q0", "0,0"}) ==
+        "eigenvalues");
+  CHECK(route_of(ModelPath("mass_spring_chain.yaml"), "k=100,200", "chain", {}) == "eigenvalues");
+}
+
 TEST_CASE("sweep.json records the model, command line, grid, points, version and completion",
           "[reports]") {
   const TemporaryDirectory work;
