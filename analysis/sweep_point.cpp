@@ -145,10 +145,7 @@ bool AnalyzeFromPolynomial(const Model& model,
                            Workspace& workspace,
                            const ClassificationOptions& options,
                            SweepPoint& point) {
-  if (!model.has_zero_dynamics_polynomial() || model.num_outputs() != 1 ||
-      options.operating_point.y0 || options.operating_point.q_guess) {
-    return false;
-  }
+  if (!SweepTriesPolynomial(model, options)) return false;
   const auto dof = static_cast<Eigen::Index>(model.dof());
   // A model with the polynomial has fewer than SymbolicModel::kMaxPolynomialSize = 4
   // coordinates (dof + inputs <= 4): its vectors fit on the stack, and a sweep that calls this
@@ -339,6 +336,11 @@ void AnalyzeSweepPointInto(const LoadedModel& model,
     // A factor that is not finite at this point (a division by a varied parameter at 0).
     point = FailedLinearPoint(failure);
   }
+}
+
+bool SweepTriesPolynomial(const Model& model, const ClassificationOptions& options) {
+  return model.has_zero_dynamics_polynomial() && model.num_outputs() == 1 &&
+         !options.operating_point.y0 && !options.operating_point.q_guess;
 }
 
 SweepPoint AnalyzeSweepPoint(const Model& model,

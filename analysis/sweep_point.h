@@ -49,6 +49,12 @@ struct SweepPoint {
 /// analyze's message (issue #29).
 enum class SweepPath { kFast, kGeneral };
 
+/// True when the fast path tries the closed-form zero-dynamics polynomial at every point: the
+/// model has one within its budget (Model::has_zero_dynamics_polynomial, which derives it), one
+/// output, and the equilibrium is the one at q = 0 (no y0, no q0). Points it cannot decide, and
+/// every point otherwise, take the eigenvalues of the linearized zero dynamics.
+bool SweepTriesPolynomial(const Model& model, const ClassificationOptions& options);
+
 /// Classifies at workspace.parameters. Options are validated by the caller once per sweep;
 /// the QZ cross-check is not run (it is for single analyses and tests).
 SweepPoint AnalyzeSweepPoint(const Model& model,

@@ -298,20 +298,9 @@ CanonicalExpressions::NodeId CanonicalExpressions::SymbolPower(NodeId base,
 
 GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
   if (value.node == one_) return value.coefficient;
-  const bool known_node = value.node < expressions_.size() && expressions_[value.node].has_value();
-  if (!known_node && nodes_[value.node].kind == Kind::kProduct) {
-    // A product with its number, built as one GiNaC product (the terms of a sum are mostly
-    // such), not as the node's product times the number.
-    GiNaC::exvector factors;
-    factors.reserve(nodes_[value.node].operands.size() + 1);
-    for (const Scaled& factor : nodes_[value.node].operands) factors.push_back(Expression(factor));
-    factors.push_back(value.coefficient);
-    const GiNaC::ex product = GiNaC::mul(factors);
-    converted_.emplace(product, value);
-    Remember(value, product);
-    return product;
+  if (value.node >= expressions_.size() || !expressions_[value.node].has_value()) {
+    BuildExpression(value);
   }
-  if (!known_node) BuildExpression(value.node);
   const KnownExpression& known = *expressions_[value.node];
   if (known.coefficient.is_equal(value.coefficient)) return known.expression;
   const GiNaC::ex scaled = (value.coefficient / known.coefficient) * known.expression;
@@ -319,11 +308,12 @@ GiNaC::ex CanonicalExpressions::Expression(const Scaled& value) {
   return scaled;
 }
 
-void CanonicalExpressions::BuildExpression(NodeId id) {
-  const Node& node = nodes_[id];  // building expressions adds no node
+void CanonicalExpressions::BuildExpression(const Scaled& value) {
+  const Node& node = nodes_[value.node];  // building expressions adds no node
   GiNaC::exvector operands;
-  operands.reserve(node.operands.size());
+  operands.reserve(node.operands.size() + 1);
   for (const Scaled& operand : node.operands) operands.push_back(Expression(operand));
+  Scaled built = {1, value.node};
   GiNaC::ex result;
   switch (node.kind) {
     case Kind::kNumber:
@@ -338,6 +328,10 @@ void CanonicalExpressions::BuildExpression(NodeId id) {
       result = EvaluatedPower(operands[0], operands[1]);
       break;
     case Kind::kProduct:
+      // With its number, as one GiNaC product (the terms of a sum are mostly such), not as the
+      // node's product times the number.
+      operands.push_back(value.coefficient);
+      built = value;
       result = GiNaC::mul(operands);
       break;
     case Kind::kSum:
@@ -348,8 +342,8 @@ void CanonicalExpressions::BuildExpression(NodeId id) {
                                operands);
       break;
   }
-  converted_.emplace(result, Scaled{1, id});
-  Remember({1, id}, result);
+  converted_.emplace(result, built);
+  Remember(built, result);
 }
 
 CanonicalExpressions::Scaled CanonicalExpressions::ConvertProduct(const GiNaC::ex& product) {
@@ -424,9 +418,6 @@ int CanonicalExpressions::Compare(NodeId a, NodeId b) const {
     }
     case Kind::kOpaque:
       return Sign(GinacText(x.original).compare(GinacText(y.original)));
-    case Kind::kFunction:
-      if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
-      [[fallthrough]];
     case Kind::kProduct:
       // Factors have coefficient 1: their nodes decide.
       if (x.operands.size() != y.operands.size()) {
@@ -438,6 +429,10 @@ int CanonicalExpressions::Compare(NodeId a, NodeId b) const {
         }
       }
       return 0;
+    case Kind::kFunction:
+      // Arguments keep their coefficients (sin(2*x), sin(-x)): compared with them, below.
+      if (const int names = x.name.compare(y.name); names != 0) return Sign(names);
+      [[fallthrough]];
     case Kind::kPower:
     case Kind::kSum:
       if (x.operands.size() != y.operands.size()) {

@@ -107,8 +107,9 @@ class CanonicalExpressions {
 
  private:
   NodeId Intern(Node node);
-  // The GiNaC expression of node `id` (coefficient 1), built from its operands' expressions.
-  void BuildExpression(NodeId id);
+  // Builds and remembers a GiNaC expression of `value`'s node from its operands' expressions:
+  // a product with `value`'s number, any other node alone.
+  void BuildExpression(const Scaled& value);
   // Keeps `expression` as the GiNaC form of `value` for Expression(), unless one is known.
   void Remember(const Scaled& value, const GiNaC::ex& expression);
   Scaled Convert(const GiNaC::ex& expression);

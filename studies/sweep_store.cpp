@@ -21,13 +21,13 @@
 #include <system_error>
 #include <utility>
 
+#include "analysis/sweep_point.h"
 #include "analysis/zero_dynamics.h"
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "base/vocabulary.h"
 #include "files/input_file.h"
 #include "files/output_file.h"
-#include "modeling/symbolic_model.h"
 #include "reports/sweep_hdf5.h"
 #include "reports/sweep_mat.h"
 #include "reports/sweep_records.h"
@@ -410,7 +410,7 @@ SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& 
       model.variant());
   if (model.linear()) info.linear = options.linear;
   if (const Model* multibody = model.multibody()) {
-    info.zero_dynamics_polynomial = multibody->symbolic().has_zero_dynamics_polynomial();
+    info.tries_polynomial = SweepTriesPolynomial(*multibody, options.classification);
   }
   return info;
 }
@@ -799,14 +799,10 @@ void SweepOutput::WriteRecord(bool completed) const {
       {"fingerprint", fingerprint_},
       {"completed", completed}};
   if (!model_.linear) {
-    // Which route classifies the points: the closed-form polynomial first (points it cannot
-    // decide take the eigenvalues), or the eigenvalues of the linearized zero dynamics at every
-    // point (the polynomial past its budget, or not defined for these options).
-    record["zero_dynamics_route"] =
-        model_.zero_dynamics_polynomial && model_.outputs == 1 && !point.y0 && !point.q_guess
-            ? "polynomial"
-            : "eigenvalues";
+    // Which route classifies the points (SweepTriesPolynomial).
+    record["zero_dynamics_route"] = model_.tries_polynomial ? "polynomial" : "eigenvalues";
   }
+
   if (model_.linear) {
     // A linear model is analysed at q = 0, u = 0 (no Newton, no y0/q0) with its own options.
     const LinearAnalysisOptions& linear = *model_.linear;

@@ -80,9 +80,9 @@ struct SweepModelInfo {
   // Set for a linear model: the analysis of each point (eigenvalue count, shift, solver, ...).
   std::optional<LinearAnalysisOptions> linear;
   std::size_t dof = 0, outputs = 0;  // bound the relative degrees' text (sweep.h5)
-  // A multibody model whose closed-form zero-dynamics polynomial is within its budget
-  // (SymbolicModel::has_zero_dynamics_polynomial, decided at load).
-  bool zero_dynamics_polynomial = false;
+  // A multibody model's points are classified by its closed-form zero-dynamics polynomial
+  // first (SweepTriesPolynomial).
+  bool tries_polynomial = false;
 };
 /// `options.linear` is recorded for a linear model only.
 SweepModelInfo DescribeSweepModel(const LoadedModel& model, const SweepOptions& options);

@@ -105,5 +105,22 @@ TEST_CASE("two different symbols of one name are refused unless ordered", "[mode
   CHECK(canonical.Compare(b.node, a.node) < 0);
 }
 
+// Functions whose arguments differ only by a number are distinct in the order too, so that a
+// sum of them is sorted the same whatever order its terms come in (a tie would leave GiNaC's).
+TEST_CASE("functions of multiples of one argument are ordered by the multiple", "[models]") {
+  const Symbols in;
+  CanonicalExpressions canonical(in.list());
+  const auto twice = canonical.Add(GiNaC::sin(2 * in.x));
+  const auto thrice = canonical.Add(GiNaC::sin(3 * in.x));
+  const auto negated = canonical.Add(GiNaC::sin(-in.x));
+  CHECK(canonical.Compare(twice.node, thrice.node) < 0);
+  CHECK(canonical.Compare(thrice.node, twice.node) > 0);
+  CHECK(canonical.Compare(negated.node, canonical.Add(GiNaC::sin(in.x)).node) != 0);
+  const auto forward = canonical.Sum({thrice, twice, negated});
+  const auto backward = canonical.Sum({negated, twice, thrice});
+  CHECK(forward.node == backward.node);
+  CHECK(canonical.Text(forward) == canonical.Text(backward));
+}
+
 }  // namespace
 }  // namespace servokit
