@@ -259,6 +259,185 @@ CanonicalExpressions::Scaled CanonicalExpressions::Monomial(
   return {coefficient, Intern(std::move(node))};
 }
 
+bool CanonicalExpressions::AppendMonomialFactors(
+    NodeId id,
+    bool divides,
+    std::vector<std::pair<NodeId, GiNaC::numeric>>& powers,
+    std::vector<NodeId>& atoms) const {
+  const Node& node = nodes_[id];
+  const GiNaC::numeric sign = divides ? -1 : 1;
+  switch (node.kind) {
+    case Kind::kSymbol:
+      powers.emplace_back(id, sign);
+      return true;
+    case Kind::kFunction:
+    case Kind::kConstant:
+      if (divides) return false;
+      powers.emplace_back(id, 1);
+      atoms.push_back(id);
+      return true;
+    case Kind::kPower: {
+      const Scaled& base = node.operands[0];
+      const Scaled& exponent = node.operands[1];
+      if (base.coefficient != 1 || nodes_[base.node].kind != Kind::kSymbol ||
+          exponent.node != one_ || !exponent.coefficient.is_integer()) {
+        return false;
+      }
+      powers.emplace_back(base.node, sign * exponent.coefficient);
+      return true;
+    }
+    case Kind::kProduct:
+      for (const Scaled& factor : node.operands) {
+        if (!AppendMonomialFactors(factor.node, divides, powers, atoms)) return false;
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::Scale(const GiNaC::numeric& factor,
+                                                         const Scaled& value) {
+  const GiNaC::numeric coefficient = factor * value.coefficient;
+  if (coefficient.is_zero()) return {0, one_};
+  // A sum keeps its node for the signs (its first coefficient is positive either way).
+  if (nodes_[value.node].kind != Kind::kSum || coefficient == 1 || coefficient == -1) {
+    return {coefficient, value.node};
+  }
+  return Sum({{coefficient, value.node}});
+}
+
+CanonicalExpressions::Scaled CanonicalExpressions::HeldFunction(std::string name,
+                                                                std::vector<Scaled> arguments) {
+  Node node;
+  node.kind = Kind::kFunction;
+  node.name = std::move(name);
+  node.operands = std::move(arguments);
+  return {1, Intern(std::move(node))};
+}
+
+bool CanonicalExpressions::IsAtom(NodeId id) const {
+  const Node& node = nodes_[id];
+  switch (node.kind) {
+    case Kind::kSymbol:
+    case Kind::kConstant:
+    case Kind::kFunction:
+      return true;
+    case Kind::kPower: {
+      // A power of a symbol, a constant or a function: expand() leaves it as it is.
+      const Scaled& base = node.operands[0];
+      const Kind base_kind = nodes_[base.node].kind;
+      return base.coefficient == 1 && (base_kind == Kind::kSymbol || base_kind == Kind::kConstant ||
+                                       base_kind == Kind::kFunction);
+    }
+    default:
+      return false;
+  }
+}
+
+bool CanonicalExpressions::IsAtomicProduct(NodeId id) const {
+  if (id == one_ || IsAtom(id)) return true;
+  const Node& node = nodes_[id];
+  return node.kind == Kind::kProduct &&
+         std::all_of(node.operands.begin(), node.operands.end(),
+                     [this](const Scaled& factor) { return IsAtom(factor.node); });
+}
+
+std::optional<CanonicalExpressions::Scaled> CanonicalExpressions::Expanded(const Scaled& value,
+                                                                           double max_terms) {
+  if (IsAtomicProduct(value.node)) return value;
+  const Kind kind = nodes_[value.node].kind;
+  // Copied: expanding adds nodes, which may move nodes_.
+  const std::vector<Scaled> operands = nodes_[value.node].operands;
+  switch (kind) {
+    case Kind::kSum: {
+      if (std::all_of(operands.begin(), operands.end(),
+                      [this](const Scaled& term) { return IsAtomicProduct(term.node); })) {
+        return value;
+      }
+      std::vector<Scaled> terms;
+      terms.reserve(operands.size());
+      for (const Scaled& term : operands) {
+        std::optional<Scaled> expanded = Expanded(term, max_terms);
+        if (!expanded) return std::nullopt;
+        terms.push_back(std::move(*expanded));
+      }
+      return Scale(value.coefficient, Sum(std::move(terms)));
+    }
+    case Kind::kProduct: {
+      Scaled product{value.coefficient, one_};
+      for (const Scaled& factor : operands) {
+        const std::optional<Scaled> expanded = Expanded(factor, max_terms);
+        if (!expanded) return std::nullopt;
+        const std::optional<Scaled> next = ExpandedProduct(product, *expanded, max_terms);
+        if (!next) return std::nullopt;
+        product = *next;
+      }
+      return product;
+    }
+    case Kind::kPower: {
+      // A positive integer power of a sum or a product, multiplied out. Any other power (a
+      // quotient by a sum) expand() would rewrite inside: not taken.
+      const Scaled& base = operands[0];
+      const Scaled& exponent = operands[1];
+      if (exponent.node != one_ || !exponent.coefficient.is_pos_integer() ||
+          base.coefficient != 1) {
+        return std::nullopt;
+      }
+      const std::optional<Scaled> expanded_base = Expanded(base, max_terms);
+      if (!expanded_base) return std::nullopt;
+      Scaled power{value.coefficient, one_};
+      for (GiNaC::numeric k = 0; k < exponent.coefficient; ++k) {
+        const std::optional<Scaled> next = ExpandedProduct(power, *expanded_base, max_terms);
+        if (!next) return std::nullopt;
+        power = *next;
+      }
+      return power;
+    }
+    default:
+      return std::nullopt;
+  }
+}
+
+std::optional<CanonicalExpressions::Scaled> CanonicalExpressions::ExpandedProduct(
+    const Scaled& a, const Scaled& b, double max_terms) {
+  if (a.node == one_) return Scale(a.coefficient, b);
+  if (b.node == one_) return Scale(b.coefficient, a);
+  const bool a_sum = nodes_[a.node].kind == Kind::kSum;
+  const bool b_sum = nodes_[b.node].kind == Kind::kSum;
+  if (a_sum || b_sum) {
+    // Copied: multiplying adds nodes, which may move nodes_.
+    const std::vector<Scaled> a_terms =
+        a_sum ? nodes_[a.node].operands : std::vector<Scaled>{{1, a.node}};
+    const std::vector<Scaled> b_terms =
+        b_sum ? nodes_[b.node].operands : std::vector<Scaled>{{1, b.node}};
+    if (double(a_terms.size()) * double(b_terms.size()) > max_terms) return std::nullopt;
+    std::vector<Scaled> terms;
+    terms.reserve(a_terms.size() * b_terms.size());
+    for (const Scaled& a_term : a_terms) {
+      for (const Scaled& b_term : b_terms) {
+        std::optional<Scaled> term = ExpandedProduct(a_term, b_term, max_terms);
+        if (!term) return std::nullopt;
+        terms.push_back(std::move(*term));
+      }
+    }
+    return Scale(a.coefficient * b.coefficient, Sum(std::move(terms)));
+  }
+  std::vector<std::pair<NodeId, GiNaC::numeric>> powers;
+  std::vector<NodeId> atoms;
+  if (AppendMonomialFactors(a.node, false, powers, atoms) &&
+      AppendMonomialFactors(b.node, false, powers, atoms)) {
+    std::sort(atoms.begin(), atoms.end());
+    if (std::adjacent_find(atoms.begin(), atoms.end()) == atoms.end()) {
+      return Monomial(a.coefficient * b.coefficient, std::move(powers));
+    }
+  }
+  if (!IsAtomicProduct(a.node) || !IsAtomicProduct(b.node)) return std::nullopt;
+  // Powers of functions and constants, or a function twice: GiNaC's rules for them
+  // (exp(x)*exp(x) is exp(2*x)).
+  return Add(Expression(a) * Expression(b));
+}
+
 double CanonicalExpressions::TreeSize(const Scaled& value, double limit) const {
   double size = 0.0;
   std::vector<Scaled> pending = {value};
@@ -284,6 +463,7 @@ CanonicalExpressions::NodeId CanonicalExpressions::SymbolPower(NodeId base,
                                                                const GiNaC::numeric& exponent) {
   // The powers of a model's symbols recur in every term of a polynomial: each is interned once.
   constexpr int kMaxKeptExponent = 1 << 20;
+  if (exponent == 1) return base;  // most factors of a monomial
   if (!exponent.is_integer() || GiNaC::abs(exponent) > kMaxKeptExponent) {
     return PowerOf({1, base}, {exponent, one_}).node;
   }

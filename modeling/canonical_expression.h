@@ -90,6 +90,37 @@ class CanonicalExpressions {
   /// exponents of a base added, zero ones dropped.
   Scaled Monomial(GiNaC::numeric coefficient,
                   std::vector<std::pair<NodeId, GiNaC::numeric>> powers);
+  /// Appends the factors of node `id` to `powers` as (base, exponent) pairs, exponents negated
+  /// when it `divides`: powers of symbols with integer exponents, and functions and constants to
+  /// the power 1, which `atoms` lists too. False when `id` has another factor (`powers` and
+  /// `atoms` may then hold some of its factors). A function or constant never divides: GiNaC has
+  /// rules for some of their powers (exp(x)^(-1) is exp(-x)), and Monomial takes them once only.
+  bool AppendMonomialFactors(NodeId id,
+                             bool divides,
+                             std::vector<std::pair<NodeId, GiNaC::numeric>>& powers,
+                             std::vector<NodeId>& atoms) const;
+  /// factor * value: the multiple of a sum is the sum of the multiples (GiNaC's mul distributes
+  /// a number over a single sum).
+  Scaled Scale(const GiNaC::numeric& factor, const Scaled& value);
+  /// The function `name` of `arguments` as GiNaC holds it unevaluated. For a caller that knows
+  /// GiNaC's evaluation keeps it so: sin, cos, sinh, cosh and exp of arguments that are neither
+  /// numbers, constants nor functions (GiNaC's rules for those functions look at nothing else,
+  /// not even a sign).
+  Scaled HeldFunction(std::string name, std::vector<Scaled> arguments);
+
+  // Multiplying out (GiNaC's expand()), for derivatives that stay polynomials in their atoms
+  // (modeling/expanded_derivative.h). "Expanded" is a sum of terms that are each a number times
+  // a product of atoms (symbols, constants, functions, with their arguments as they are) and of
+  // powers of atoms: the form expand() gives, unique for a value. Each returns nullopt where
+  // expand() would do more than multiplying out sums (a quotient by a sum, whose denominator it
+  // expands inside the power) or where a product would multiply more than `max_terms` pairs
+  // of terms (a product of sums; sums alone grow no faster than their terms).
+
+  /// `value` multiplied out.
+  std::optional<Scaled> Expanded(const Scaled& value, double max_terms);
+  /// a * b multiplied out, for a and b expanded.
+  std::optional<Scaled> ExpandedProduct(const Scaled& a, const Scaled& b, double max_terms);
+
   /// The number of nodes of `value` as a tree (a shared node counted where it is used, a
   /// coefficient other than 1 as one more), counted up to just past `limit`: about the nodes
   /// GiNaC's walk over the same expression visits (TreeSize, modeling/expansion_bound.h).
@@ -113,6 +144,9 @@ class CanonicalExpressions {
   // Keeps `expression` as the GiNaC form of `value` for Expression(), unless one is known.
   void Remember(const Scaled& value, const GiNaC::ex& expression);
   Scaled Convert(const GiNaC::ex& expression);
+  // A product of atoms and powers of atoms (a term of an expanded sum), or a number.
+  bool IsAtomicProduct(NodeId id) const;
+  bool IsAtom(NodeId id) const;
   Scaled ConvertSum(const GiNaC::ex& sum);
   Scaled ConvertProduct(const GiNaC::ex& product);
   Scaled ConvertPower(const GiNaC::ex& power);

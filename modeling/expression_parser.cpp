@@ -70,47 +70,6 @@ class Reader {
     return Multiply(factors);
   }
 
-  // The factors of node `id` as (base, exponent) pairs, appended to `powers` (exponents negated
-  // when it divides): powers of symbols with integer exponents, and functions and constants to
-  // the power 1, which `atoms` lists. False when `id` has another factor. A function or constant
-  // stays out of a quotient: GiNaC has rules for some of their powers (exp(x)^(-1) is
-  // exp(-x)).
-  bool AppendFactors(NodeId id,
-                     bool divides,
-                     std::vector<std::pair<NodeId, GiNaC::numeric>>& powers,
-                     std::vector<NodeId>& atoms) const {
-    const CanonicalExpressions::Node& node = canonical_.node(id);
-    const GiNaC::numeric sign = divides ? -1 : 1;
-    switch (node.kind) {
-      case Kind::kSymbol:
-        powers.emplace_back(id, sign);
-        return true;
-      case Kind::kFunction:
-      case Kind::kConstant:
-        if (divides) return false;
-        powers.emplace_back(id, 1);
-        atoms.push_back(id);
-        return true;
-      case Kind::kPower: {
-        const Scaled& base = node.operands[0];
-        const Scaled& exponent = node.operands[1];
-        if (base.coefficient != 1 || canonical_.node(base.node).kind != Kind::kSymbol ||
-            exponent.node != canonical_.one() || !exponent.coefficient.is_integer()) {
-          return false;
-        }
-        powers.emplace_back(base.node, sign * exponent.coefficient);
-        return true;
-      }
-      case Kind::kProduct:
-        for (const Scaled& factor : node.operands) {
-          if (!AppendFactors(factor.node, divides, powers, atoms)) return false;
-        }
-        return true;
-      default:
-        return false;
-    }
-  }
-
   Scaled Multiply(const std::vector<Factor>& factors) {
     // Numbers, powers of symbols with integer exponents and functions or constants each once:
     // a monomial, built here.
@@ -125,7 +84,7 @@ class Reader {
           factor.divides ? Reciprocal(factor.value.coefficient) : factor.value.coefficient;
       if (factor.value.node == canonical_.one()) continue;
       const std::size_t known_powers = powers.size(), known_atoms = atoms.size();
-      if (!AppendFactors(factor.value.node, factor.divides, powers, atoms)) {
+      if (!canonical_.AppendMonomialFactors(factor.value.node, factor.divides, powers, atoms)) {
         powers.resize(known_powers);
         atoms.resize(known_atoms);
         other = &factor;

@@ -1,11 +1,15 @@
 #include "modeling/lagrangian_model.h"
 
+#include <algorithm>
 #include <cassert>
+#include <iterator>
+#include <optional>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
 
 #include "modeling/expairseq_pairs.h"
+#include "modeling/expanded_derivative.h"
 #include "modeling/expansion_bound.h"
 #include "modeling/time_derivative.h"
 
@@ -78,6 +82,12 @@ std::pair<GiNaC::ex, GiNaC::ex> SplitNumericFactor(const GiNaC::ex& weight) {
     if (GiNaC::is_a<GiNaC::numeric>(factor)) number *= factor;
   }
   return {number, weight / number};
+}
+
+// The terms of a canonical form, as TermBudget::Charge counts them for a GiNaC expression.
+double Terms(const CanonicalExpressions& store, const CanonicalExpressions::Scaled& value) {
+  const CanonicalExpressions::Node& node = store.node(value.node);
+  return node.kind == CanonicalExpressions::Kind::kSum ? double(node.operands.size()) : 1.0;
 }
 
 }  // namespace
@@ -201,6 +211,92 @@ EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positi
     equations.forces(i, 0) = SumOf(std::move(terms));
   }
   return equations;
+}
+
+std::optional<CanonicalEquationsOfMotion> ExpandedLagrangeEquations(
+    CanonicalExpressions& store,
+    const CanonicalEnergies& energies,
+    const std::vector<CanonicalExpressions::NodeId>& coordinates,
+    const std::vector<CanonicalExpressions::NodeId>& velocities,
+    TermBudget& budget) {
+  using Scaled = CanonicalExpressions::Scaled;
+  assert(coordinates.size() == velocities.size());
+  assert(energies.generalized_forces.size() == coordinates.size());
+  const std::size_t dof = coordinates.size();
+  ExpandedDerivatives derive(store, kMaxExpandedTerms);
+  std::vector<std::size_t> by_velocity, by_coordinate;
+  std::vector<std::pair<CanonicalExpressions::NodeId, Scaled>> rates;
+  for (std::size_t k = 0; k < dof; ++k) {
+    by_velocity.push_back(derive.AddDirection({{velocities[k], store.Number(1)}}));
+    by_coordinate.push_back(derive.AddDirection({{coordinates[k], store.Number(1)}}));
+    rates.emplace_back(coordinates[k], Scaled{1, velocities[k]});
+  }
+  const std::size_t along_motion = derive.AddDirection(rates);  // D, the accelerations zero
+
+  std::vector<Scaled> momenta;  // dT/dq'_i
+  momenta.reserve(dof);
+  for (std::size_t i = 0; i < dof; ++i) {
+    const std::optional<Scaled> momentum = derive.Derive(energies.kinetic, by_velocity[i]);
+    if (!momentum) return std::nullopt;
+    momenta.push_back(*momentum);
+  }
+  CanonicalEquationsOfMotion equations;
+  equations.mass_matrix.assign(dof * dof, store.Number(0));
+  for (std::size_t i = 0; i < dof; ++i) {
+    for (std::size_t j = i; j < dof; ++j) {
+      const std::optional<Scaled> entry = derive.Derive(momenta[i], by_velocity[j]);
+      if (!entry) return std::nullopt;
+      budget.Charge(Terms(store, *entry), [&] {
+        return "M's entry d2T/d" + store.node(velocities[i]).name + " d" +
+               store.node(velocities[j]).name;
+      });
+      equations.mass_matrix[i * dof + j] = equations.mass_matrix[j * dof + i] = *entry;
+    }
+  }
+  // f = D(dT/dq') - dT/dq + dV/dq + dR/dq' - Q, as LagrangeForces.
+  for (std::size_t i = 0; i < dof; ++i) {
+    const std::optional<Scaled> parts[] = {
+        derive.Derive(momenta[i], along_motion), derive.Derive(energies.kinetic, by_coordinate[i]),
+        derive.Derive(energies.potential, by_coordinate[i]),
+        derive.Derive(energies.dissipation, by_velocity[i]),
+        store.Expanded(energies.generalized_forces[i], kMaxExpandedTerms)};
+    if (!std::all_of(std::begin(parts), std::end(parts),
+                     [](const std::optional<Scaled>& part) { return part.has_value(); })) {
+      return std::nullopt;
+    }
+    const Scaled entry = store.Sum(
+        {*parts[0], store.Scale(-1, *parts[1]), *parts[2], *parts[3], store.Scale(-1, *parts[4])});
+    budget.Charge(Terms(store, entry),
+                  [&] { return "f's entry for " + store.node(coordinates[i]).name; });
+    equations.forces.push_back(entry);
+  }
+  return equations;
+}
+
+bool ExpandsToQuadraticForm(CanonicalExpressions& store,
+                            const CanonicalExpressions::Scaled& kinetic,
+                            const std::vector<CanonicalExpressions::Scaled>& mass_matrix,
+                            const std::vector<CanonicalExpressions::NodeId>& velocities) {
+  using Scaled = CanonicalExpressions::Scaled;
+  const std::size_t dof = velocities.size();
+  const std::optional<Scaled> expanded = store.Expanded(kinetic, kMaxExpandedTerms);
+  if (!expanded) return false;
+  std::vector<Scaled> terms = {*expanded};
+  // -1/2 q'^T M q': each entry above the diagonal twice, by symmetry.
+  for (std::size_t i = 0; i < dof; ++i) {
+    for (std::size_t j = i; j < dof; ++j) {
+      const Scaled& entry = mass_matrix[i * dof + j];
+      if (entry.coefficient.is_zero()) continue;
+      const GiNaC::numeric weight = i == j ? GiNaC::numeric(-1, 2) : GiNaC::numeric(-1);
+      const std::optional<Scaled> term = store.ExpandedProduct(
+          store.Scale(weight, entry), store.Monomial(1, {{velocities[i], 1}, {velocities[j], 1}}),
+          kMaxExpandedTerms);
+      if (!term) return false;
+      terms.push_back(*term);
+    }
+  }
+  const Scaled remainder = store.Sum(std::move(terms));
+  return remainder.coefficient.is_zero();
 }
 
 GiNaC::ex QuadraticFormRemainder(const GiNaC::ex& kinetic,

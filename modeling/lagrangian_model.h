@@ -8,9 +8,12 @@
 // (modeling/symbolic_lock.h).
 #include <ginac/ginac.h>
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "modeling/canonical_expression.h"
 
 namespace servokit::detail {
 
@@ -113,6 +116,39 @@ EquationsOfMotion ProjectedEquations(const std::vector<WeightedPosition>& positi
                                      const std::vector<GiNaC::realsymbol>& coordinates,
                                      const std::vector<GiNaC::realsymbol>& velocities,
                                      TermBudget& budget);
+
+/// T, V, R and Q (dof entries) in canonical form, all in one store: the energies as the loader
+/// reads them (modeling/expression_parser.h), or as ReadPlanarBodies builds them.
+struct CanonicalEnergies {
+  CanonicalExpressions::Scaled kinetic, potential, dissipation;
+  std::vector<CanonicalExpressions::Scaled> generalized_forces;
+};
+
+/// M (dof x dof, row by row) and f (dof) in canonical form.
+struct CanonicalEquationsOfMotion {
+  std::vector<CanonicalExpressions::Scaled> mass_matrix, forces;
+};
+
+/// KineticMassMatrix and LagrangeForces on canonical forms (modeling/expanded_derivative.h):
+/// each entry multiplied out, the form those give where they expand it, at a cost that grows
+/// with the terms of the energies and of the result (issue #31: a chain of 400 pendulums in a
+/// fraction of GiNaC's time). Each entry is charged to `budget`. nullopt when a derivative
+/// leaves the forms ExpandedDerivatives takes; the caller then derives with GiNaC.
+/// `coordinates` and `velocities` are the symbols' nodes in `store`.
+std::optional<CanonicalEquationsOfMotion> ExpandedLagrangeEquations(
+    CanonicalExpressions& store,
+    const CanonicalEnergies& energies,
+    const std::vector<CanonicalExpressions::NodeId>& coordinates,
+    const std::vector<CanonicalExpressions::NodeId>& velocities,
+    TermBudget& budget);
+
+/// True when T - 1/2 q'^T M q' multiplies out to zero (QuadraticFormRemainder on canonical
+/// forms, M row by row); false when it does not, or cannot be multiplied out within
+/// kMaxExpandedTerms: then QuadraticFormRemainder decides.
+bool ExpandsToQuadraticForm(CanonicalExpressions& store,
+                            const CanonicalExpressions::Scaled& kinetic,
+                            const std::vector<CanonicalExpressions::Scaled>& mass_matrix,
+                            const std::vector<CanonicalExpressions::NodeId>& velocities);
 
 /// T - 1/2 q'^T M q' with M = KineticMassMatrix(T): zero exactly when T is a quadratic form in
 /// the velocities, T(q, s q') = s^2 T(q, q') with M free of q' (no term linear in q' and none

@@ -575,9 +575,9 @@ class ModelBuilder {
   }
 
   // A list of `size` expressions at `key`, in canonical form.
-  CanonicalColumn ReadColumn(const std::string& key,
-                             std::size_t size,
-                             const std::string& size_meaning) const {
+  CanonicalEntries ReadColumn(const std::string& key,
+                              std::size_t size,
+                              const std::string& size_meaning) const {
     const YAML::Node node = Entry(key);
     if (!node.IsSequence()) {
       Fail(key, "expected a list of expressions");
@@ -586,7 +586,7 @@ class ModelBuilder {
       Fail(key, "expected " + Count(size, "entry", "entries") + " (" + size_meaning + "), found " +
                     std::to_string(node.size()));
     }
-    CanonicalColumn column{canonical_, {}};
+    CanonicalEntries column{canonical_, {}};
     for (std::size_t i = 0; i < size; ++i) {
       column.entries.push_back(ParseExpression(node[i], Indexed(key, i)));
     }
@@ -596,7 +596,7 @@ class ModelBuilder {
   GiNaC::matrix ReadVector(const std::string& key,
                            std::size_t size,
                            const std::string& size_meaning) const {
-    const CanonicalColumn column = ReadColumn(key, size, size_meaning);
+    const CanonicalEntries column = ReadColumn(key, size, size_meaning);
     GiNaC::matrix vector(static_cast<unsigned>(size), 1);
     for (std::size_t i = 0; i < size; ++i) {
       vector(static_cast<unsigned>(i), 0) = canonical_->Expression(column.entries[i]);
@@ -619,8 +619,9 @@ class ModelBuilder {
   }
 
   struct EquationsOfMotion {
-    GiNaC::matrix mass_matrix, input_matrix;
-    SymbolicModel::Forces forces;  // canonical as the file writes it, GiNaC as derived
+    SymbolicModel::Entries mass_matrix;  // canonical where derived on canonical forms
+    SymbolicModel::Entries forces;       // canonical as the file writes it or so derived
+    GiNaC::matrix input_matrix;
     // M's program when the derivation compiled it to check M (Derive); Compile reuses it.
     std::shared_ptr<const ExpressionProgram> mass_matrix_program;
   };
@@ -634,28 +635,33 @@ class ModelBuilder {
     switch (form_) {
       case Form::kExplicit: {
         const std::string mass_matrix_key(kMassMatrixKey);
-        equations.mass_matrix = ReadMatrix(mass_matrix_key, dof, dof, "coordinate");
-        CheckNoVelocities(equations.mass_matrix, mass_matrix_key, "M(q)");
-        CheckSymmetric(equations.mass_matrix);
+        GiNaC::matrix mass_matrix = ReadMatrix(mass_matrix_key, dof, dof, "coordinate");
+        CheckNoVelocities(mass_matrix, mass_matrix_key, "M(q)");
+        CheckSymmetric(mass_matrix);
+        equations.mass_matrix = std::move(mass_matrix);
         equations.forces = ReadColumn(std::string(kForcesKey), dof, "one per coordinate");
         equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
         CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
         return equations;
       }
       case Form::kLagrangian: {
-        detail::Energies energies;
+        // Read in canonical form only: derived there (ExpandedLagrangeEquations), T is built
+        // in GiNaC only if GiNaC has to derive or check it.
+        detail::CanonicalEnergies energies;
         const std::string kinetic_key(kKineticEnergyKey), potential_key(kPotentialEnergyKey);
-        energies.kinetic = ParseGiNaC(Entry(kinetic_key), kinetic_key);
-        energies.potential = ParseGiNaC(Entry(potential_key), potential_key);
-        CheckNoVelocities(energies.potential, potential_key, "V(q)");
+        energies.kinetic = ParseExpression(Entry(kinetic_key), kinetic_key);
+        energies.potential = ParseExpression(Entry(potential_key), potential_key);
+        CheckNoVelocities(canonical_->Expression(energies.potential), potential_key, "V(q)");
         const std::string dissipation_key(kDissipationKey);
+        energies.dissipation = canonical_->Number(0);
         if (const YAML::Node dissipation = Entry(dissipation_key)) {
-          energies.dissipation = ParseGiNaC(dissipation, dissipation_key);
+          energies.dissipation = ParseExpression(dissipation, dissipation_key);
         }
         const std::string generalized_key(kGeneralizedForcesKey);
-        energies.generalized_forces = Entry(generalized_key)
-                                          ? ReadVector(generalized_key, dof, "one per coordinate")
-                                          : GiNaC::matrix(unsigned(dof), 1);
+        energies.generalized_forces =
+            Entry(generalized_key)
+                ? ReadColumn(generalized_key, dof, "one per coordinate").entries
+                : std::vector<CanonicalExpressions::Scaled>(dof, canonical_->Number(0));
         equations.input_matrix = ReadMatrix(input_matrix_key, dof, num_inputs, "input");
         CheckNoVelocities(equations.input_matrix, input_matrix_key, "B(q)");
         Derive(energies, kinetic_key, KineticEnergy::kWritten, equations);
@@ -674,12 +680,15 @@ class ModelBuilder {
         });
         equations.input_matrix = std::move(bodies.input_matrix);
         if (!bodies.projected) {
-          Derive(bodies.energies, "bodies", KineticEnergy::kOfBodies, equations);
+          Derive(Canonical(bodies.energies), "bodies", KineticEnergy::kOfBodies, equations);
           return equations;
         }
+        Guarded("bodies", cannot, [&] {
+          equations.mass_matrix_program = CompileMassMatrix(bodies.projected->mass_matrix);
+          CheckPositiveDefinite(*equations.mass_matrix_program, "bodies");
+        });
         equations.mass_matrix = std::move(bodies.projected->mass_matrix);
         equations.forces = std::move(bodies.projected->forces);
-        Guarded("bodies", cannot, [&] { CompileAndCheckMassMatrix(equations, "bodies"); });
         return equations;
       }
     }
@@ -690,22 +699,111 @@ class ModelBuilder {
   // form by construction (positions and angles free of the velocities, ReadPlanarBodies).
   enum class KineticEnergy { kWritten, kOfBodies };
 
+  // The energies in the model's store of canonical forms.
+  detail::CanonicalEnergies Canonical(const detail::Energies& energies) const {
+    detail::CanonicalEnergies canonical{canonical_->Add(energies.kinetic),
+                                        canonical_->Add(energies.potential),
+                                        canonical_->Add(energies.dissipation),
+                                        {}};
+    for (unsigned i = 0; i < energies.generalized_forces.rows(); ++i) {
+      canonical.generalized_forces.push_back(canonical_->Add(energies.generalized_forces(i, 0)));
+    }
+    return canonical;
+  }
+
+  // The same in GiNaC.
+  detail::Energies InGiNaC(const detail::CanonicalEnergies& energies) const {
+    detail::Energies ginac{canonical_->Expression(energies.kinetic),
+                           canonical_->Expression(energies.potential),
+                           canonical_->Expression(energies.dissipation),
+                           GiNaC::matrix(unsigned(energies.generalized_forces.size()), 1)};
+    for (std::size_t i = 0; i < energies.generalized_forces.size(); ++i) {
+      ginac.generalized_forces(unsigned(i), 0) =
+          canonical_->Expression(energies.generalized_forces[i]);
+    }
+    return ginac;
+  }
+
+  std::vector<CanonicalExpressions::NodeId> Nodes(
+      const std::vector<GiNaC::realsymbol>& symbols) const {
+    std::vector<CanonicalExpressions::NodeId> nodes;
+    for (const GiNaC::realsymbol& symbol : symbols) nodes.push_back(canonical_->Add(symbol).node);
+    return nodes;
+  }
+
   // M and f from the energies (modeling/lagrangian_model.h), checked: T a quadratic form in the
-  // velocities, M positive definite at q = 0. `kinetic_key` names where T comes from.
-  void Derive(const detail::Energies& energies,
+  // velocities, M positive definite at q = 0. `kinetic_key` names where T comes from. Derived on
+  // the canonical forms where the energies are polynomials in their atoms (a chain of 400
+  // pendulums: issue #31), else by GiNaC.
+  void Derive(const detail::CanonicalEnergies& energies,
               const std::string& kinetic_key,
               KineticEnergy kinetic_energy,
               EquationsOfMotion& equations) const {
+    std::optional<detail::CanonicalEquationsOfMotion> expanded;
+    Guarded(kinetic_key, "cannot differentiate the energies", [&] {
+      detail::TermBudget budget;
+      expanded = detail::ExpandedLagrangeEquations(
+          *canonical_, energies, Nodes(coordinate_symbols_), Nodes(velocity_symbols_), budget);
+    });
+    if (!expanded) {
+      DeriveInGiNaC(InGiNaC(energies), kinetic_key, kinetic_energy, equations);
+      return;
+    }
+    Guarded(kinetic_key, "cannot differentiate the energies", [&] {
+      // Row by row is column by column (ColumnMajor): M is symmetric by construction.
+      equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(CompileExpressions(
+          expanded->mass_matrix,
+          ProgramInputSymbols(parameter_symbols_, coordinate_symbols_, velocity_symbols_),
+          *canonical_));
+      CheckMassMatrixFreeOfVelocities(expanded->mass_matrix, kinetic_key);
+      if (kinetic_energy == KineticEnergy::kWritten &&
+          !detail::ExpandsToQuadraticForm(*canonical_, energies.kinetic, expanded->mass_matrix,
+                                          Nodes(velocity_symbols_))) {
+        CheckQuadratic(canonical_->Expression(energies.kinetic),
+                       InGiNaC(expanded->mass_matrix, unsigned(model_.dof())), kinetic_key);
+      }
+      CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
+      equations.mass_matrix = CanonicalEntries{canonical_, std::move(expanded->mass_matrix)};
+      equations.forces = CanonicalEntries{canonical_, std::move(expanded->forces)};
+    });
+  }
+
+  // The square matrix of canonical `entries` (row by row) in GiNaC.
+  GiNaC::matrix InGiNaC(const std::vector<CanonicalExpressions::Scaled>& entries,
+                        unsigned size) const {
+    GiNaC::matrix matrix(size, size);
+    for (unsigned i = 0; i < size; ++i) {
+      for (unsigned j = 0; j < size; ++j)
+        matrix(i, j) = canonical_->Expression(entries[i * size + j]);
+    }
+    return matrix;
+  }
+
+  // `matrix`'s entries in canonical form, row by row.
+  std::vector<CanonicalExpressions::Scaled> Canonical(const GiNaC::matrix& matrix) const {
+    std::vector<CanonicalExpressions::Scaled> entries;
+    for (unsigned i = 0; i < matrix.rows(); ++i) {
+      for (unsigned j = 0; j < matrix.cols(); ++j) entries.push_back(canonical_->Add(matrix(i, j)));
+    }
+    return entries;
+  }
+
+  // Derive by GiNaC's diff().
+  void DeriveInGiNaC(const detail::Energies& energies,
+                     const std::string& kinetic_key,
+                     KineticEnergy kinetic_energy,
+                     EquationsOfMotion& equations) const {
     Guarded(kinetic_key, "cannot differentiate the energies", [&] {
       const std::vector<GiNaC::ex> momenta = detail::Momenta(energies.kinetic, velocity_symbols_);
       detail::TermBudget budget;
-      equations.mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_, budget);
-      CompileMassMatrix(equations);
-      CheckMassMatrixFreeOfVelocities(equations.mass_matrix, kinetic_key);
+      GiNaC::matrix mass_matrix = detail::KineticMassMatrix(momenta, velocity_symbols_, budget);
+      equations.mass_matrix_program = CompileMassMatrix(mass_matrix);
+      CheckMassMatrixFreeOfVelocities(Canonical(mass_matrix), kinetic_key);
       if (kinetic_energy == KineticEnergy::kWritten) {
-        CheckQuadratic(energies.kinetic, equations.mass_matrix, kinetic_key);
+        CheckQuadratic(energies.kinetic, mass_matrix, kinetic_key);
       }
       CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
+      equations.mass_matrix = std::move(mass_matrix);
       equations.forces =
           detail::LagrangeForces(energies, momenta, coordinate_symbols_, velocity_symbols_, budget);
     });
@@ -733,36 +831,27 @@ class ModelBuilder {
   }
 
   // M's program, kept for Compile; M's entries are in the model's store from then on.
-  void CompileMassMatrix(EquationsOfMotion& equations) const {
-    equations.mass_matrix_program = std::make_shared<const ExpressionProgram>(
-        CompileInModel(ColumnMajor({equations.mass_matrix})));
+  std::shared_ptr<const ExpressionProgram> CompileMassMatrix(
+      const GiNaC::matrix& mass_matrix) const {
+    return std::make_shared<const ExpressionProgram>(CompileInModel(ColumnMajor({mass_matrix})));
   }
 
-  // M's program and the check that M is positive definite.
-  void CompileAndCheckMassMatrix(EquationsOfMotion& equations, const std::string& key) const {
-    CompileMassMatrix(equations);
-    CheckPositiveDefinite(*equations.mass_matrix_program, key);
-  }
-
-  // d2T/dq_dot2 free of the velocities, as T quadratic in them makes it. Decided on the
-  // canonical forms compiling M left in the store, each shared node once (a walk of each of the
-  // dof^2 GiNaC entries took 2 s for 400 coordinates, issue #31); the entry that fails is named
-  // from its GiNaC form.
-  void CheckMassMatrixFreeOfVelocities(const GiNaC::matrix& mass_matrix,
+  // d2T/dq_dot2 free of the velocities, as T quadratic in them makes it. Decided on M's
+  // canonical forms (`entries`, row by row), each shared node once (a walk of each of the dof^2
+  // GiNaC entries took 2 s for 400 coordinates, issue #31).
+  void CheckMassMatrixFreeOfVelocities(const std::vector<CanonicalExpressions::Scaled>& entries,
                                        const std::string& kinetic_key) const {
-    std::vector<CanonicalExpressions::NodeId> velocities;
-    for (const GiNaC::realsymbol& velocity : velocity_symbols_) {
-      velocities.push_back(canonical_->Add(velocity).node);
-    }
-    DependenceOn depends(*canonical_, velocities);
-    for (unsigned i = 0; i < mass_matrix.rows(); ++i) {
-      for (unsigned j = 0; j < mass_matrix.cols(); ++j) {
-        const GiNaC::ex& entry = mass_matrix(i, j);
-        if (!depends(canonical_->Add(entry))) continue;
-        const GiNaC::realsymbol* found = FirstSymbolIn(entry, velocity_symbols_);
+    DependenceOn depends(*canonical_, Nodes(velocity_symbols_));
+    const std::size_t dof = model_.dof();
+    for (std::size_t i = 0; i < dof; ++i) {
+      for (std::size_t j = 0; j < dof; ++j) {
+        const CanonicalExpressions::Scaled& entry = entries[i * dof + j];
+        if (!depends(entry)) continue;
+        const GiNaC::realsymbol* found =
+            FirstSymbolIn(canonical_->Expression(entry), velocity_symbols_);
         Fail(kinetic_key, "T is not quadratic in the velocities: d2T/d" +
                               velocity_symbols_[i].get_name() + " d" +
-                              velocity_symbols_[j].get_name() + " = " + CanonicalText(entry) +
+                              velocity_symbols_[j].get_name() + " = " + canonical_->Text(entry) +
                               " depends on the velocity '" +
                               (found != nullptr ? found->get_name() : std::string("?")) + "'");
       }
@@ -895,7 +984,10 @@ class ModelBuilder {
       std::vector<GiNaC::matrix> blocks;
     };
     const std::vector<Derived> quantities = {
-        {Quantity::kMassMatrix, "mass matrix", {symbolic.mass_matrix()}},
+        // M derived on canonical forms was compiled from them (mass_matrix_program).
+        {Quantity::kMassMatrix, "mass matrix",
+         mass_matrix_program != nullptr ? std::vector<GiNaC::matrix>{}
+                                        : std::vector<GiNaC::matrix>{symbolic.mass_matrix()}},
         // f read from the file is compiled from its canonical form (below), never built in GiNaC.
         {Quantity::kForces, "forces",
          symbolic.canonical_forces() != nullptr ? std::vector<GiNaC::matrix>{}
@@ -921,7 +1013,7 @@ class ModelBuilder {
       if (IsForwardModeQuantity(derived.quantity) && !symbolic.has_symbolic_jacobians()) {
         continue;  // no program: Evaluate differentiates those of f and B in forward mode
       }
-      const CanonicalColumn* canonical = symbolic.canonical_forces();
+      const CanonicalEntries* canonical = symbolic.canonical_forces();
       try {
         model_.programs_[index] = std::make_shared<const ExpressionProgram>(
             derived.quantity == Quantity::kForces && canonical != nullptr

@@ -80,13 +80,38 @@ GiNaC::ex SumOfAbsoluteTerms(const GiNaC::ex& expanded) {
   return sum;
 }
 
+// `entries` kept as given: a GiNaC matrix in `matrix`, canonical forms in `canonical` (then
+// `built` is false until the GiNaC matrix is built).
+void Keep(SymbolicModel::Entries entries,
+          GiNaC::matrix& matrix,
+          std::optional<CanonicalEntries>& canonical,
+          bool& built) {
+  if (auto* forms = std::get_if<CanonicalEntries>(&entries)) {
+    canonical = std::move(*forms);
+    built = false;
+  } else {
+    matrix = std::move(std::get<GiNaC::matrix>(entries));
+  }
+}
+
+// The GiNaC matrix of `forms`, rows x cols.
+GiNaC::matrix Build(const CanonicalEntries& forms, unsigned rows, unsigned cols) {
+  GiNaC::matrix matrix(rows, cols);
+  for (unsigned i = 0; i < rows; ++i) {
+    for (unsigned j = 0; j < cols; ++j) {
+      matrix(i, j) = forms.store->Expression(forms.entries[i * cols + j]);
+    }
+  }
+  return matrix;
+}
+
 }  // namespace
 
 SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                              std::vector<GiNaC::realsymbol> coordinates,
                              std::vector<GiNaC::realsymbol> velocities,
-                             GiNaC::matrix mass_matrix,
-                             Forces forces,
+                             Entries mass_matrix,
+                             Entries forces,
                              GiNaC::matrix input_matrix,
                              GiNaC::matrix output) {
   const SymbolicLock lock;
@@ -95,17 +120,13 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.parameters = std::move(parameters);
   e.coordinates = std::move(coordinates);
   e.velocities = std::move(velocities);
-  e.mass_matrix = std::move(mass_matrix);
-  if (auto* column = std::get_if<CanonicalColumn>(&forces)) {
-    e.canonical_forces = std::move(*column);
-    e.forces_built = false;
-  } else {
-    e.forces = std::move(std::get<GiNaC::matrix>(forces));
-  }
+  Keep(std::move(mass_matrix), e.mass_matrix, e.canonical_mass_matrix, e.mass_matrix_built);
+  Keep(std::move(forces), e.forces, e.canonical_forces, e.forces_built);
   e.input_matrix = std::move(input_matrix);
   e.output = std::move(output);
   assert(e.velocities.size() == e.coordinates.size());
-  assert(e.mass_matrix.rows() == dof() && e.mass_matrix.cols() == dof());
+  assert(e.mass_matrix_built ? e.mass_matrix.rows() == dof() && e.mass_matrix.cols() == dof()
+                             : e.canonical_mass_matrix->entries.size() == dof() * dof());
   assert(e.forces_built ? e.forces.rows() == dof() && e.forces.cols() == 1
                         : e.canonical_forces->entries.size() == dof());
   assert(e.input_matrix.rows() == dof());
@@ -142,15 +163,21 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   }
 }
 
+const GiNaC::matrix& SymbolicModel::mass_matrix() const {
+  const SymbolicLock lock;
+  Expressions& e = *expressions_;
+  if (!e.mass_matrix_built) {
+    e.mass_matrix = Build(*e.canonical_mass_matrix, unsigned(dof()), unsigned(dof()));
+    e.mass_matrix_built = true;
+  }
+  return e.mass_matrix;
+}
+
 const GiNaC::matrix& SymbolicModel::forces() const {
   const SymbolicLock lock;
   Expressions& e = *expressions_;
   if (!e.forces_built) {
-    GiNaC::matrix forces(unsigned(dof()), 1);
-    for (unsigned i = 0; i < forces.rows(); ++i) {
-      forces(i, 0) = e.canonical_forces->store->Expression(e.canonical_forces->entries[i]);
-    }
-    e.forces = std::move(forces);
+    e.forces = Build(*e.canonical_forces, unsigned(dof()), 1);
     e.forces_built = true;
   }
   return e.forces;
@@ -189,7 +216,7 @@ GiNaC::matrix SymbolicModel::RosenbrockMatrix(const GiNaC::realsymbol& lambda,
   for (unsigned i = 0; i < n; ++i) {
     for (unsigned j = 0; j < n; ++j) {
       rosenbrock(i, j) =
-          (e.mass_matrix(i, j) * GiNaC::pow(lambda, 2) + e.forces_velocity_jacobian(i, j) * lambda +
+          (mass_matrix()(i, j) * GiNaC::pow(lambda, 2) + e.forces_velocity_jacobian(i, j) * lambda +
            e.forces_position_jacobian(i, j))
               .subs(at);
     }

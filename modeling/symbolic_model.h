@@ -29,19 +29,21 @@ std::vector<GiNaC::ex> ProgramInputSymbols(const std::vector<GiNaC::realsymbol>&
                                            const std::vector<GiNaC::realsymbol>& coordinates,
                                            const std::vector<GiNaC::realsymbol>& velocities);
 
-/// Expressions read in canonical form (modeling/expression_parser.h) in `store`, one per row of
-/// a column: a model's f as the file writes it. The SymbolicModel builds their GiNaC forms only
-/// when they are asked for, so that a force of 10^5 terms, compiled straight from its canonical
-/// form, is never built in GiNaC for a model that does not need it (issue #31).
-struct CanonicalColumn {
+/// A matrix's entries in canonical form in `store`, row by row (a column: one per row): a
+/// model's f as the file writes it (modeling/expression_parser.h), M and f derived on canonical
+/// forms (modeling/lagrangian_model.h). The SymbolicModel builds their GiNaC forms only when
+/// they are asked for, so that a force of 10^5 terms or the 160 000 entries of a chain's M,
+/// compiled straight from their canonical forms, are never built in GiNaC for a model that does
+/// not need them (issue #31).
+struct CanonicalEntries {
   std::shared_ptr<CanonicalExpressions> store;
   std::vector<CanonicalExpressions::Scaled> entries;
 };
 
 class SymbolicModel {
  public:
-  /// f: GiNaC's (derived from energies or bodies), or the file's in canonical form.
-  using Forces = std::variant<GiNaC::matrix, CanonicalColumn>;
+  /// M or f: in GiNaC, or in canonical form (then built in GiNaC on first use).
+  using Entries = std::variant<GiNaC::matrix, CanonicalEntries>;
 
   /// Takes M (dof x dof), f (dof x 1), B (dof x inputs), h (outputs x 1) in the given symbols and
   /// derives the rest. `velocities[k]` is the time derivative of `coordinates[k]`. The caller
@@ -49,8 +51,8 @@ class SymbolicModel {
   SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                 std::vector<GiNaC::realsymbol> coordinates,
                 std::vector<GiNaC::realsymbol> velocities,
-                GiNaC::matrix mass_matrix,
-                Forces forces,
+                Entries mass_matrix,
+                Entries forces,
                 GiNaC::matrix input_matrix,
                 GiNaC::matrix output);
 
@@ -70,13 +72,18 @@ class SymbolicModel {
   /// The inputs of every compiled program: [parameters, q, q_dot] (ProgramInputSymbols).
   std::vector<GiNaC::ex> ProgramInputs() const;
 
-  /// M(q), dof x dof (paper Eq. 1).
-  const GiNaC::matrix& mass_matrix() const { return expressions_->mass_matrix; }
+  /// M(q), dof x dof (paper Eq. 1); built from its canonical form on the first call when the
+  /// model was given one (takes a SymbolicLock).
+  const GiNaC::matrix& mass_matrix() const;
+  /// M's canonical form (row by row) when the model was given one, else null.
+  const CanonicalEntries* canonical_mass_matrix() const {
+    return expressions_->canonical_mass_matrix ? &*expressions_->canonical_mass_matrix : nullptr;
+  }
   /// f(q, q_dot), dof x 1 (paper Eq. 1); built from its canonical form on the first call when
   /// the model was given one (takes a SymbolicLock).
   const GiNaC::matrix& forces() const;
   /// f's canonical form when the model was given one (then compile from it), else null.
-  const CanonicalColumn* canonical_forces() const {
+  const CanonicalEntries* canonical_forces() const {
     return expressions_->canonical_forces ? &*expressions_->canonical_forces : nullptr;
   }
   /// B(q), dof x inputs (paper Eq. 1).
@@ -164,8 +171,9 @@ class SymbolicModel {
   struct Expressions {
     std::vector<GiNaC::realsymbol> parameters, coordinates, velocities;
     GiNaC::matrix mass_matrix, forces, input_matrix, output;
-    std::optional<CanonicalColumn> canonical_forces;
-    bool forces_built = true;  // false while f is only in canonical_forces
+    std::optional<CanonicalEntries> canonical_mass_matrix, canonical_forces;
+    bool mass_matrix_built = true;  // false while M is only in canonical_mass_matrix
+    bool forces_built = true;       // false while f is only in canonical_forces
     GiNaC::matrix output_jacobian, output_bias;
     GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
     std::vector<GiNaC::matrix> input_matrix_derivatives;

@@ -7,65 +7,18 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
-#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "modeling/loader_support.h"
 #include "modeling/symbolic_lock.h"
 #include "modeling/yaml_document.h"
-#include "tests/test_files.h"
+#include "tests/model_texts.h"
 
 namespace servokit {
 namespace {
 
-namespace fs = std::filesystem;
-
-// Every scalar of a YAML tree.
-void CollectScalars(const YAML::Node& node, std::vector<std::string>& out) {
-  if (node.IsScalar()) {
-    out.push_back(node.Scalar());
-  } else if (node.IsSequence() || node.IsMap()) {
-    for (const auto& child : node) {
-      if (node.IsMap()) {
-        CollectScalars(child.second, out);
-      } else {
-        CollectScalars(child, out);
-      }
-    }
-  }
-}
-
-std::vector<std::string> ModelTexts() {
-  std::vector<std::string> texts;
-  std::vector<fs::path> files;
-  for (const char* folder : {SERVOKIT_MODELS_DIR, SERVOKIT_TEST_DATA_DIR}) {
-    for (const auto& entry : fs::recursive_directory_iterator(folder)) {
-      if (entry.is_regular_file() && entry.path().extension() == ".yaml") {
-        files.push_back(entry.path());
-      }
-    }
-  }
-  const fs::path corpus =
-      fs::path(SERVOKIT_TEST_DATA_DIR).parent_path() / "fuzz" / "corpus" / "expression";
-  std::sort(files.begin(), files.end());
-  for (const fs::path& file : files) {
-    try {
-      CollectScalars(YAML::Load(testing::ReadFile(file)), texts);
-    } catch (const YAML::Exception&) {
-      // a file that tests the loader's YAML errors
-    }
-  }
-  if (fs::is_directory(corpus)) {
-    for (const auto& entry : fs::directory_iterator(corpus)) {
-      try {
-        CollectScalars(YAML::Load(testing::ReadFile(entry.path())), texts);
-      } catch (const YAML::Exception&) {
-      }
-    }
-  }
-  return texts;
-}
+using testing::ModelTexts;
 
 const std::vector<std::string> kRuleCases = {
     "2*(x+y)",
