@@ -17,15 +17,14 @@ constexpr std::size_t kIndexedTerms = 32;
 // constant or a function argument: their value at the arguments of another held function is
 // held too, and can be built without GiNaC.
 constexpr std::array<std::string_view, 5> kHeldWithSymbolicArguments = {"sin", "cos", "sinh",
-                                                                       "cosh", "exp"};
+                                                                        "cosh", "exp"};
 
 }  // namespace
 
 ExpandedDerivatives::ExpandedDerivatives(CanonicalExpressions& store, double max_products)
     : store_(store), max_products_(max_products) {}
 
-std::size_t ExpandedDerivatives::AddDirection(
-    const std::vector<std::pair<NodeId, Scaled>>& seeds) {
+std::size_t ExpandedDerivatives::AddDirection(const std::vector<std::pair<NodeId, Scaled>>& seeds) {
   Direction direction;
   for (const auto& [symbol, rate] : seeds) {
     direction.symbols.push_back(symbol);
@@ -45,22 +44,28 @@ std::optional<ExpandedDerivatives::Scaled> ExpandedDerivatives::Derive(const Sca
   }
 }
 
-ExpandedDerivatives::Scaled ExpandedDerivatives::Rate(const Scaled& value,
-                                                      std::size_t direction) {
+ExpandedDerivatives::Scaled ExpandedDerivatives::Rate(const Scaled& value, std::size_t direction) {
   return store_.Scale(value.coefficient, Rate(value.node, direction));
 }
 
-ExpandedDerivatives::Scaled ExpandedDerivatives::Rate(NodeId id, std::size_t direction) {
+ExpandedDerivatives::Scaled ExpandedDerivatives::Rate(NodeId id,
+                                                      std::size_t direction,
+                                                      bool known_to_move) {
   {
     Direction& along = directions_[direction];
     if (const auto found = along.rates.find(id); found != along.rates.end()) return found->second;
-    if (!Moves(id, along)) return store_.Number(0);
+    // A symbol not seeded does not move (without a set of symbols for it).
+    const Kind kind = store_.node(id).kind;
+    if (kind == Kind::kSymbol || kind == Kind::kNumber || kind == Kind::kConstant) {
+      return store_.Number(0);
+    }
+    if (!known_to_move && !Moves(id, along)) return store_.Number(0);
   }
   Scaled rate = store_.Number(0);
   switch (store_.node(id).kind) {
     case Kind::kNumber:
     case Kind::kConstant:
-    case Kind::kSymbol:  // not seeded: Moves said so
+    case Kind::kSymbol:  // handled above
       break;
     case Kind::kSum:
       rate = RateOfSum(id, direction);
@@ -82,10 +87,10 @@ ExpandedDerivatives::Scaled ExpandedDerivatives::Rate(NodeId id, std::size_t dir
 }
 
 ExpandedDerivatives::Scaled ExpandedDerivatives::RateOfSum(NodeId id, std::size_t direction) {
-  // Copied: deriving adds nodes, which may move the store's.
-  const std::vector<Scaled> terms = store_.node(id).operands;
+  const std::size_t size = store_.node(id).operands.size();
   std::vector<std::size_t> moving;
-  if (terms.size() >= kIndexedTerms) {
+  const bool indexed = size >= kIndexedTerms;
+  if (indexed) {
     const auto& by_symbol = TermsBySymbol(id);
     for (const NodeId symbol : directions_[direction].symbols) {
       if (const auto found = by_symbol.find(symbol); found != by_symbol.end()) {
@@ -95,12 +100,15 @@ ExpandedDerivatives::Scaled ExpandedDerivatives::RateOfSum(NodeId id, std::size_
     std::sort(moving.begin(), moving.end());
     moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
   } else {
-    for (std::size_t t = 0; t < terms.size(); ++t) moving.push_back(t);
+    for (std::size_t t = 0; t < size; ++t) moving.push_back(t);
   }
   std::vector<Scaled> rates;
   rates.reserve(moving.size());
   for (const std::size_t t : moving) {
-    const Scaled rate = Rate(terms[t], direction);
+    // Copied, one term at a time: deriving adds nodes, which may move the store's.
+    const Scaled term = store_.node(id).operands[t];
+    // An indexed term holds a seeded symbol.
+    const Scaled rate = store_.Scale(term.coefficient, Rate(term.node, direction, indexed));
     if (!rate.coefficient.is_zero()) rates.push_back(rate);
   }
   return store_.Sum(std::move(rates));
@@ -141,10 +149,11 @@ bool ExpandedDerivatives::AppendTimes(const std::vector<std::pair<NodeId, GiNaC:
                                       const Scaled& value,
                                       std::vector<Scaled>& terms) {
   const bool sum = store_.node(value.node).kind == Kind::kSum;
-  const std::vector<Scaled> value_terms =
-      sum ? store_.node(value.node).operands : std::vector<Scaled>{{1, value.node}};
+  const std::size_t count = sum ? store_.node(value.node).operands.size() : 1;
   const std::size_t known = terms.size();
-  for (const Scaled& term : value_terms) {
+  for (std::size_t k = 0; k < count; ++k) {
+    // Copied, one at a time: building monomials adds nodes, which may move the store's.
+    const Scaled term = sum ? store_.node(value.node).operands[k] : Scaled{1, value.node};
     std::vector<std::pair<NodeId, GiNaC::numeric>> term_powers = powers;
     std::vector<NodeId> term_atoms = atoms;
     if (term.node != store_.one() &&
@@ -157,8 +166,7 @@ bool ExpandedDerivatives::AppendTimes(const std::vector<std::pair<NodeId, GiNaC:
       terms.resize(known);
       return false;
     }
-    terms.push_back(
-        store_.Monomial(value.coefficient * term.coefficient, std::move(term_powers)));
+    terms.push_back(store_.Monomial(value.coefficient * term.coefficient, std::move(term_powers)));
   }
   return true;
 }
@@ -268,9 +276,9 @@ const ExpandedDerivatives::FunctionPartialForm& ExpandedDerivatives::PartialForm
     for (std::size_t k = 0; k < arguments; ++k) {
       same_arguments = same_arguments && function.op(k).is_equal(placeholders_[k]);
     }
-    form.held = same_arguments && std::find(kHeldWithSymbolicArguments.begin(),
-                                            kHeldWithSymbolicArguments.end(),
-                                            function_name) != kHeldWithSymbolicArguments.end();
+    form.held = same_arguments &&
+                std::find(kHeldWithSymbolicArguments.begin(), kHeldWithSymbolicArguments.end(),
+                          function_name) != kHeldWithSymbolicArguments.end();
     if (form.held) form.name = function_name;
   }
   return partial_forms_.emplace(key, std::move(form)).first->second;
@@ -283,8 +291,8 @@ const std::vector<ExpandedDerivatives::NodeId>& ExpandedDerivatives::Symbols(Nod
     if (store_.node(id).kind == Kind::kSymbol) {
       symbols.push_back(id);
     } else {
-      const std::vector<Scaled> operands = store_.node(id).operands;
-      for (const Scaled& operand : operands) {
+      // The store gains no node here: its operands stay where they are.
+      for (const Scaled& operand : store_.node(id).operands) {
         const std::vector<NodeId>& inner = Symbols(operand.node);
         std::vector<NodeId> merged;
         merged.reserve(symbols.size() + inner.size());
@@ -318,7 +326,7 @@ const std::unordered_map<ExpandedDerivatives::NodeId, std::vector<std::size_t>>&
 ExpandedDerivatives::TermsBySymbol(NodeId sum) {
   if (const auto found = term_index_.find(sum); found != term_index_.end()) return found->second;
   std::unordered_map<NodeId, std::vector<std::size_t>> by_symbol;
-  const std::vector<Scaled> terms = store_.node(sum).operands;
+  const std::vector<Scaled>& terms = store_.node(sum).operands;  // Symbols adds no node
   for (std::size_t t = 0; t < terms.size(); ++t) {
     for (const NodeId symbol : Symbols(terms[t].node)) by_symbol[symbol].push_back(t);
   }

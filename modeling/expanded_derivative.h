@@ -50,7 +50,7 @@ class ExpandedDerivatives {
  private:
   struct NotExpandable {};
   struct Direction {
-    std::vector<NodeId> symbols;  // the seeded symbols, sorted
+    std::vector<NodeId> symbols;               // the seeded symbols, sorted
     std::unordered_map<NodeId, Scaled> rates;  // D of nodes known so far, seeds included
   };
   // d F(p_0, ..., p_(k-1)) / d p_i for a function F of placeholder symbols p: `held` when it is
@@ -65,7 +65,8 @@ class ExpandedDerivatives {
   };
 
   Scaled Rate(const Scaled& value, std::size_t direction);  // these throw NotExpandable
-  Scaled Rate(NodeId id, std::size_t direction);
+  // `known_to_move`: the caller knows `id` holds a seeded symbol (a sum's index said so).
+  Scaled Rate(NodeId id, std::size_t direction, bool known_to_move = false);
   Scaled RateOfSum(NodeId id, std::size_t direction);
   Scaled RateOfProduct(NodeId id, std::size_t direction);
   Scaled RateOfPower(NodeId id, std::size_t direction);

@@ -10,8 +10,8 @@
 #include "modeling/expanded_derivative.h"
 
 #include <algorithm>
-#include <cmath>
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <map>
 #include <string>
 #include <vector>
@@ -48,7 +48,8 @@ class Symbols {
 double LargestCoefficient(const GiNaC::ex& expanded) {
   const auto coefficient = [](const GiNaC::ex& term) {
     GiNaC::numeric number = 1;
-    if (GiNaC::is_a<GiNaC::numeric>(term)) return std::abs(GiNaC::ex_to<GiNaC::numeric>(term).to_double());
+    if (GiNaC::is_a<GiNaC::numeric>(term))
+      return std::abs(GiNaC::ex_to<GiNaC::numeric>(term).to_double());
     if (GiNaC::is_a<GiNaC::mul>(term)) {
       for (const GiNaC::ex& factor : term) {
         if (GiNaC::is_a<GiNaC::numeric>(factor)) number *= GiNaC::ex_to<GiNaC::numeric>(factor);
@@ -77,9 +78,8 @@ void CompareDerivatives(const GiNaC::ex& expression, Symbols& symbols, Counts& c
       held.push_back(GiNaC::ex_to<GiNaC::realsymbol>(*node));
     }
   }
-  std::sort(held.begin(), held.end(), [](const auto& a, const auto& b) {
-    return a.get_name() < b.get_name();
-  });
+  std::sort(held.begin(), held.end(),
+            [](const auto& a, const auto& b) { return a.get_name() < b.get_name(); });
   held.erase(std::unique(held.begin(), held.end(),
                          [](const auto& a, const auto& b) { return a.is_equal(b); }),
              held.end());
@@ -164,7 +164,7 @@ TEST_CASE("derivatives on canonical forms are GiNaC's, multiplied out", "[modeli
       "tan(x*y) + log(x) + abs(x)",
       "exp(x)*exp(y)*x",
       "sqrt(x)*y",
-      "atan(x + y)",           // 1/(1 + (x + y)^2): refused
+      "atan(x + y)",             // 1/(1 + (x + y)^2): refused
       "atan2(y, x) + x/(x + y)"  // quotients by sums: refused
   };
   Counts counts;
@@ -233,16 +233,18 @@ TEST_CASE("Lagrange's equations on canonical forms are GiNaC's, multiplied out",
                                velocity_nodes));
   // A term linear in a velocity is no quadratic form.
   const Scaled not_quadratic = canonical.Add(energies.kinetic + c * x_dot);
-  CHECK_FALSE(ExpandsToQuadraticForm(canonical, not_quadratic, derived->mass_matrix,
-                                     velocity_nodes));
+  CHECK_FALSE(
+      ExpandsToQuadraticForm(canonical, not_quadratic, derived->mass_matrix, velocity_nodes));
 }
 
 TEST_CASE("Lagrange's equations on canonical forms refuse a quotient by a sum", "[modeling]") {
   const SymbolicLock lock;
   const GiNaC::realsymbol x("x"), x_dot("x_dot");
   CanonicalExpressions canonical;
-  const CanonicalEnergies energies{canonical.Add(x_dot * x_dot / (1 + x * x)), canonical.Number(0),
-                                   canonical.Number(0), {canonical.Number(0)}};
+  const CanonicalEnergies energies{canonical.Add(x_dot * x_dot / (1 + x * x)),
+                                   canonical.Number(0),
+                                   canonical.Number(0),
+                                   {canonical.Number(0)}};
   TermBudget budget;
   CHECK_FALSE(ExpandedLagrangeEquations(canonical, energies, {canonical.Add(x).node},
                                         {canonical.Add(x_dot).node}, budget));
