@@ -100,6 +100,15 @@ Classification Classify(const Model& model,
 }
 
 void DeriveNonlinearStructure(const Model& model, Classification& classification) {
+  if (model.num_constraints() > 0) {
+    NonlinearStructureSummary summary;
+    summary.note =
+        "closed kinematic chain: the structure along motions on c(q) = 0 is not derived in this "
+        "version; the classification above is the linearization's on the constraints' tangent "
+        "space";
+    classification.nonlinear_structure = std::move(summary);
+    return;
+  }
   NonlinearStructureOptions options;
   options.rank_tolerance = classification.rank_tolerance;
   options.reference_q = classification.operating_point.q;

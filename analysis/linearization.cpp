@@ -85,6 +85,28 @@ std::optional<std::string> FindLinearizationProblem(Linearization& linearization
   return std::nullopt;
 }
 
+void ProjectOntoTangentSpace(const Eigen::MatrixXd& constraint_jacobian,
+                             Linearization& linearization) {
+  const Eigen::Index dof = constraint_jacobian.cols();
+  const Eigen::Index loops = constraint_jacobian.rows();
+  // Q of C^T = Q R: its last dof - loops columns are orthonormal and orthogonal to C's rows.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(constraint_jacobian.transpose());
+  const Eigen::MatrixXd q = qr.householderQ();
+  linearization.tangent_basis = q.rightCols(dof - loops);
+  const Eigen::MatrixXd& basis = linearization.tangent_basis;
+  const auto project = [&basis](Eigen::MatrixXd& matrix) {
+    matrix = (basis.transpose() * matrix * basis).eval();
+  };
+  project(linearization.mass_matrix);
+  // M projected is symmetric to rounding; made exactly so for the Cholesky factor.
+  linearization.mass_matrix =
+      ((linearization.mass_matrix + linearization.mass_matrix.transpose()) / 2).eval();
+  project(linearization.damping);
+  project(linearization.stiffness);
+  linearization.input_matrix = (basis.transpose() * linearization.input_matrix).eval();
+  linearization.output_jacobian = (linearization.output_jacobian * basis).eval();
+}
+
 Linearization Linearize(const Model& model,
                         Workspace& workspace,
                         const OperatingPoint& point,
@@ -92,11 +114,17 @@ Linearization Linearize(const Model& model,
   assert(workspace.Fits(model));
   const auto dof = static_cast<Eigen::Index>(model.dof());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(dof);
-  Evaluate(model, workspace, point.q, zero,
-           workspace_holds_jacobians
-               ? static_cast<unsigned>(Quantity::kMassMatrix)
-               : Quantity::kMassMatrix | Quantity::kForcesJacobians | Quantity::kInputMatrix |
-                     Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
+  const bool loops = model.num_constraints() > 0;
+  unsigned quantities = workspace_holds_jacobians
+                            ? static_cast<unsigned>(Quantity::kMassMatrix)
+                            : Quantity::kMassMatrix | Quantity::kForcesJacobians |
+                                  Quantity::kInputMatrix | Quantity::kInputMatrixDerivatives |
+                                  Quantity::kOutputJacobian;
+  if (loops && !workspace_holds_jacobians) {
+    quantities =
+        quantities | Quantity::kConstraintJacobian | Quantity::kConstraintJacobianDerivatives;
+  }
+  Evaluate(model, workspace, point.q, zero, quantities);
   Linearization linearization;
   linearization.mass_matrix = workspace.mass_matrix;
   linearization.damping = workspace.forces_velocity_jacobian;
@@ -105,6 +133,10 @@ Linearization Linearize(const Model& model,
   EquilibriumStiffness(workspace, point.u, linearization.stiffness, input_force_change);
   linearization.input_matrix = workspace.input_matrix;
   linearization.output_jacobian = workspace.output_jacobian;
+  if (loops) {
+    SubtractConstraintStiffness(workspace, point.multipliers, linearization.stiffness);
+    ProjectOntoTangentSpace(workspace.constraint_jacobian, linearization);
+  }
 
   if (const std::optional<std::string> problem = FindLinearizationProblem(linearization)) {
     throw NoSolution(*problem + " (" + DescribeParameters(model, workspace) + ")");

@@ -1,7 +1,9 @@
 #pragma once
 // The Jacobian linearization of M(q) q'' + f(q, q') = B(q) u, y = h(q) at an equilibrium:
 //   M dq'' + damping dq' + stiffness dq = B du,   dy = H dq,
-// with stiffness = df/dq - d(B u0)/dq and damping = df/dq' (M'(q) q'' vanishes at rest).
+// with stiffness = df/dq - d(B u0)/dq and damping = df/dq' (M'(q) q'' vanishes at rest); for
+// a closed chain, stiffness also - d(C^T lambda0)/dq, and everything on the constraints'
+// tangent space (Linearization::tangent_basis).
 #include <Eigen/Dense>
 #include <optional>
 #include <string>
@@ -26,6 +28,12 @@ struct Linearization {
   Eigen::MatrixXd stiffness_rate;
   Eigen::MatrixXd damping_rate;
   Eigen::MatrixXd input_acceleration;
+  // A closed chain's: an orthonormal basis T (model dof x dof - constraints) of the tangent
+  // space of c(q) = 0 at q0, C T = 0. Its motions are dq = T dz, and every matrix above is in
+  // z: T^T M T, T^T D T, T^T K T (K with the constraint forces' share, d(C^T lambda0)/dq),
+  // T^T B and H T, which is M dq'' + D dq' + K dq = B du + C^T dlambda, C dq = 0 with the
+  // multipliers eliminated (premultiplied by T^T, T^T C^T = 0). Empty for an open chain.
+  Eigen::MatrixXd tangent_basis;
 
   Eigen::Index dof() const { return mass_matrix.rows(); }
   Eigen::Index num_inputs() const { return input_matrix.cols(); }
@@ -40,6 +48,12 @@ struct Linearization {
 /// sweep's polynomial path (analysis/sweep_point.cpp) runs the same checks, so that a sweep
 /// point fails exactly where `analyze` does.
 std::optional<std::string> FindLinearizationProblem(Linearization& linearization);
+
+/// Projects the matrices of `linearization` (full coordinates) onto the tangent space of the
+/// constraints, whose Jacobian at the point is `constraint_jacobian` (full row rank), and keeps
+/// the basis (Linearization::tangent_basis).
+void ProjectOntoTangentSpace(const Eigen::MatrixXd& constraint_jacobian,
+                             Linearization& linearization);
 
 /// Linearizes `model` at `point`. Throws NoSolution with FindLinearizationProblem's message and
 /// the parameter values if the linearization fails its checks.

@@ -21,7 +21,8 @@
 namespace servokit {
 namespace {
 
-// The equilibrium equations F(q, u) = [f(q,0) - B(q) u ; h(q) - y0] = 0 and their Jacobian.
+// The equilibrium equations F(q, u, lambda) = [f(q,0) - B(q) u - C(q)^T lambda ; h(q) - y0 ;
+// c(q)] = 0 and their Jacobian; without constraints, F(q, u) = [f(q,0) - B(q) u ; h(q) - y0].
 struct EquilibriumProblem {
   const Model& model;
   Workspace& workspace;
@@ -37,33 +38,53 @@ struct EquilibriumProblem {
 
   Eigen::Index dof() const { return static_cast<Eigen::Index>(model.dof()); }
   Eigen::Index inputs() const { return static_cast<Eigen::Index>(model.num_inputs()); }
+  Eigen::Index loops() const { return static_cast<Eigen::Index>(model.num_constraints()); }
+  Eigen::Index size() const { return dof() + inputs() + loops(); }
+  // The unknowns are [q, u, lambda], the residuals [forces, outputs, constraints].
 
   void Residual(const Eigen::VectorXd& unknowns, Eigen::Ref<Eigen::VectorXd> residual) {
     const auto q = unknowns.head(dof());
-    const auto u = unknowns.tail(inputs());
-    Evaluate(model, workspace, q, zero_velocity,
-             Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput);
-    ResidualFromWorkspace(u, residual);
+    unsigned quantities = Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput;
+    if (loops() > 0)
+      quantities = quantities | Quantity::kConstraints | Quantity::kConstraintJacobian;
+    Evaluate(model, workspace, q, zero_velocity, quantities);
+    ResidualFromWorkspace(unknowns.tail(inputs() + loops()), residual);
   }
 
-  // The residual from f, B and h already evaluated at q (and velocity 0).
-  void ResidualFromWorkspace(const Eigen::Ref<const Eigen::VectorXd>& u,
+  // The residual from f, B and h (and c and C) already evaluated at q (and velocity 0);
+  // `forces_unknowns` is [u, lambda].
+  void ResidualFromWorkspace(const Eigen::Ref<const Eigen::VectorXd>& forces_unknowns,
                              Eigen::Ref<Eigen::VectorXd> residual) {
-    input_force.noalias() = workspace.input_matrix * u;
+    input_force.noalias() = workspace.input_matrix * forces_unknowns.head(inputs());
     residual.head(dof()) = workspace.forces - input_force;
-    residual.tail(inputs()) = workspace.output - y0;
+    if (loops() > 0) {
+      residual.head(dof()).noalias() -=
+          workspace.constraint_jacobian.transpose() * forces_unknowns.tail(loops());
+      residual.tail(loops()) = workspace.constraints;
+    }
+    residual.segment(dof(), inputs()) = workspace.output - y0;
   }
 
   void Jacobian(const Eigen::VectorXd& unknowns, Eigen::Ref<Eigen::MatrixXd> jacobian) {
     const auto q = unknowns.head(dof());
-    const auto u = unknowns.tail(inputs());
-    Evaluate(model, workspace, q, zero_velocity,
-             Quantity::kForcesJacobians | Quantity::kInputMatrix |
-                 Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian);
+    const auto u = unknowns.segment(dof(), inputs());
+    unsigned quantities = Quantity::kForcesJacobians | Quantity::kInputMatrix |
+                          Quantity::kInputMatrixDerivatives | Quantity::kOutputJacobian;
+    if (loops() > 0) {
+      quantities =
+          quantities | Quantity::kConstraintJacobian | Quantity::kConstraintJacobianDerivatives;
+    }
+    Evaluate(model, workspace, q, zero_velocity, quantities);
     jacobian.setZero();
     EquilibriumStiffness(workspace, u, jacobian.topLeftCorner(dof(), dof()), input_force_change);
-    jacobian.topRightCorner(dof(), inputs()) = -workspace.input_matrix;
-    jacobian.bottomLeftCorner(inputs(), dof()) = workspace.output_jacobian;
+    jacobian.block(0, dof(), dof(), inputs()) = -workspace.input_matrix;
+    jacobian.block(dof(), 0, inputs(), dof()) = workspace.output_jacobian;
+    if (loops() > 0) {
+      SubtractConstraintStiffness(workspace, unknowns.tail(loops()),
+                                  jacobian.topLeftCorner(dof(), dof()));
+      jacobian.topRightCorner(dof(), loops()) = -workspace.constraint_jacobian.transpose();
+      jacobian.bottomLeftCorner(loops(), dof()) = workspace.constraint_jacobian;
+    }
   }
 };
 
@@ -94,6 +115,28 @@ void KeepKinsolMessage(int, const char*, const char*, char* message, void* last_
 
 // Digits of q and y0 in messages.
 constexpr int kVectorDigits = 6;
+
+// C = dc/dq of full row rank at q: else the first constraint that depends on those before it
+// (redundant, or the loop at a singular configuration) is named. Rows are compared after scaling
+// each to unit length, so that units do not decide.
+void CheckConstraintRank(const Eigen::MatrixXd& constraint_jacobian, const Eigen::VectorXd& q) {
+  constexpr double kRankTolerance = 1e-10;
+  Eigen::MatrixXd rows(0, constraint_jacobian.cols());
+  for (Eigen::Index i = 0; i < constraint_jacobian.rows(); ++i) {
+    const double norm = constraint_jacobian.row(i).norm();
+    Eigen::MatrixXd next(rows.rows() + 1, rows.cols());
+    next << rows, constraint_jacobian.row(i) / (norm > 0.0 ? norm : 1.0);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(next);
+    const Eigen::VectorXd& singular = svd.singularValues();
+    if (norm == 0.0 || singular(singular.size() - 1) <= kRankTolerance * singular(0)) {
+      throw NoSolution("constraints[" + std::to_string(i) +
+                       "]: C = dc/dq is rank-deficient at q = " + FormatList(q, kVectorDigits) +
+                       ": the constraint depends on the ones before it there (redundant, or the "
+                       "loop is at a singular configuration)");
+    }
+    rows = std::move(next);
+  }
+}
 
 // The rule of an options vector with one value per output or coordinate.
 std::string ValueCount(std::size_t count, const std::string& per) {
@@ -233,6 +276,16 @@ std::string DescribeParameters(const Model& model, const Workspace& workspace) {
   return text.str();
 }
 
+void SubtractConstraintStiffness(const Workspace& workspace,
+                                 const Eigen::Ref<const Eigen::VectorXd>& multipliers,
+                                 Eigen::Ref<Eigen::MatrixXd> stiffness) {
+  // Column b of d(C^T lambda)/dq is (dC/dq_b)^T lambda.
+  for (Eigen::Index b = 0; b < stiffness.cols(); ++b) {
+    stiffness.col(b).noalias() -=
+        workspace.constraint_jacobian_derivatives[std::size_t(b)].transpose() * multipliers;
+  }
+}
+
 void EquilibriumStiffness(const Workspace& workspace,
                           const Eigen::Ref<const Eigen::VectorXd>& u,
                           Eigen::Ref<Eigen::MatrixXd> stiffness,
@@ -252,6 +305,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
   options.Validate(model);
   const auto dof = static_cast<Eigen::Index>(model.dof());
   const auto inputs = static_cast<Eigen::Index>(model.num_inputs());
+  const auto loops = static_cast<Eigen::Index>(model.num_constraints());
   EquilibriumProblem problem{model,
                              workspace,
                              Eigen::VectorXd(),
@@ -262,14 +316,17 @@ OperatingPoint FindOperatingPoint(const Model& model,
   const Eigen::VectorXd& zero = problem.zero_velocity;
   // Start from q_guess and the inputs that best balance the forces there. f, B and h at the
   // start are evaluated at once; without q_guess the start is q = 0, where h gives y0 = h(0).
-  Eigen::VectorXd unknowns(dof + inputs);
+  Eigen::VectorXd unknowns(problem.size());
   unknowns.head(dof) = options.q_guess.value_or(zero);
   if (!options.y0 && options.q_guess) {
     Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
     problem.y0 = workspace.output;
   }
-  Evaluate(model, workspace, unknowns.head(dof), zero,
-           Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput);
+  unsigned start_quantities = Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput;
+  if (loops > 0) {
+    start_quantities = start_quantities | Quantity::kConstraints | Quantity::kConstraintJacobian;
+  }
+  Evaluate(model, workspace, unknowns.head(dof), zero, start_quantities);
   if (options.y0) {
     problem.y0 = *options.y0;
   } else if (!options.q_guess) {
@@ -278,24 +335,26 @@ OperatingPoint FindOperatingPoint(const Model& model,
   if (!options.y0 && !AllFinite(problem.y0)) {
     throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
   }
-  // Least squares u = (B^T B)^-1 B^T f; B has full column rank in any sensible model, and the
-  // complete orthogonal decomposition handles one that has not.
-  const Eigen::LLT<Eigen::MatrixXd> normal(workspace.input_matrix.transpose() *
-                                           workspace.input_matrix);
-  unknowns.tail(inputs) =
+  // Least squares [u; lambda] for [B, C^T] [u; lambda] = f; [B, C^T] has full column rank in
+  // any sensible model, and the complete orthogonal decomposition handles one that has not.
+  Eigen::MatrixXd force_directions(dof, inputs + loops);
+  force_directions << workspace.input_matrix, workspace.constraint_jacobian.transpose();
+  const Eigen::LLT<Eigen::MatrixXd> normal(force_directions.transpose() * force_directions);
+  unknowns.tail(inputs + loops) =
       normal.info() == Eigen::Success
-          ? Eigen::VectorXd(normal.solve(workspace.input_matrix.transpose() * workspace.forces))
+          ? Eigen::VectorXd(normal.solve(force_directions.transpose() * workspace.forces))
           : Eigen::VectorXd(
-                workspace.input_matrix.completeOrthogonalDecomposition().solve(workspace.forces));
+                force_directions.completeOrthogonalDecomposition().solve(workspace.forces));
 
-  Eigen::MatrixXd jacobian(dof + inputs, dof + inputs);
+  Eigen::MatrixXd jacobian(problem.size(), problem.size());
   problem.Jacobian(unknowns, jacobian);
   if (!AllFinite(jacobian)) {
     std::string quantities;
     for (const auto& [name, finite] :
          {std::pair{"df/dq", AllFinite(workspace.forces_position_jacobian)},
           std::pair{"B", AllFinite(workspace.input_matrix)},
-          std::pair{"H = dh/dq", AllFinite(workspace.output_jacobian)}}) {
+          std::pair{"H = dh/dq", AllFinite(workspace.output_jacobian)},
+          std::pair{"C = dc/dq", AllFinite(workspace.constraint_jacobian)}}) {
       if (!finite) quantities += (quantities.empty() ? "" : ", ") + std::string(name);
     }
     throw NoSolution(
@@ -304,10 +363,10 @@ OperatingPoint FindOperatingPoint(const Model& model,
         DescribeParameters(model, workspace) + ")");
   }
   Eigen::VectorXd scaling = ResidualScaling(jacobian);
-  Eigen::VectorXd residual(dof + inputs);
-  // f and h at the start are in the workspace, and B (evaluated again by the Jacobian at the
-  // same q) is unchanged: the residual needs no evaluation.
-  problem.ResidualFromWorkspace(unknowns.tail(inputs), residual);
+  Eigen::VectorXd residual(problem.size());
+  // f, h and c at the start are in the workspace, and B and C (evaluated again by the Jacobian
+  // at the same q) are unchanged: the residual needs no evaluation.
+  problem.ResidualFromWorkspace(unknowns.tail(inputs + loops), residual);
 
   OperatingPoint point;
   // Most operating points are the starting point itself (q = 0 and y0 = h(0)); then Newton
@@ -325,15 +384,18 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   // Decided on the equilibrated Jacobian: unscaled, one huge entry (k = 1e308, say) sets
   // FullPivLU's threshold and every other pivot looks like zero.
+  if (loops > 0) CheckConstraintRank(workspace.constraint_jacobian, unknowns.head(dof));
   const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
       workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian, scaling));
   if (!lu.isInvertible()) {
     throw NoSolution("the equilibrium at q = " + FormatList(unknowns.head(dof), kVectorDigits) +
-                     " is not isolated: the Jacobian of f(q,0) - B(q) u = 0, h(q) = y0 is "
-                     "singular (a free coordinate the output does not fix?)");
+                     " is not isolated: the Jacobian of f(q,0) - B(q) u" +
+                     std::string(loops > 0 ? " - C(q)^T lambda = 0, c(q) = 0" : " = 0") +
+                     ", h(q) = y0 is singular (a free coordinate the output does not fix?)");
   }
   point.q = unknowns.head(dof);
-  point.u = unknowns.tail(inputs);
+  point.u = unknowns.segment(dof, inputs);
+  point.multipliers = unknowns.tail(loops);
   // h(q) at these very unknowns: the last residual evaluated it, and the Jacobian after it
   // evaluates no output (Evaluate writes only the quantities asked for).
   point.y = workspace.output;

@@ -1,6 +1,7 @@
 #pragma once
 // The equilibrium at which servokit linearizes (docs/analyze.md "How it is computed", step 1):
-// q_dot = 0,  f(q, 0) = B(q) u,  h(q) = y0.
+// q_dot = 0,  f(q, 0) = B(q) u + C(q)^T lambda,  h(q) = y0,  c(q) = 0 (C^T lambda: a closed
+// chain's constraint forces; none for an open chain).
 #include <Eigen/Dense>
 #include <optional>
 #include <string>
@@ -30,6 +31,9 @@ struct OperatingPoint {
   Eigen::VectorXd q;
   Eigen::VectorXd u;
   Eigen::VectorXd y;
+  // Lagrange multipliers lambda (constraints) of a closed chain: C(q)^T lambda are the forces
+  // that hold its loops closed (empty for an open chain).
+  Eigen::VectorXd multipliers;
   int newton_iterations = 0;  // 0 when the starting point already was an equilibrium
 };
 
@@ -47,10 +51,17 @@ void EquilibriumStiffness(const Workspace& workspace,
                           Eigen::Ref<Eigen::MatrixXd> stiffness,
                           Eigen::VectorXd& input_force_change);
 
+/// stiffness -= d(C^T lambda)/dq, the constraint forces' share of the stiffness of a closed
+/// chain (column b is (dC/dq_b)^T lambda), from dC/dq in `workspace` (evaluated at q).
+void SubtractConstraintStiffness(const Workspace& workspace,
+                                 const Eigen::Ref<const Eigen::VectorXd>& multipliers,
+                                 Eigen::Ref<Eigen::MatrixXd> stiffness);
+
 /// Finds the equilibrium by Newton's method (SUNDIALS KINSOL) from options.q_guess.
 /// Throws UsageError for bad options and NoSolution when Newton does not converge, the
 /// equilibrium is not isolated (singular Jacobian) or the model evaluates to NaN or Inf.
-/// On return the workspace holds f, B, h, df/dq, df/dq_dot, dB/dq and H evaluated at
+/// A closed chain's C must have full row rank there (NoSolution naming the constraint).
+/// On return the workspace holds f, B, h, df/dq, df/dq_dot, dB/dq and H (and C, dC/dq) evaluated at
 /// (q, 0) of the point found (what Linearize's workspace_holds_jacobians relies on).
 OperatingPoint FindOperatingPoint(const Model& model,
                                   Workspace& workspace,

@@ -97,7 +97,8 @@ Workspace::Workspace(const Model& model)
       dof_(model.dof()),
       num_inputs_(model.num_inputs()),
       num_outputs_(model.num_outputs()),
-      num_parameters_(model.num_parameters()) {
+      num_parameters_(model.num_parameters()),
+      num_constraints_(model.num_constraints()) {
   const Eigen::Index dof = ToIndex(dof_);
   const Eigen::Index inputs = ToIndex(num_inputs_);
   const Eigen::Index outputs = ToIndex(num_outputs_);
@@ -112,6 +113,11 @@ Workspace::Workspace(const Model& model)
   input_matrix_derivatives.assign(dof_, Eigen::MatrixXd::Zero(dof, inputs));
   zero_dynamics_polynomial.setZero(2 * dof + 1);
   zero_dynamics_polynomial_scale.setZero(2 * dof + 1);
+  const Eigen::Index loops = ToIndex(num_constraints_);
+  constraints.setZero(loops);
+  constraint_jacobian.setZero(loops, dof);
+  constraint_bias.setZero(loops);
+  constraint_jacobian_derivatives.assign(dof_, Eigen::MatrixXd::Zero(loops, dof));
 
   program_inputs_.assign(num_parameters_ + 2 * dof_, 0.0);
   registers_.assign(model.max_registers(), 0.0);
@@ -121,6 +127,7 @@ Workspace::Workspace(const Model& model)
 bool Workspace::Fits(const Model& model) const {
   if (dof_ != model.dof() || num_inputs_ != model.num_inputs() ||
       num_outputs_ != model.num_outputs() || num_parameters_ != model.num_parameters() ||
+      num_constraints_ != model.num_constraints() ||
       static_cast<std::size_t>(parameters.size()) != num_parameters_) {
     return false;
   }
@@ -159,6 +166,15 @@ void ForEachResultBlock(Quantity quantity, Workspace& workspace, Visit visit) {
     case Quantity::kZeroDynamicsPolynomial:
       block(workspace.zero_dynamics_polynomial);
       return block(workspace.zero_dynamics_polynomial_scale);
+    case Quantity::kConstraints:
+      return block(workspace.constraints);
+    case Quantity::kConstraintJacobian:
+      return block(workspace.constraint_jacobian);
+    case Quantity::kConstraintBias:
+      return block(workspace.constraint_bias);
+    case Quantity::kConstraintJacobianDerivatives:
+      for (Eigen::MatrixXd& matrix : workspace.constraint_jacobian_derivatives) block(matrix);
+      return;
   }
 }
 

@@ -40,13 +40,19 @@ enum class Quantity : unsigned {
   // ignored), then their scales; all zero when the model is too large for it (check with
   // Model::has_zero_dynamics_polynomial()).
   kZeroDynamicsPolynomial = 1u << 8,
+  // Loop-closing constraints c(q) = 0 (docs/model-files.md, "Closed kinematic chains"); each
+  // of size 0 for a model without: constraints x ... below.
+  kConstraints = 1u << 9,                     // c(q), constraints
+  kConstraintJacobian = 1u << 10,             // C = dc/dq, constraints x dof
+  kConstraintBias = 1u << 11,                 // c_bar = C_dot q_dot, constraints
+  kConstraintJacobianDerivatives = 1u << 12,  // dC/dq_k, dof matrices of constraints x dof
 };
 constexpr unsigned operator|(Quantity a, Quantity b) {
   return static_cast<unsigned>(a) | static_cast<unsigned>(b);
 }
 constexpr unsigned operator|(unsigned a, Quantity b) { return a | static_cast<unsigned>(b); }
 /// The number of Quantity values; programs are indexed 0..kNumQuantities-1 by bit position.
-inline constexpr std::size_t kNumQuantities = 9;
+inline constexpr std::size_t kNumQuantities = 13;
 /// The quantities a model too large for symbolic Jacobians (SymbolicModel::has_symbolic_jacobians)
 /// has no program for: Evaluate computes them by forward-mode differentiation of the programs
 /// of f and B (dual numbers, modeling/dual_number.h), a column per q and q_dot.
@@ -81,6 +87,9 @@ class Model {
   std::size_t num_inputs() const { return inputs_.size(); }
   std::size_t num_outputs() const { return num_outputs_; }
   std::size_t num_parameters() const { return parameter_names_.size(); }
+  /// Loop-closing constraints c(q) = 0 (0 for an open chain): q is then redundant, with
+  /// dof() - num_constraints() degrees of freedom.
+  std::size_t num_constraints() const { return num_constraints_; }
 
   const std::vector<std::string>& coordinates() const { return coordinates_; }
   const std::vector<std::string>& inputs() const { return inputs_; }
@@ -131,6 +140,7 @@ class Model {
   std::vector<std::string> coordinates_, inputs_, parameter_names_;
   std::vector<DisplayUnit> parameter_units_;
   std::size_t num_outputs_ = 0;
+  std::size_t num_constraints_ = 0;
   Eigen::VectorXd parameters_;
   std::shared_ptr<const SymbolicModel> symbolic_;
   // By Quantity bit position; the polynomial's slot stays empty (polynomial_programs()).
@@ -184,17 +194,21 @@ class Workspace {
   Eigen::VectorXd parameters;
 
   // Results of the last Evaluate(); only the quantities asked for are up to date.
-  Eigen::MatrixXd mass_matrix;                            // dof x dof
-  Eigen::VectorXd forces;                                 // dof
-  Eigen::MatrixXd input_matrix;                           // dof x inputs
-  Eigen::VectorXd output;                                 // outputs
-  Eigen::MatrixXd output_jacobian;                        // outputs x dof
-  Eigen::VectorXd output_bias;                            // outputs
-  Eigen::MatrixXd forces_position_jacobian;               // dof x dof, df/dq
-  Eigen::MatrixXd forces_velocity_jacobian;               // dof x dof, df/dq_dot
-  std::vector<Eigen::MatrixXd> input_matrix_derivatives;  // dof of dof x inputs
-  Eigen::VectorXd zero_dynamics_polynomial;               // a_0 .. a_(2 dof)
-  Eigen::VectorXd zero_dynamics_polynomial_scale;         // sum of |terms| of each a_k
+  Eigen::MatrixXd mass_matrix;                                   // dof x dof
+  Eigen::VectorXd forces;                                        // dof
+  Eigen::MatrixXd input_matrix;                                  // dof x inputs
+  Eigen::VectorXd output;                                        // outputs
+  Eigen::MatrixXd output_jacobian;                               // outputs x dof
+  Eigen::VectorXd output_bias;                                   // outputs
+  Eigen::MatrixXd forces_position_jacobian;                      // dof x dof, df/dq
+  Eigen::MatrixXd forces_velocity_jacobian;                      // dof x dof, df/dq_dot
+  std::vector<Eigen::MatrixXd> input_matrix_derivatives;         // dof of dof x inputs
+  Eigen::VectorXd zero_dynamics_polynomial;                      // a_0 .. a_(2 dof)
+  Eigen::VectorXd zero_dynamics_polynomial_scale;                // sum of |terms| of each a_k
+  Eigen::VectorXd constraints;                                   // c(q), constraints
+  Eigen::MatrixXd constraint_jacobian;                           // C, constraints x dof
+  Eigen::VectorXd constraint_bias;                               // C_dot q_dot, constraints
+  std::vector<Eigen::MatrixXd> constraint_jacobian_derivatives;  // dof of constraints x dof
 
   /// Factorizations an analysis redoes at every point of a sweep, kept here so that their
   /// memory is allocated once per thread. Nothing but memory carries over between calls.
@@ -219,7 +233,8 @@ class Workspace {
                         const Eigen::Ref<const Eigen::VectorXd>& q_dot);
   // One forward-mode quantity from the programs of f or B (program_inputs_ set).
   void DifferentiateForwardMode(const Model& model, Quantity quantity);
-  std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0, num_parameters_ = 0;
+  std::size_t dof_ = 0, num_inputs_ = 0, num_outputs_ = 0, num_parameters_ = 0,
+              num_constraints_ = 0;
   std::vector<double> program_inputs_;  // [parameters, q, q_dot]
   std::vector<double> registers_;       // scratch for the largest program
   std::vector<double> outputs_;         // scratch for programs with several result blocks

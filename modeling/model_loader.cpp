@@ -54,6 +54,7 @@ constexpr std::string_view kKineticEnergyKey = "kinetic_energy";
 constexpr std::string_view kPotentialEnergyKey = "potential_energy";
 constexpr std::string_view kDissipationKey = "dissipation";
 constexpr std::string_view kGeneralizedForcesKey = "generalized_forces";
+constexpr std::string_view kConstraintsKey = "constraints";
 
 enum class Form { kExplicit, kLagrangian, kPlanarBodies };
 
@@ -81,6 +82,7 @@ FormKeys KeysOf(Form form) {
                            detail::kPlanarBodiesOptionalKeys.end());
       break;
   }
+  keys.optional.push_back(kConstraintsKey);  // every form: a closed chain's loops
   keys.required.push_back(kOutputsKey);
   return keys;
 }
@@ -278,6 +280,8 @@ class ModelBuilder {
         std::move(equations.mass_matrix_program);
     GiNaC::matrix output = ReadOutputs();
     model_.num_outputs_ = model_.num_inputs();
+    GiNaC::matrix constraints = ReadConstraints();
+    model_.num_constraints_ = constraints.rows();
 
     // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
     // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
@@ -285,7 +289,7 @@ class ModelBuilder {
       auto symbolic = std::make_shared<const SymbolicModel>(
           parameter_symbols_, coordinate_symbols_, velocity_symbols_,
           std::move(equations.mass_matrix), std::move(equations.forces),
-          std::move(equations.input_matrix), std::move(output));
+          std::move(equations.input_matrix), std::move(output), std::move(constraints));
       Compile(*symbolic, std::move(mass_matrix_program));
       model_.polynomial_->compile = PolynomialCompiler(symbolic);
       model_.symbolic_ = std::move(symbolic);
@@ -616,6 +620,35 @@ class ModelBuilder {
     GiNaC::matrix output = ReadVector("outputs", model_.num_inputs(), "one per input");
     CheckNoVelocities(output, "outputs", "y = h(q)", /*listed=*/true);
     return output;
+  }
+
+  // c(q) = 0, a closed chain's loop-closing constraints (docs/model-files.md, "Closed kinematic
+  // chains"); none (0 rows) without the key.
+  GiNaC::matrix ReadConstraints() const {
+    const std::string key(kConstraintsKey);
+    const YAML::Node node = Entry(key);
+    if (!node) return GiNaC::matrix(0, 1);
+    if (!node.IsSequence() || node.size() == 0) {
+      Fail(key, "expected a list of expressions c(q), one per loop-closing constraint c(q) = 0");
+    }
+    const std::size_t count = node.size(), dof = model_.dof(), outputs = model_.num_outputs();
+    if (count >= dof || count + outputs > dof) {
+      Fail(key, Count(count, "constraint", "constraints") + " for " +
+                    Count(dof, "coordinate", "coordinates") + " leave " +
+                    Count(count >= dof ? 0 : dof - count, "degree", "degrees") +
+                    " of freedom for " + Count(outputs, "output", "outputs") +
+                    "; a servo-constraint problem needs at least one per output");
+    }
+    GiNaC::matrix constraints = ReadVector(key, count, "one per constraint");
+    CheckNoVelocities(constraints, key, "c(q)", /*listed=*/true);
+    for (unsigned i = 0; i < constraints.rows(); ++i) {
+      if (FirstSymbolIn(constraints(i, 0), coordinate_symbols_) == nullptr) {
+        Fail(Indexed(key, i),
+             "does not depend on the coordinates; a loop-closing constraint "
+             "c(q) = 0 relates coordinates");
+      }
+    }
+    return constraints;
   }
 
   struct EquationsOfMotion {
@@ -1000,8 +1033,13 @@ class ModelBuilder {
          "Jacobians of f",
          {symbolic.forces_position_jacobian(), symbolic.forces_velocity_jacobian()}},
         {Quantity::kInputMatrixDerivatives, "dB/dq", symbolic.input_matrix_derivatives()},
+        {Quantity::kConstraints, "constraints", {symbolic.constraints()}},
+        {Quantity::kConstraintJacobian, "constraint Jacobian C", {symbolic.constraint_jacobian()}},
+        {Quantity::kConstraintBias, "constraint bias c_bar", {symbolic.constraint_bias()}},
+        {Quantity::kConstraintJacobianDerivatives, "dC/dq",
+         symbolic.constraint_jacobian_derivatives()},
     };
-    static_assert(kNumQuantities == 9, "compile every Quantity (the polynomial on first use)");
+    static_assert(kNumQuantities == 13, "compile every Quantity (the polynomial on first use)");
     model_.programs_.assign(kNumQuantities, nullptr);
     for (const Derived& derived : quantities) {
       const auto index =

@@ -113,7 +113,8 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                              Entries mass_matrix,
                              Entries forces,
                              GiNaC::matrix input_matrix,
-                             GiNaC::matrix output) {
+                             GiNaC::matrix output,
+                             GiNaC::matrix constraints) {
   const SymbolicLock lock;
   expressions_.reset(new Expressions());
   Expressions& e = *expressions_;
@@ -134,6 +135,12 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.output_jacobian = Jacobian(e.output, e.coordinates);
   e.output_bias =
       OutputBias(Derivatives(e.output_jacobian, e.coordinates), e.velocities, e.output.rows());
+  e.constraints = std::move(constraints);
+  assert(e.constraints.cols() == 1);
+  e.constraint_jacobian = Jacobian(e.constraints, e.coordinates);
+  e.constraint_jacobian_derivatives = Derivatives(e.constraint_jacobian, e.coordinates);
+  e.constraint_bias =
+      OutputBias(e.constraint_jacobian_derivatives, e.velocities, e.constraints.rows());
   if (!e.forces_built) {
     const double limit = kMaxEagerForcesWork / (2.0 * double(dof()));  // of |f|
     double size = 0.0;
@@ -151,7 +158,9 @@ SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
   e.forces_position_jacobian = Jacobian(e.forces, e.coordinates);
   e.forces_velocity_jacobian = Jacobian(e.forces, e.velocities);
   e.input_matrix_derivatives = Derivatives(e.input_matrix, e.coordinates);
-  if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs()) {
+  // With loops the zero dynamics live on the constraint manifold: no closed form here.
+  if (dof() + num_inputs() <= kMaxPolynomialSize && num_outputs() == num_inputs() &&
+      num_constraints() == 0) {
     GiNaC::exmap at_rest;
     for (const GiNaC::realsymbol& velocity : e.velocities) at_rest[velocity] = 0;
     const GiNaC::realsymbol lambda("lambda");

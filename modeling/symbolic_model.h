@@ -54,7 +54,8 @@ class SymbolicModel {
                 Entries mass_matrix,
                 Entries forces,
                 GiNaC::matrix input_matrix,
-                GiNaC::matrix output);
+                GiNaC::matrix output,
+                GiNaC::matrix constraints = GiNaC::matrix(0, 1));
 
   /// Number of coordinates q.
   std::size_t dof() const { return expressions_->coordinates.size(); }
@@ -62,6 +63,8 @@ class SymbolicModel {
   std::size_t num_inputs() const { return expressions_->input_matrix.cols(); }
   /// Number of outputs y (rows of h).
   std::size_t num_outputs() const { return expressions_->output.rows(); }
+  /// Number of loop-closing constraints c(q) = 0 (rows of c; 0 for an open chain).
+  std::size_t num_constraints() const { return expressions_->constraints.rows(); }
 
   /// The parameter symbols, in the order of Model::parameter_names().
   const std::vector<GiNaC::realsymbol>& parameters() const { return expressions_->parameters; }
@@ -94,6 +97,14 @@ class SymbolicModel {
   const GiNaC::matrix& output_jacobian() const { return expressions_->output_jacobian; }
   /// h_bar = H_dot q_dot = sum_jk d2h/dq_j dq_k q_dot_j q_dot_k, outputs x 1 (paper Eq. 5).
   const GiNaC::matrix& output_bias() const { return expressions_->output_bias; }
+  /// c(q), constraints x 1 (paper Eq. 7: c_c(q) = 0), C = dc/dq (constraints x dof), dC/dq_k
+  /// for k = 0..dof-1 and c_bar = C_dot q_dot, derived as H, dH/dq and h_bar are from h.
+  const GiNaC::matrix& constraints() const { return expressions_->constraints; }
+  const GiNaC::matrix& constraint_jacobian() const { return expressions_->constraint_jacobian; }
+  const std::vector<GiNaC::matrix>& constraint_jacobian_derivatives() const {
+    return expressions_->constraint_jacobian_derivatives;
+  }
+  const GiNaC::matrix& constraint_bias() const { return expressions_->constraint_bias; }
   /// True when df/dq, df/dq_dot and dB/dq were derived: when differentiating f and B walks at
   /// most kMaxJacobianWork nodes (dof (2 |f| + |B|), TreeSize, modeling/expansion_bound.h).
   /// Larger models get them by forward-mode differentiation of the compiled programs of f and
@@ -137,9 +148,9 @@ class SymbolicModel {
   struct ZeroDynamicsPolynomial {
     std::vector<GiNaC::ex> coefficients, scales;
   };
-  /// True for models with dof + inputs <= kMaxPolynomialSize (a symbolic determinant costs like
-  /// n!), as many outputs as inputs and an expansion within kMaxPolynomialTerms: decided at
-  /// load, before anything is expanded.
+  /// True for models without constraints with dof + inputs <= kMaxPolynomialSize (a symbolic
+  /// determinant costs like n!), as many outputs as inputs and an expansion within
+  /// kMaxPolynomialTerms: decided at load, before anything is expanded.
   bool has_zero_dynamics_polynomial() const { return expressions_->has_zero_dynamics_polynomial; }
   /// Derives the polynomial (empty without has_zero_dynamics_polynomial()): the determinant,
   /// normal() and expand(), more than half of loading a small model, so only a caller that
@@ -175,6 +186,8 @@ class SymbolicModel {
     bool mass_matrix_built = true;  // false while M is only in canonical_mass_matrix
     bool forces_built = true;       // false while f is only in canonical_forces
     GiNaC::matrix output_jacobian, output_bias;
+    GiNaC::matrix constraints, constraint_jacobian, constraint_bias;
+    std::vector<GiNaC::matrix> constraint_jacobian_derivatives;
     GiNaC::matrix forces_position_jacobian, forces_velocity_jacobian;
     std::vector<GiNaC::matrix> input_matrix_derivatives;
     bool has_zero_dynamics_polynomial = false;

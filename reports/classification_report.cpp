@@ -110,7 +110,10 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
       {"parameters", ParametersToText(model)},
       {"operating point", "q = " + VectorToText(c.operating_point.q) +
                               ", u = " + VectorToText(c.operating_point.u) +
-                              ", y = " + VectorToText(c.operating_point.y)},
+                              ", y = " + VectorToText(c.operating_point.y) +
+                              (model.num_constraints() > 0
+                                   ? ", lambda = " + VectorToText(c.operating_point.multipliers)
+                                   : std::string())},
       {"P = H M^-1 B", MatrixToText(c.decoupling.decoupling_matrix)},
       {"singular values of P", VectorToText(c.decoupling.singular_values) + " (zero below " +
                                    FormatShort(c.decoupling.rank_threshold) + ")"},
@@ -130,6 +133,14 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
       {"oscillatory modes", ModesToText(c.zero_dynamics.modes)},
       {"recommended solver", std::string(ToString(c.recommended_solver))},
   };
+  if (model.num_constraints() > 0) {
+    // After the parameters and the operating point: what the numbers below are about.
+    rows.insert(rows.begin() + 2,
+                {"constraints", std::to_string(model.num_constraints()) + " (" +
+                                    std::to_string(model.dof() - model.num_constraints()) +
+                                    " degrees of freedom; P, zeros on the tangent space of "
+                                    "c(q) = 0)"});
+  }
   if (c.cross_check) {
     rows.push_back({"cross-check (QZ)",
                     std::string(c.cross_check->agrees ? "agrees" : "DISAGREES") +
@@ -239,6 +250,10 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
         // The load-time decision (Model::has_zero_dynamics_polynomial would derive it).
         {"zero_dynamics_polynomial", model.symbolic().has_zero_dynamics_polynomial()}}},
   };
+  if (model.num_constraints() > 0) {
+    json["constraints"] = model.num_constraints();
+    json["operating_point"]["multipliers"] = VectorToJson(c.operating_point.multipliers);
+  }
   if (c.nonlinear_structure) {
     json["nonlinear_structure"] = NonlinearStructureToJson(*c.nonlinear_structure);
   }

@@ -798,6 +798,11 @@ FeedforwardSolution SolveInverseModel(const Model& model,
                                       const Classification& classification,
                                       const InverseModelOptions& options) {
   options.Validate();
+  if (model.num_constraints() > 0) {
+    throw NoSolution(
+        "closed kinematic chains (constraints c(q) = 0) are classified but not inverted in this "
+        "version; analyze and sweep take them");
+  }
   MethodChooser chooser(model, classification, options.force);
   FeedforwardSolution solution;
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);

@@ -1,0 +1,185 @@
+// Closed kinematic chains (docs/model-files.md, "Closed kinematic chains"): a mechanism written
+// in redundant coordinates with loop-closing constraints must be classified as the same
+// mechanism written in minimal coordinates. The reference is the paper's passive-joint arm
+// (Sect. 4.2, models/rotational_arm.yaml): cut at the joint between its links, link 2 described
+// by its centre (x2, y2) and absolute angle theta2, and the joint closed by two constraints
+// (tests/data/loops/rotational_arm_redundant.yaml). P, the realization, the relative degree and
+// the zero dynamics must agree to 1e-12 below, at and above s/l = 2/3. Then the same arm in a
+// vertical plane, where the loop carries link 2's weight: the multipliers are the joint force,
+// (0, m g) by the statics of link 2 alone, and the zeros need the constraint forces' stiffness
+// d(C^T lambda)/dq; the minimal model (written here, by hand) is the reference again. And the
+// errors of loading and of the operating point name the constraint.
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "analysis/thresholds.h"
+#include "base/errors.h"
+#include "tests/analysis/classify_helpers.h"
+
+namespace servokit {
+namespace {
+
+using testing::ClassifyFile;
+using testing::ModelPath;
+using testing::TestDataPath;
+
+void CheckSameClassification(const Classification& minimal, const Classification& redundant) {
+  REQUIRE(redundant.decoupling.decoupling_matrix.rows() == 1);
+  // At s/l = 2/3, P is zero but for rounding (1e-16) in both.
+  CHECK(redundant.decoupling.decoupling_matrix(0, 0) ==
+        Approx(minimal.decoupling.decoupling_matrix(0, 0)).epsilon(1e-12).margin(1e-15));
+  CHECK(redundant.decoupling.rank == minimal.decoupling.rank);
+  CHECK(redundant.decoupling.realization == minimal.decoupling.realization);
+  CHECK(redundant.structure.relative_degree == minimal.structure.relative_degree);
+  CHECK(redundant.structure.internal_dynamics_order == minimal.structure.internal_dynamics_order);
+  CHECK(redundant.zero_dynamics.stability == minimal.zero_dynamics.stability);
+  const auto& expected = minimal.zero_dynamics.eigenvalues;
+  const auto& zeros = redundant.zero_dynamics.eigenvalues;
+  REQUIRE(zeros.size() == expected.size());
+  for (std::size_t i = 0; i < zeros.size(); ++i) {
+    CHECK(std::abs(zeros[i] - expected[i]) <= 1e-12 * std::abs(expected[i]));
+  }
+  REQUIRE(redundant.cross_check);
+  // Where P is zero to rounding, QZ of the pencil sees the zero pair that leaves through
+  // infinity as P -> 0 at +-1/sqrt(P) (+-2.7e8 here), which the structure at infinity does not
+  // count: a regular P only (issue #36 is about that case).
+  if (minimal.decoupling.rank == 1) CHECK(redundant.cross_check->agrees);
+}
+
+TEST_CASE("the arm in redundant coordinates is classified as in minimal ones", "[analysis]") {
+  // s/l below, at and above 2/3 (l = 1).
+  for (const std::string s : {"0.5", "0.6666666666666666", "1", "2"}) {
+    INFO("s = " << s);
+    const Classification minimal = ClassifyFile(ModelPath("rotational_arm.yaml"), {{"s", s}});
+    const Classification redundant =
+        ClassifyFile(TestDataPath("loops/rotational_arm_redundant.yaml"), {{"s", s}});
+    CheckSameClassification(minimal, redundant);
+    // On the loop: the joint closed, link 2's centre half a link beyond the arm's end.
+    CHECK(redundant.operating_point.q(1) == Approx(1.5).epsilon(1e-12));
+    REQUIRE(redundant.operating_point.multipliers.size() == 2);
+    CHECK(redundant.operating_point.multipliers.norm() <= 1e-12);  // nothing loads the joint
+  }
+}
+
+TEST_CASE("threshold finds s/l = 2/3 on the arm in redundant coordinates", "[analysis]") {
+  const Model model = LoadModel(TestDataPath("loops/rotational_arm_redundant.yaml"));
+  const ThresholdSearch search =
+      FindThresholds(model, *model.FindParameter("s"), 0.1, 2.0, ThresholdEvent::kStability);
+  REQUIRE(search.events.size() == 1);
+  // The paper's s/l = 2/3 (l = 1), where the leading coefficient m l^2 (2 l - 3 s) of the zero
+  // dynamics' polynomial changes sign, within the bracket.
+  CHECK(std::abs(search.events[0].value - 2.0 / 3.0) <= search.events[0].bracket_width);
+  CHECK(search.events[0].from == "asymptotically-stable");
+  CHECK(search.events[0].to == "unstable");
+}
+
+// The arm in a vertical plane (gravity g along -y), both ways.
+constexpr const char* kVerticalMinimal = R"(kind: lagrangian
+name: arm_vertical
+parameters: {l: 1.0, m: 3.438, c: 50.0, d: 0.25, s: 1.0, g: 9.81}
+coordinates: [alpha, beta]
+inputs: [T]
+kinetic_energy: m*l^2/6*alpha_dot^2 + m/2*(l^2*alpha_dot^2 + l^2/4*(alpha_dot + beta_dot)^2 + l^2*cos(beta)*alpha_dot*(alpha_dot + beta_dot)) + m*l^2/24*(alpha_dot + beta_dot)^2
+potential_energy: c/2*beta^2 + m*g*l/2*sin(alpha) + m*g*(l*sin(alpha) + l/2*sin(alpha + beta))
+dissipation: d/2*beta_dot^2
+input_matrix: [[1], [0]]
+outputs: [alpha + s/(s + l)*beta]
+)";
+constexpr const char* kVerticalRedundant = R"(kind: lagrangian
+name: arm_vertical_redundant
+parameters: {l: 1.0, m: 3.438, c: 50.0, d: 0.25, s: 1.0, g: 9.81}
+coordinates: [alpha, x2, y2, theta2]
+inputs: [T]
+kinetic_energy: m*l^2/6*alpha_dot^2 + m/2*(x2_dot^2 + y2_dot^2) + m*l^2/24*theta2_dot^2
+potential_energy: c/2*(theta2 - alpha)^2 + m*g*l/2*sin(alpha) + m*g*y2
+dissipation: d/2*(theta2_dot - alpha_dot)^2
+input_matrix: [[1], [0], [0], [0]]
+constraints:
+  - x2 - l*cos(alpha) - l/2*cos(theta2)
+  - y2 - l*sin(alpha) - l/2*sin(theta2)
+outputs: [alpha + s/(s + l)*(theta2 - alpha)]
+)";
+
+Classification ClassifyText(const char* text, double y0) {
+  const Model model = LoadModelFromString(text, "inline.yaml");
+  Workspace workspace(model);
+  ClassificationOptions options;
+  options.operating_point.y0 = Eigen::VectorXd::Constant(1, y0);
+  return Classify(model, workspace, options);
+}
+
+TEST_CASE("a loop that carries load: the multipliers and their stiffness", "[analysis]") {
+  for (const double y0 : {0.0, 0.4, -1.0}) {
+    INFO("y0 = " << y0);
+    const Classification minimal = ClassifyText(kVerticalMinimal, y0);
+    const Classification redundant = ClassifyText(kVerticalRedundant, y0);
+    CheckSameClassification(minimal, redundant);
+    // The same pose and torque: alpha and the joint angle theta2 - alpha.
+    const Eigen::VectorXd& q = redundant.operating_point.q;
+    CHECK(q(0) == Approx(minimal.operating_point.q(0)).margin(1e-10));
+    CHECK(q(3) - q(0) == Approx(minimal.operating_point.q(1)).margin(1e-10));
+    CHECK(redundant.operating_point.u(0) == Approx(minimal.operating_point.u(0)).epsilon(1e-10));
+    // Link 2 alone at rest: the joint pushes it up with its weight; lambda is that force
+    // (C^T lambda in the x2, y2 rows is lambda itself).
+    const Eigen::VectorXd& lambda = redundant.operating_point.multipliers;
+    CHECK(lambda(0) == Approx(0.0).margin(1e-9));
+    CHECK(lambda(1) == Approx(3.438 * 9.81).epsilon(1e-12));
+  }
+}
+
+// The error of loading and classifying a model of `coordinates` unit masses with springs to
+// the origin, the first driven, the output the sum of the first two, and `constraints`; "" for
+// none. (A model error at load, NoSolution at the operating point.)
+std::string ErrorOf(const std::vector<std::string>& coordinates, const std::string& constraints) {
+  const std::size_t dof = coordinates.size();
+  std::string mass, forces, inputs;
+  for (std::size_t i = 0; i < dof; ++i) {
+    std::string row;
+    for (std::size_t j = 0; j < dof; ++j) row += std::string(j ? ", " : "") + (i == j ? "1" : "0");
+    mass += std::string(i ? ", " : "") + "[" + row + "]";
+    forces += std::string(i ? ", " : "") + coordinates[i];
+    inputs += std::string(i ? ", " : "") + (i == 0 ? "[1]" : "[0]");
+  }
+  std::string names;
+  for (std::size_t i = 0; i < dof; ++i) names += std::string(i ? ", " : "") + coordinates[i];
+  const std::string text = "name: bad\nparameters: {l: 1.0}\ncoordinates: [" + names +
+                           "]\ninputs: [T]\nmass_matrix: [" + mass + "]\nforces: [" + forces +
+                           "]\ninput_matrix: [" + inputs + "]\nconstraints: " + constraints +
+                           "\noutputs: [" + coordinates[0] + " + " + coordinates[1] + "]\n";
+  try {
+    const Model model = LoadModelFromString(text, "bad.yaml");
+    Workspace workspace(model);
+    Classify(model, workspace);
+  } catch (const std::exception& error) {
+    return error.what();
+  }
+  return "";
+}
+
+TEST_CASE("bad constraints are named", "[analysis]") {
+  const auto load_error = [](const std::string& constraints) {
+    return ErrorOf({"a", "b", "c"}, constraints);
+  };
+  CHECK_THAT(load_error("[b - c, l + 1]"),
+             Catch::Contains("constraints[1]") && Catch::Contains("does not depend"));
+  CHECK_THAT(load_error("[b - c_dot]"), Catch::Contains("constraints[0]") &&
+                                            Catch::Contains("velocity 'c_dot'"));
+  CHECK_THAT(load_error("[a, b, c]"),
+             Catch::Contains("constraints: 3 constraints for 3 coordinates leave 0 degrees"));
+  CHECK_THAT(load_error("[]"), Catch::Contains("constraints: expected a list"));
+}
+
+TEST_CASE("a redundant constraint and an unreachable loop stop the analysis", "[analysis]") {
+  const auto error_of = [](const std::string& constraints) {
+    return ErrorOf({"a", "b", "c", "e"}, constraints);
+  };
+  CHECK_THAT(error_of("[b - c, 2*b - 2*c]"),
+             Catch::Contains("constraints[1]") && Catch::Contains("rank-deficient"));
+  CHECK_THAT(error_of("[c^2 + 1]"), Catch::Contains("no equilibrium found"));
+}
+
+}  // namespace
+}  // namespace servokit
