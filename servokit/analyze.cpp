@@ -32,6 +32,7 @@ Analysis FromClassification(const servokit::Model& model,
   analysis.q = classification.operating_point.q;
   analysis.u = classification.operating_point.u;
   analysis.y = classification.operating_point.y;
+  analysis.multipliers = classification.operating_point.multipliers;
   analysis.P = classification.decoupling.decoupling_matrix;
   analysis.P_rank = int(classification.decoupling.rank);
   analysis.realization = classification.decoupling.realization;

@@ -191,7 +191,10 @@ struct ZeroDynamics {
 /// the keys of `analyze --format json`), and the three reports `servokit analyze` prints.
 struct Analysis {
   Eigen::VectorXd q, u, y;  // the operating point
-  Eigen::MatrixXd P;        // H M^-1 B (paper Eq. 10); C M^-1 B for a linear model
+  // A closed chain's Lagrange multipliers there: C(q)^T lambda hold its loops closed
+  // (docs/model-files.md, "Closed kinematic chains"); empty for an open chain.
+  Eigen::VectorXd multipliers;
+  Eigen::MatrixXd P;  // H M^-1 B (paper Eq. 10); C M^-1 B for a linear model
   int P_rank = 0;
   Realization realization = Realization::kIdealOrthogonal;
   std::vector<int> relative_degree;  // one per output; empty when not determined

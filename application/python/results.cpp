@@ -60,6 +60,9 @@ py::dict AnalysisDict(const sk::Analysis& analysis) {
   dict["operating_point"] =
       py::dict(py::arg("q") = NumberList(analysis.q), py::arg("u") = NumberList(analysis.u),
                py::arg("y") = NumberList(analysis.y));
+  if (analysis.multipliers.size() > 0) {  // a closed chain's, as the JSON has them
+    dict["operating_point"]["multipliers"] = NumberList(analysis.multipliers);
+  }
   dict["P"] = RowLists(analysis.P);
   dict["P_rank"] = analysis.P_rank;
   dict["realization"] = Word(analysis.realization);
@@ -264,6 +267,9 @@ void BindAnalysis(py::module_& module) {
       .def_readonly("q", &A::q)
       .def_readonly("u", &A::u)
       .def_readonly("y", &A::y)
+      .def_readonly("multipliers", &A::multipliers,
+                    "a closed chain's Lagrange multipliers (C^T lambda close its loops); empty "
+                    "for an open chain")
       .def_readonly("P", &A::P, "H M^-1 B (paper Eq. 10); empty for a linear model")
       .def_readonly("P_rank", &A::P_rank)
       .def_property_readonly("realization",

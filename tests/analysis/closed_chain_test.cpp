@@ -130,6 +130,63 @@ TEST_CASE("a loop that carries load: the multipliers and their stiffness", "[ana
   }
 }
 
+// The gantry crane in absolute coordinates (trolley x, rope payout r, the load's xL and zL, the
+// rope a constraint: tests/data/loops/gantry_crane_absolute.yaml) against models/gantry_crane.yaml
+// in minimal ones: mixed realization, vector relative degree [4, 2], index 5, flat. The
+// multiplier is the rope's: the load at rest hangs on it, m g = -dc/dzL lambda = -2 zL lambda.
+TEST_CASE("the gantry crane in absolute coordinates is classified as in minimal ones",
+          "[analysis]") {
+  const Model minimal_model = LoadModel(ModelPath("gantry_crane.yaml"));
+  const Model absolute_model = LoadModel(TestDataPath("loops/gantry_crane_absolute.yaml"));
+  Workspace minimal_workspace(minimal_model), absolute_workspace(absolute_model);
+  for (const auto& [x, z] : {std::pair{0.0, 2.0}, std::pair{0.3, 1.5}}) {
+    INFO("y0 = " << x << ", " << z);
+    ClassificationOptions options;
+    options.operating_point.y0 = Eigen::Vector2d(x, z);
+    const Classification minimal = Classify(minimal_model, minimal_workspace, options);
+    options.operating_point.q_guess = Eigen::Vector4d(0.0, 0.0, 0.0, 2.0);
+    const Classification absolute = Classify(absolute_model, absolute_workspace, options);
+    CHECK(absolute.decoupling.realization == minimal.decoupling.realization);
+    CHECK(absolute.decoupling.realization == Realization::kMixed);
+    CHECK(absolute.decoupling.rank == 1);
+    CHECK(absolute.structure.relative_degree == std::vector<int>{4, 2});
+    CHECK(absolute.structure.differentiation_index == 5);
+    CHECK(absolute.flat);
+    CHECK(absolute.zero_dynamics.eigenvalues.empty());
+    CHECK(absolute.operating_point.u(1) ==
+          Approx(minimal.operating_point.u(1)).epsilon(1e-12));  // the hoist holds the load
+    const double load_weight = 5.0 * 9.81;
+    CHECK(absolute.operating_point.multipliers(0) == Approx(-load_weight / (2 * z)).epsilon(1e-12));
+  }
+}
+
+// A planar five-bar with a passive sprung crank: in its two crank angles with the loop closure
+// solved by atan2 and sqrt (tests/data/loops/five_bar_minimal.yaml, bench/size_models.py's
+// derivation), and in the crank and coupler angles with the coupler joint closed by two
+// constraints (five_bar_redundant.yaml, written afresh). The upright pose and two with the
+// output point to its left, the spring relaxed and preloaded.
+TEST_CASE("a five-bar in redundant coordinates is classified as in minimal ones", "[analysis]") {
+  for (const std::string rest_angle : {"0", "0.3"}) {
+    const Model minimal_model =
+        LoadModel(TestDataPath("loops/five_bar_minimal.yaml"), {{"q2r", rest_angle}});
+    const Model redundant_model =
+        LoadModel(TestDataPath("loops/five_bar_redundant.yaml"), {{"q2r", rest_angle}});
+    Workspace minimal_workspace(minimal_model), redundant_workspace(redundant_model);
+    for (const double y0 : {1.0, 0.8, 0.9}) {
+      INFO("q2r = " << rest_angle << ", y0 = " << y0);
+      ClassificationOptions options;
+      options.operating_point.y0 = Eigen::VectorXd::Constant(1, y0);
+      const Classification minimal = Classify(minimal_model, minimal_workspace, options);
+      // Elbow up, as the minimal model's closure chooses: the upright pose's coupler angles.
+      options.operating_point.q_guess = Eigen::Vector4d(0.0, 0.0, 0.8411, 2.3005);
+      const Classification redundant = Classify(redundant_model, redundant_workspace, options);
+      CheckSameClassification(minimal, redundant);
+      CHECK(redundant.operating_point.q(0) == Approx(minimal.operating_point.q(0)).margin(1e-10));
+      CHECK(redundant.operating_point.q(1) == Approx(minimal.operating_point.q(1)).margin(1e-10));
+    }
+  }
+}
+
 // The error of loading and classifying a model of `coordinates` unit masses with springs to
 // the origin, the first driven, the output the sum of the first two, and `constraints`; "" for
 // none. (A model error at load, NoSolution at the operating point.)
@@ -165,8 +222,8 @@ TEST_CASE("bad constraints are named", "[analysis]") {
   };
   CHECK_THAT(load_error("[b - c, l + 1]"),
              Catch::Contains("constraints[1]") && Catch::Contains("does not depend"));
-  CHECK_THAT(load_error("[b - c_dot]"), Catch::Contains("constraints[0]") &&
-                                            Catch::Contains("velocity 'c_dot'"));
+  CHECK_THAT(load_error("[b - c_dot]"),
+             Catch::Contains("constraints[0]") && Catch::Contains("velocity 'c_dot'"));
   CHECK_THAT(load_error("[a, b, c]"),
              Catch::Contains("constraints: 3 constraints for 3 coordinates leave 0 degrees"));
   CHECK_THAT(load_error("[]"), Catch::Contains("constraints: expected a list"));

@@ -1,11 +1,13 @@
 """The paper's mass on a car (Seifried and Blajer 2013, Sect. 3, Eqs. 26-27) through the
-Python module, against closed forms (models/mass_on_car.yaml: m1 = 1, m2 = 2, k = 5)."""
+Python module, against closed forms (models/mass_on_car.yaml: m1 = 1, m2 = 2, k = 5); and a
+closed chain (Sect. 2, Eqs. 6-7) through the same calls."""
 import math
 
 import numpy as np
 import pytest
 
 import servokit
+from conftest import MODELS
 
 M1, M2, K = 1.0, 2.0, 5.0
 
@@ -117,3 +119,18 @@ def test_generated_chain_has_the_free_mass_as_zero_dynamics(tmp_path):
         [-math.sqrt(1 - 0.005**2), math.sqrt(1 - 0.005**2)], rel=1e-10)
     beam = servokit.load(servokit.generate.beam(elements=4, out=tmp_path / "beam"))
     assert beam.kind == "linear" and beam.name == "beam_4"
+
+
+def test_crane_in_absolute_coordinates_holds_its_load_on_the_rope():
+    # The gantry crane with the rope as a constraint (tests/data/loops): the load at rest hangs
+    # on it, m g = -dc/dzL lambda = -2 zL lambda, and it is classified as models/gantry_crane.yaml.
+    crane = servokit.load(str(MODELS.parent / "tests" / "data" / "loops" /
+                              "gantry_crane_absolute.yaml"))
+    analysis = crane.analyze(y0=[0.3, 1.5], q0=[0, 0, 0, 2])
+    assert analysis.multipliers == pytest.approx([-5.0 * 9.81 / (2 * 1.5)], rel=1e-12)
+    assert analysis.to_dict()["operating_point"]["multipliers"] == list(analysis.multipliers)
+    minimal = servokit.load(str(MODELS / "gantry_crane.yaml")).analyze(y0=[0.3, 1.5])
+    assert analysis.realization == minimal.realization == "mixed-orthogonal-tangential"
+    assert list(analysis.relative_degree) == list(minimal.relative_degree) == [4, 2]
+    assert analysis.flat and minimal.flat
+    assert len(minimal.multipliers) == 0
