@@ -119,7 +119,9 @@ constexpr int kVectorDigits = 6;
 // C = dc/dq of full row rank at q: else the first constraint that depends on those before it
 // (redundant, or the loop at a singular configuration) is named. Rows are compared after scaling
 // each to unit length, so that units do not decide.
-void CheckConstraintRank(const Eigen::MatrixXd& constraint_jacobian, const Eigen::VectorXd& q) {
+void CheckConstraintRank(const Model& model,
+                         const Eigen::MatrixXd& constraint_jacobian,
+                         const Eigen::VectorXd& q) {
   constexpr double kRankTolerance = 1e-10;
   Eigen::MatrixXd rows(0, constraint_jacobian.cols());
   for (Eigen::Index i = 0; i < constraint_jacobian.rows(); ++i) {
@@ -129,8 +131,8 @@ void CheckConstraintRank(const Eigen::MatrixXd& constraint_jacobian, const Eigen
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(next);
     const Eigen::VectorXd& singular = svd.singularValues();
     if (norm == 0.0 || singular(singular.size() - 1) <= kRankTolerance * singular(0)) {
-      throw NoSolution("constraints[" + std::to_string(i) +
-                       "]: C = dc/dq is rank-deficient at q = " + FormatList(q, kVectorDigits) +
+      throw NoSolution(model.constraint_names()[std::size_t(i)] +
+                       ": C = dc/dq is rank-deficient at q = " + FormatList(q, kVectorDigits) +
                        ": the constraint depends on the ones before it there (redundant, or the "
                        "loop is at a singular configuration)");
     }
@@ -384,7 +386,7 @@ OperatingPoint FindOperatingPoint(const Model& model,
   }
   // Decided on the equilibrated Jacobian: unscaled, one huge entry (k = 1e308, say) sets
   // FullPivLU's threshold and every other pivot looks like zero.
-  if (loops > 0) CheckConstraintRank(workspace.constraint_jacobian, unknowns.head(dof));
+  if (loops > 0) CheckConstraintRank(model, workspace.constraint_jacobian, unknowns.head(dof));
   const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
       workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian, scaling));
   if (!lu.isInvertible()) {

@@ -90,6 +90,8 @@ class Model {
   /// Loop-closing constraints c(q) = 0 (0 for an open chain): q is then redundant, with
   /// dof() - num_constraints() degrees of freedom.
   std::size_t num_constraints() const { return num_constraints_; }
+  /// Where each constraint comes from, for messages: "constraints[0]", "joints[1].y".
+  const std::vector<std::string>& constraint_names() const { return constraint_names_; }
 
   const std::vector<std::string>& coordinates() const { return coordinates_; }
   const std::vector<std::string>& inputs() const { return inputs_; }
@@ -137,7 +139,7 @@ class Model {
   // The largest size() of any of its programs (max_registers, max_outputs).
   std::size_t LargestOfPrograms(std::size_t (ExpressionProgram::*size)() const) const;
   std::string name_, description_, source_, content_hash_;
-  std::vector<std::string> coordinates_, inputs_, parameter_names_;
+  std::vector<std::string> coordinates_, inputs_, parameter_names_, constraint_names_;
   std::vector<DisplayUnit> parameter_units_;
   std::size_t num_outputs_ = 0;
   std::size_t num_constraints_ = 0;

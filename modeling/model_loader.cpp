@@ -280,7 +280,7 @@ class ModelBuilder {
         std::move(equations.mass_matrix_program);
     GiNaC::matrix output = ReadOutputs();
     model_.num_outputs_ = model_.num_inputs();
-    GiNaC::matrix constraints = ReadConstraints();
+    GiNaC::matrix constraints = ReadConstraints(equations);
     model_.num_constraints_ = constraints.rows();
 
     // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
@@ -623,41 +623,57 @@ class ModelBuilder {
   }
 
   // c(q) = 0, a closed chain's loop-closing constraints (docs/model-files.md, "Closed kinematic
-  // chains"); none (0 rows) without the key.
-  GiNaC::matrix ReadConstraints() const {
-    const std::string key(kConstraintsKey);
-    const YAML::Node node = Entry(key);
-    if (!node) return GiNaC::matrix(0, 1);
-    if (!node.IsSequence() || node.size() == 0) {
-      Fail(key, "expected a list of expressions c(q), one per loop-closing constraint c(q) = 0");
-    }
-    const std::size_t count = node.size(), dof = model_.dof(), outputs = model_.num_outputs();
-    if (count >= dof || count + outputs > dof) {
-      Fail(key, Count(count, "constraint", "constraints") + " for " +
-                    Count(dof, "coordinate", "coordinates") + " leave " +
-                    Count(count >= dof ? 0 : dof - count, "degree", "degrees") +
-                    " of freedom for " + Count(outputs, "output", "outputs") +
-                    "; a servo-constraint problem needs at least one per output");
-    }
-    GiNaC::matrix constraints = ReadVector(key, count, "one per constraint");
-    CheckNoVelocities(constraints, key, "c(q)", /*listed=*/true);
-    for (unsigned i = 0; i < constraints.rows(); ++i) {
-      if (FirstSymbolIn(constraints(i, 0), coordinate_symbols_) == nullptr) {
-        Fail(Indexed(key, i),
-             "does not depend on the coordinates; a loop-closing constraint "
-             "c(q) = 0 relates coordinates");
-      }
-    }
-    return constraints;
-  }
-
+  // chains"): the file's `constraints`, then the planar bodies' joints (`equations`); none (0
+  // rows) without either. Names each (Model::constraint_names). Defined below EquationsOfMotion.
   struct EquationsOfMotion {
     SymbolicModel::Entries mass_matrix;  // canonical where derived on canonical forms
     SymbolicModel::Entries forces;       // canonical as the file writes it or so derived
     GiNaC::matrix input_matrix;
     // M's program when the derivation compiled it to check M (Derive); Compile reuses it.
     std::shared_ptr<const ExpressionProgram> mass_matrix_program;
+    // Planar bodies' joints: their constraints and names (detail::PlanarBodies).
+    std::vector<GiNaC::ex> loop_constraints;
+    std::vector<std::string> loop_constraint_names;
   };
+
+  GiNaC::matrix ReadConstraints(const EquationsOfMotion& equations) {
+    const std::string key(kConstraintsKey);
+    const YAML::Node node = Entry(key);
+    std::vector<GiNaC::ex> rows;
+    std::vector<std::string>& names = model_.constraint_names_;
+    if (node) {
+      if (!node.IsSequence() || node.size() == 0) {
+        Fail(key, "expected a list of expressions c(q), one per loop-closing constraint c(q) = 0");
+      }
+      const GiNaC::matrix written = ReadVector(key, node.size(), "one per constraint");
+      CheckNoVelocities(written, key, "c(q)", /*listed=*/true);
+      for (unsigned i = 0; i < written.rows(); ++i) {
+        rows.push_back(written(i, 0));
+        names.push_back(Indexed(key, i));
+      }
+    }
+    rows.insert(rows.end(), equations.loop_constraints.begin(), equations.loop_constraints.end());
+    names.insert(names.end(), equations.loop_constraint_names.begin(),
+                 equations.loop_constraint_names.end());
+    const std::size_t count = rows.size(), dof = model_.dof(), outputs = model_.num_outputs();
+    if (count > 0 && (count >= dof || count + outputs > dof)) {
+      Fail(node ? key : "joints", Count(count, "constraint", "constraints") + " for " +
+                                      Count(dof, "coordinate", "coordinates") + " leave " +
+                                      Count(count >= dof ? 0 : dof - count, "degree", "degrees") +
+                                      " of freedom for " + Count(outputs, "output", "outputs") +
+                                      "; a servo-constraint problem needs at least one per output");
+    }
+    GiNaC::matrix constraints(unsigned(count), 1);
+    for (std::size_t i = 0; i < count; ++i) {
+      if (FirstSymbolIn(rows[i], coordinate_symbols_) == nullptr) {
+        Fail(names[i],
+             "does not depend on the coordinates; a loop-closing constraint c(q) = 0 "
+             "relates coordinates");
+      }
+      constraints(unsigned(i), 0) = rows[i];
+    }
+    return constraints;
+  }
 
   // M, f and B as the file's form gives them: written out, or derived from the energies.
   EquationsOfMotion ReadEquationsOfMotion() const {
@@ -712,6 +728,8 @@ class ModelBuilder {
                                             coordinate_symbols_, velocity_symbols_, model_.inputs_);
         });
         equations.input_matrix = std::move(bodies.input_matrix);
+        equations.loop_constraints = std::move(bodies.loop_constraints);
+        equations.loop_constraint_names = std::move(bodies.loop_constraint_names);
         if (!bodies.projected) {
           Derive(Canonical(bodies.energies), "bodies", KineticEnergy::kOfBodies, equations);
           return equations;

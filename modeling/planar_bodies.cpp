@@ -20,6 +20,8 @@ constexpr std::array<std::string_view, 3> kDamperKeys = {"damping", "coordinate"
 constexpr std::array<std::string_view, 5> kActuatorKeys = {"on", "force", "at", "torque",
                                                            "reaction"};
 constexpr std::array<std::string_view, 2> kPointKeys = {"body", "at"};
+// A revolute joint that closes a loop: the two points coincide.
+constexpr std::array<std::string_view, 1> kJointKeys = {"between"};
 
 // A point of the plane as an expression pair.
 using Vector2 = std::array<GiNaC::ex, 2>;
@@ -129,6 +131,7 @@ class Reader {
       positions.push_back({body.inertia, body.angle});
     }
     result.energies.potential += ReadSprings();
+    ReadJoints(result);
     result.energies.dissipation = ReadDampers();
     result.energies.generalized_forces = GiNaC::matrix(unsigned(coordinates_.size()), 1);
     if (AngleExpansionTerms(result.energies.kinetic) <= kMaxAngleExpansionTerms) {
@@ -342,6 +345,20 @@ class Reader {
                                   : stiffness * GiNaC::pow(GiNaC::sqrt(squared) - rest, 2) / 2;
     }
     return potential;
+  }
+
+  // The joints: P1 - P2 = 0, two constraints each (x, y).
+  void ReadJoints(PlanarBodies& result) const {
+    const YAML::Node joints = CheckedList("joints", kJointKeys);
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      const std::string where = Indexed("joints", i);
+      if (!joints[i]["between"]) Fail(where + ".between", "missing required key");
+      const Element element = ReadElement(joints[i], where);
+      for (std::size_t axis = 0; axis < 2; ++axis) {
+        result.loop_constraints.push_back(element.difference[axis]);
+        result.loop_constraint_names.push_back(where + (axis == 0 ? ".x" : ".y"));
+      }
+    }
   }
 
   // R of the dampers: d/2 s'^2 for a coordinate, d/2 (d|P1 - P2|/dt)^2 between two points, with

@@ -24,8 +24,8 @@ namespace servokit::detail {
 /// and outputs.
 inline constexpr std::array<std::string_view, 2> kPlanarBodiesRequiredKeys = {"bodies",
                                                                               "actuators"};
-inline constexpr std::array<std::string_view, 3> kPlanarBodiesOptionalKeys = {"gravity", "springs",
-                                                                              "dampers"};
+inline constexpr std::array<std::string_view, 4> kPlanarBodiesOptionalKeys = {"gravity", "springs",
+                                                                              "dampers", "joints"};
 /// The name of the fixed frame, usable wherever a body is named in a point or a reaction.
 inline constexpr std::string_view kGroundName = "ground";
 
@@ -42,9 +42,14 @@ struct PlanarBodies {
   /// to reduce by trigonometric identities (a long chain) and no mass or inertia depends on q;
   /// otherwise the loader derives them from the energies.
   std::optional<EquationsOfMotion> projected;
+  /// The loops the `joints` close (docs/model-files.md, "Closed kinematic chains"): two
+  /// constraints c(q) = P1 - P2 = 0 per revolute joint, its x and y, each named by where it
+  /// comes from ("joints[0].x").
+  std::vector<GiNaC::ex> loop_constraints;
+  std::vector<std::string> loop_constraint_names;
 };
 
-/// Reads gravity, bodies, springs, dampers and actuators from the model file's `root`.
+/// Reads gravity, bodies, springs, dampers, joints and actuators from the model file's `root`.
 /// `coordinate_names` and `input_names` are the file's (one actuator per input), `coordinates`
 /// and `velocities` their symbols. Throws ModelError "source: key.entry: problem" naming the
 /// body, spring, damper or actuator: a missing or unknown key, a vector that is not [x, y], an

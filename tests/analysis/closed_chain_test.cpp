@@ -130,6 +130,48 @@ TEST_CASE("a loop that carries load: the multipliers and their stiffness", "[ana
   }
 }
 
+// The same arm as planar bodies (`kind: planar-bodies`), link 2 placed by its centre and the
+// joint between the links a loop-closing joint (tests/data/loops/rotational_arm_bodies.yaml).
+TEST_CASE("a joint that closes a loop between planar bodies", "[analysis]") {
+  for (const std::string s : {"0.5", "1", "2"}) {
+    INFO("s = " << s);
+    const Classification minimal = ClassifyFile(ModelPath("rotational_arm.yaml"), {{"s", s}});
+    const Classification bodies =
+        ClassifyFile(TestDataPath("loops/rotational_arm_bodies.yaml"), {{"s", s}});
+    CheckSameClassification(minimal, bodies);
+  }
+  const auto error_of = [](const std::string& joints) -> std::string {
+    const std::string text = R"(kind: planar-bodies
+name: bad
+parameters: {l: 1.0}
+coordinates: [a, x, y]
+inputs: [T]
+bodies:
+  rod: {mass: 1, inertia: 0.1, position: [x, y], angle: a}
+joints: )" + joints + R"(
+actuators:
+  T: {on: rod, torque: 1}
+outputs: [a]
+)";
+    try {
+      LoadModelFromString(text, "bad.yaml");
+    } catch (const std::exception& error) {
+      return error.what();
+    }
+    return "";
+  };
+  CHECK_THAT(error_of("[{between: [ground, ground]}]"),
+             Catch::Contains("joints[0].x: does not depend on the coordinates"));
+  CHECK_THAT(error_of("[{between: [rod, wagon]}]"),
+             Catch::Contains("joints[0].between[1]: unknown body 'wagon'"));
+  CHECK_THAT(error_of("[{between: [rod]}]"),
+             Catch::Contains("joints[0].between: expected two points"));
+  CHECK_THAT(error_of("[{between: [rod, ground], slide: [1, 0]}]"),
+             Catch::Contains("joints[0]") && Catch::Contains("slide"));
+  CHECK_THAT(error_of("[{between: [{body: rod, at: [0.5, 0]}, ground]}, {between: [rod, ground]}]"),
+             Catch::Contains("joints: 4 constraints for 3 coordinates leave 0 degrees"));
+}
+
 // The gantry crane in absolute coordinates (trolley x, rope payout r, the load's xL and zL, the
 // rope a constraint: tests/data/loops/gantry_crane_absolute.yaml) against models/gantry_crane.yaml
 // in minimal ones: mixed realization, vector relative degree [4, 2], index 5, flat. The

@@ -475,7 +475,7 @@ TEST_CASE("each form names its own keys when one is unknown or missing", "[model
         "bad.yaml: potential_energy: missing required key");
   CHECK(LoadError(kBodiesHead + "bodies:\n  cart: {mass: m, position: [x, 0]}\nforces: [0]\n") ==
         "bad.yaml: forces: unknown key (expected name, parameters, coordinates, inputs, bodies, "
-        "actuators, outputs, description, gravity, springs, dampers, constraints or kind)");
+        "actuators, outputs, description, gravity, springs, dampers, joints, constraints or kind)");
 }
 
 TEST_CASE("M must be positive definite at q = 0", "[models]") {
