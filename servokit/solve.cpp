@@ -231,6 +231,7 @@ Feedforward Solve(const Model& model,
                   const OutputTrajectory& trajectory,
                   const SolveOptions& options) {
   const servokit::Model& multibody = MultibodyModel(model, "Solve");
+  RequireOpenChain(multibody);
   const InverseModelOptions inverse_options = ToInverseModelOptions(options);
   // Checked even without a file, so that a bad file_format is never silently ignored.
   const SolveFileFormat file_format = ChooseFileFormat(multibody, options);

@@ -793,16 +793,20 @@ std::vector<double> SampleGrid(double t_start, double t_end, double sample_time)
   return grid;
 }
 
-FeedforwardSolution SolveInverseModel(const Model& model,
-                                      const OutputTrajectory& trajectory,
-                                      const Classification& classification,
-                                      const InverseModelOptions& options) {
-  options.Validate();
+void RequireOpenChain(const Model& model) {
   if (model.num_constraints() > 0) {
     throw NoSolution(
         "closed kinematic chains (constraints c(q) = 0) are classified but not inverted in this "
         "version; analyze and sweep take them");
   }
+}
+
+FeedforwardSolution SolveInverseModel(const Model& model,
+                                      const OutputTrajectory& trajectory,
+                                      const Classification& classification,
+                                      const InverseModelOptions& options) {
+  options.Validate();
+  RequireOpenChain(model);
   MethodChooser chooser(model, classification, options.force);
   FeedforwardSolution solution;
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);

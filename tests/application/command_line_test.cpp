@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tests/application/run_servokit.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace servokit {
@@ -63,6 +64,43 @@ TEST_CASE("analyze --format json says how the model's derivatives are taken", "[
   const nlohmann::json large = derivatives_of(TestDataPath("sizes/large_force.yaml"));
   CHECK(large["jacobians"] == "forward-mode");
   CHECK(large["zero_dynamics_polynomial"] == false);
+}
+
+// A closed chain (docs/model-files.md, "Closed kinematic chains"): the gantry crane in absolute
+// coordinates holds its load on the rope, lambda = -m g / (2 zL) by the load's statics (m = 5,
+// g = 9.81, zL = 1.5); the JSON says how many constraints and the multipliers, the text prints
+// them, an open chain's JSON has neither, and solve refuses the loop with status 3.
+TEST_CASE("analyze prints a closed chain's constraints and multipliers", "[reports]") {
+  const std::string crane = TestDataPath("loops/gantry_crane_absolute.yaml");
+  const std::vector<std::string> point = {"--y0", "0.3,1.5", "--q0", "0,0,0,2"};
+  std::vector<std::string> json_args = {"analyze", crane, "--format", "json"};
+  json_args.insert(json_args.end(), point.begin(), point.end());
+  const Run run = RunServokit(json_args);
+  INFO(run.err);
+  REQUIRE(run.status == 0);
+  const nlohmann::json json = nlohmann::json::parse(run.out);
+  CHECK(json["constraints"] == 1);
+  REQUIRE(json["operating_point"]["multipliers"].size() == 1);
+  CHECK(json["operating_point"]["multipliers"][0].get<double>() ==
+        Approx(-5.0 * 9.81 / 3.0).epsilon(1e-12));
+  std::vector<std::string> text_args = {"analyze", crane};
+  text_args.insert(text_args.end(), point.begin(), point.end());
+  const Run text = RunServokit(text_args);
+  CHECK_THAT(text.out, Catch::Contains("lambda = [-16.35]") &&
+                           Catch::Contains("constraints             1 (3 degrees of freedom"));
+  const Run open = RunServokit({"analyze", ModelPath("gantry_crane.yaml"), "--format", "json"});
+  const nlohmann::json open_json = nlohmann::json::parse(open.out);
+  CHECK_FALSE(open_json.contains("constraints"));
+  CHECK_FALSE(open_json["operating_point"].contains("multipliers"));
+  testing::TemporaryDirectory out;
+  std::vector<std::string> solve_args = {
+      "solve",   crane,     "--trajectory", "rest-to-rest",
+      "--y0",    "0.3,1.5", "--yf",         "0.5,1.5",
+      "--t0",    "0",       "--tf",         "1",
+      "--t-end", "1.5",     "--out",        (out / "u.csv").string()};
+  const Run solve = RunServokit(solve_args);
+  CHECK(solve.status == 3);
+  CHECK_THAT(solve.err, Catch::Contains("closed kinematic chains"));
 }
 
 TEST_CASE("--set with deg, and the case-4 verdict in JSON", "[reports]") {
