@@ -205,6 +205,47 @@ TEST_CASE("sweep writes points.csv and eigenvalues.csv with the columns of docs/
   CheckOnlyFinalFiles(work / "out");
 }
 
+// A closed chain sweeps as the same mechanism in minimal coordinates (docs/model-files.md,
+// "Closed kinematic chains"): the paper's arm cut at its joint against models/rotational_arm.yaml
+// over s, across the threshold s/l = 2/3; every class column equal, the zeros' largest real part
+// to 1e-9 relative (the two linearizations round differently).
+TEST_CASE("a closed chain sweeps as the same mechanism in minimal coordinates", "[reports]") {
+  const TemporaryDirectory work;
+  const std::vector<std::string> grid = {"s=0.1:2:n=20"};
+  REQUIRE(RunServokit(Sweep(ModelPath("rotational_arm.yaml"), grid, work / "minimal")).status == 0);
+  REQUIRE(
+      RunServokit(Sweep(TestDataPath("loops/rotational_arm_redundant.yaml"), grid, work / "loop"))
+          .status == 0);
+  const std::vector<std::string> minimal = Lines(ReadFile(work / "minimal" / "points.csv"));
+  const std::vector<std::string> loop = Lines(ReadFile(work / "loop" / "points.csv"));
+  REQUIRE(minimal.size() == 21);
+  REQUIRE(loop.size() == minimal.size());
+  const std::vector<std::string> header = testing::CsvFields(minimal[0]);
+  const auto column_of = [&header](const std::string& name) {
+    return std::size_t(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const std::size_t real_part = column_of("max_real_part"), stability = column_of("stability");
+  REQUIRE(real_part < header.size());
+  REQUIRE(stability < header.size());
+  int stable = 0;
+  for (std::size_t row = 1; row < minimal.size(); ++row) {
+    const std::vector<std::string> a = testing::CsvFields(minimal[row]);
+    const std::vector<std::string> b = testing::CsvFields(loop[row]);
+    REQUIRE(a.size() == header.size());
+    REQUIRE(b.size() == header.size());
+    for (std::size_t column = 0; column < a.size(); ++column) {
+      if (column == real_part) continue;
+      INFO("row " << row << ", " << header[column]);
+      CHECK(a[column] == b[column]);  // s, realization, rank, relative degree, ..., error
+    }
+    const double expected = std::stod(a[real_part]), got = std::stod(b[real_part]);
+    CHECK(got == Approx(expected).epsilon(1e-9).margin(1e-12));
+    stable += a[stability] == "asymptotically-stable";
+  }
+  CHECK(stable > 0);
+  CHECK(stable < 20);  // the grid crosses s/l = 2/3
+}
+
 TEST_CASE("a parameter given in degrees gets a _deg column holding the degrees given, exactly",
           "[reports]") {
   const TemporaryDirectory work;
