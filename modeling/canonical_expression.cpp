@@ -296,6 +296,11 @@ bool CanonicalExpressions::AppendMonomialFactors(
   }
 }
 
+bool CanonicalExpressions::AtomsOnce(std::vector<NodeId>& atoms) {
+  std::sort(atoms.begin(), atoms.end());
+  return std::adjacent_find(atoms.begin(), atoms.end()) == atoms.end();
+}
+
 CanonicalExpressions::Scaled CanonicalExpressions::Scale(const GiNaC::numeric& factor,
                                                          const Scaled& value) {
   const GiNaC::numeric coefficient = factor * value.coefficient;
@@ -426,11 +431,8 @@ std::optional<CanonicalExpressions::Scaled> CanonicalExpressions::ExpandedProduc
   std::vector<std::pair<NodeId, GiNaC::numeric>> powers;
   std::vector<NodeId> atoms;
   if (AppendMonomialFactors(a.node, false, powers, atoms) &&
-      AppendMonomialFactors(b.node, false, powers, atoms)) {
-    std::sort(atoms.begin(), atoms.end());
-    if (std::adjacent_find(atoms.begin(), atoms.end()) == atoms.end()) {
-      return Monomial(a.coefficient * b.coefficient, std::move(powers));
-    }
+      AppendMonomialFactors(b.node, false, powers, atoms) && AtomsOnce(atoms)) {
+    return Monomial(a.coefficient * b.coefficient, std::move(powers));
   }
   if (!IsAtomicProduct(a.node) || !IsAtomicProduct(b.node)) return std::nullopt;
   // Powers of functions and constants, or a function twice: GiNaC's rules for them

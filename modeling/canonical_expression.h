@@ -99,6 +99,10 @@ class CanonicalExpressions {
                              bool divides,
                              std::vector<std::pair<NodeId, GiNaC::numeric>>& powers,
                              std::vector<NodeId>& atoms) const;
+  /// True when no function or constant of `atoms` (AppendMonomialFactors') occurs twice, so
+  /// that Monomial takes them; a function twice is a power of it, for GiNaC's rules
+  /// (exp(x)*exp(x) is exp(2*x)). Sorts `atoms`.
+  static bool AtomsOnce(std::vector<NodeId>& atoms);
   /// factor * value: the multiple of a sum is the sum of the multiples (GiNaC's mul distributes
   /// a number over a single sum).
   Scaled Scale(const GiNaC::numeric& factor, const Scaled& value);

@@ -156,13 +156,9 @@ bool ExpandedDerivatives::AppendTimes(const std::vector<std::pair<NodeId, GiNaC:
     const Scaled term = sum ? store_.node(value.node).operands[k] : Scaled{1, value.node};
     std::vector<std::pair<NodeId, GiNaC::numeric>> term_powers = powers;
     std::vector<NodeId> term_atoms = atoms;
-    if (term.node != store_.one() &&
-        !store_.AppendMonomialFactors(term.node, false, term_powers, term_atoms)) {
-      terms.resize(known);
-      return false;
-    }
-    std::sort(term_atoms.begin(), term_atoms.end());
-    if (std::adjacent_find(term_atoms.begin(), term_atoms.end()) != term_atoms.end()) {
+    const bool factors = term.node == store_.one() ||
+                         store_.AppendMonomialFactors(term.node, false, term_powers, term_atoms);
+    if (!factors || !CanonicalExpressions::AtomsOnce(term_atoms)) {
       terms.resize(known);
       return false;
     }

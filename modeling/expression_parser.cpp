@@ -91,9 +91,7 @@ class Reader {
         ++others;
       }
     }
-    // A function twice is a power of it, for GiNaC's rules (exp(x)*exp(x) is exp(2*x)).
-    std::sort(atoms.begin(), atoms.end());
-    const bool atoms_once = std::adjacent_find(atoms.begin(), atoms.end()) == atoms.end();
+    const bool atoms_once = CanonicalExpressions::AtomsOnce(atoms);
     if (others == 0 && atoms_once) {
       return canonical_.Monomial(std::move(coefficient), std::move(powers));
     }

@@ -600,12 +600,7 @@ class ModelBuilder {
   GiNaC::matrix ReadVector(const std::string& key,
                            std::size_t size,
                            const std::string& size_meaning) const {
-    const CanonicalEntries column = ReadColumn(key, size, size_meaning);
-    GiNaC::matrix vector(static_cast<unsigned>(size), 1);
-    for (std::size_t i = 0; i < size; ++i) {
-      vector(static_cast<unsigned>(i), 0) = canonical_->Expression(column.entries[i]);
-    }
-    return vector;
+    return InGiNaC(ReadColumn(key, size, size_meaning), unsigned(size), 1);
   }
 
   GiNaC::matrix ReadOutputs() const {
@@ -622,9 +617,6 @@ class ModelBuilder {
     return output;
   }
 
-  // c(q) = 0, a closed chain's loop-closing constraints (docs/model-files.md, "Closed kinematic
-  // chains"): the file's `constraints`, then the planar bodies' joints (`equations`); none (0
-  // rows) without either. Names each (Model::constraint_names). Defined below EquationsOfMotion.
   struct EquationsOfMotion {
     SymbolicModel::Entries mass_matrix;  // canonical where derived on canonical forms
     SymbolicModel::Entries forces;       // canonical as the file writes it or so derived
@@ -636,6 +628,9 @@ class ModelBuilder {
     std::vector<std::string> loop_constraint_names;
   };
 
+  // c(q) = 0, a closed chain's loop-closing constraints (docs/model-files.md, "Closed kinematic
+  // chains"): the file's `constraints`, then the planar bodies' joints (`equations`); none (0
+  // rows) without either. Names each (Model::constraint_names).
   GiNaC::matrix ReadConstraints(const EquationsOfMotion& equations) {
     const std::string key(kConstraintsKey);
     const YAML::Node node = Entry(key);
@@ -763,7 +758,7 @@ class ModelBuilder {
   }
 
   // The same in GiNaC.
-  detail::Energies InGiNaC(const detail::CanonicalEnergies& energies) const {
+  detail::Energies GiNaCEnergies(const detail::CanonicalEnergies& energies) const {
     detail::Energies ginac{canonical_->Expression(energies.kinetic),
                            canonical_->Expression(energies.potential),
                            canonical_->Expression(energies.dissipation),
@@ -797,7 +792,7 @@ class ModelBuilder {
           *canonical_, energies, Nodes(coordinate_symbols_), Nodes(velocity_symbols_), budget);
     });
     if (!expanded) {
-      DeriveInGiNaC(InGiNaC(energies), kinetic_key, kinetic_energy, equations);
+      DeriveInGiNaC(GiNaCEnergies(energies), kinetic_key, kinetic_energy, equations);
       return;
     }
     Guarded(kinetic_key, "cannot differentiate the energies", [&] {
@@ -810,24 +805,15 @@ class ModelBuilder {
       if (kinetic_energy == KineticEnergy::kWritten &&
           !detail::ExpandsToQuadraticForm(*canonical_, energies.kinetic, expanded->mass_matrix,
                                           Nodes(velocity_symbols_))) {
+        const auto dof = unsigned(model_.dof());
         CheckQuadratic(canonical_->Expression(energies.kinetic),
-                       InGiNaC(expanded->mass_matrix, unsigned(model_.dof())), kinetic_key);
+                       InGiNaC(CanonicalEntries{canonical_, expanded->mass_matrix}, dof, dof),
+                       kinetic_key);
       }
       CheckPositiveDefinite(*equations.mass_matrix_program, kinetic_key);
       equations.mass_matrix = CanonicalEntries{canonical_, std::move(expanded->mass_matrix)};
       equations.forces = CanonicalEntries{canonical_, std::move(expanded->forces)};
     });
-  }
-
-  // The square matrix of canonical `entries` (row by row) in GiNaC.
-  GiNaC::matrix InGiNaC(const std::vector<CanonicalExpressions::Scaled>& entries,
-                        unsigned size) const {
-    GiNaC::matrix matrix(size, size);
-    for (unsigned i = 0; i < size; ++i) {
-      for (unsigned j = 0; j < size; ++j)
-        matrix(i, j) = canonical_->Expression(entries[i * size + j]);
-    }
-    return matrix;
   }
 
   // `matrix`'s entries in canonical form, row by row.

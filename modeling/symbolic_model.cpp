@@ -94,8 +94,10 @@ void Keep(SymbolicModel::Entries entries,
   }
 }
 
-// The GiNaC matrix of `forms`, rows x cols.
-GiNaC::matrix Build(const CanonicalEntries& forms, unsigned rows, unsigned cols) {
+}  // namespace
+
+GiNaC::matrix InGiNaC(const CanonicalEntries& forms, unsigned rows, unsigned cols) {
+  assert(forms.entries.size() == std::size_t(rows) * cols);
   GiNaC::matrix matrix(rows, cols);
   for (unsigned i = 0; i < rows; ++i) {
     for (unsigned j = 0; j < cols; ++j) {
@@ -104,8 +106,6 @@ GiNaC::matrix Build(const CanonicalEntries& forms, unsigned rows, unsigned cols)
   }
   return matrix;
 }
-
-}  // namespace
 
 SymbolicModel::SymbolicModel(std::vector<GiNaC::realsymbol> parameters,
                              std::vector<GiNaC::realsymbol> coordinates,
@@ -176,7 +176,7 @@ const GiNaC::matrix& SymbolicModel::mass_matrix() const {
   const SymbolicLock lock;
   Expressions& e = *expressions_;
   if (!e.mass_matrix_built) {
-    e.mass_matrix = Build(*e.canonical_mass_matrix, unsigned(dof()), unsigned(dof()));
+    e.mass_matrix = InGiNaC(*e.canonical_mass_matrix, unsigned(dof()), unsigned(dof()));
     e.mass_matrix_built = true;
   }
   return e.mass_matrix;
@@ -186,7 +186,7 @@ const GiNaC::matrix& SymbolicModel::forces() const {
   const SymbolicLock lock;
   Expressions& e = *expressions_;
   if (!e.forces_built) {
-    e.forces = Build(*e.canonical_forces, unsigned(dof()), 1);
+    e.forces = InGiNaC(*e.canonical_forces, unsigned(dof()), 1);
     e.forces_built = true;
   }
   return e.forces;

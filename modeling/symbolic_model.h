@@ -40,6 +40,9 @@ struct CanonicalEntries {
   std::vector<CanonicalExpressions::Scaled> entries;
 };
 
+/// The GiNaC matrix (rows x cols) of `forms`' entries. Hold a SymbolicLock.
+GiNaC::matrix InGiNaC(const CanonicalEntries& forms, unsigned rows, unsigned cols);
+
 class SymbolicModel {
  public:
   /// M or f: in GiNaC, or in canonical form (then built in GiNaC on first use).
