@@ -100,19 +100,23 @@ Classification Classify(const Model& model,
 }
 
 void DeriveNonlinearStructure(const Model& model, Classification& classification) {
-  if (model.num_constraints() > 0) {
-    NonlinearStructureSummary summary;
-    summary.note =
-        "closed kinematic chain: the structure along motions on c(q) = 0 is not derived in this "
-        "version; the classification above is the linearization's on the constraints' tangent "
-        "space";
-    classification.nonlinear_structure = std::move(summary);
-    return;
-  }
   NonlinearStructureOptions options;
   options.rank_tolerance = classification.rank_tolerance;
   options.reference_q = classification.operating_point.q;
-  classification.nonlinear_structure = SummarizeNonlinearStructure(model, options);
+  if (model.num_constraints() == 0) {
+    classification.nonlinear_structure = SummarizeNonlinearStructure(model, options);
+    return;
+  }
+  // A closed chain's structure along motions on c(q) = 0 is that of its loops held as servo
+  // constraints, their multipliers as inputs: the DAE the solvers invert.
+  NonlinearStructureSummary summary =
+      SummarizeNonlinearStructure(LoopsAsServoConstraints(model), options);
+  const std::string loops =
+      "closed kinematic chain: derived with its " + std::to_string(model.num_constraints()) +
+      " loop constraints held as servo constraints c(q) = 0 (their multipliers lambda as "
+      "inputs), so the relative degrees are the outputs' and then the constraints'";
+  summary.note = summary.note.empty() ? loops : loops + "; " + summary.note;
+  classification.nonlinear_structure = std::move(summary);
 }
 
 }  // namespace servokit

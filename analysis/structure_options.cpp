@@ -61,9 +61,12 @@ StructureStep KeptRowsAndColumns(const Eigen::MatrixXd& reference,
   const Eigen::FullPivLU<Eigen::MatrixXd> lu(row_size.cwiseInverse().asDiagonal() * reference);
   StructureStep step;
   step.rank = rank;
+  // P A Q = L U: P's indices say where each row of A went, so the row at pivot k is found by
+  // P's inverse; Q's indices name the column at pivot k directly (A Q takes them in that order).
+  const Eigen::PermutationMatrix<Eigen::Dynamic> rows_at_pivots(lu.permutationP().inverse());
   for (std::size_t k = 0; k < rank; ++k) {
     const auto pivot = Eigen::Index(k);
-    step.kept_rows.push_back(std::size_t(lu.permutationP().indices()[pivot]));
+    step.kept_rows.push_back(std::size_t(rows_at_pivots.indices()[pivot]));
     step.delayed_inputs.push_back(std::size_t(lu.permutationQ().indices()[pivot]));
   }
   std::sort(step.kept_rows.begin(), step.kept_rows.end());

@@ -27,6 +27,7 @@ struct SolveArguments {
   std::vector<std::string> overrides;
   std::string trajectory;
   std::vector<std::string> y0, yf;
+  std::vector<std::string> q0;
   std::optional<double> t0, tf, t_start;
   double t_end = std::numeric_limits<double>::quiet_NaN();
   std::string method = "auto";
@@ -262,6 +263,7 @@ api::SolveOptions SharedSolveOptions(const SolveArguments& arguments, SolveFileF
   options.pre_actuation = arguments.pre_actuation;
   options.post_actuation = arguments.post_actuation;
   options.verify = arguments.verify;
+  if (!arguments.q0.empty()) options.q_guess = ParseValues("--q0", arguments.q0);
   options.file_format = format;
   return options;
 }
@@ -423,6 +425,8 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--yf", arguments->yf, "Rest-to-rest: output at tf, one per output");
   solve->add_option("--t0", arguments->t0, "Rest-to-rest: start of the motion [s]");
   solve->add_option("--tf", arguments->tf, "Rest-to-rest: end of the motion [s]");
+  solve->add_option("--q0", arguments->q0,
+                    "Newton's starting point for q at the operating point (default: 0)");
   solve->add_option("--t-start", arguments->t_start,
                     "Start of the solve [s] (default: the trajectory's first time; stable "
                     "inversion: the start of its pre-actuation)");

@@ -2,6 +2,7 @@
 
 #include <arkode/arkode_erkstep.h>
 #include <cvode/cvode.h>
+#include <cvode/cvode_proj.h>
 #include <ida/ida.h>
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
@@ -145,6 +146,10 @@ struct OdeCallbacks {
   }
 
   const OdeRightHandSide& rhs;
+  // CVODE's projection onto the ODE's invariant manifold, when it has one (IntegrateBdf).
+  const OdeProjection* projection = nullptr;
+  Eigen::VectorXd correction;
+  Eigen::VectorXd error;
   // SUNDIALS' last call: its arguments and, when y_time is not NaN, the successful result.
   Eigen::VectorXd y;
   Eigen::VectorXd y_dot;
@@ -159,6 +164,26 @@ int OdeRightHandSideCallback(sunrealtype t, N_Vector y, N_Vector y_dot, void* us
   const int flag = ode.Evaluate(inside, ode.y, ode.y_dot);
   ode.y_time = flag == kCallbackSucceeded ? inside : std::numeric_limits<double>::quiet_NaN();
   if (flag == kCallbackSucceeded) AsEigen(y_dot) = ode.y_dot;
+  return flag;
+}
+
+// CVODE's projection after each step (CVProjFn): the correction that puts y on the manifold,
+// and the error estimate projected the same way when CVODE passes one.
+int OdeProjectionCallback(
+    sunrealtype t, N_Vector y, N_Vector correction, sunrealtype, N_Vector error, void* user_data) {
+  auto& ode = *static_cast<OdeCallbacks*>(user_data);
+  ode.y = AsEigen(y);
+  ode.y_time = std::numeric_limits<double>::quiet_NaN();  // y moves: the cached y' is stale
+  if (error != nullptr) ode.error = AsEigen(error);
+  const int flag = ode.guard.Run(t, [&](std::string& why) {
+    return (*ode.projection)(t, ode.y, ode.correction, error != nullptr ? &ode.error : nullptr,
+                             why) &&
+           ode.guard.AcceptOutput(ode.correction, ode.y.size(), why) &&
+           (error == nullptr || ode.guard.AcceptOutput(ode.error, ode.y.size(), why));
+  });
+  if (flag != kCallbackSucceeded) return flag;
+  AsEigen(correction) = ode.correction;
+  if (error != nullptr) AsEigen(error) = ode.error;
   return flag;
 }
 
@@ -420,7 +445,8 @@ class BdfIntegrator final : public OdeStepIntegrator {
   BdfIntegrator(const OdeRightHandSide& rhs,
                 double t_start,
                 const Eigen::VectorXd& y_start,
-                const IntegratorOptions& options)
+                const IntegratorOptions& options,
+                const OdeProjection& projection)
       : OdeStepIntegrator(CVodeGetReturnFlagName, "CVODE", rhs, y_start) {
     const auto size = static_cast<sunindextype>(y_start.size());
     matrix_.reset(SUNDenseMatrix(size, size, context_));
@@ -439,6 +465,12 @@ class BdfIntegrator final : public OdeStepIntegrator {
     Check(CVodeSetInitStep(cvode, options.initial_step), "CVodeSetInitStep");
     if (std::isfinite(options.max_step)) {
       Check(CVodeSetMaxStep(cvode, options.max_step), "CVodeSetMaxStep");
+    }
+    if (projection) {
+      ode_.projection = &projection;
+      ode_.correction.resize(y_start.size());
+      ode_.error.resize(y_start.size());
+      Check(CVodeSetProjFn(cvode, OdeProjectionCallback), "CVodeSetProjFn");
     }
   }
 
@@ -857,10 +889,23 @@ SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
                           const IntegratorOptions& options,
                           const IntegratorObserver& observer,
                           DenseOutput* dense_output) {
+  return IntegrateProjectedBdf(rhs, OdeProjection(), t_start, y_start, t_end, breakpoints, options,
+                               observer, dense_output);
+}
+
+SolveSummary IntegrateProjectedBdf(const OdeRightHandSide& rhs,
+                                   const OdeProjection& projection,
+                                   double t_start,
+                                   const Eigen::VectorXd& y_start,
+                                   double t_end,
+                                   const std::vector<double>& breakpoints,
+                                   const IntegratorOptions& options,
+                                   const IntegratorObserver& observer,
+                                   DenseOutput* dense_output) {
   options.Validate();
   CheckOdeArguments(rhs, t_start, y_start, t_end, breakpoints);
   CheckDenseOutput(dense_output, y_start.size());
-  BdfIntegrator integrator(rhs, t_start, y_start, options);
+  BdfIntegrator integrator(rhs, t_start, y_start, options, projection);
   return IntegrationRun(integrator, t_start, options, observer, dense_output)
       .Run(t_end, breakpoints);
 }

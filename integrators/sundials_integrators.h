@@ -80,6 +80,16 @@ SolveSummary IntegrateDormandPrince(const OdeRightHandSide& rhs,
                                     const IntegratorObserver& observer,
                                     DenseOutput* dense_output = nullptr);
 
+/// Puts y back onto the invariant manifold its ODE keeps in exact arithmetic (a closed chain's
+/// c(q) = 0 and C q' = 0), which the integrator's own errors leave: `correction` (resized by
+/// the caller to y's size) such that y + correction lies on it, and, when `error` is given,
+/// that local error estimate replaced by its projection. Same convention as OdeRightHandSide.
+using OdeProjection = std::function<bool(double t,
+                                         const Eigen::VectorXd& y,
+                                         Eigen::VectorXd& correction,
+                                         Eigen::VectorXd* error,
+                                         std::string& why)>;
+
 /// The same ODE with CVODE's BDF (orders 1-5), Newton with a dense difference Jacobian.
 SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
                           double t_start,
@@ -89,6 +99,20 @@ SolveSummary IntegrateBdf(const OdeRightHandSide& rhs,
                           const IntegratorOptions& options,
                           const IntegratorObserver& observer,
                           DenseOutput* dense_output = nullptr);
+
+/// IntegrateBdf with CVODE projecting onto the ODE's invariant manifold after every step
+/// (CVodeSetProjFn: the coordinate projection method, Hairer & Wanner, Solving ODEs II,
+/// Sect. VII.2, for the index-1 form of a constrained mechanical system). `y_start` must lie on
+/// the manifold.
+SolveSummary IntegrateProjectedBdf(const OdeRightHandSide& rhs,
+                                   const OdeProjection& projection,
+                                   double t_start,
+                                   const Eigen::VectorXd& y_start,
+                                   double t_end,
+                                   const std::vector<double>& breakpoints,
+                                   const IntegratorOptions& options,
+                                   const IntegratorObserver& observer,
+                                   DenseOutput* dense_output = nullptr);
 
 /// F(t, x, x') = 0 of index 1 with IDA from consistent (x_start, x_dot_start), which the caller
 /// computes (F(t_start, x_start, x_dot_start) = 0 to round-off). `differential[i]` says whether

@@ -31,6 +31,12 @@ const double* CopyBlock(const double* source, Block& block) {
 
 }  // namespace
 
+std::string MultiplierName(std::size_t k) {
+  std::string name = "lambda";  // appended: see output_names()
+  name += std::to_string(k + 1);
+  return name;
+}
+
 std::vector<std::string> Model::output_names() const {
   std::vector<std::string> names;
   names.reserve(num_outputs_);

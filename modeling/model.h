@@ -170,6 +170,20 @@ Model LoadModelFromString(const std::string& yaml_text,
                           const std::string& source,
                           const std::vector<ParameterOverride>& overrides = {});
 
+/// The loop-closing constraints of `model` as further servo constraints, the form in which the
+/// solvers invert a closed chain: c(q) = 0 are outputs held at 0 and their multipliers inputs
+/// acting through C^T, so that  M q'' + f = [B C^T] [u; lambda],  [h; c] = [y_d; 0]  is an open
+/// chain's servo-constraint problem with inputs + constraints inputs and outputs (inputs named
+/// MultiplierName(k) after the model's own). Its decoupling matrix [H; C] M^-1 [B C^T] is
+/// regular exactly where both C M^-1 C^T and the constrained P_c are (Schur complement); its
+/// projected DAE projects onto the complement of both constraint sets. `model` itself when it
+/// has no loops. Uses GiNaC under SymbolicLock.
+Model LoopsAsServoConstraints(const Model& model);
+
+/// The name of the multiplier of constraint k (from 0) as an input of LoopsAsServoConstraints
+/// and a column of a solve's file: lambda1, lambda2, ...
+std::string MultiplierName(std::size_t k);
+
 /// A model whose equations are linear with constant matrices, M q'' + K q + D q' = B u and
 /// y = H q: a linearization written as a model of its own (solvers/linearized_inverse.h).
 struct LinearEquations {

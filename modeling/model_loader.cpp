@@ -206,6 +206,61 @@ class ModelBuilder {
     model_.content_hash_ = hasher.Hex();
   }
 
+  // The loops of `model` as servo constraints (LoopsAsServoConstraints): its names, parameters
+  // and symbols, M and f as they are.
+  explicit ModelBuilder(const Model& model) : model_(model), form_(Form::kExplicit) {
+    const SymbolicModel& symbolic = model.symbolic();
+    parameter_symbols_ = symbolic.parameters();
+    coordinate_symbols_ = symbolic.coordinates();
+    velocity_symbols_ = symbolic.velocities();
+    // Another problem than the file's: the algebraic inverse's cache is keyed by the hash.
+    detail::ContentHasher hasher;
+    hasher.Add(model.content_hash() + "\nloops as servo constraints\n");
+    model_.content_hash_ = hasher.Hex();
+  }
+
+  Model BuildLoopsAsServoConstraints() && {
+    const SymbolicModel& loops = model_.symbolic();
+    const unsigned dof = unsigned(loops.dof());
+    const unsigned inputs = unsigned(loops.num_inputs());
+    const unsigned outputs = unsigned(loops.num_outputs());
+    const unsigned constraints = unsigned(loops.num_constraints());
+    GiNaC::matrix input_matrix(dof, inputs + constraints);  // [B C^T]
+    GiNaC::matrix output(outputs + constraints, 1);         // [h; c]
+    for (unsigned i = 0; i < dof; ++i) {
+      for (unsigned k = 0; k < inputs; ++k) input_matrix(i, k) = loops.input_matrix()(i, k);
+      for (unsigned k = 0; k < constraints; ++k) {
+        input_matrix(i, inputs + k) = loops.constraint_jacobian()(k, i);
+      }
+    }
+    for (unsigned i = 0; i < outputs; ++i) output(i, 0) = loops.output()(i, 0);
+    for (unsigned k = 0; k < constraints; ++k) output(outputs + k, 0) = loops.constraints()(k, 0);
+    SymbolicModel::Entries mass_matrix =
+        loops.canonical_mass_matrix() != nullptr
+            ? SymbolicModel::Entries(*loops.canonical_mass_matrix())
+            : SymbolicModel::Entries(loops.mass_matrix());
+    SymbolicModel::Entries forces = loops.canonical_forces() != nullptr
+                                        ? SymbolicModel::Entries(*loops.canonical_forces())
+                                        : SymbolicModel::Entries(loops.forces());
+    for (unsigned k = 0; k < constraints; ++k) {
+      model_.inputs_.push_back(MultiplierName(k));
+    }
+    model_.num_outputs_ = outputs + constraints;
+    model_.num_constraints_ = 0;
+    model_.constraint_names_.clear();
+    // M's program is the loop model's own: the same expressions.
+    std::shared_ptr<const ExpressionProgram> mass_matrix_program =
+        model_.programs_[std::size_t(std::countr_zero(unsigned(Quantity::kMassMatrix)))];
+    auto symbolic = std::make_shared<const SymbolicModel>(
+        parameter_symbols_, coordinate_symbols_, velocity_symbols_, std::move(mass_matrix),
+        std::move(forces), std::move(input_matrix), std::move(output));
+    Compile(*symbolic, std::move(mass_matrix_program));
+    model_.polynomial_ = std::make_shared<Model::LazyPolynomial>();
+    model_.polynomial_->compile = PolynomialCompiler(symbolic);
+    model_.symbolic_ = std::move(symbolic);
+    return std::move(model_);
+  }
+
   Model BuildLinear(const LinearEquations& equations) && {
     const auto dof = Eigen::Index(model_.coordinates_.size());
     const auto inputs = Eigen::Index(model_.inputs_.size());
@@ -1116,6 +1171,12 @@ class ModelBuilder {
   // Every expression of the model in canonical form, from reading to compiling (MakeSymbols).
   std::shared_ptr<CanonicalExpressions> canonical_;
 };
+
+Model LoopsAsServoConstraints(const Model& model) {
+  if (model.num_constraints() == 0) return model;
+  const SymbolicLock lock;
+  return ModelBuilder(model).BuildLoopsAsServoConstraints();
+}
 
 Model ModelFromLinearEquations(const LinearEquations& equations) {
   const SymbolicLock lock;

@@ -43,14 +43,17 @@ std::string LowerCaseExtension(const std::string& path) {
   return extension;
 }
 
-// Row `i` of the file: t, q, q', u, y_d (the order of FeedforwardColumns).
+// Row `i` of the file: t, q, q', u, y_d and a closed chain's lambda (the order of
+// FeedforwardColumns).
 Eigen::VectorXd FeedforwardRow(const OutputTrajectory& trajectory,
                                const FeedforwardSolution& solution,
                                std::size_t i) {
   const Eigen::Index dof = solution.q[i].size(), inputs = solution.u[i].size();
-  Eigen::VectorXd row(1 + 2 * dof + inputs + trajectory.outputs());
+  const Eigen::VectorXd multipliers =
+      solution.multipliers.empty() ? Eigen::VectorXd() : solution.multipliers[i];
+  Eigen::VectorXd row(1 + 2 * dof + inputs + trajectory.outputs() + multipliers.size());
   row << solution.times[i], solution.q[i], solution.q_dot[i], solution.u[i],
-      trajectory.Derivative(solution.times[i], 0);
+      trajectory.Derivative(solution.times[i], 0), multipliers;
   return row;
 }
 
@@ -91,6 +94,7 @@ std::vector<std::string> FeedforwardColumns(const Model& model) {
   for (const std::string& name : model.coordinates()) columns.push_back(name + "_dot");
   for (const std::string& name : model.inputs()) columns.push_back(name);
   for (const std::string& name : model.output_names()) columns.push_back(name + "_d");
+  for (std::size_t k = 0; k < model.num_constraints(); ++k) columns.push_back(MultiplierName(k));
   return columns;
 }
 
@@ -268,7 +272,7 @@ nlohmann::ordered_json SolveToJson(const Model& model,
 
 nlohmann::ordered_json VerificationToJson(const Verification& verification) {
   const bool restarted = verification.segments > 1;
-  return {
+  nlohmann::ordered_json json = {
       {"passed", verification.passed},
       {"max_tracking_error", NumberOrNull(verification.max_tracking_error)},
       {"bound", NumberOrNull(verification.bound)},
@@ -290,11 +294,28 @@ nlohmann::ordered_json VerificationToJson(const Verification& verification) {
       {"message", verification.summary.message},
       {"steps", verification.summary.steps},
   };
+  if (verification.max_constraint_violation) {  // a closed chain's loops, after max error
+    nlohmann::ordered_json with_loops;
+    for (const auto& [key, value] : json.items()) {
+      with_loops[key] = value;
+      if (key == "max_tracking_error") {
+        with_loops["max_constraint_violation"] =
+            NumberOrNull(*verification.max_constraint_violation);
+      }
+    }
+    json = std::move(with_loops);
+  }
+  return json;
 }
 
 std::string VerificationFailure(const Verification& verification) {
   if (!verification.summary.IsUsable()) {
     return "the forward simulation stopped: " + verification.summary.message;
+  }
+  if (verification.max_tracking_error <= verification.bound) {
+    return "the loops open by " + FormatShort(verification.max_constraint_violation.value_or(0.0)) +
+           " (max |c(q)|), beyond the bound " + FormatShort(verification.bound) + " = " +
+           verification.bound_rule;
   }
   return "the largest output error " + FormatShort(verification.max_tracking_error) +
          " (at t = " + FormatShort(verification.time_of_max_error) + " s) exceeds the bound " +

@@ -26,8 +26,8 @@ SolveFileFormat SolveFileFormatOfName(const std::string& path);
 std::optional<std::string> SolveFileNameProblem(const std::string& path, SolveFileFormat format);
 
 /// The columns of a solve's file: t, each coordinate, each <coordinate>_dot, each input, y1_d,
-/// ... (docs/solve.md, "The file: CSV, MAT or a Modelica table"); the one list every format
-/// writes.
+/// ..., and for a closed chain its multipliers lambda1, ... (docs/solve.md, "The file: CSV, MAT
+/// or a Modelica table"); the one list every format writes.
 std::vector<std::string> FeedforwardColumns(const Model& model);
 
 /// Why the columns of `model` cannot be MAT variables (a name that is not a MATLAB name, a

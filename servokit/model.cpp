@@ -114,5 +114,13 @@ std::vector<std::string> Model::input_names() const {
   return multibody != nullptr ? multibody->inputs() : Numbered("u", num_inputs());
 }
 std::vector<std::string> Model::output_names() const { return Numbered("y", num_outputs()); }
+std::vector<std::string> Model::multiplier_names() const {
+  const servokit::Model* multibody = ToolkitModel(*this).multibody();
+  std::vector<std::string> names;
+  for (std::size_t k = 0; multibody != nullptr && k < multibody->num_constraints(); ++k) {
+    names.push_back(MultiplierName(k));
+  }
+  return names;
+}
 
 }  // namespace servokit::api

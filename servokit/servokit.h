@@ -125,6 +125,9 @@ class Model {
   std::vector<std::string> coordinate_names() const;
   std::vector<std::string> input_names() const;
   std::vector<std::string> output_names() const;
+  /// A closed chain's multipliers lambda1, lambda2, ... (one per loop-closing constraint), the
+  /// columns of Feedforward::multipliers and of a solve's file after y_d; empty for an open chain.
+  std::vector<std::string> multiplier_names() const;
 
   struct Loaded;  // the toolkit's model, inside the library
 
@@ -570,6 +573,10 @@ struct SolveOptions {
   std::optional<double> t_start;
   double t_end = 0.0;
   std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
+  // Newton's start for q at the operating point the solve is classified at, which holds
+  // h(q_guess) (default: q = 0 and h(0)), one value per coordinate: a closed chain in absolute
+  // coordinates may need one on its loops (a crane's load below its trolley, the rope taut).
+  std::optional<Eigen::VectorXd> q_guess;
   // Drive the model with u_d from rest and compare its output with y_d (the forward check).
   bool verify = false;
   // When set, the feedforward is written to this file as `servokit solve --out` writes it, in
@@ -592,6 +599,9 @@ struct Verification {
   bool passed = false;
   double max_tracking_error = 0.0;
   double time_of_max_error = std::numeric_limits<double>::quiet_NaN();
+  // A closed chain's max |c(q)| along the forward runs (held to the bound too); unset for an
+  // open chain.
+  std::optional<double> max_constraint_violation;
   double bound = 0.0;
   std::string bound_rule;  // how the bound follows from the solve's tolerances
   // How the forward runs went: one run, or restarts from the solution's state at the start of
@@ -651,7 +661,10 @@ struct Feedforward {
   bool usable = false;  // converged, and passed the check when one was asked for
   std::vector<double> t;
   Eigen::MatrixXd q, q_dot, u, y_d;  // rows: times; columns: coordinates, inputs, outputs
-  Eigen::MatrixXd y;                 // h(q_d(t)), the output of the motion, like y_d
+  // A closed chain's multipliers lambda_d (columns: constraints; C^T lambda_d hold its loops
+  // closed along the motion); no columns for an open chain.
+  Eigen::MatrixXd multipliers;
+  Eigen::MatrixXd y;  // h(q_d(t)), the output of the motion, like y_d
   // Where the desired output's motion starts and ends (the trajectory's breakpoints: t0 and tf
   // of rest-to-rest, each waypoint, the first and last sample), increasing.
   std::vector<double> breakpoints;

@@ -179,6 +179,7 @@ Verification FromVerification(const servokit::Verification& verification, std::s
   result.passed = verification.passed;
   result.max_tracking_error = verification.max_tracking_error;
   result.time_of_max_error = verification.time_of_max_error;
+  result.max_constraint_violation = verification.max_constraint_violation;
   result.bound = verification.bound;
   result.bound_rule = verification.bound_rule;
   result.segments = verification.segments;
@@ -231,12 +232,19 @@ Feedforward Solve(const Model& model,
                   const OutputTrajectory& trajectory,
                   const SolveOptions& options) {
   const servokit::Model& multibody = MultibodyModel(model, "Solve");
-  RequireOpenChain(multibody);
   const InverseModelOptions inverse_options = ToInverseModelOptions(options);
   // Checked even without a file, so that a bad file_format is never silently ignored.
   const SolveFileFormat file_format = ChooseFileFormat(multibody, options);
   Workspace workspace(multibody);
-  const ClassificationOptions classification_options;
+  ClassificationOptions classification_options;
+  if (options.q_guess) {
+    // The operating point near q_guess: the one holding h(q_guess), not h(0) as without it.
+    classification_options.operating_point.q_guess = options.q_guess;
+    classification_options.operating_point.Validate(multibody);
+    Evaluate(multibody, workspace, *options.q_guess, Eigen::VectorXd::Zero(options.q_guess->size()),
+             Quantity::kOutput);
+    classification_options.operating_point.y0 = workspace.output;
+  }
   const Classification classification = Classify(multibody, workspace, classification_options);
 
   Feedforward result;
@@ -289,6 +297,9 @@ Feedforward Solve(const Model& model,
   result.q = Rows(solution.q, multibody.dof());
   result.q_dot = Rows(solution.q_dot, multibody.dof());
   result.u = Rows(solution.u, multibody.num_inputs());
+  result.multipliers = solution.multipliers.empty()
+                           ? Eigen::MatrixXd(Eigen::Index(solution.times.size()), 0)
+                           : Rows(solution.multipliers, multibody.num_constraints());
   result.y_d.resize(Eigen::Index(solution.times.size()), Eigen::Index(multibody.num_outputs()));
   result.y.resize(result.y_d.rows(), result.y_d.cols());
   for (std::size_t i = 0; i < solution.times.size(); ++i) {

@@ -35,8 +35,12 @@ struct FeedforwardSolution {
   std::optional<double> sample_time;
   std::vector<double> times;
   std::vector<Eigen::VectorXd> q, q_dot, u;  // one per time: dof, dof, inputs
-  double max_servo_residual = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
-  std::optional<StableInversionWindow> window;                           // stable inversion only
+  // A closed chain's multipliers lambda_d (one per time: constraints): C^T lambda_d are the
+  // forces that keep its loops closed along the motion. Empty for an open chain.
+  std::vector<Eigen::VectorXd> multipliers;
+  // max |h(q) - y_d| over the rows; for a closed chain max |[h(q) - y_d; c(q)]|, its loops too.
+  double max_servo_residual = std::numeric_limits<double>::quiet_NaN();
+  std::optional<StableInversionWindow> window;  // stable inversion only
   // Things a user should know that do not stop the solve (the window cut short, ...).
   std::vector<std::string> warnings;
   // q_d, q_d' and u_d at any time of [t_start, where the solve stopped]: the method's own

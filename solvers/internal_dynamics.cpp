@@ -36,7 +36,9 @@ double DifferenceStep(double value) {
 
 }  // namespace
 
-LinearInternalDynamics LinearizeInternalDynamics(const Model& model, const Eigen::VectorXd& q) {
+LinearInternalDynamics LinearizeInternalDynamics(const Model& model,
+                                                 const Eigen::VectorXd& q,
+                                                 const Eigen::VectorXd& chart_q) {
   const auto dof = Eigen::Index(model.dof());
   const auto outputs = Eigen::Index(model.num_outputs());
   if (q.size() != dof) {
@@ -47,7 +49,7 @@ LinearInternalDynamics LinearizeInternalDynamics(const Model& model, const Eigen
   Evaluate(model, workspace, q, Eigen::VectorXd::Zero(dof), Quantity::kOutput);
   FixedOutputTrajectory trajectory(Eigen::MatrixXd::Zero(outputs, 3));
   trajectory.derivatives().col(0) = workspace.output;
-  ServoConstraintProblem problem(model, trajectory, q);
+  ServoConstraintProblem problem(model, trajectory, chart_q.size() == 0 ? q : chart_q);
   const Eigen::Index internal = problem.num_internal();
   const Eigen::MatrixXd& directions = problem.internal_directions();
 

@@ -23,8 +23,15 @@ struct LinearInternalDynamics {
   Eigen::MatrixXd internal_directions;  // C, dof x (dof - outputs), as the normal form uses it
 };
 
-/// Linearizes the normal form at the equilibrium q (size dof, at rest, h(q) = y). Throws
-/// NoSolution when P is singular there (no normal form) and UsageError for wrong sizes.
-LinearInternalDynamics LinearizeInternalDynamics(const Model& model, const Eigen::VectorXd& q);
+/// Linearizes the normal form at the equilibrium q (size dof, at rest, h(q) = y), with the
+/// internal coordinates z = C^T q chosen at `chart_q` (ServoConstraintProblem's reference point;
+/// empty: q itself). Stable inversion linearizes at both ends of a motion in the chart of its
+/// start, the one its boundary value problem integrates in, so that the two ends' conditions
+/// speak of the same coordinates even where C = D_0 turns with H(q). Throws NoSolution when P
+/// is singular there (no normal form) or the chart does not reach q, and UsageError for wrong
+/// sizes.
+LinearInternalDynamics LinearizeInternalDynamics(const Model& model,
+                                                 const Eigen::VectorXd& q,
+                                                 const Eigen::VectorXd& chart_q = {});
 
 }  // namespace servokit

@@ -12,6 +12,7 @@
 #include "integrators/radau.h"
 #include "integrators/sundials_integrators.h"
 #include "solvers/algebraic_inversion.h"
+#include "solvers/closed_chain.h"
 #include "solvers/linearized_inverse.h"
 #include "solvers/method_choice.h"
 #include "solvers/output_normal_form.h"
@@ -793,20 +794,19 @@ std::vector<double> SampleGrid(double t_start, double t_end, double sample_time)
   return grid;
 }
 
-void RequireOpenChain(const Model& model) {
-  if (model.num_constraints() > 0) {
-    throw NoSolution(
-        "closed kinematic chains (constraints c(q) = 0) are classified but not inverted in this "
-        "version; analyze and sweep take them");
-  }
-}
-
 FeedforwardSolution SolveInverseModel(const Model& model,
                                       const OutputTrajectory& trajectory,
                                       const Classification& classification,
                                       const InverseModelOptions& options) {
   options.Validate();
-  RequireOpenChain(model);
+  if (model.num_constraints() > 0) {
+    const LoopsAsServoProblem open_chain =
+        MakeLoopsAsServoProblem(model, trajectory, classification);
+    FeedforwardSolution solution = SolveInverseModel(*open_chain.model, *open_chain.trajectory,
+                                                     open_chain.classification, options);
+    SplitMultipliers(open_chain, model.num_inputs(), solution);
+    return solution;
+  }
   MethodChooser chooser(model, classification, options.force);
   FeedforwardSolution solution;
   std::tie(solution.method, solution.method_reason) = chooser.Choose(options.method);

@@ -59,12 +59,9 @@ struct InverseModelOptions {
   void Validate() const;
 };
 
-/// Throws NoSolution for a closed chain (Model::num_constraints() > 0): its inverse is not solved
-/// in this version (docs/model-files.md, "Closed kinematic chains"). Callers that classify
-/// before they solve check first, so that the reason is this, not the classification's.
-void RequireOpenChain(const Model& model);
-
-/// Solves the inverse model of `model` (with its parameters) for `trajectory`. `classification`
+/// Solves the inverse model of `model` (with its parameters) for `trajectory`; a closed chain as
+/// the open chain of both its constraint sets (solvers/closed_chain.h), with the multipliers in
+/// FeedforwardSolution::multipliers. `classification`
 /// is the model's class at its operating point (Classify()); model and trajectory must outlive
 /// the solution's extension. Throws SettingError/UsageError for bad options (a setting out of
 /// range, one the chosen method does not use, a sample time that does not divide the span),

@@ -556,12 +556,8 @@ StableInversionSolution SolveStableInversion(const Model& model,
                                              const StableInversionOptions& options) {
   options.Validate();
   const LinearInternalDynamics start = LinearizeInternalDynamics(model, start_q);
-  const LinearInternalDynamics end = LinearizeInternalDynamics(model, end_q);
-  if (!start.internal_directions.isApprox(end.internal_directions)) {
-    throw NoSolution(
-        "stable inversion: the internal coordinates chosen at the start and end "
-        "equilibria differ (H_a singular there); not supported yet");
-  }
+  // In the start's chart: the one the boundary value problem below integrates in.
+  const LinearInternalDynamics end = LinearizeInternalDynamics(model, end_q, start_q);
   // Shared with the extension (one problem, built once; its calls must not overlap).
   const auto shared_problem = std::make_shared<ServoConstraintProblem>(model, trajectory, start_q);
   ServoConstraintProblem& servo = *shared_problem;

@@ -44,26 +44,110 @@ constexpr long kMaxForwardSteps = 1000000;
 // Central differences of the forward dynamics: step relative to 1 + |x_j| (about eps^(1/3)).
 constexpr double kDifferenceStep = 1e-5;
 
-// M q'' + f(q, q') = B u solved for q'': the plant the feedforward drives.
+// Newton's method that puts a closed chain's q back on c(q) = 0 stops when its correction is
+// below this relative to 1 + |q| (a few ulps), or after kMaxProjectionIterations.
+constexpr double kProjectionTolerance = 1e-15;
+constexpr int kMaxProjectionIterations = 10;
+// What the projection may leave of |c(q)|, relative to 1 + |q|, and still count as on it.
+constexpr double kProjectionResidualTolerance = 1e-12;
+
+// M q'' + f(q, q') = B u solved for q'': the plant the feedforward drives. A closed chain's
+// M q'' + f = B u + C^T lambda with C q'' + c_bar = 0 (the loops closed at acceleration level,
+// the index-1 form), whose drift off c(q) = 0 and C q' = 0 Project() removes after each step.
 class Plant {
  public:
   explicit Plant(const Model& model) : model_(model), workspace_(model) {}
 
   Eigen::Index dof() const { return Eigen::Index(model_.dof()); }
+  bool closed_chain() const { return model_.num_constraints() > 0; }
 
   bool Acceleration(const Eigen::VectorXd& q,
                     const Eigen::VectorXd& q_dot,
                     const Eigen::VectorXd& u,
                     Eigen::VectorXd& q_ddot,
                     std::string& why) {
-    Evaluate(model_, workspace_, q, q_dot, kForwardDynamics);
+    Evaluate(model_, workspace_, q, q_dot,
+             closed_chain()
+                 ? kForwardDynamics | Quantity::kConstraintJacobian | Quantity::kConstraintBias
+                 : kForwardDynamics);
     mass_factor_.compute(workspace_.mass_matrix);
     if (mass_factor_.info() != Eigen::Success) {
       why = "M(q) is not positive definite";
       return false;
     }
     q_ddot = mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
+    if (!closed_chain()) return true;
+    // lambda from C q'' + c_bar = 0 with q'' = M^-1 (B u - f + C^T lambda): the Schur
+    // complement C M^-1 C^T, positive definite while the constraints are independent.
+    const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
+    constraint_accelerations_ = mass_factor_.solve(jacobian.transpose());  // M^-1 C^T
+    schur_factor_.compute(jacobian * constraint_accelerations_);
+    if (schur_factor_.info() != Eigen::Success) {
+      why = "the loop constraints are dependent at q (C M^-1 C^T is singular)";
+      return false;
+    }
+    const Eigen::VectorXd multipliers =
+        schur_factor_.solve(-(jacobian * q_ddot + workspace_.constraint_bias));
+    q_ddot += constraint_accelerations_ * multipliers;
     return true;
+  }
+
+  // The correction that puts y = (q, q') back onto c(q) = 0 and C(q) q' = 0, each by the
+  // orthogonal projection (Gauss-Newton steps -C^T (C C^T)^-1 c for q), and the local error
+  // estimate, when given, projected onto the tangent space at the corrected q.
+  bool Project(const Eigen::VectorXd& y,
+               Eigen::VectorXd& correction,
+               Eigen::VectorXd* error,
+               std::string& why) {
+    const Eigen::Index f = dof();
+    Eigen::VectorXd q = y.head(f);
+    for (int iteration = 0;; ++iteration) {
+      Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(f),
+               Quantity::kConstraints | Quantity::kConstraintJacobian);
+      const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
+      gram_factor_.compute(jacobian * jacobian.transpose());
+      if (gram_factor_.info() != Eigen::Success) {
+        why = "the loop constraints are dependent at q (C C^T is singular)";
+        return false;
+      }
+      const Eigen::VectorXd step =
+          -jacobian.transpose() * gram_factor_.solve(workspace_.constraints);
+      q += step;
+      if (step.lpNorm<Eigen::Infinity>() <=
+          kProjectionTolerance * (1.0 + q.lpNorm<Eigen::Infinity>())) {
+        break;
+      }
+      if (iteration + 1 == kMaxProjectionIterations) {
+        if (workspace_.constraints.lpNorm<Eigen::Infinity>() <=
+            kProjectionResidualTolerance * (1.0 + q.lpNorm<Eigen::Infinity>())) {
+          break;
+        }
+        why = "the loops cannot be closed again: |c(q)| = " +
+              FormatSignificant(workspace_.constraints.lpNorm<Eigen::Infinity>(), 6) + " after " +
+              std::to_string(kMaxProjectionIterations) + " Newton steps";
+        return false;
+      }
+    }
+    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(f), Quantity::kConstraintJacobian);
+    const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
+    gram_factor_.compute(jacobian * jacobian.transpose());
+    const auto onto_tangent_space = [&](const Eigen::VectorXd& vector) -> Eigen::VectorXd {
+      return vector - jacobian.transpose() * gram_factor_.solve(jacobian * vector);
+    };
+    correction.resize(2 * f);
+    correction.head(f) = q - y.head(f);
+    correction.tail(f) = onto_tangent_space(y.tail(f)) - y.tail(f);
+    if (error != nullptr) {
+      error->head(f) = onto_tangent_space(error->head(f));
+      error->tail(f) = onto_tangent_space(error->tail(f));
+    }
+    return true;
+  }
+
+  // max |c(q)|: how well a forward run keeps the loops closed.
+  double ConstraintViolation(const Eigen::VectorXd& q) {
+    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(q.size()), Quantity::kConstraints);
+    return workspace_.constraints.lpNorm<Eigen::Infinity>();
   }
 
   Eigen::VectorXd Output(const Eigen::VectorXd& q) {
@@ -92,6 +176,20 @@ class Plant {
       jacobian.block(f, j, f, 1) = (plus - minus) / (2.0 * step);
     }
     if (!jacobian.allFinite()) return NAN;
+    if (closed_chain()) {
+      // Only motions along the loops count: off c(q) = 0 the index-1 form drifts polynomially
+      // (c'' = 0), a double zero that round-off may push to either side. Restricted to the
+      // tangent space (T, orthonormal, spans the null space of C), as the projection holds it.
+      Evaluate(model_, workspace_, q, q_dot, Quantity::kConstraintJacobian);
+      const Eigen::MatrixXd tangent =
+          Eigen::FullPivLU<Eigen::MatrixXd>(workspace_.constraint_jacobian).kernel();
+      const Eigen::MatrixXd basis = Eigen::HouseholderQR<Eigen::MatrixXd>(tangent).householderQ() *
+                                    Eigen::MatrixXd::Identity(f, tangent.cols());
+      Eigen::MatrixXd states = Eigen::MatrixXd::Zero(2 * f, 2 * basis.cols());
+      states.topLeftCorner(f, basis.cols()) = basis;
+      states.bottomRightCorner(f, basis.cols()) = basis;
+      jacobian = states.transpose() * jacobian * states;
+    }
     return Eigen::EigenSolver<Eigen::MatrixXd>(jacobian, false).eigenvalues().real().maxCoeff();
   }
 
@@ -99,6 +197,9 @@ class Plant {
   const Model& model_;
   Workspace workspace_;
   Eigen::LLT<Eigen::MatrixXd> mass_factor_;
+  Eigen::MatrixXd constraint_accelerations_;  // M^-1 C^T
+  Eigen::LLT<Eigen::MatrixXd> schur_factor_;  // C M^-1 C^T
+  Eigen::LLT<Eigen::MatrixXd> gram_factor_;   // C C^T
 };
 
 bool TrajectoryAtRest(const OutputTrajectory& trajectory, double t) {
@@ -347,7 +448,15 @@ SolveSummary RunForwardSegment(Plant& plant,
                                ForwardBuffers& buffers,
                                Verification& verification) {
   const Eigen::Index f = plant.dof();
-  return IntegrateBdf(
+  // Without loops the projection is empty and CVODE runs as IntegrateBdf.
+  const OdeProjection projection =
+      plant.closed_chain()
+          ? OdeProjection([&](double, const Eigen::VectorXd& y, Eigen::VectorXd& correction,
+                              Eigen::VectorXd* error, std::string& why) {
+              return plant.Project(y, correction, error, why);
+            })
+          : OdeProjection();
+  return IntegrateProjectedBdf(
       [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& reason) {
         if (!motion.Evaluate(t, buffers.q, buffers.q_dot, buffers.u, reason)) return false;
         if (!plant.Acceleration(y.head(f), y.tail(f), buffers.u, buffers.q_ddot, reason)) {
@@ -357,8 +466,12 @@ SolveSummary RunForwardSegment(Plant& plant,
         y_dot << y.tail(f), buffers.q_ddot;
         return true;
       },
-      from, state, to, trajectory.breakpoints(), integrator,
+      projection, from, state, to, trajectory.breakpoints(), integrator,
       [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+        if (verification.max_constraint_violation) {
+          verification.max_constraint_violation = std::max(*verification.max_constraint_violation,
+                                                           plant.ConstraintViolation(y.head(f)));
+        }
         Eigen::VectorXd output = plant.Output(y.head(f));
         const double error = (output - trajectory.Derivative(t, 0)).lpNorm<Eigen::Infinity>();
         verification.output_times.push_back(t);
@@ -369,6 +482,21 @@ SolveSummary RunForwardSegment(Plant& plant,
         }
         return true;
       });
+}
+
+// Moves `state` = (q, q') of a closed chain onto its loops; false, with the reason in the
+// summary, where the loops cannot be closed from there.
+bool ProjectOntoLoops(Plant& plant, double t, Eigen::VectorXd& state, Verification& verification) {
+  Eigen::VectorXd correction;
+  std::string why;
+  if (!plant.Project(state, correction, nullptr, why)) {
+    verification.summary.status = SolveStatus::kNoConvergence;
+    verification.summary.message =
+        "at t = " + FormatSignificant(t, kExplainedDigits) + " s: " + why;
+    return false;
+  }
+  state += correction;
+  return true;
 }
 
 // Adds a forward run's counters to the total, which ends where the run ended.
@@ -396,6 +524,7 @@ void RunForwardSegments(Plant& plant,
   const Eigen::Index f = plant.dof();
   verification.max_tracking_error = 0.0;
   verification.time_of_max_error = t_start;
+  if (plant.closed_chain()) verification.max_constraint_violation = 0.0;
   ForwardBuffers buffers;
   std::string why;
   verification.summary.status = SolveStatus::kConverged;
@@ -416,6 +545,9 @@ void RunForwardSegments(Plant& plant,
       }
       state << buffers.q, buffers.q_dot;
     }
+    // The physical system is on its loops: a start the solution gives (to its tolerance) is
+    // projected onto c(q) = 0 and C q' = 0, as every step of the run will be.
+    if (plant.closed_chain() && !ProjectOntoLoops(plant, from, state, verification)) break;
     const SolveSummary run = RunForwardSegment(plant, motion, trajectory, from, state, to,
                                                integrator, buffers, verification);
     AccumulateRun(run, verification.summary);
@@ -470,8 +602,9 @@ Verification VerifyFeedforward(const Model& model,
   if (verification.summary.IsUsable()) {
     verification.summary.message = ForwardRunsMessage(t_stop, verification);
   }
-  verification.passed =
-      verification.summary.IsUsable() && verification.max_tracking_error <= verification.bound;
+  verification.passed = verification.summary.IsUsable() &&
+                        verification.max_tracking_error <= verification.bound &&
+                        verification.max_constraint_violation.value_or(0.0) <= verification.bound;
   return verification;
 }
 

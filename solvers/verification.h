@@ -1,9 +1,9 @@
 #pragma once
 // The forward check of a solve (VerifyFeedforward): u_d, from the method's own continuous
-// extension, drives the model M q'' + f = B u_d forward, and the output must follow y_d within
-// a bound derived from the solve's tolerances and the output's size. It proves that the
-// feedforward reproduces y_d on the model, to the stated bound, starting where the physical
-// system is: at rest with h(q) = y_d(t_start).
+// extension, drives the model M q'' + f = B u_d (+ C^T lambda, c(q) = 0 for a closed chain)
+// forward, and the output must follow y_d within a bound derived from the solve's tolerances and
+// the output's size. It proves that the feedforward reproduces y_d on the model, to the stated
+// bound, starting where the physical system is: at rest with h(q) = y_d(t_start).
 //
 // An open-loop unstable plant (an inverted pendulum on a cart) amplifies any error, the
 // forward integrator's included, exponentially: a single run from t_start diverges whatever
@@ -13,6 +13,7 @@
 // segment; a right one is no longer drowned by the plant's own instability.
 #include <Eigen/Dense>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,10 @@ struct Verification {
   double max_tracking_error = std::numeric_limits<double>::quiet_NaN();  // max |h(q) - y_d|
   double time_of_max_error = std::numeric_limits<double>::quiet_NaN();
   double bound = std::numeric_limits<double>::quiet_NaN();
+  // A closed chain's max |c(q)| along the forward runs, which integrate its index-1 form and
+  // project back onto c(q) = 0 and C q' = 0 after every step; it must be within `bound` too.
+  // Unset for an open chain.
+  std::optional<double> max_constraint_violation;
   std::string bound_rule;  // how the bound was derived, with the numbers
   bool passed = false;     // the forward runs reached the end and stayed within the bound
   // The start: at rest at the equilibrium with h(q) = y_d(t_start) when y_d rests there

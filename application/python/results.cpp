@@ -382,6 +382,10 @@ void BindSolution(py::module_& module) {
       .def_property_readonly("u", [](const Solution& solution) { return solution.feedforward.u; })
       .def_property_readonly("y_d",
                              [](const Solution& solution) { return solution.feedforward.y_d; })
+      .def_property_readonly(
+          "multipliers", [](const Solution& solution) { return solution.feedforward.multipliers; },
+          "a closed chain's multipliers lambda_d along the motion (one column per constraint; "
+          "none for an open chain)")
       .def("__repr__", [](const Solution& solution) {
         const sk::SolveSummary& summary = solution.feedforward.summary;
         return "<servokit.Solution " + Word(summary.method) + ", " + Word(summary.status) + ", " +

@@ -237,6 +237,7 @@ struct SolveArguments {
   bool verify = false, force = false;
   py::object t_start, step, rtol, atol, pre_actuation, post_actuation, out;
   std::string file_format, table;
+  py::object q0;
 };
 
 sk::SolveOptions ToSolveOptions(const SolveArguments& arguments) {
@@ -255,6 +256,7 @@ sk::SolveOptions ToSolveOptions(const SolveArguments& arguments) {
   options.atol = ToOptionalDouble(a.atol);
   options.pre_actuation = ToOptionalDouble(a.pre_actuation);
   options.post_actuation = ToOptionalDouble(a.post_actuation);
+  options.q_guess = ToOptionalVector(a.q0);
   if (!a.out.is_none()) options.out_file = ToPath(a.out);
   if (!a.file_format.empty()) {
     options.file_format =
@@ -297,7 +299,9 @@ constexpr const char* kSolveDoc =
     "f(t), with `breakpoints` (default [t0]: the solve starts at the first) and "
     "`continuous_derivatives` (0: as many as the inverse reads). `out` also writes the "
     "file of `servokit solve --out`, in `format` (csv, mat or modelica; empty: mat for a "
-    "name ending in .mat, else csv). Returns a Solution (table, summary).";
+    "name ending in .mat, else csv). `q0` is Newton's start for q at the operating point the "
+    "solve is classified at (default 0; a closed chain in absolute coordinates may need one). "
+    "Returns a Solution (table, summary).";
 
 void BindSolve(ModelClass& model_class) {
   const sk::SolveOptions defaults;
@@ -310,12 +314,13 @@ void BindSolve(ModelClass& model_class) {
          const std::string& method, const py::object& sample_time, bool verify, bool force,
          const py::object& t_start, const py::object& step, const py::object& rtol,
          const py::object& atol, const py::object& pre_actuation, const py::object& post_actuation,
-         const py::object& out, const std::string& file_format, const std::string& table) {
+         const py::object& out, const std::string& file_format, const std::string& table,
+         const py::object& q0) {
         return SolveModel(model,
                           {y0, yf, t0, tf, waypoints, samples, sample_tolerance, function,
                            breakpoints, continuous_derivatives},
                           {t_end, method, sample_time, verify, force, t_start, step, rtol, atol,
-                           pre_actuation, post_actuation, out, file_format, table});
+                           pre_actuation, post_actuation, out, file_format, table, q0});
       },
       py::kw_only(), py::arg("y0") = py::none(), py::arg("yf") = py::none(), py::arg("t0") = 0.0,
       py::arg("tf") = py::none(), py::arg("waypoints") = py::none(),
@@ -328,7 +333,7 @@ void BindSolve(ModelClass& model_class) {
       py::arg("atol") = py::none(), py::arg("pre_actuation") = py::none(),
       py::arg("post_actuation") = py::none(), py::arg("out") = py::none(),
       py::arg("format") = "",  // SolveOptions::file_format unset: from the name
-      py::arg("table") = "auto", kSolveDoc);
+      py::arg("table") = "auto", py::arg("q0") = py::none(), kSolveDoc);
 }
 
 // ---- models -----------------------------------------------------------------------------------
@@ -351,6 +356,8 @@ void BindModel(py::module_& module) {
       .def_property_readonly("coordinates", &sk::Model::coordinate_names)
       .def_property_readonly("inputs", &sk::Model::input_names)
       .def_property_readonly("outputs", &sk::Model::output_names)
+      .def_property_readonly("multipliers", &sk::Model::multiplier_names,
+                             "A closed chain's multipliers lambda1, ... (one per constraint).")
       .def_property_readonly("dof", &sk::Model::dof);
   BindAnalyze(model_class);
   BindSweep(model_class);

@@ -263,6 +263,7 @@ py::object SolveTable(const sk::Model& model,
   add(feedforward.q_dot, model.coordinate_names(), "_dot");
   add(feedforward.u, model.input_names(), "");
   add(feedforward.y_d, model.output_names(), "_d");
+  add(feedforward.multipliers, model.multiplier_names(), "");  // a closed chain's
   return MakeTable(columns, table);
 }
 

@@ -323,5 +323,29 @@ TEST_CASE("the numeric route stops at its work budget", "[analysis][routes]") {
   }
 }
 
+// The rows a dynamic extension keeps are the pivots' rows of the coefficient matrix at the
+// reference state, not where the pivoting moved those rows to. The gantry crane in absolute
+// coordinates at rest (inputs F, W, lambda; rows xL'', zL'', c''): the load's horizontal row
+// vanishes there (its rope is vertical), so the kept rows must be zL'' and c'', with the columns
+// of W and lambda. Taking Eigen's P instead of its inverse kept xL'' and c'', whose block is
+// singular, and the combined row then divided by (xL - x)^2 = 0 at rest.
+TEST_CASE("a dynamic extension keeps the rows that are regular at the reference", "[analysis]") {
+  Eigen::MatrixXd reference(3, 3);
+  reference << 0.0, 0.0, 0.0,  //
+      0.0, 0.0, 0.8,           //
+      0.0, -2.0, 11.2;
+  const StructureStep step = KeptRowsAndColumns(reference, 2, 2);
+  CHECK(step.kept_rows == std::vector<std::size_t>{1, 2});
+  CHECK(step.delayed_inputs == std::vector<std::size_t>{1, 2});
+  // Rows and columns each in another order: the pivots follow the entries, not the positions.
+  Eigen::MatrixXd shuffled(3, 3);
+  shuffled << 11.2, -2.0, 0.0,  //
+      0.0, 0.0, 0.0,            //
+      0.8, 0.0, 0.0;
+  const StructureStep moved = KeptRowsAndColumns(shuffled, 2, 2);
+  CHECK(moved.kept_rows == std::vector<std::size_t>{0, 2});
+  CHECK(moved.delayed_inputs == std::vector<std::size_t>{0, 1});
+}
+
 }  // namespace
 }  // namespace servokit

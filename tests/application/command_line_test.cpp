@@ -69,7 +69,7 @@ TEST_CASE("analyze --format json says how the model's derivatives are taken", "[
 // A closed chain (docs/model-files.md, "Closed kinematic chains"): the gantry crane in absolute
 // coordinates holds its load on the rope, lambda = -m g / (2 zL) by the load's statics (m = 5,
 // g = 9.81, zL = 1.5); the JSON says how many constraints and the multipliers, the text prints
-// them, an open chain's JSON has neither, and solve refuses the loop with status 3.
+// them, and an open chain's JSON has neither.
 TEST_CASE("analyze prints a closed chain's constraints and multipliers", "[reports]") {
   const std::string crane = TestDataPath("loops/gantry_crane_absolute.yaml");
   const std::vector<std::string> point = {"--y0", "0.3,1.5", "--q0", "0,0,0,2"};
@@ -92,15 +92,38 @@ TEST_CASE("analyze prints a closed chain's constraints and multipliers", "[repor
   const nlohmann::json open_json = nlohmann::json::parse(open.out);
   CHECK_FALSE(open_json.contains("constraints"));
   CHECK_FALSE(open_json["operating_point"].contains("multipliers"));
+}
+
+// solve inverts the same crane (flat: the algebraic inverse) from --q0's operating point: the
+// file gains the multiplier's column after y_d, whose value at rest at the end is the load's
+// statics again (zL = 1.5: -16.35), and --verify reports how well the forward run kept the rope
+// taut; an open chain's file and verification have neither.
+TEST_CASE("solve writes a closed chain's multipliers and checks its loops", "[reports]") {
+  const std::string crane = TestDataPath("loops/gantry_crane_absolute.yaml");
   testing::TemporaryDirectory out;
-  std::vector<std::string> solve_args = {
-      "solve",   crane,     "--trajectory", "rest-to-rest",
-      "--y0",    "0.3,1.5", "--yf",         "0.5,1.5",
-      "--t0",    "0",       "--tf",         "1",
-      "--t-end", "1.5",     "--out",        (out / "u.csv").string()};
-  const Run solve = RunServokit(solve_args);
-  CHECK(solve.status == 3);
-  CHECK_THAT(solve.err, Catch::Contains("closed kinematic chains"));
+  const std::string file = (out / "u.csv").string();
+  const Run solve = RunServokit({"solve", crane, "--q0", "0,0,0,2", "--trajectory", "rest-to-rest",
+                                 "--y0", "0.3,1.5", "--yf", "0.5,1.5", "--t0", "0", "--tf", "1",
+                                 "--t-end", "1.5", "--verify", "--out", file});
+  INFO(solve.err);
+  REQUIRE(solve.status == 0);
+  const nlohmann::json json = nlohmann::json::parse(solve.out);
+  CHECK(json["method"] == "algebraic");
+  CHECK(json["verification"]["passed"] == true);
+  CHECK(json["verification"]["max_constraint_violation"].get<double>() < 1e-12);
+  const std::vector<std::string> lines = testing::Lines(testing::ReadFile(file));
+  REQUIRE(lines.size() > 2);
+  CHECK(lines.front() == "t,x,r,xL,zL,x_dot,r_dot,xL_dot,zL_dot,F,W,y1_d,y2_d,lambda1");
+  const std::string last = lines.back();
+  CHECK(std::stod(last.substr(last.rfind(',') + 1)) == Approx(-5.0 * 9.81 / 3.0).epsilon(1e-12));
+
+  const Run open = RunServokit({"solve", ModelPath("gantry_crane.yaml"), "--trajectory",
+                                "rest-to-rest", "--y0", "0.3,1.5", "--yf", "0.5,1.5", "--t0", "0",
+                                "--tf", "1", "--t-end", "1.5", "--verify", "--out", file});
+  REQUIRE(open.status == 0);
+  CHECK_FALSE(nlohmann::json::parse(open.out)["verification"].contains("max_constraint_violation"));
+  CHECK(testing::Lines(testing::ReadFile(file)).front() ==
+        "t,x,r,theta,x_dot,r_dot,theta_dot,F,W,y1_d,y2_d");
 }
 
 TEST_CASE("--set with deg, and the case-4 verdict in JSON", "[reports]") {
