@@ -134,3 +134,24 @@ def test_crane_in_absolute_coordinates_holds_its_load_on_the_rope():
     assert list(analysis.relative_degree) == list(minimal.relative_degree) == [4, 2]
     assert analysis.flat and minimal.flat
     assert len(minimal.multipliers) == 0
+
+
+def test_crane_in_absolute_coordinates_is_solved_with_its_rope_force():
+    # The same crane moved out and up: Python gets the multipliers as solve writes them, and at
+    # rest after the motion the rope holds the load again, lambda = -m g / (2 zL) at zL = 1.5 m;
+    # the feedforward is the minimal crane's (both exact: the algebraic inverse).
+    crane = servokit.load(str(MODELS.parent / "tests" / "data" / "loops" /
+                              "gantry_crane_absolute.yaml"))
+    assert crane.multipliers == ["lambda1"]
+    motion = dict(y0=[0.0, 2.0], yf=[1.0, 1.5], t0=0, tf=2, t_end=3, sample_time=0.5,
+                  verify=True)
+    loops = crane.solve(q0=[0, 0, 0, 2], **motion)
+    assert loops.usable and loops.method == "algebraic"
+    assert loops.multipliers.shape == (7, 1)
+    assert loops.multipliers[-1, 0] == pytest.approx(-5.0 * 9.81 / (2 * 1.5), rel=1e-12)
+    table = loops.table  # a DataFrame, or a structured array where pandas is missing
+    names = list(table.columns) if hasattr(table, "columns") else list(table.dtype.names)
+    assert names[-1] == "lambda1"
+    minimal = servokit.load(str(MODELS / "gantry_crane.yaml")).solve(**motion)
+    assert minimal.multipliers.shape == (7, 0)
+    assert loops.u == pytest.approx(minimal.u, rel=1e-10, abs=1e-10)
