@@ -62,7 +62,8 @@ LoopsAsServoProblem MakeLoopsAsServoProblem(const Model& model,
   problem.trajectory = std::make_shared<const LoopTargets>(trajectory, model.num_constraints());
   ClassificationOptions options;
   Eigen::VectorXd held(problem.model->num_outputs());
-  held << classification.operating_point.y, Eigen::VectorXd::Zero(Eigen::Index(model.num_constraints()));
+  held << classification.operating_point.y,
+      Eigen::VectorXd::Zero(Eigen::Index(model.num_constraints()));
   options.operating_point.y0 = held;
   options.operating_point.q_guess = classification.operating_point.q;
   options.rank_tolerance = classification.rank_tolerance;

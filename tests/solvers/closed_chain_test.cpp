@@ -34,7 +34,8 @@ constexpr double kLinkLength = 1.0, kLinkMass = 3.438;
 // The largest entry of a list of vectors (a scale for relative comparisons).
 double Largest(const std::vector<Eigen::VectorXd>& rows) {
   double largest = 0.0;
-  for (const Eigen::VectorXd& row : rows) largest = std::max(largest, row.lpNorm<Eigen::Infinity>());
+  for (const Eigen::VectorXd& row : rows)
+    largest = std::max(largest, row.lpNorm<Eigen::Infinity>());
   return largest;
 }
 
@@ -132,10 +133,9 @@ TEST_CASE("a closed chain's inverse is its minimal-coordinate twin's, by every m
       };
       for (std::size_t i = 2; i + 2 < solution.times.size(); ++i) {
         const double h = solution.times[i + 1] - solution.times[i];
-        const Eigen::Vector2d acceleration =
-            (centre_velocity(i - 2) - 8 * centre_velocity(i - 1) + 8 * centre_velocity(i + 1) -
-             centre_velocity(i + 2)) /
-            (12 * h);
+        const Eigen::Vector2d acceleration = (centre_velocity(i - 2) - 8 * centre_velocity(i - 1) +
+                                              8 * centre_velocity(i + 1) - centre_velocity(i + 2)) /
+                                             (12 * h);
         INFO("t = " << solution.times[i]);
         CHECK((solution.multipliers[i] - kLinkMass * acceleration).lpNorm<Eigen::Infinity>() <=
               multiplier_tolerance * multiplier_scale);
@@ -150,8 +150,12 @@ TEST_CASE("a closed chain's inverse is its minimal-coordinate twin's, by every m
 struct Jet {
   double value, rate, acceleration;
 };
-Jet operator+(Jet a, Jet b) { return {a.value + b.value, a.rate + b.rate, a.acceleration + b.acceleration}; }
-Jet operator-(Jet a, Jet b) { return {a.value - b.value, a.rate - b.rate, a.acceleration - b.acceleration}; }
+Jet operator+(Jet a, Jet b) {
+  return {a.value + b.value, a.rate + b.rate, a.acceleration + b.acceleration};
+}
+Jet operator-(Jet a, Jet b) {
+  return {a.value - b.value, a.rate - b.rate, a.acceleration - b.acceleration};
+}
 Jet operator*(Jet a, Jet b) {
   return {a.value * b.value, a.rate * b.value + a.value * b.rate,
           a.acceleration * b.value + 2 * a.rate * b.rate + a.value * b.acceleration};
