@@ -317,11 +317,14 @@ OperatingPoint FindOperatingPoint(const Model& model,
                              std::nullopt};
   const Eigen::VectorXd& zero = problem.zero_velocity;
   // Start from q_guess and the inputs that best balance the forces there. f, B and h at the
-  // start are evaluated at once; without q_guess the start is q = 0, where h gives y0 = h(0).
+  // start are evaluated at once; without q_guess the start is the model's (its file's q0, else
+  // q = 0), where h gives y0.
+  const Eigen::VectorXd model_start =
+      model.operating_point_start().size() > 0 ? model.operating_point_start() : zero;
   Eigen::VectorXd unknowns(problem.size());
-  unknowns.head(dof) = options.q_guess.value_or(zero);
+  unknowns.head(dof) = options.q_guess.value_or(model_start);
   if (!options.y0 && options.q_guess) {
-    Evaluate(model, workspace, zero, zero, static_cast<unsigned>(Quantity::kOutput));
+    Evaluate(model, workspace, model_start, zero, static_cast<unsigned>(Quantity::kOutput));
     problem.y0 = workspace.output;
   }
   unsigned start_quantities = Quantity::kForces | Quantity::kInputMatrix | Quantity::kOutput;
@@ -335,7 +338,9 @@ OperatingPoint FindOperatingPoint(const Model& model,
     problem.y0 = workspace.output;
   }
   if (!options.y0 && !AllFinite(problem.y0)) {
-    throw NoSolution("the output h(0) is not finite: give y0, the output to hold");
+    throw NoSolution(std::string("the output h(") +
+                     (model.operating_point_start().size() > 0 ? "q0" : "0") +
+                     ") is not finite: give y0, the output to hold");
   }
   // Least squares [u; lambda] for [B, C^T] [u; lambda] = f; [B, C^T] has full column rank in
   // any sensible model, and the complete orthogonal decomposition handles one that has not.

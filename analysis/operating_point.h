@@ -11,9 +11,10 @@
 namespace servokit {
 
 struct OperatingPointOptions {
-  // The output value y0 to hold (size: outputs). Default: h(0), the output at q = 0.
+  // The output value y0 to hold (size: outputs). Default: the output at the model's start,
+  // h(q0) with the model file's `q0:` (Model::operating_point_start), else h(0).
   std::optional<Eigen::VectorXd> y0;
-  // Newton's starting point for q (size: dof). Default: q = 0.
+  // Newton's starting point for q (size: dof). Default: the model file's `q0:`, else q = 0.
   std::optional<Eigen::VectorXd> q_guess;
   // Converged when every residual, scaled by the inverse of its Jacobian row's largest entry
   // (so that forces and output coordinates compare in units of q), is below this. 1e-12 leaves

@@ -92,6 +92,10 @@ class Model {
   std::size_t num_constraints() const { return num_constraints_; }
   /// Where each constraint comes from, for messages: "constraints[0]", "joints[1].y".
   const std::vector<std::string>& constraint_names() const { return constraint_names_; }
+  /// The file's `q0:`, Newton's start for the operating point and the point whose output it
+  /// holds by default (FindOperatingPoint); empty when the file has none (then q = 0). A closed
+  /// chain in absolute coordinates gives one on its loops.
+  const Eigen::VectorXd& operating_point_start() const { return operating_point_start_; }
 
   const std::vector<std::string>& coordinates() const { return coordinates_; }
   const std::vector<std::string>& inputs() const { return inputs_; }
@@ -144,6 +148,7 @@ class Model {
   std::size_t num_outputs_ = 0;
   std::size_t num_constraints_ = 0;
   Eigen::VectorXd parameters_;
+  Eigen::VectorXd operating_point_start_;  // empty: q = 0
   std::shared_ptr<const SymbolicModel> symbolic_;
   // By Quantity bit position; the polynomial's slot stays empty (polynomial_programs()).
   std::vector<std::shared_ptr<const ExpressionProgram>> programs_;

@@ -55,6 +55,7 @@ constexpr std::string_view kPotentialEnergyKey = "potential_energy";
 constexpr std::string_view kDissipationKey = "dissipation";
 constexpr std::string_view kGeneralizedForcesKey = "generalized_forces";
 constexpr std::string_view kConstraintsKey = "constraints";
+constexpr std::string_view kStartKey = "q0";
 
 enum class Form { kExplicit, kLagrangian, kPlanarBodies };
 
@@ -83,6 +84,7 @@ FormKeys KeysOf(Form form) {
       break;
   }
   keys.optional.push_back(kConstraintsKey);  // every form: a closed chain's loops
+  keys.optional.push_back(kStartKey);        // every form: Newton's start for the equilibrium
   keys.required.push_back(kOutputsKey);
   return keys;
 }
@@ -337,6 +339,7 @@ class ModelBuilder {
     model_.num_outputs_ = model_.num_inputs();
     GiNaC::matrix constraints = ReadConstraints(equations);
     model_.num_constraints_ = constraints.rows();
+    ReadStart();
 
     // GiNaC throws while it differentiates what parses but has no derivative, as 0^x
     // (d/dx = 0^x log 0: "power::eval(): division by zero"; found by fuzzing, issue #7).
@@ -456,6 +459,29 @@ class ModelBuilder {
     }
     model_.parameters_ =
         Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  }
+
+  // `q0:`, Newton's start for the operating point (Model::operating_point_start): one number
+  // per coordinate, in SI or ending in deg.
+  void ReadStart() {
+    const std::string key(kStartKey);
+    const YAML::Node start = Entry(key);
+    if (!start) return;
+    const std::size_t dof = model_.coordinates_.size();
+    if (!start.IsSequence() || start.size() != dof) {
+      Fail(key, "expected a list of " + Count(dof, "number", "numbers") +
+                    ", one per coordinate, e.g. [0, 0.5]");
+    }
+    model_.operating_point_start_.resize(Eigen::Index(dof));
+    for (std::size_t i = 0; i < dof; ++i) {
+      const std::optional<ParsedQuantity> value =
+          start[i].IsScalar() ? ParseQuantityWithUnit(start[i].Scalar()) : std::nullopt;
+      if (!value) {
+        Fail(Indexed(key, i) + " (" + model_.coordinates_[i] + ")",
+             "not a number " + std::string(kQuantityHint));
+      }
+      model_.operating_point_start_(Eigen::Index(i)) = value->value;
+    }
   }
 
   void ApplyOverrides(const std::vector<ParameterOverride>& overrides) {

@@ -172,14 +172,37 @@ outputs: [a]
              Catch::Contains("joints: 4 constraints for 3 coordinates leave 0 degrees"));
 }
 
+// The file's q0 (the load hanging at L0 = 2 m below the trolley) is Newton's start and its output
+// the default y0: the operating point is that pose itself, held by the rope and the hoist; at
+// q = 0 (the load on the rail, the rope slack) there is none to find. An explicit q_guess still
+// holds the file's h(q0).
+TEST_CASE("a model file's q0 is the default operating point", "[analysis]") {
+  const Model crane = LoadModel(ModelPath("gantry_crane_absolute.yaml"));
+  REQUIRE(crane.operating_point_start().size() == 4);
+  Workspace workspace(crane);
+  const OperatingPoint point = FindOperatingPoint(crane, workspace, {});
+  CHECK(point.q.isApprox(Eigen::Vector4d(0.0, 0.0, 0.0, 2.0), 1e-14));
+  CHECK(point.y.isApprox(Eigen::Vector2d(0.0, 2.0), 1e-14));
+  CHECK(point.multipliers(0) == Approx(-5.0 * 9.81 / 4.0).epsilon(1e-12));
+  CHECK(point.u(1) == Approx(-5.0 * 9.81).epsilon(1e-12));  // the hoist holds the load's weight
+  OperatingPointOptions nearby;
+  nearby.q_guess = Eigen::Vector4d(0.1, 0.0, 0.1, 1.9);
+  CHECK(FindOperatingPoint(crane, workspace, nearby).y.isApprox(Eigen::Vector2d(0.0, 2.0), 1e-14));
+  const Model without = LoadModelFromString(
+      "name: no_start\nparameters: {}\ncoordinates: [a]\ninputs: [T]\nmass_matrix: [[1]]\n"
+      "forces: [a]\ninput_matrix: [[1]]\noutputs: [a]\n",
+      "no_start.yaml");
+  CHECK(without.operating_point_start().size() == 0);
+}
+
 // The gantry crane in absolute coordinates (trolley x, rope payout r, the load's xL and zL, the
-// rope a constraint: tests/data/loops/gantry_crane_absolute.yaml) against models/gantry_crane.yaml
+// rope a constraint: models/gantry_crane_absolute.yaml) against models/gantry_crane.yaml
 // in minimal ones: mixed realization, vector relative degree [4, 2], index 5, flat. The
 // multiplier is the rope's: the load at rest hangs on it, m g = -dc/dzL lambda = -2 zL lambda.
 TEST_CASE("the gantry crane in absolute coordinates is classified as in minimal ones",
           "[analysis]") {
   const Model minimal_model = LoadModel(ModelPath("gantry_crane.yaml"));
-  const Model absolute_model = LoadModel(TestDataPath("loops/gantry_crane_absolute.yaml"));
+  const Model absolute_model = LoadModel(ModelPath("gantry_crane_absolute.yaml"));
   Workspace minimal_workspace(minimal_model), absolute_workspace(absolute_model);
   for (const auto& [x, z] : {std::pair{0.0, 2.0}, std::pair{0.3, 1.5}}) {
     INFO("y0 = " << x << ", " << z);
@@ -205,14 +228,13 @@ TEST_CASE("the gantry crane in absolute coordinates is classified as in minimal 
 // A planar five-bar with a passive sprung crank: in its two crank angles with the loop closure
 // solved by atan2 and sqrt (tests/data/loops/five_bar_minimal.yaml, bench/size_models.py's
 // derivation), and in the crank and coupler angles with the coupler joint closed by two
-// constraints (five_bar_redundant.yaml, written afresh). The upright pose and two with the
+// constraints (models/five_bar.yaml, written afresh). The upright pose and two with the
 // output point to its left, the spring relaxed and preloaded.
 TEST_CASE("a five-bar in redundant coordinates is classified as in minimal ones", "[analysis]") {
   for (const std::string rest_angle : {"0", "0.3"}) {
     const Model minimal_model =
         LoadModel(TestDataPath("loops/five_bar_minimal.yaml"), {{"q2r", rest_angle}});
-    const Model redundant_model =
-        LoadModel(TestDataPath("loops/five_bar_redundant.yaml"), {{"q2r", rest_angle}});
+    const Model redundant_model = LoadModel(ModelPath("five_bar.yaml"), {{"q2r", rest_angle}});
     Workspace minimal_workspace(minimal_model), redundant_workspace(redundant_model);
     for (const double y0 : {1.0, 0.8, 0.9}) {
       INFO("q2r = " << rest_angle << ", y0 = " << y0);

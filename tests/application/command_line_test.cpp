@@ -71,7 +71,7 @@ TEST_CASE("analyze --format json says how the model's derivatives are taken", "[
 // g = 9.81, zL = 1.5); the JSON says how many constraints and the multipliers, the text prints
 // them, and an open chain's JSON has neither.
 TEST_CASE("analyze prints a closed chain's constraints and multipliers", "[reports]") {
-  const std::string crane = TestDataPath("loops/gantry_crane_absolute.yaml");
+  const std::string crane = ModelPath("gantry_crane_absolute.yaml");
   const std::vector<std::string> point = {"--y0", "0.3,1.5", "--q0", "0,0,0,2"};
   std::vector<std::string> json_args = {"analyze", crane, "--format", "json"};
   json_args.insert(json_args.end(), point.begin(), point.end());
@@ -99,7 +99,7 @@ TEST_CASE("analyze prints a closed chain's constraints and multipliers", "[repor
 // statics again (zL = 1.5: -16.35), and --verify reports how well the forward run kept the rope
 // taut; an open chain's file and verification have neither.
 TEST_CASE("solve writes a closed chain's multipliers and checks its loops", "[reports]") {
-  const std::string crane = TestDataPath("loops/gantry_crane_absolute.yaml");
+  const std::string crane = ModelPath("gantry_crane_absolute.yaml");
   testing::TemporaryDirectory out;
   const std::string file = (out / "u.csv").string();
   const Run solve = RunServokit({"solve", crane, "--q0", "0,0,0,2", "--trajectory", "rest-to-rest",

@@ -470,12 +470,13 @@ TEST_CASE("each form names its own keys when one is unknown or missing", "[model
                   "potential_energy: 0\nmass_matrix: [[m, 0], [0, m]]\n") ==
         "bad.yaml: mass_matrix: unknown key (expected name, parameters, coordinates, inputs, "
         "kinetic_energy, potential_energy, input_matrix, outputs, description, dissipation, "
-        "generalized_forces, constraints or kind)");
+        "generalized_forces, constraints, q0 or kind)");
   CHECK(LoadError(kLagrangianHead + "kinetic_energy: m*(x_dot^2 + y_dot^2)/2\n") ==
         "bad.yaml: potential_energy: missing required key");
   CHECK(LoadError(kBodiesHead + "bodies:\n  cart: {mass: m, position: [x, 0]}\nforces: [0]\n") ==
         "bad.yaml: forces: unknown key (expected name, parameters, coordinates, inputs, bodies, "
-        "actuators, outputs, description, gravity, springs, dampers, joints, constraints or kind)");
+        "actuators, outputs, description, gravity, springs, dampers, joints, constraints, q0 or "
+        "kind)");
 }
 
 TEST_CASE("M must be positive definite at q = 0", "[models]") {

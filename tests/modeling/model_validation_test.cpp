@@ -108,7 +108,7 @@ TEST_CASE("a missing required key is named", "[models]") {
 TEST_CASE("an unknown top-level key is an error, so typos do not pass", "[models]") {
   RequireError(Edit("mass_matrix:", "mass_matrx:"),
                "mass_matrx: unknown key (expected name, parameters, coordinates, inputs, "
-               "mass_matrix, forces, input_matrix, outputs, description, constraints or kind)");
+               "mass_matrix, forces, input_matrix, outputs, description, constraints, q0 or kind)");
 }
 
 // modeling/loaded_model.h: the reader takes `kind: multibody` (or no kind) as this format, so

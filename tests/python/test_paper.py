@@ -124,8 +124,7 @@ def test_generated_chain_has_the_free_mass_as_zero_dynamics(tmp_path):
 def test_crane_in_absolute_coordinates_holds_its_load_on_the_rope():
     # The gantry crane with the rope as a constraint (tests/data/loops): the load at rest hangs
     # on it, m g = -dc/dzL lambda = -2 zL lambda, and it is classified as models/gantry_crane.yaml.
-    crane = servokit.load(str(MODELS.parent / "tests" / "data" / "loops" /
-                              "gantry_crane_absolute.yaml"))
+    crane = servokit.load(str(MODELS / "gantry_crane_absolute.yaml"))
     analysis = crane.analyze(y0=[0.3, 1.5], q0=[0, 0, 0, 2])
     assert analysis.multipliers == pytest.approx([-5.0 * 9.81 / (2 * 1.5)], rel=1e-12)
     assert analysis.to_dict()["operating_point"]["multipliers"] == list(analysis.multipliers)
@@ -140,8 +139,7 @@ def test_crane_in_absolute_coordinates_is_solved_with_its_rope_force():
     # The same crane moved out and up: Python gets the multipliers as solve writes them, and at
     # rest after the motion the rope holds the load again, lambda = -m g / (2 zL) at zL = 1.5 m;
     # the feedforward is the minimal crane's (both exact: the algebraic inverse).
-    crane = servokit.load(str(MODELS.parent / "tests" / "data" / "loops" /
-                              "gantry_crane_absolute.yaml"))
+    crane = servokit.load(str(MODELS / "gantry_crane_absolute.yaml"))
     assert crane.multipliers == ["lambda1"]
     motion = dict(y0=[0.0, 2.0], yf=[1.0, 1.5], t0=0, tf=2, t_end=3, sample_time=0.5,
                   verify=True)

@@ -172,7 +172,7 @@ Jet Sqrt(Jet a) {  // s^2 = a: 2 s s' = a', 2 s s'' + 2 s'^2 = a''
   return {root, rate, (a.acceleration - 2 * rate * rate) / (2 * root)};
 }
 
-// tests/data/loops/gantry_crane_absolute.yaml.
+// models/gantry_crane_absolute.yaml.
 constexpr double kTrolleyMass = 10.0, kDrumMass = 2.0, kLoadMass = 5.0, kGravity = 9.81,
                  kRopeAtZero = 2.0;
 
@@ -210,7 +210,7 @@ CraneFeedforward CraneInClosedForm(const OutputTrajectory& trajectory, double t)
 // The crane in absolute coordinates is flat (mixed realization, index 5): the algebraic inverse
 // must reproduce the closed form to 1e-8, and its forward check keep the rope taut.
 TEST_CASE("the gantry crane in absolute coordinates is inverted in closed form", "[solvers]") {
-  ClassifiedModel crane{LoadModel(TestDataPath("loops/gantry_crane_absolute.yaml")), {}};
+  ClassifiedModel crane{LoadModel(ModelPath("gantry_crane_absolute.yaml")), {}};
   ClassificationOptions at_rest;
   at_rest.operating_point.y0 = Eigen::Vector2d(0.0, 2.0);
   at_rest.operating_point.q_guess = Eigen::Vector4d(0.0, 0.0, 0.0, 2.0);
