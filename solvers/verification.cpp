@@ -9,12 +9,11 @@
 #include "base/number_format.h"
 #include "base/option_check.h"
 #include "integrators/sundials_integrators.h"
+#include "solvers/forward_model.h"
 
 namespace servokit {
 namespace {
 
-constexpr unsigned kForwardDynamics =
-    Quantity::kMassMatrix | Quantity::kForces | Quantity::kInputMatrix;
 // The forward runs are held to this fraction of the solve's relative tolerance, within
 // [kMinForwardRtol, kMaxForwardRtol]: tight enough that their own error stays far below the
 // bound, and no tighter than CVODE's BDF reliably gets in double precision. An exact solve
@@ -41,166 +40,6 @@ constexpr double kWholeSegmentsTolerance = 1e-9;
 // Steps allowed in all forward runs: a smooth u_d on the shipped models needs a few thousand;
 // one that is not smooth (noise in a high derivative of y_d) would otherwise crawl for minutes.
 constexpr long kMaxForwardSteps = 1000000;
-// Central differences of the forward dynamics: step relative to 1 + |x_j| (about eps^(1/3)).
-constexpr double kDifferenceStep = 1e-5;
-
-// Newton's method that puts a closed chain's q back on c(q) = 0 stops when its correction is
-// below this relative to 1 + |q| (a few ulps), or after kMaxProjectionIterations.
-constexpr double kProjectionTolerance = 1e-15;
-constexpr int kMaxProjectionIterations = 10;
-// What the projection may leave of |c(q)|, relative to 1 + |q|, and still count as on it.
-constexpr double kProjectionResidualTolerance = 1e-12;
-
-// M q'' + f(q, q') = B u solved for q'': the plant the feedforward drives. A closed chain's
-// M q'' + f = B u + C^T lambda with C q'' + c_bar = 0 (the loops closed at acceleration level,
-// the index-1 form), whose drift off c(q) = 0 and C q' = 0 Project() removes after each step.
-class Plant {
- public:
-  explicit Plant(const Model& model) : model_(model), workspace_(model) {}
-
-  Eigen::Index dof() const { return Eigen::Index(model_.dof()); }
-  bool closed_chain() const { return model_.num_constraints() > 0; }
-
-  bool Acceleration(const Eigen::VectorXd& q,
-                    const Eigen::VectorXd& q_dot,
-                    const Eigen::VectorXd& u,
-                    Eigen::VectorXd& q_ddot,
-                    std::string& why) {
-    Evaluate(model_, workspace_, q, q_dot,
-             closed_chain()
-                 ? kForwardDynamics | Quantity::kConstraintJacobian | Quantity::kConstraintBias
-                 : kForwardDynamics);
-    mass_factor_.compute(workspace_.mass_matrix);
-    if (mass_factor_.info() != Eigen::Success) {
-      why = "M(q) is not positive definite";
-      return false;
-    }
-    q_ddot = mass_factor_.solve(workspace_.input_matrix * u - workspace_.forces);
-    if (!closed_chain()) return true;
-    // lambda from C q'' + c_bar = 0 with q'' = M^-1 (B u - f + C^T lambda): the Schur
-    // complement C M^-1 C^T, positive definite while the constraints are independent.
-    const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
-    constraint_accelerations_ = mass_factor_.solve(jacobian.transpose());  // M^-1 C^T
-    schur_factor_.compute(jacobian * constraint_accelerations_);
-    if (schur_factor_.info() != Eigen::Success) {
-      why = "the loop constraints are dependent at q (C M^-1 C^T is singular)";
-      return false;
-    }
-    const Eigen::VectorXd multipliers =
-        schur_factor_.solve(-(jacobian * q_ddot + workspace_.constraint_bias));
-    q_ddot += constraint_accelerations_ * multipliers;
-    return true;
-  }
-
-  // The correction that puts y = (q, q') back onto c(q) = 0 and C(q) q' = 0, each by the
-  // orthogonal projection (Gauss-Newton steps -C^T (C C^T)^-1 c for q), and the local error
-  // estimate, when given, projected onto the tangent space at the corrected q.
-  bool Project(const Eigen::VectorXd& y,
-               Eigen::VectorXd& correction,
-               Eigen::VectorXd* error,
-               std::string& why) {
-    const Eigen::Index f = dof();
-    Eigen::VectorXd q = y.head(f);
-    for (int iteration = 0;; ++iteration) {
-      Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(f),
-               Quantity::kConstraints | Quantity::kConstraintJacobian);
-      const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
-      gram_factor_.compute(jacobian * jacobian.transpose());
-      if (gram_factor_.info() != Eigen::Success) {
-        why = "the loop constraints are dependent at q (C C^T is singular)";
-        return false;
-      }
-      const Eigen::VectorXd step =
-          -jacobian.transpose() * gram_factor_.solve(workspace_.constraints);
-      q += step;
-      if (step.lpNorm<Eigen::Infinity>() <=
-          kProjectionTolerance * (1.0 + q.lpNorm<Eigen::Infinity>())) {
-        break;
-      }
-      if (iteration + 1 == kMaxProjectionIterations) {
-        if (workspace_.constraints.lpNorm<Eigen::Infinity>() <=
-            kProjectionResidualTolerance * (1.0 + q.lpNorm<Eigen::Infinity>())) {
-          break;
-        }
-        why = "the loops cannot be closed again: |c(q)| = " +
-              FormatSignificant(workspace_.constraints.lpNorm<Eigen::Infinity>(), 6) + " after " +
-              std::to_string(kMaxProjectionIterations) + " Newton steps";
-        return false;
-      }
-    }
-    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(f), Quantity::kConstraintJacobian);
-    const Eigen::MatrixXd& jacobian = workspace_.constraint_jacobian;
-    gram_factor_.compute(jacobian * jacobian.transpose());
-    const auto onto_tangent_space = [&](const Eigen::VectorXd& vector) -> Eigen::VectorXd {
-      return vector - jacobian.transpose() * gram_factor_.solve(jacobian * vector);
-    };
-    correction.resize(2 * f);
-    correction.head(f) = q - y.head(f);
-    correction.tail(f) = onto_tangent_space(y.tail(f)) - y.tail(f);
-    if (error != nullptr) {
-      error->head(f) = onto_tangent_space(error->head(f));
-      error->tail(f) = onto_tangent_space(error->tail(f));
-    }
-    return true;
-  }
-
-  // max |c(q)|: how well a forward run keeps the loops closed.
-  double ConstraintViolation(const Eigen::VectorXd& q) {
-    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(q.size()), Quantity::kConstraints);
-    return workspace_.constraints.lpNorm<Eigen::Infinity>();
-  }
-
-  Eigen::VectorXd Output(const Eigen::VectorXd& q) {
-    Evaluate(model_, workspace_, q, Eigen::VectorXd::Zero(q.size()), Quantity::kOutput);
-    return workspace_.output;
-  }
-
-  // The largest real part of the eigenvalues of d(q', q'')/d(q, q') at (q, q', u): how fast
-  // nearby motions move apart there (central differences; NaN where M is singular).
-  double GrowthRate(const Eigen::VectorXd& q,
-                    const Eigen::VectorXd& q_dot,
-                    const Eigen::VectorXd& u) {
-    const Eigen::Index f = q.size();
-    Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(2 * f, 2 * f);
-    jacobian.topRightCorner(f, f).setIdentity();
-    Eigen::VectorXd state(2 * f), plus, minus;
-    state << q, q_dot;
-    std::string why;
-    for (Eigen::Index j = 0; j < 2 * f; ++j) {
-      const double step = kDifferenceStep * (1.0 + std::abs(state(j)));
-      Eigen::VectorXd shifted = state;
-      shifted(j) += step;
-      if (!Acceleration(shifted.head(f), shifted.tail(f), u, plus, why)) return NAN;
-      shifted(j) = state(j) - step;
-      if (!Acceleration(shifted.head(f), shifted.tail(f), u, minus, why)) return NAN;
-      jacobian.block(f, j, f, 1) = (plus - minus) / (2.0 * step);
-    }
-    if (!jacobian.allFinite()) return NAN;
-    if (closed_chain()) {
-      // Only motions along the loops count: off c(q) = 0 the index-1 form drifts polynomially
-      // (c'' = 0), a double zero that round-off may push to either side. Restricted to the
-      // tangent space (T, orthonormal, spans the null space of C), as the projection holds it.
-      Evaluate(model_, workspace_, q, q_dot, Quantity::kConstraintJacobian);
-      const Eigen::MatrixXd tangent =
-          Eigen::FullPivLU<Eigen::MatrixXd>(workspace_.constraint_jacobian).kernel();
-      const Eigen::MatrixXd basis = Eigen::HouseholderQR<Eigen::MatrixXd>(tangent).householderQ() *
-                                    Eigen::MatrixXd::Identity(f, tangent.cols());
-      Eigen::MatrixXd states = Eigen::MatrixXd::Zero(2 * f, 2 * basis.cols());
-      states.topLeftCorner(f, basis.cols()) = basis;
-      states.bottomRightCorner(f, basis.cols()) = basis;
-      jacobian = states.transpose() * jacobian * states;
-    }
-    return Eigen::EigenSolver<Eigen::MatrixXd>(jacobian, false).eigenvalues().real().maxCoeff();
-  }
-
- private:
-  const Model& model_;
-  Workspace workspace_;
-  Eigen::LLT<Eigen::MatrixXd> mass_factor_;
-  Eigen::MatrixXd constraint_accelerations_;  // M^-1 C^T
-  Eigen::LLT<Eigen::MatrixXd> schur_factor_;  // C M^-1 C^T
-  Eigen::LLT<Eigen::MatrixXd> gram_factor_;   // C C^T
-};
 
 bool TrajectoryAtRest(const OutputTrajectory& trajectory, double t) {
   for (int order = 1; order <= std::max(trajectory.continuous_derivatives(), 2); ++order) {
@@ -386,7 +225,7 @@ PlantState StartState(const Model& model,
 
 // The plant's fastest growth, at the start and at growth_samples states along the solution
 // (0 where it cannot be taken at the start).
-double FastestGrowthRate(Plant& plant,
+double FastestGrowthRate(ForwardModel& plant,
                          const PlantState& start,
                          const FeedforwardSolution& solution,
                          const VerificationOptions& options) {
@@ -431,14 +270,14 @@ IntegratorOptions ForwardIntegratorOptions(const Verification& verification) {
   return integrator;
 }
 
-// The solution's state and input at t, and the plant's q'': buffers all forward runs share.
+// The solution's state and input at t: buffers all forward runs share.
 struct ForwardBuffers {
-  Eigen::VectorXd q, q_dot, u, q_ddot;
+  Eigen::VectorXd q, q_dot, u;
 };
 
 // One forward run from `state` at `from` to `to`: u_d from the solution's extension drives the
 // plant, and the output at each step is recorded and compared with y_d.
-SolveSummary RunForwardSegment(Plant& plant,
+SolveSummary RunForwardSegment(ForwardModel& plant,
                                const MotionExtension& motion,
                                const OutputTrajectory& trajectory,
                                double from,
@@ -448,25 +287,12 @@ SolveSummary RunForwardSegment(Plant& plant,
                                ForwardBuffers& buffers,
                                Verification& verification) {
   const Eigen::Index f = plant.dof();
-  // Without loops the projection is empty and CVODE runs as IntegrateBdf.
-  const OdeProjection projection =
-      plant.closed_chain()
-          ? OdeProjection([&](double, const Eigen::VectorXd& y, Eigen::VectorXd& correction,
-                              Eigen::VectorXd* error, std::string& why) {
-              return plant.Project(y, correction, error, why);
-            })
-          : OdeProjection();
-  return IntegrateProjectedBdf(
-      [&](double t, const Eigen::VectorXd& y, Eigen::VectorXd& y_dot, std::string& reason) {
-        if (!motion.Evaluate(t, buffers.q, buffers.q_dot, buffers.u, reason)) return false;
-        if (!plant.Acceleration(y.head(f), y.tail(f), buffers.u, buffers.q_ddot, reason)) {
-          return false;
-        }
-        y_dot.resize(2 * f);
-        y_dot << y.tail(f), buffers.q_ddot;
-        return true;
+  return SimulateForward(
+      plant,
+      [&](double t, Eigen::VectorXd& u, std::string& reason) {
+        return motion.Evaluate(t, buffers.q, buffers.q_dot, u, reason);
       },
-      projection, from, state, to, trajectory.breakpoints(), integrator,
+      from, state, to, trajectory.breakpoints(), integrator,
       [&](double t, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
         if (verification.max_constraint_violation) {
           verification.max_constraint_violation = std::max(*verification.max_constraint_violation,
@@ -486,7 +312,10 @@ SolveSummary RunForwardSegment(Plant& plant,
 
 // Moves `state` = (q, q') of a closed chain onto its loops; false, with the reason in the
 // summary, where the loops cannot be closed from there.
-bool ProjectOntoLoops(Plant& plant, double t, Eigen::VectorXd& state, Verification& verification) {
+bool ProjectOntoLoops(ForwardModel& plant,
+                      double t,
+                      Eigen::VectorXd& state,
+                      Verification& verification) {
   Eigen::VectorXd correction;
   std::string why;
   if (!plant.Project(state, correction, nullptr, why)) {
@@ -511,7 +340,7 @@ void AccumulateRun(const SolveSummary& run, SolveSummary& total) {
 
 // The forward runs, segment by segment: the first from `start`, each later one restarted from the
 // solution's own state. Stops at the first run that fails.
-void RunForwardSegments(Plant& plant,
+void RunForwardSegments(ForwardModel& plant,
                         const OutputTrajectory& trajectory,
                         const FeedforwardSolution& solution,
                         const PlantState& start,
@@ -593,7 +422,7 @@ Verification VerifyFeedforward(const Model& model,
   }
   const double t_stop = std::min(solution.t_end, solution.extension->end());
   Verification verification;
-  Plant plant(model);
+  ForwardModel plant(model);
   SetBound(trajectory, solution, options, verification);
   const PlantState start = StartState(model, trajectory, solution, verification);
   verification.plant_growth_rate = FastestGrowthRate(plant, start, solution, options);

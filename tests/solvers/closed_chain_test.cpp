@@ -5,7 +5,9 @@
 //     (models/rotational_arm.yaml): the same u_d and motion, and multipliers that are link 2's
 //     inertia forces (Newton's law for the link, whose only horizontal force is the joint's);
 //   - the gantry crane in absolute coordinates against its feedforward in closed form from the
-//     load's equations (lambda from zL'', the trolley from xL'', the rope from the constraint).
+//     load's equations (lambda from zL'', the trolley from xL'', the rope from the constraint);
+//   - Andrews' squeezing mechanism against the DAE test set's reference solution, forward, and
+//     back to its constant motor torque.
 #include "solvers/closed_chain.h"
 
 #include <catch2/catch.hpp>
@@ -13,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "integrators/dense_output.h"
+#include "solvers/forward_model.h"
 #include "solvers/inverse_model.h"
 #include "solvers/solve_settings.h"
 #include "solvers/verification.h"
@@ -241,6 +245,112 @@ TEST_CASE("the gantry crane in absolute coordinates is inverted in closed form",
     CHECK(near(solution.multipliers[i](0), expected.multiplier));
   }
   RequireVerified(crane.model, trajectory, solution);
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Andrews' squeezing mechanism (tests/data/loops/andrews_squeezer.yaml): the test set's
+// reference at t = 0.03 s (PSIDE at tolerance 1e-14), angles and their rates.
+constexpr double kSqueezerEnd = 0.03;
+constexpr double kMotorTorque = 0.033;  // N m, constant
+const std::vector<double> kSqueezerAngles = {
+    0.1581077119629904e2, -0.1575637105984298e2, 0.4082224013073101e-1, -0.5347301163226948,
+    0.5244099658805304,   0.5347301163226948,    0.1048080741042263e1};
+const std::vector<double> kSqueezerRates = {
+    0.1139920302151208e4, -0.1424379294994111e4, 0.1103291221937134e2, 0.1929337464421385e2,
+    0.5735699284790808,   -0.1929337464421385e2, 0.3231791658026955};
+
+// The crank angle of a forward run, as a desired output: its value and rate from CVODE's
+// interpolant of the run, its acceleration from the model at that state.
+class SimulatedCrankAngle final : public OutputTrajectory {
+ public:
+  SimulatedCrankAngle(const Model& model, DenseOutput states)
+      : model_(model), states_(std::move(states)) {}
+  Eigen::VectorXd Derivative(double t, int order) const override {
+    const Eigen::VectorXd state = states_(t);
+    const Eigen::Index f = state.size() / 2;
+    if (order == 0) return state.head(1);
+    if (order == 1) return state.segment(f, 1);
+    Eigen::VectorXd q_ddot;
+    std::string why;
+    ForwardModel forward(model_);
+    REQUIRE(forward.Acceleration(state.head(f), state.tail(f),
+                                 Eigen::VectorXd::Constant(1, kMotorTorque), q_ddot, why));
+    if (order == 2) return q_ddot.head(1);
+    return Eigen::VectorXd::Zero(1);  // beyond the derivatives it declares continuous
+  }
+  Eigen::Index outputs() const override { return 1; }
+  int continuous_derivatives() const override { return 2; }
+  std::vector<double> breakpoints() const override { return {0.0, kSqueezerEnd}; }
+
+ private:
+  const Model& model_;
+  DenseOutput states_;
+};
+
+// The forward simulation --verify runs (CVODE's BDF on the index-1 form, projected onto the
+// loops after every step) driven by the constant motor torque from the test set's consistent
+// start must reproduce the test set's reference at t = 0.03 s: the crank has turned 2.5 times
+// and runs at 1140 rad/s. Then its crank angle, taken as the desired output, must be inverted
+// back to the constant torque (the mechanism has one degree of freedom: flat).
+TEST_CASE("Andrews' squeezing mechanism: the forward run and its inverse", "[solvers]") {
+  const Model squeezer = LoadModel(TestDataPath("loops/andrews_squeezer.yaml"));
+  REQUIRE(squeezer.num_constraints() == 6);
+  ForwardModel forward(squeezer);
+  const Eigen::Index f = forward.dof();
+  Eigen::VectorXd start = Eigen::VectorXd::Zero(2 * f);
+  start.head(f) = squeezer.operating_point_start();  // the test set's start, at rest
+  IntegratorOptions options;
+  options.rtol = 1e-12;
+  options.atol = 1e-12;
+  Eigen::VectorXd end;
+  DenseOutput states(2 * f);
+  const SolveSummary run = SimulateForward(
+      forward,
+      [](double, Eigen::VectorXd& u, std::string&) {
+        u = Eigen::VectorXd::Constant(1, kMotorTorque);
+        return true;
+      },
+      0.0, start, kSqueezerEnd, {}, options,
+      [&](double, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+        end = y;
+        return true;
+      },
+      &states);
+  INFO(run.message);
+  REQUIRE(run.IsUsable());
+  for (Eigen::Index i = 0; i < f; ++i) {
+    INFO("angle " << i);
+    CHECK(end(i) == Approx(kSqueezerAngles[std::size_t(i)]).epsilon(1e-8).margin(1e-8));
+    // Rates to 1e-8 of the fastest (the crank's 1424 rad/s): the slow links' errors are the
+    // fast ones' shared out by the loops.
+    CHECK(end(f + i) == Approx(kSqueezerRates[std::size_t(i)]).margin(1.5e-5));
+  }
+  CHECK(forward.ConstraintViolation(end.head(f)) < 1e-14);
+
+  ClassifiedModel problem{squeezer, {}};
+  Workspace workspace(problem.model);
+  problem.classification = Classify(problem.model, workspace);
+  REQUIRE(problem.classification.flat);
+  const SimulatedCrankAngle crank(squeezer, std::move(states));
+  InverseModelOptions inverse;
+  inverse.sample_time = 0.001;
+  const FeedforwardSolution solution =
+      SolveUsable(problem, crank, SolverMethod::kAuto, kSqueezerEnd, inverse);
+  CHECK(solution.method == SolverMethod::kAlgebraic);
+  REQUIRE(solution.times.size() == 31);
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    INFO("t = " << solution.times[i]);
+    CHECK(solution.u[i](0) == Approx(kMotorTorque).epsilon(1e-6));
+  }
+  for (Eigen::Index i = 0; i < f; ++i) {
+    CHECK(solution.q.back()(i) ==
+          Approx(kSqueezerAngles[std::size_t(i)]).epsilon(1e-8).margin(1e-8));
+  }
 }
 
 }  // namespace
