@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Side-by-side (issue #19): a parameter sweep of each of the five shipped models by servokit and
+# Side-by-side (issue #19): a parameter sweep of the shipped models and of the closed chains of
+# the tests (issue #32: five-bar, crane in absolute coordinates, the redundant rotational arm,
+# Andrews' squeezing mechanism) by servokit and
 # by the generic per-point SciPy pipeline of bench/scipy_generic_sweep.py (the model file's
 # expressions compiled with sympy; per point: operating point, complex-step linearization,
 # Rosenbrock pencil QZ, Markov parameters, verdict), over the same grid, in one run.
@@ -7,7 +9,7 @@
 # Usage: bench/compare_generic_sweep.sh [BUILD_DIR]      (default: build)
 # Environment: GRID (default 200: GRID x GRID points per model), REPEAT (default 3: servokit's
 #              time is the least of REPEAT runs),
-#              MODELS (default: all five), PYTHON (default /usr/bin/python3, Debian's, with
+#              MODELS (default: all nine), PYTHON (default /usr/bin/python3, Debian's, with
 #              SciPy, SymPy and PyYAML),
 #              BEFORE (optional: another build directory, e.g. of an earlier commit, whose
 #              servokit is timed on the same grids in the same run: column "before x").
@@ -25,7 +27,7 @@ python=${PYTHON:-/usr/bin/python3}
 grid=${GRID:-200}
 repeat=${REPEAT:-3}
 servokit="$(cd "$build" 2>/dev/null && pwd)/application/servokit"
-models=${MODELS:-"mass_on_car rotational_arm three_link_arm mass_spring_chain gantry_crane"}
+models=${MODELS:-"mass_on_car rotational_arm three_link_arm mass_spring_chain gantry_crane five_bar gantry_crane_absolute rotational_arm_redundant andrews_squeezer"}
 
 before=""
 if [[ -n ${BEFORE:-} ]]; then before="$(cd "$BEFORE" && pwd)/application/servokit"; fi
@@ -43,8 +45,19 @@ axes() {
     three_link_arm) echo "c=10:100:n=$grid d=0:1:n=$grid" ;;
     mass_spring_chain) echo "m=0.5:2:n=$grid k=50:200:n=$grid" ;;
     gantry_crane) echo "m=1:10:n=$grid L0=1:5:n=$grid" ;;
+    # Closed chains (issue #32): classified on the tangent space of c(q) = 0.
+    five_bar) echo "c=5:20:n=$grid d=0.05:0.5:n=$grid" ;;
+    gantry_crane_absolute) echo "m=1:10:n=$grid L0=1:5:n=$grid" ;;
+    rotational_arm_redundant) echo "s=0.1:2:n=$grid d=0:1:n=$grid" ;;
+    andrews_squeezer) echo "c0=3000:6000:n=$grid l0=0.07:0.085:n=$grid" ;;
     *) echo "compare_generic_sweep: no grid for model $1" >&2; exit 1 ;;
   esac
+}
+
+# A shipped model, or a closed chain of the tests (tests/data/loops).
+model_file() {
+  if [[ -f "$root/models/$1.yaml" ]]; then echo "$root/models/$1.yaml"
+  else echo "$root/tests/data/loops/$1.yaml"; fi
 }
 
 work=$(mktemp -d)
@@ -63,7 +76,7 @@ for model in $models; do
     local best="" times seconds
     for ((run = 0; run < repeat; ++run)); do
       rm -rf "$2"
-      times=$( { TIMEFORMAT='%3U %3S'; time "$1" sweep "$root/models/$model.yaml" "${vary[@]}" \
+      times=$( { TIMEFORMAT='%3U %3S'; time "$1" sweep "$(model_file "$model")" "${vary[@]}" \
         --out "$2" --threads 1 >"$work/log" 2>&1; } 2>&1) || {
         echo "compare_generic_sweep: $1 sweep of $model failed; its output:" >&2
         cat "$work/log" >&2
@@ -82,7 +95,7 @@ for model in $models; do
     rm -rf "$work/before-$model"
   fi
   points=$(($(wc -l <"$out/points.csv") - 1))
-  scipy_json=$("$python" "$root/bench/scipy_generic_sweep.py" "$root/models/$model.yaml" \
+  scipy_json=$("$python" "$root/bench/scipy_generic_sweep.py" "$(model_file "$model")" \
     "${vary[@]}" --out "$work/scipy-$model" --check "$out")
   scipy_seconds=$("$python" -c 'import json, sys; print(json.loads(sys.stdin.readline())["seconds"])' \
     <<<"$scipy_json")

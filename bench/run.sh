@@ -33,6 +33,9 @@ echo
 echo "== flat inverse of a linear double-pendulum crane (relative degree 6) against NumPy (issue #15) =="
 "$root/bench/compare_flat_crane.sh" "$build"
 echo
+echo "== a closed chain's feedforward: the crane in absolute coordinates against NumPy (issue #32) =="
+"$root/bench/compare_crane_absolute.sh" "$build"
+echo
 echo "== stable inversion against SciPy solve_bvp (issue #5) =="
 "$root/bench/compare_stable_inversion.sh" "$build"
 echo

@@ -2,13 +2,16 @@
 """Generic SciPy peer of `servokit sweep` for any multibody model file (issue #19).
 
 Reads a model YAML (parameters, coordinates, inputs, mass_matrix M, forces f, input_matrix B,
-outputs h, as expressions), compiles every expression once with sympy.lambdify (NumPy
-backend), and sweeps a full grid the way a SciPy user would write it for any model, point by
-point:
+outputs h, as expressions; or `kind: lagrangian` with T, V and D, differentiated by SymPy; and
+a closed chain's `constraints` c(q) with the file's `q0`), compiles every expression once with
+sympy.lambdify (NumPy backend), and sweeps a full grid the way a SciPy user would write it for
+any model, point by point:
 
-  1. operating point: q = 0, velocities 0, y0 = h(0), u0 = least squares of B(0) u = f(0, 0);
-     if the equilibrium residual [f(q, 0) - B(q) u; h(q) - y0] is not zero there, Newton on
-     (q, u) with a complex-step Jacobian;
+  1. operating point: q = q0 (the file's, else 0), velocities 0, y0 = h(q0), u0 = least
+     squares of [B, C^T] [u; lambda] = f; if the equilibrium residual [f(q, 0) - B(q) u - C(q)^T lambda;
+     h(q) - y0; c(q)] is not zero there, Newton on (q, u, lambda) with a complex-step
+     Jacobian. A closed chain is analysed on the tangent space of c = 0 (T = null_space(C):
+     T^T M T, T^T K T, T^T D T, T^T B, H T, K with d(C^T lambda0)/dq);
   2. linearization by complex-step Jacobians (step 1e-20i): K = d(f - B u0)/dq,
      D = df/dq_dot, H = dh/dq;
   3. invariant zeros: the finite generalized eigenvalues of the Rosenbrock pencil
@@ -107,11 +110,37 @@ class CompiledModel:
             vector = sympy.Matrix([parse(e) for e in entries])
             return sympy.lambdify([q, v, p], vector, modules="numpy", cse=True)
 
-        self.mass_matrix = compile_matrix(doc["mass_matrix"], (n, n))
+        if doc.get("kind") == "lagrangian":
+            # Lagrange's equations from T, V and Rayleigh's D: M = d2T/dv2,
+            # f = d2T/dv dq v - dT/dq + dV/dq + dD/dv.
+            if "generalized_forces" in doc:
+                raise ValueError("generalized_forces: not read by this peer")
+            kinetic = parse(doc["kinetic_energy"])
+            potential = parse(doc["potential_energy"])
+            dissipation = parse(doc.get("dissipation", 0))
+            momenta = sympy.Matrix([sympy.diff(kinetic, vk) for vk in v])
+            forces = (momenta.jacobian(q) * sympy.Matrix(v)
+                      - sympy.Matrix([sympy.diff(kinetic, qk) for qk in q])
+                      + sympy.Matrix([sympy.diff(potential, qk) for qk in q])
+                      + sympy.Matrix([sympy.diff(dissipation, vk) for vk in v]))
+            self.mass_matrix = sympy.lambdify([q, v, p], momenta.jacobian(v), modules="numpy",
+                                              cse=True)
+            self.forces = sympy.lambdify([q, v, p], forces, modules="numpy", cse=True)
+        else:
+            self.mass_matrix = compile_matrix(doc["mass_matrix"], (n, n))
+            self.forces = compile_vector(doc["forces"])
         self.input_matrix = compile_matrix(doc["input_matrix"], (n, m))
-        self.forces = compile_vector(doc["forces"])
         self.outputs = compile_vector(doc["outputs"])
+        # A closed chain's loop constraints c(q) = 0 (M q'' + f = B u + C^T lambda) and their
+        # Jacobian C, and the file's start for Newton (q = 0 without one).
+        constraints = sympy.Matrix([parse(e) for e in doc.get("constraints", [])])
+        self.constraints = sympy.lambdify([q, v, p], constraints, modules="numpy", cse=True)
+        self.constraint_jacobian = sympy.lambdify(
+            [q, v, p], constraints.jacobian(q) if constraints.rows else sympy.zeros(0, n),
+            modules="numpy", cse=True)
+        self.start = np.array([number(x) for x in doc.get("q0", [0] * n)], dtype=float)
         self.dof, self.num_inputs, self.num_outputs = n, m, len(doc["outputs"])
+        self.num_constraints = constraints.rows
 
     # Each returns a 2-D array (column vectors are n x 1); complex arguments give complex ones.
     def M(self, q, p):
@@ -126,6 +155,16 @@ class CompiledModel:
     def h(self, q, p):
         return np.asarray(self.outputs(q, q * 0, p), dtype=q.dtype).ravel()
 
+    def c(self, q, p):
+        if not self.num_constraints:
+            return np.zeros(0, dtype=q.dtype)
+        return np.asarray(self.constraints(q, q * 0, p), dtype=q.dtype).ravel()
+
+    def C(self, q, p):
+        if not self.num_constraints:
+            return np.zeros((0, q.size), dtype=q.dtype)
+        return np.asarray(self.constraint_jacobian(q, q * 0, p), dtype=q.dtype)
+
 
 def complex_step_jacobian(function, x):
     """d function / dx at a real x, column by column: Im(function(x + i STEP e_k)) / STEP."""
@@ -138,35 +177,48 @@ def complex_step_jacobian(function, x):
 
 
 def operating_point(model, p):
-    """(q, u): the equilibrium at rest holding y0 = h(0), Newton from q = 0 if needed."""
-    n, m = model.dof, model.num_inputs
-    q = np.zeros(n)
+    """(q, u, lambda): the equilibrium at rest holding y0 = h(q0) (q0 the file's start, else 0),
+    Newton from q0 if needed on [f(q, 0) - B u - C^T lambda; h(q) - y0; c(q)]."""
+    n, m, k = model.dof, model.num_inputs, model.num_constraints
+    q = model.start.copy()
     y0 = model.h(q, p)
-    u = np.linalg.lstsq(model.B(q, p), model.f(q, q, p), rcond=None)[0]
+    # u and lambda that best balance the forces there: [B, C^T] [u; lambda] = f.
+    forces_at_rest = np.linalg.lstsq(np.hstack([model.B(q, p), model.C(q, p).T]),
+                                     model.f(q, q, p), rcond=None)[0]
     if model.num_outputs != m:
         raise ValueError("not square")
 
     def residual(x):
-        qx, ux = x[:n], x[n:]
-        return np.concatenate([model.f(qx, qx * 0, p) - model.B(qx, p) @ ux, model.h(qx, p) - y0])
+        qx, ux, lx = x[:n], x[n:n + m], x[n + m:]
+        return np.concatenate([
+            model.f(qx, qx * 0, p) - model.B(qx, p) @ ux - model.C(qx, p).T @ lx,
+            model.h(qx, p) - y0, model.c(qx, p)])
 
-    x = np.concatenate([q, u])
+    x = np.concatenate([q, forces_at_rest])
     r = residual(x)
     for _ in range(NEWTON_ITERATIONS):
         if np.max(np.abs(r)) <= RESIDUAL_TOLERANCE * max(1.0, np.max(np.abs(model.f(q, q, p)))):
-            return x[:n], x[n:]
+            return x[:n], x[n:n + m], x[n + m:]
         x = x - np.linalg.solve(complex_step_jacobian(residual, x), r)
         r = residual(x)
     raise ArithmeticError("no equilibrium found")
 
 
 def linearize(model, p):
-    q0, u0 = operating_point(model, p)
+    """M, K, D, B, H at the operating point; for a closed chain on the tangent space of c = 0:
+    T^T M T, T^T K T, T^T D T, T^T B, H T, T an orthonormal null-space basis of C, with the
+    loop forces' stiffness in K = d(f - B u0 - C^T lambda0)/dq."""
+    q0, u0, lambda0 = operating_point(model, p)
     zero = np.zeros_like(q0)
-    K = complex_step_jacobian(lambda q: model.f(q, zero, p) - model.B(q, p) @ u0, q0)
+    K = complex_step_jacobian(
+        lambda q: model.f(q, zero, p) - model.B(q, p) @ u0 - model.C(q, p).T @ lambda0, q0)
     D = complex_step_jacobian(lambda v: model.f(q0, v, p), zero)
     H = complex_step_jacobian(lambda q: model.h(q, p), q0)
-    return model.M(q0, p), K, D, model.B(q0, p), H
+    M, B = model.M(q0, p), model.B(q0, p)
+    if model.num_constraints:
+        T = scipy.linalg.null_space(model.C(q0, p))
+        return T.T @ M @ T, T.T @ K @ T, T.T @ D @ T, T.T @ B, H @ T
+    return M, K, D, B, H
 
 
 def invariant_zeros(M, K, D, B, H, count=None):
@@ -258,7 +310,7 @@ def stability(zeros):
 def analyze_point(model, p):
     """(points row without the parameter columns, zeros)."""
     M, K, D, B, H = linearize(model, p)
-    n = model.dof
+    n = M.shape[0]  # dof - constraints for a closed chain
     Minv = scipy.linalg.inv(M)
     MinvB = Minv @ B
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ D]])
