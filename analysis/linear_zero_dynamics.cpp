@@ -5,6 +5,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <random>
@@ -301,6 +302,11 @@ Eigen::VectorXcd ZeroVector(const LinearSystem& system, const Eigen::VectorXcd& 
   return q;
 }
 
+// A symmetric collocated system's zero is refined by its Rayleigh quotient only when that moves
+// it by at most this, relative to max(1, |lambda|): far above the eigensolver's round-off
+// (1e-12 relative), far below any error a wrong vector makes (ZerosWithBounds).
+constexpr double kRayleighRefinementWindow = 1e-8;
+
 // The root of m s^2 + d s + k = 0 nearest `estimate`: the quadratic Rayleigh quotient of a
 // symmetric collocated system, exact for an exact eigenvector and second-order accurate
 // otherwise; with d > 0 its real part -d / (2m) (complex roots) keeps its sign however small.
@@ -528,8 +534,35 @@ std::string_view ToString(RosenbrockFactorization factorization) {
 LinearSystem AssembleLinearSystem(const LinearModel& model,
                                   const Eigen::Ref<const Eigen::VectorXd>& parameters) {
   LinearMatrices matrices = AssembleLinearMatrices(model, parameters);
+  if (model.num_constraints() == 0) {
+    return {std::move(matrices.mass), std::move(matrices.damping), std::move(matrices.stiffness),
+            model.input_matrix(), model.output_matrix()};
+  }
+  // A closed chain's constraints as a further border: inputs [B G^T], outputs [C; G], the
+  // multipliers solved for as inputs and G q held at 0 as outputs (the same open-chain form as
+  // LoopsAsServoConstraints, modeling/model.h).
+  const SparseMatrix& constraints = model.constraint_matrix();
+  const SparseMatrix constraints_transposed = constraints.transpose();
+  SparseMatrix inputs(model.input_matrix().rows(),
+                      model.input_matrix().cols() + constraints.rows());
+  SparseMatrix outputs(model.output_matrix().rows() + constraints.rows(), constraints.cols());
+  std::vector<Eigen::Triplet<double>> entries;
+  const auto append = [&entries](const SparseMatrix& block, Eigen::Index row, Eigen::Index col) {
+    for (Eigen::Index k = 0; k < block.outerSize(); ++k) {
+      for (SparseMatrix::InnerIterator it(block, k); it; ++it) {
+        entries.emplace_back(int(it.row() + row), int(it.col() + col), it.value());
+      }
+    }
+  };
+  append(model.input_matrix(), 0, 0);
+  append(constraints_transposed, 0, model.input_matrix().cols());
+  inputs.setFromTriplets(entries.begin(), entries.end());
+  entries.clear();
+  append(model.output_matrix(), 0, 0);
+  append(constraints, model.output_matrix().rows(), 0);
+  outputs.setFromTriplets(entries.begin(), entries.end());
   return {std::move(matrices.mass), std::move(matrices.damping), std::move(matrices.stiffness),
-          model.input_matrix(), model.output_matrix()};
+          std::move(inputs), std::move(outputs)};
 }
 
 void LinearSystem::Validate() const {
@@ -898,8 +931,19 @@ std::vector<double> ZerosWithBounds(const LinearSystem& system,
     bounds.push_back(
         ZeroErrorBound(system, norms, lambda, nu, pairs.largest_nu, pairs.residuals[j], q, left));
     if (symmetric_collocated) {
-      lambda = RayleighZero(HermitianForm(system.mass, q), HermitianForm(system.damping, q),
-                            HermitianForm(system.stiffness, q), lambda);
+      // The quotient is as good as q. Where the zero is also (nearly) an eigenvalue of
+      // Q(lambda) (a mode of the structure that leaves the outputs at rest: the ring of
+      // `generate chain --closed`), one step of inverse iteration through the Schur
+      // complement gives a q off the zero's vector, and the quotient moved such zeros by 1 %.
+      // The refinement only corrects round-off (a lightly damped zero's real part), so a
+      // refined zero further than that from the eigensolver's is not taken.
+      const std::complex<double> refined =
+          RayleighZero(HermitianForm(system.mass, q), HermitianForm(system.damping, q),
+                       HermitianForm(system.stiffness, q), lambda);
+      if (std::abs(refined - lambda) <=
+          kRayleighRefinementWindow * std::max(1.0, std::abs(lambda))) {
+        lambda = refined;
+      }
     }
     result.eigenvalues.push_back(lambda);
   }

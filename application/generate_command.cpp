@@ -1,4 +1,4 @@
-// servokit generate chain --masses N [--mass m] [--stiffness k] [--damping d]
+// servokit generate chain --masses N [--mass m] [--stiffness k] [--damping d] [--closed]
 //                         [--input-mass i] [--output-mass j | --output-weights W]
 //                         --out DIR [--name NAME]
 // servokit generate beam  --elements N [--length L] [--hub-inertia J] [--mass-per-length r]
@@ -99,6 +99,9 @@ Command AddGenerateCommand(CLI::App& app) {
                    "over every mass) or uniform (the mean position, sum of q_i / N); linear and "
                    "uniform mix all N coordinates (a dense row of C)")
       ->capture_default_str();
+  chain->add_flag("--closed", chain_options.closed,
+                  "Close the chain into a ring: mass N joined rigidly back to mass 1 (q_N = q_1, "
+                  "a loop constraint); written as ring_N");
   AddOutputOptions(*chain, *arguments, "chain");
 
   CLI::App* beam = generate->add_subcommand(

@@ -37,8 +37,8 @@ using detail::kLinearKind;
 
 constexpr std::array<std::string_view, 6> kRequiredKeys = {
     "name", "kind", "mass_matrix", "stiffness_matrix", "input_matrix", "output_matrix"};
-constexpr std::array<std::string_view, 3> kOptionalKeys = {"description", "parameters",
-                                                           "damping_matrix"};
+constexpr std::array<std::string_view, 4> kOptionalKeys = {"description", "parameters",
+                                                           "damping_matrix", "constraint_matrix"};
 constexpr std::string_view kMatrixKey = "matrix";
 constexpr std::string_view kFactorKey = "factor";
 constexpr std::string_view kDefaultFactor = "1";
@@ -137,6 +137,12 @@ class LinearModelBuilder {
     model_.input_matrix_ = ReadFixedMatrix("input_matrix");
     model_.output_matrix_ = ReadFixedMatrix("output_matrix");
     CheckInputsAndOutputs();
+    if (Entry("constraint_matrix")) {
+      model_.constraint_matrix_ = ReadFixedMatrix("constraint_matrix");
+      CheckConstraints();
+    } else {
+      model_.constraint_matrix_.resize(0, Eigen::Index(model_.dof_));
+    }
     model_.content_hash_ = hasher_.Hex();
     return std::move(model_);
   }
@@ -405,6 +411,25 @@ class LinearModelBuilder {
     model_.num_outputs_ = static_cast<std::size_t>(output.rows());
   }
 
+  // G (constraints x dof) of a closed chain: as many columns as coordinates, and room left for
+  // the outputs (dof - constraints >= outputs).
+  void CheckConstraints() {
+    const SparseMatrix& constraints = model_.constraint_matrix_;
+    const auto dof = static_cast<Eigen::Index>(model_.dof_);
+    if (constraints.cols() != dof) {
+      Fail("constraint_matrix", "expected " + std::to_string(dof) +
+                                    " columns (constraints x dof), found " +
+                                    Shape(constraints.rows(), constraints.cols()));
+    }
+    if (constraints.rows() < 1 ||
+        dof - constraints.rows() < static_cast<Eigen::Index>(model_.num_outputs_)) {
+      Fail("constraint_matrix",
+           std::to_string(constraints.rows()) + " constraints for " + std::to_string(dof) +
+               " coordinates leave " + std::to_string(dof - constraints.rows()) +
+               " degrees of freedom for " + std::to_string(model_.num_outputs_) + " outputs");
+    }
+  }
+
   LinearModel model_;
   YAML::Node root_;
   std::filesystem::path directory_;
@@ -463,6 +488,7 @@ constexpr MatrixFile kDamping = {"damping_matrix", "D"};
 constexpr MatrixFile kStiffness = {"stiffness_matrix", "K"};
 constexpr MatrixFile kInput = {"input_matrix", "B"};
 constexpr MatrixFile kOutput = {"output_matrix", "C"};
+constexpr MatrixFile kConstraint = {"constraint_matrix", "G"};
 
 class ModelWriter {
  public:
@@ -491,6 +517,10 @@ class ModelWriter {
          << WriteMatrix(files_.input_matrix, kInput, 0, 1, "");
     yaml << YAML::Key << std::string(kOutput.key) << YAML::Value
          << WriteMatrix(files_.output_matrix, kOutput, 0, 1, "");
+    if (files_.constraint_matrix.rows() > 0) {
+      yaml << YAML::Key << std::string(kConstraint.key) << YAML::Value
+           << WriteMatrix(files_.constraint_matrix, kConstraint, 0, 1, "");
+    }
     yaml << YAML::EndMap;
     if (!yaml.good()) throw UsageError("cannot write the model file: " + yaml.GetLastError());
     const std::filesystem::path path = directory_ / (files_.name + ".yaml");

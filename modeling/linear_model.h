@@ -17,6 +17,7 @@
 //   stiffness_matrix: chain_1000.K.mtx
 //   input_matrix: chain_1000.B.mtx
 //   output_matrix: chain_1000.C.mtx
+//   constraint_matrix: ring.G.mtx   # optional: a closed chain's G q = 0 (constraints x dof)
 //
 // Each of mass_matrix, damping_matrix and stiffness_matrix is either one file name or a list of
 // terms {matrix: FILE, factor: EXPRESSION}; the matrix is the sum of factor * matrix over the
@@ -74,6 +75,12 @@ class LinearModel {
   /// B, dof x inputs, and C, outputs x dof (no parameters).
   const SparseMatrix& input_matrix() const { return input_matrix_; }
   const SparseMatrix& output_matrix() const { return output_matrix_; }
+  /// A closed chain's constraints G q = 0 (M q'' + D q' + K q = B u + G^T lambda), constraints x
+  /// dof; no rows for an open chain. Analysed as the bordered system whose inputs are [u; lambda]
+  /// and outputs [y; G q] (AssembleLinearSystem): the pencil
+  /// [[K + s D + s^2 M, -B, -G^T], [C, 0, 0], [G, 0, 0]].
+  const SparseMatrix& constraint_matrix() const { return constraint_matrix_; }
+  std::size_t num_constraints() const { return std::size_t(constraint_matrix_.rows()); }
 
  private:
   friend class LinearModelBuilder;  // modeling/linear_model.cpp fills a LinearModel
@@ -83,7 +90,7 @@ class LinearModel {
   std::vector<DisplayUnit> parameter_units_;
   Eigen::VectorXd parameters_;
   std::vector<LinearModelTerm> mass_terms_, damping_terms_, stiffness_terms_;
-  SparseMatrix input_matrix_, output_matrix_;
+  SparseMatrix input_matrix_, output_matrix_, constraint_matrix_;
 };
 
 /// M, D and K of a linear model at parameter values `parameters` (size
@@ -112,6 +119,7 @@ struct LinearModelFiles {
   // Each matrix as terms (matrix, factor text); damping may be empty.
   std::vector<std::pair<SparseMatrix, std::string>> mass, damping, stiffness;
   SparseMatrix input_matrix, output_matrix;
+  SparseMatrix constraint_matrix;  // no rows: an open chain
 };
 
 /// Writes DIR/NAME.yaml and DIR/NAME.<key>[.<term>].mtx (Matrix Market coordinate real general,

@@ -174,17 +174,22 @@ void ChainOptions::Validate() const {
                 "output_mass", output_mass,
                 "applies only to the output weights 'mass' (the weights are " +
                     std::string(ToString(output_weights)) + ")");
+  RequireOption(!closed || masses >= 3, kOptions, "masses", masses,
+                "must be at least 3 to close the chain into a ring");
 }
 
 LinearModelFiles GenerateChain(const ChainOptions& options) {
   options.Validate();
   const long n = options.masses;
   LinearModelFiles files;
-  files.name = "chain_" + std::to_string(n);
+  files.name = (options.closed ? "ring_" : "chain_") + std::to_string(n);
   files.description = "chain of " + std::to_string(n) + " masses m, springs k and dampers d " +
-                      "from the ground to a free end; force on mass " +
-                      std::to_string(options.input_mass) + ", " + ChainOutputText(options) +
-                      " (servokit generate chain)";
+                      "from the ground to a free end" +
+                      (options.closed ? ", closed into a ring by a rigid link from mass N back to "
+                                        "mass 1 (q_N = q_1)"
+                                      : "") +
+                      "; force on mass " + std::to_string(options.input_mass) + ", " +
+                      ChainOutputText(options) + " (servokit generate chain)";
   files.parameters = {{"m", options.mass}, {"k", options.stiffness}, {"d", options.damping}};
   SparseMatrix identity(n, n);
   identity.setIdentity();
@@ -195,6 +200,9 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
   files.stiffness = {{laplacian, "k"}};
   files.input_matrix = UnitEntry(n, 1, options.input_mass - 1, 0);
   files.output_matrix = ChainOutputRow(options);
+  if (options.closed) {
+    files.constraint_matrix = FromTriplets(1, n, {Triplet(0, n - 1, 1.0), Triplet(0, 0, -1.0)});
+  }
   return files;
 }
 

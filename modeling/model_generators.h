@@ -25,6 +25,10 @@ struct ChainOptions {
   long input_mass = 1;     // 1..N
   long output_mass = 1;    // 1..N; must stay 1 unless output_weights is kMass
   ChainOutputWeights output_weights = ChainOutputWeights::kMass;
+  /// Close the chain into a ring: mass N joined rigidly back to mass 1, the loop constraint
+  /// G q = q_N - q_1 = 0 (a closed chain, the file's constraint_matrix; at least 3 masses).
+  /// Named ring_N instead of chain_N.
+  bool closed = false;
   /// Throws OptionError (a UsageError) naming the field, its value and the rule.
   void Validate() const;
 };

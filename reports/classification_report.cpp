@@ -337,7 +337,7 @@ constexpr const char* kLinearOperatingPoint =
 std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const LinearModel& model,
                                                                        const LinearAnalysis& a) {
   const LinearZeroDynamics& zeros = a.zero_dynamics;
-  return {
+  std::vector<std::pair<std::string, std::string>> rows = {
       {"parameters", LinearParametersToText(model)},
       {"size", std::to_string(model.dof()) + " coordinates, " + std::to_string(model.num_inputs()) +
                    " inputs, " + std::to_string(model.num_outputs()) + " outputs"},
@@ -372,6 +372,15 @@ std::vector<std::pair<std::string, std::string>> LinearAnalysisSummary(const Lin
       {"oscillatory modes", ModesToText(zeros.modes)},
       {"recommended solver", std::string(ToString(a.recommended_solver))},
   };
+  if (model.num_constraints() > 0) {  // after the size, as a closed chain's multibody report
+    rows.insert(rows.begin() + 2,
+                {"constraints",
+                 std::to_string(model.num_constraints()) + " (" +
+                     std::to_string(model.dof() - model.num_constraints()) +
+                     " degrees of freedom; P and the relative degrees of the bordered system: "
+                     "inputs [u; lambda], outputs [y; G q])"});
+  }
+  return rows;
 }
 
 nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
@@ -408,7 +417,7 @@ nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
   const Eigen::VectorXd zero_io = Eigen::VectorXd::Zero(Eigen::Index(model.num_inputs()));
   // Not determined numerically (a fine mesh of a continuum): null, with the note saying why.
   const bool determined = a.relative_degrees.determined;
-  return {
+  nlohmann::ordered_json json = {
       {"model", model.name()},
       {"kind", "linear"},
       {"parameters", parameters},
@@ -444,6 +453,8 @@ nlohmann::ordered_json LinearAnalysisToJson(const LinearModel& model,
         {"imaginary_axis_tolerance", options.zero_dynamics.imaginary_axis_tolerance},
         {"infinite_tolerance", options.zero_dynamics.infinite_tolerance}}},
   };
+  if (model.num_constraints() > 0) json["constraints"] = model.num_constraints();
+  return json;
 }
 
 std::string FormatLinearAnalysis(const LinearModel& model,

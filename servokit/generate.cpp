@@ -26,6 +26,7 @@ ChainOptions ToChainOptions(const ChainModel& chain) {
   options.input_mass = chain.input_mass;
   options.output_mass = chain.output_mass;
   options.output_weights = chain.output_weights;
+  options.closed = chain.closed;
   return options;
 }
 
@@ -51,7 +52,8 @@ const ChainModel& DefaultChainModel() {
                                    .damping = options.damping,
                                    .input_mass = options.input_mass,
                                    .output_mass = options.output_mass,
-                                   .output_weights = options.output_weights};
+                                   .output_weights = options.output_weights,
+                                   .closed = options.closed};
   return defaults;
 }
 

@@ -725,6 +725,9 @@ struct ChainModel {
   // The output y: the position of output_mass, sum of (i/N) q_i over every mass (kLinear) or
   // the mean position, sum of q_i / N (kUniform).
   ChainOutputWeights output_weights = DefaultChainModel().output_weights;
+  // Close the chain into a ring, mass N rigidly joined back to mass 1 (q_N = q_1: a closed
+  // chain with one loop constraint); the file is then ring_N.
+  bool closed = DefaultChainModel().closed;
   /// Throws OptionError naming the field, its value and the rule it breaks (Generate checks
   /// the same before it writes anything).
   void Validate() const;

@@ -395,7 +395,7 @@ void BindChain(py::module_& generate) {
       "chain",
       [](long masses, double mass, double stiffness, double damping, long input_mass,
          long output_mass, const std::string& output_weights, const py::object& out,
-         const std::string& name) {
+         const std::string& name, bool closed) {
         const std::optional<sk::ChainOutputWeights> weights =
             sk::ChainOutputWeightsFromString(output_weights);
         if (!weights) {
@@ -403,7 +403,7 @@ void BindChain(py::module_& generate) {
                                      "': expected mass, linear or uniform");
         }
         const sk::ChainModel chain{masses,     mass,        stiffness, damping,
-                                   input_mass, output_mass, *weights};
+                                   input_mass, output_mass, *weights,  closed};
         const std::string directory = ToPath(out);
         py::gil_scoped_release release;
         return sk::Generate(chain, directory, name);
@@ -412,11 +412,11 @@ void BindChain(py::module_& generate) {
       py::arg("stiffness") = defaults.stiffness, py::arg("damping") = defaults.damping,
       py::arg("input_mass") = defaults.input_mass, py::arg("output_mass") = defaults.output_mass,
       py::arg("output_weights") = Word(defaults.output_weights), py::arg("out"),
-      py::arg("name") = "",
+      py::arg("name") = "", py::arg("closed") = defaults.closed,
       "Writes a chain of masses, springs and dampers (YAML and Matrix Market files) into "
       "`out`; returns the model file's path (`servokit generate chain`). output_weights: "
       "'mass' (y = position of output_mass), 'linear' (sum of (i/N) q_i) or 'uniform' (mean "
-      "position).");
+      "position). closed: mass N joined rigidly back to mass 1 (a ring, one loop constraint).");
 }
 
 void BindBeam(py::module_& generate) {
