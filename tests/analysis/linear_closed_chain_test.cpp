@@ -69,7 +69,7 @@ TEST_CASE("a ring's zeros are those of its chain without the constraint", "[anal
   const LinearModel ring = Ring(40, directory.path());
   REQUIRE(ring.num_constraints() == 1);
   const LinearSystem bordered = AssembleLinearSystem(ring, ring.parameters());
-  CHECK(bordered.input_matrix.cols() == 2);  // [B G^T]
+  CHECK(bordered.input_matrix.cols() == 2);   // [B G^T]
   CHECK(bordered.output_matrix.rows() == 2);  // [C; G]
 
   LinearAnalysisOptions dense;
@@ -147,8 +147,8 @@ TEST_CASE("a ring of 2000 masses has the zeros of a chain fixed at both ends", "
   std::vector<std::complex<double>> expected;
   for (int j = 1; j <= 5; ++j) {
     const double mu = 2.0 - 2.0 * std::cos(j * M_PI / double(kMasses - 1));
-    const std::complex<double> root =
-        std::sqrt(std::complex<double>(kDamping * kDamping * mu * mu - 4.0 * kMass * kStiffness * mu));
+    const std::complex<double> root = std::sqrt(
+        std::complex<double>(kDamping * kDamping * mu * mu - 4.0 * kMass * kStiffness * mu));
     expected.push_back((-kDamping * mu + root) / (2.0 * kMass));
     expected.push_back((-kDamping * mu - root) / (2.0 * kMass));
   }

@@ -148,6 +148,52 @@ TEST_CASE("a closed chain's inverse is its minimal-coordinate twin's, by every m
   }
 }
 
+// The five-bar (models/five_bar.yaml: crank angles and the couplers' absolute angles, the
+// coupler joint two constraints) against the same linkage in its two crank angles with the
+// closure solved by atan2 and sqrt (tests/data/loops/five_bar_minimal.yaml): the same u_d and
+// crank motion by auto (BDF: stable, lightly damped zero dynamics), to the solves' tolerance.
+// And the linearized inverse, a linear method, gives the arm's u_d in either coordinates.
+TEST_CASE("the five-bar's inverse in redundant and in minimal coordinates", "[solvers]") {
+  const ClassifiedModel loops = LoadClassified(ModelPath("five_bar.yaml"));
+  const ClassifiedModel minimal = LoadClassified(TestDataPath("loops/five_bar_minimal.yaml"));
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Ones(1), Eigen::VectorXd::Constant(1, 1.1),
+                                        0.0, 2.0);
+  InverseModelOptions options;
+  options.sample_time = 0.01;
+  options.rtol = 1e-10;
+  options.atol = 1e-12;
+  const FeedforwardSolution solution =
+      SolveUsable(loops, trajectory, SolverMethod::kAuto, 4.0, options);
+  const FeedforwardSolution reference =
+      SolveUsable(minimal, trajectory, SolverMethod::kAuto, 4.0, options);
+  CHECK(solution.method == reference.method);
+  REQUIRE(solution.times == reference.times);
+  const double input_scale = Largest(reference.u);
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    INFO("t = " << solution.times[i]);
+    CHECK(std::abs(solution.u[i](0) - reference.u[i](0)) <= 1e-6 * input_scale);
+    CHECK(std::abs(solution.q[i](0) - reference.q[i](0)) <= 1e-8);  // the cranks
+    CHECK(std::abs(solution.q[i](1) - reference.q[i](1)) <= 1e-8);
+  }
+  RequireVerified(loops.model, trajectory, solution);
+
+  const ClassifiedModel arm = LoadClassified(ModelPath("rotational_arm.yaml"), {{"s", "0.5"}});
+  const ClassifiedModel arm_loops =
+      LoadClassified(TestDataPath("loops/rotational_arm_redundant.yaml"), {{"s", "0.5"}});
+  const RestToRestTrajectory small(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 0.01),
+                                   0.0, 1.0);
+  InverseModelOptions linear;
+  linear.sample_time = 0.01;
+  const FeedforwardSolution arm_linear =
+      SolveUsable(arm, small, SolverMethod::kLinearized, 2.0, linear);
+  const FeedforwardSolution loops_linear =
+      SolveUsable(arm_loops, small, SolverMethod::kLinearized, 2.0, linear);
+  REQUIRE(loops_linear.times == arm_linear.times);
+  for (std::size_t i = 0; i < arm_linear.times.size(); ++i) {
+    CHECK(std::abs(loops_linear.u[i](0) - arm_linear.u[i](0)) <= 1e-8 * Largest(arm_linear.u));
+  }
+}
+
 // Value, first and second time derivative of a function of t, with the arithmetic that carries
 // them (product and chain rules): the crane's closed form needs x'' and r'' of quantities that
 // are themselves formulas in y_d and its derivatives.
