@@ -111,6 +111,14 @@ std::vector<std::string> CarSweep(const std::vector<std::string>& more = {}) {
                      more);
 }
 
+// A closed chain (issue #32): the five-bar over its spring and damper, classified on its loops.
+std::vector<std::string> FiveBarSweep() {
+  return {SERVOKIT_BINARY, "sweep",     ModelPath("five_bar.yaml"),
+          "--vary",        "c=5:20:17", "--vary",
+          "d=0.05:0.5:13", "--out",     "out",
+          "--block-size",  "16"};
+}
+
 /// Every file a finished sweep leaves in `out` (the run's stdout/stderr are elsewhere).
 std::vector<std::string> FileNames(const fs::path& out) {
   std::vector<std::string> names;
@@ -151,8 +159,8 @@ std::string Interrupted(std::size_t done, std::size_t total) {
 
 TEST_CASE("mpirun -np 2 writes the same files as one process, byte for byte", "[reports][mpi]") {
   const TemporaryDirectory work;
-  for (const auto& [name, sweep] :
-       {std::pair{"chain", ChainSweep()}, std::pair{"car", CarSweep()}}) {
+  for (const auto& [name, sweep] : {std::pair{"chain", ChainSweep()}, std::pair{"car", CarSweep()},
+                                    std::pair{"five-bar", FiveBarSweep()}}) {
     INFO(name);
     const Job single = SingleProcess(work / name / "single", sweep);
     const Job job = RunIn(work / name / "mpi", Concatenate(MpiRun(2), sweep));
