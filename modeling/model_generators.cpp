@@ -201,7 +201,8 @@ LinearModelFiles GenerateChain(const ChainOptions& options) {
   files.input_matrix = UnitEntry(n, 1, options.input_mass - 1, 0);
   files.output_matrix = ChainOutputRow(options);
   if (options.closed) {
-    files.constraint_matrix = FromTriplets(1, n, {Triplet(0, int(n - 1), 1.0), Triplet(0, 0, -1.0)});
+    files.constraint_matrix =
+        FromTriplets(1, n, {Triplet(0, int(n - 1), 1.0), Triplet(0, 0, -1.0)});
   }
   return files;
 }

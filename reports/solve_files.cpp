@@ -294,6 +294,7 @@ nlohmann::ordered_json VerificationToJson(const Verification& verification) {
       {"message", verification.summary.message},
       {"steps", verification.summary.steps},
   };
+  if (verification.solve_stopped_at) json["solve_stopped_at"] = *verification.solve_stopped_at;
   if (verification.max_constraint_violation) {  // a closed chain's loops, after max error
     nlohmann::ordered_json with_loops;
     for (const auto& [key, value] : json.items()) {
@@ -311,6 +312,10 @@ nlohmann::ordered_json VerificationToJson(const Verification& verification) {
 std::string VerificationFailure(const Verification& verification) {
   if (!verification.summary.IsUsable()) {
     return "the forward simulation stopped: " + verification.summary.message;
+  }
+  if (verification.solve_stopped_at) {
+    return "the solve stopped at t = " + FormatShort(*verification.solve_stopped_at) +
+           " s, so the check covers the span up to there only";
   }
   if (verification.max_tracking_error <= verification.bound) {
     return "the loops open by " + FormatShort(verification.max_constraint_violation.value_or(0.0)) +

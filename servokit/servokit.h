@@ -602,6 +602,9 @@ struct Verification {
   // A closed chain's max |c(q)| along the forward runs (held to the bound too); unset for an
   // open chain.
   std::optional<double> max_constraint_violation;
+  // Where the solve stopped when it stopped before t_end: the check covers the span up to there
+  // only and does not pass. Unset when the solve reached t_end.
+  std::optional<double> solve_stopped_at;
   double bound = 0.0;
   std::string bound_rule;  // how the bound follows from the solve's tolerances
   // How the forward runs went: one run, or restarts from the solution's state at the start of

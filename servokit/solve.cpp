@@ -180,6 +180,7 @@ Verification FromVerification(const servokit::Verification& verification, std::s
   result.max_tracking_error = verification.max_tracking_error;
   result.time_of_max_error = verification.time_of_max_error;
   result.max_constraint_violation = verification.max_constraint_violation;
+  result.solve_stopped_at = verification.solve_stopped_at;
   result.bound = verification.bound;
   result.bound_rule = verification.bound_rule;
   result.segments = verification.segments;

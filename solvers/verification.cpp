@@ -431,7 +431,14 @@ Verification VerifyFeedforward(const Model& model,
   if (verification.summary.IsUsable()) {
     verification.summary.message = ForwardRunsMessage(t_stop, verification);
   }
-  verification.passed = verification.summary.IsUsable() &&
+  if (!solution.summary.IsUsable() || t_stop < solution.t_end) {
+    verification.solve_stopped_at = t_stop;
+    verification.warnings.push_back(
+        "the solve stopped at t = " + FormatSignificant(t_stop, kExplainedDigits) +
+        " s, before t_end = " + FormatSignificant(solution.t_end, kExplainedDigits) +
+        " s: the forward check covers the span up to there only, and does not pass");
+  }
+  verification.passed = !verification.solve_stopped_at && verification.summary.IsUsable() &&
                         verification.max_tracking_error <= verification.bound &&
                         verification.max_constraint_violation.value_or(0.0) <= verification.bound;
   return verification;

@@ -59,6 +59,10 @@ struct Verification {
   // project back onto c(q) = 0 and C q' = 0 after every step; it must be within `bound` too.
   // Unset for an open chain.
   std::optional<double> max_constraint_violation;
+  // Where the solve stopped when it stopped before t_end (its status says why): the forward
+  // runs cover the span up to there only, and the check does not pass (issue #33). Unset when
+  // the solve reached t_end.
+  std::optional<double> solve_stopped_at;
   std::string bound_rule;  // how the bound was derived, with the numbers
   bool passed = false;     // the forward runs reached the end and stayed within the bound
   // The start: at rest at the equilibrium with h(q) = y_d(t_start) when y_d rests there

@@ -209,5 +209,27 @@ TEST_CASE("verification options: defaults are valid, bad fields are named", "[so
   CHECK_THROWS_WITH(options.Validate(), Catch::Contains("segment_growth = 1"));
 }
 
+// A solve that stops before t_end (the five-bar driven so far that its zero dynamics swing it
+// into a configuration where u_d has a pole, at t = 2.32 s) is checked up to where it stopped,
+// and its check does not pass however small the error there: it says where the solve stopped.
+TEST_CASE("the check of a solve that stopped early does not pass", "[solvers]") {
+  const Problem five_bar = Load(ModelPath("five_bar.yaml"));
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Ones(1), Eigen::VectorXd::Constant(1, 1.1),
+                                        0.0, 1.0);
+  InverseModelOptions options;
+  options.method = SolverMethod::kBdf;
+  options.t_end = 3.0;
+  const FeedforwardSolution solution =
+      SolveInverseModel(five_bar.model, trajectory, five_bar.classification, options);
+  REQUIRE_FALSE(solution.summary.IsUsable());
+  REQUIRE(solution.extension);
+  CHECK(solution.extension->end() < 2.5);
+  const Verification verification = VerifyFeedforward(five_bar.model, trajectory, solution);
+  CHECK_FALSE(verification.passed);
+  REQUIRE(verification.solve_stopped_at.has_value());
+  CHECK(*verification.solve_stopped_at == solution.extension->end());
+  CHECK(verification.max_tracking_error <= verification.bound);  // fine up to there, still fails
+}
+
 }  // namespace
 }  // namespace servokit
