@@ -123,6 +123,20 @@ void CheckConstraintRank(const Model& model,
                          const Eigen::MatrixXd& constraint_jacobian,
                          const Eigen::VectorXd& q) {
   constexpr double kRankTolerance = 1e-10;
+  // One SVD of the rows scaled to unit size decides; only a deficient C (an error) is searched
+  // row by row for the first dependent constraint, to name it. Sweeps take this at every point.
+  Eigen::MatrixXd scaled = constraint_jacobian;
+  bool zero_row = false;
+  for (Eigen::Index i = 0; i < scaled.rows(); ++i) {
+    const double norm = scaled.row(i).norm();
+    zero_row = zero_row || norm == 0.0;
+    if (norm > 0.0) scaled.row(i) /= norm;
+  }
+  if (!zero_row) {
+    const Eigen::JacobiSVD<Eigen::MatrixXd> whole(scaled);
+    const Eigen::VectorXd& singular = whole.singularValues();
+    if (singular(singular.size() - 1) > kRankTolerance * singular(0)) return;
+  }
   Eigen::MatrixXd rows(0, constraint_jacobian.cols());
   for (Eigen::Index i = 0; i < constraint_jacobian.rows(); ++i) {
     const double norm = constraint_jacobian.row(i).norm();
