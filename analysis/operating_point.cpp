@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -115,10 +116,32 @@ void KeepKinsolMessage(int, const char*, const char*, char* message, void* last_
 
 // Digits of q and y0 in messages.
 constexpr int kVectorDigits = 6;
+// A loop counts as open at Newton's last iterate when |c_i| exceeds this relative to 1 + |q|:
+// far above what Newton leaves of a closed one, far below an open joint.
+constexpr double kOpenLoopTolerance = 1e-8;
 
 // C = dc/dq of full row rank at q: else the first constraint that depends on those before it
 // (redundant, or the loop at a singular configuration) is named. Rows are compared after scaling
 // each to unit length, so that units do not decide.
+// What a user can change when Newton finds no equilibrium.
+constexpr std::string_view kStartAdvice =
+    "give a starting point near the equilibrium (--q0, or q0: in the model file)";
+
+// A closed chain whose loops Newton could not close: the constraint furthest from c = 0 at its
+// last iterate, named (empty when every loop closed there, or for an open chain).
+std::string OpenLoopNote(EquilibriumProblem& problem, const Eigen::VectorXd& unknowns) {
+  if (problem.loops() == 0 || !AllFinite(unknowns)) return "";
+  const Eigen::VectorXd q = unknowns.head(problem.dof());
+  Evaluate(problem.model, problem.workspace, q, problem.zero_velocity,
+           static_cast<unsigned>(Quantity::kConstraints));
+  Eigen::Index worst = 0;
+  const double gap = problem.workspace.constraints.cwiseAbs().maxCoeff(&worst);
+  if (!(gap > kOpenLoopTolerance * (1.0 + q.lpNorm<Eigen::Infinity>()))) return "";
+  return "; its loops stay open: " + problem.model.constraint_names()[std::size_t(worst)] + " = " +
+         FormatSignificant(problem.workspace.constraints(worst), kVectorDigits) +
+         " at q = " + FormatList(q, kVectorDigits);
+}
+
 void CheckConstraintRank(const Model& model,
                          const Eigen::MatrixXd& constraint_jacobian,
                          const Eigen::VectorXd& q) {
@@ -247,16 +270,16 @@ void RunKinsol(EquilibriumProblem& problem,
     const std::string where = AllFinite(*problem.non_finite_at)
                                   ? "at q = " + FormatList(*problem.non_finite_at, kVectorDigits)
                                   : "after a Newton step overflowed q";
-    throw NoSolution(
-        "no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
-        ": the equilibrium equations became NaN or Inf " + where +
-        " (is y0 within the model's range?); try a starting point q0 near the equilibrium");
+    throw NoSolution("no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
+                     ": the equilibrium equations became NaN or Inf " + where +
+                     " (is y0 within the model's range?); " + std::string(kStartAdvice));
   }
   if (flag < 0) {
     throw NoSolution("no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
                      ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
                      (last_message.empty() ? "" : " (" + last_message + ")") +
-                     "; try a starting point q0 near the equilibrium");
+                     OpenLoopNote(problem, AsEigen(solution.get())) + "; " +
+                     std::string(kStartAdvice));
   }
   unknowns = AsEigen(solution.get());
 }

@@ -195,6 +195,20 @@ TEST_CASE("a model file's q0 is the default operating point", "[analysis]") {
   CHECK(without.operating_point_start().size() == 0);
 }
 
+// Couplers of 0.4 m cannot join cranks 2 m apart: no equilibrium closes the five-bar's loop, and
+// the message names the constraint left open and what to change.
+TEST_CASE("a loop that cannot close is named", "[analysis]") {
+  std::string message;
+  try {
+    ClassifyFile(ModelPath("five_bar.yaml"), {{"l2", "0.4"}, {"l3", "0.4"}});
+  } catch (const NoSolution& error) {
+    message = error.what();
+  }
+  CHECK_THAT(message, Catch::Contains("no equilibrium found") &&
+                          Catch::Contains("its loops stay open: constraints[") &&
+                          Catch::Contains("(--q0, or q0: in the model file)"));
+}
+
 // The gantry crane in absolute coordinates (trolley x, rope payout r, the load's xL and zL, the
 // rope a constraint: models/gantry_crane_absolute.yaml) against models/gantry_crane.yaml
 // in minimal ones: mixed realization, vector relative degree [4, 2], index 5, flat. The

@@ -400,7 +400,7 @@ TEST_CASE("far output values are reached; one so large that Newton's step overfl
   CHECK(run.err ==
         "servokit: error: no equilibrium found for y0 = [1e+308]: the equilibrium equations "
         "became NaN or Inf after a Newton step overflowed q (is y0 within the model's range?); "
-        "try a starting point q0 near the equilibrium\n");
+        "give a starting point near the equilibrium (--q0, or q0: in the model file)\n");
 }
 
 TEST_CASE("k = 0 leaves s free: the equilibrium is not isolated", "[analysis]") {

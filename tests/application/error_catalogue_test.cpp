@@ -21,7 +21,7 @@ using testing::RunServokit;
 using testing::TemporaryDirectory;
 
 // Rows the catalogue holds when this test was written: deleting rows fails the test.
-constexpr std::size_t kCatalogueRows = 176;
+constexpr std::size_t kCatalogueRows = 177;
 // The statuses docs/errors.md documents for errors.
 const std::set<int> kDocumentedStatuses = {1, 2, 3, 4, 130};
 constexpr std::string_view kCatalogue = "docs/errors.md";
