@@ -55,6 +55,14 @@ LinearSystem WithoutTheConstraint(const LinearModel& ring) {
           SparseMatrix(ring.output_matrix() * basis)};
 }
 
+// The entry of `zeros` nearest `zero`.
+std::vector<std::complex<double>>::iterator Nearest(std::vector<std::complex<double>>& zeros,
+                                                    std::complex<double> zero) {
+  return std::min_element(zeros.begin(), zeros.end(), [&](const auto& a, const auto& b) {
+    return std::abs(a - zero) < std::abs(b - zero);
+  });
+}
+
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream(path) << text;
 }
@@ -81,13 +89,11 @@ TEST_CASE("a ring's zeros are those of its chain without the constraint", "[anal
   CHECK(loop.internal_dynamics_order == open.internal_dynamics_order);
   CHECK(loop.zero_dynamics.stability == open.zero_dynamics.stability);
   // Paired by nearness: several zeros share a real part (-d / (2 m)), so no sort pairs them.
-  const auto expected = open.zero_dynamics.eigenvalues;
+  auto expected = open.zero_dynamics.eigenvalues;
   std::vector<std::complex<double>> unmatched = expected;
   REQUIRE(loop.zero_dynamics.eigenvalues.size() == expected.size());
   for (const std::complex<double>& zero : loop.zero_dynamics.eigenvalues) {
-    const auto closest = std::min_element(
-        unmatched.begin(), unmatched.end(),
-        [&](const auto& a, const auto& b) { return std::abs(a - zero) < std::abs(b - zero); });
+    const auto closest = Nearest(unmatched, zero);
     INFO("zero " << zero << " against " << *closest);
     CHECK(std::abs(zero - *closest) <= 1e-10 * std::max(1.0, std::abs(*closest)));
     unmatched.erase(closest);
@@ -100,9 +106,7 @@ TEST_CASE("a ring's zeros are those of its chain without the constraint", "[anal
   const LinearAnalysis nearest = Analyze(bordered, arpack);
   REQUIRE(nearest.zero_dynamics.eigenvalues.size() == 6);
   for (const std::complex<double>& zero : nearest.zero_dynamics.eigenvalues) {
-    const auto closest = std::min_element(
-        expected.begin(), expected.end(),
-        [&](const auto& a, const auto& b) { return std::abs(a - zero) < std::abs(b - zero); });
+    const auto closest = Nearest(expected, zero);
     INFO("ARPACK zero " << zero << ", nearest dense " << *closest);
     CHECK(std::abs(zero - *closest) <= 1e-9 * std::max(1.0, std::abs(*closest)));
   }
@@ -153,9 +157,7 @@ TEST_CASE("a ring of 2000 masses has the zeros of a chain fixed at both ends", "
     expected.push_back((-kDamping * mu - root) / (2.0 * kMass));
   }
   for (const std::complex<double>& zero : analysis.zero_dynamics.eigenvalues) {
-    const auto closest = std::min_element(
-        expected.begin(), expected.end(),
-        [&](const auto& a, const auto& b) { return std::abs(a - zero) < std::abs(b - zero); });
+    const auto closest = Nearest(expected, zero);
     INFO("zero " << zero << ", closed form " << *closest);
     CHECK(std::abs(zero - *closest) <= 1e-9 * std::abs(*closest));
     // The damping, five orders below the frequency, to 1e-6 of itself.
