@@ -99,12 +99,27 @@ Classification Classify(const Model& model,
   return result;
 }
 
+namespace {
+
+// Where the relative degree is not defined at the operating point, no exact inverse passes
+// through it and solve's auto refuses, pointing to the linearization's inverse: the
+// recommendation is what solve does (issue #33).
+void RecommendForStructure(Classification& classification) {
+  const std::optional<NonlinearStructureSummary>& structure = classification.nonlinear_structure;
+  if (structure && structure->derived && !structure->defined_at_operating_point) {
+    classification.recommended_solver = SolverMethod::kLinearized;
+  }
+}
+
+}  // namespace
+
 void DeriveNonlinearStructure(const Model& model, Classification& classification) {
   NonlinearStructureOptions options;
   options.rank_tolerance = classification.rank_tolerance;
   options.reference_q = classification.operating_point.q;
   if (model.num_constraints() == 0) {
     classification.nonlinear_structure = SummarizeNonlinearStructure(model, options);
+    RecommendForStructure(classification);
     return;
   }
   // A closed chain's structure along motions on c(q) = 0 is that of its loops held as servo
@@ -117,6 +132,7 @@ void DeriveNonlinearStructure(const Model& model, Classification& classification
       "inputs), so the relative degrees are the outputs' and then the constraints'";
   summary.note = summary.note.empty() ? loops : loops + "; " + summary.note;
   classification.nonlinear_structure = std::move(summary);
+  RecommendForStructure(classification);
 }
 
 }  // namespace servokit

@@ -426,7 +426,10 @@ Command AddSolveCommand(CLI::App& app) {
   solve->add_option("--t0", arguments->t0, "Rest-to-rest: start of the motion [s]");
   solve->add_option("--tf", arguments->tf, "Rest-to-rest: end of the motion [s]");
   solve->add_option("--q0", arguments->q0,
-                    "Newton's starting point for q at the operating point (default: 0)");
+                    "Newton's starting point for q at the operating point, the equilibrium "
+                    "holding y_d at the motion's start (--t-start, else the trajectory's first "
+                    "time), where the solve is classified and linearized (default: the model "
+                    "file's q0, else 0)");
   solve->add_option("--t-start", arguments->t_start,
                     "Start of the solve [s] (default: the trajectory's first time; stable "
                     "inversion: the start of its pre-actuation)");

@@ -573,9 +573,10 @@ struct SolveOptions {
   std::optional<double> t_start;
   double t_end = 0.0;
   std::optional<double> step, rtol, atol, sample_time, pre_actuation, post_actuation;
-  // Newton's start for q at the operating point the solve is classified at, which holds
-  // h(q_guess) (default: q = 0 and h(0)), one value per coordinate: a closed chain in absolute
-  // coordinates may need one on its loops (a crane's load below its trolley, the rope taut).
+  // Newton's start for q at the operating point the solve is classified (and, for the
+  // linearized inverse, linearized) at: the equilibrium holding y_d at the motion's start
+  // (default start: the model file's q0, else q = 0), one value per coordinate. A closed chain
+  // in absolute coordinates may need one on its loops (a crane's load below its trolley).
   std::optional<Eigen::VectorXd> q_guess;
   // Drive the model with u_d from rest and compare its output with y_d (the forward check).
   bool verify = false;
@@ -605,6 +606,10 @@ struct Verification {
   // Where the solve stopped when it stopped before t_end: the check covers the span up to there
   // only and does not pass. Unset when the solve reached t_end.
   std::optional<double> solve_stopped_at;
+  // The method `linearized` on a plant whose check restarts: the error of the restarted
+  // (segmented) runs, beside max_tracking_error, which is then one open-loop run's over the
+  // whole span and decides. Unset otherwise.
+  std::optional<double> segmented_tracking_error;
   double bound = 0.0;
   std::string bound_rule;  // how the bound follows from the solve's tolerances
   // How the forward runs went: one run, or restarts from the solution's state at the start of
@@ -650,6 +655,9 @@ struct SolveSummary {
   std::optional<ActuationWindow> window;  // stable inversion only
   std::string trajectory_note;            // how y_d was made smooth enough, when it was
   Analysis classification;                // at the operating point the solve started from
+  // The time whose y_d that operating point holds: the solve's start (t_start, else the first
+  // breakpoint of y_d).
+  double operating_point_time = std::numeric_limits<double>::quiet_NaN();
   std::optional<Verification> verification;
   std::vector<std::string> warnings;
   std::string out_file;  // the feedforward's file, empty when none was written

@@ -130,6 +130,24 @@ std::unique_ptr<servokit::OutputTrajectory> MakeTrajectory(const OutputTrajector
   return nullptr;
 }
 
+// The model has one output per value of y_d, or the trajectory is a usage error.
+void RequireOutputCount(const servokit::Model& model,
+                        const OutputTrajectory& trajectory,
+                        const servokit::OutputTrajectory& desired) {
+  const std::size_t outputs = model.num_outputs();
+  if (desired.outputs() == Eigen::Index(outputs)) return;
+  throw UsageError(ValuesName(trajectory, KindOf(trajectory)) + ": " +
+                   std::to_string(desired.outputs()) + " values, but the model has " +
+                   std::to_string(outputs) + (outputs == 1 ? " output" : " outputs") +
+                   " (one value per output)");
+}
+
+// Where the solve's motion starts: t_start when given, else the first breakpoint of y_d (a
+// stable inversion's pre-actuation starts earlier, with y_d at rest at that value).
+double MotionStartTime(const servokit::OutputTrajectory& desired, std::optional<double> t_start) {
+  return t_start.value_or(desired.breakpoints().front());
+}
+
 InverseModelOptions ToInverseModelOptions(const SolveOptions& options) {
   InverseModelOptions inverse;
   inverse.method = options.method;
@@ -181,6 +199,7 @@ Verification FromVerification(const servokit::Verification& verification, std::s
   result.time_of_max_error = verification.time_of_max_error;
   result.max_constraint_violation = verification.max_constraint_violation;
   result.solve_stopped_at = verification.solve_stopped_at;
+  result.segmented_tracking_error = verification.segmented_tracking_error;
   result.bound = verification.bound;
   result.bound_rule = verification.bound_rule;
   result.segments = verification.segments;
@@ -237,28 +256,29 @@ Feedforward Solve(const Model& model,
   // Checked even without a file, so that a bad file_format is never silently ignored.
   const SolveFileFormat file_format = ChooseFileFormat(multibody, options);
   Workspace workspace(multibody);
+  // The operating point is where the motion starts: the equilibrium holding y_d at the solve's
+  // start, found by Newton from q_guess (else the model's q0, else 0). How smooth y_d must be
+  // depends on the class found there, and the start of a sampled y_d on how smooth it is made:
+  // a first y_d locates the point, and the point is classified again should the final y_d
+  // start elsewhere (by round-off of the fit).
+  std::string note;
+  std::unique_ptr<servokit::OutputTrajectory> desired = MakeTrajectory(trajectory, 0, note);
+  RequireOutputCount(multibody, trajectory, *desired);
+  const double start_time = MotionStartTime(*desired, options.t_start);
   ClassificationOptions classification_options;
-  if (options.q_guess) {
-    // The operating point near q_guess: the one holding h(q_guess), not h(0) as without it.
-    classification_options.operating_point.q_guess = options.q_guess;
-    classification_options.operating_point.Validate(multibody);
-    Evaluate(multibody, workspace, *options.q_guess, Eigen::VectorXd::Zero(options.q_guess->size()),
-             Quantity::kOutput);
-    classification_options.operating_point.y0 = workspace.output;
-  }
-  const Classification classification = Classify(multibody, workspace, classification_options);
+  classification_options.operating_point.q_guess = options.q_guess;
+  classification_options.operating_point.y0 = desired->Derivative(start_time, 0);
+  Classification classification = Classify(multibody, workspace, classification_options);
 
   Feedforward result;
-  std::string note;
+  note.clear();
   const int needed_derivatives = classification.structure.differentiation_index - 1;
-  const std::unique_ptr<servokit::OutputTrajectory> desired =
-      MakeTrajectory(trajectory, needed_derivatives, note);
-  if (desired->outputs() != Eigen::Index(multibody.num_outputs())) {
-    const std::size_t outputs = multibody.num_outputs();
-    throw UsageError(ValuesName(trajectory, KindOf(trajectory)) + ": " +
-                     std::to_string(desired->outputs()) + " values, but the model has " +
-                     std::to_string(outputs) + (outputs == 1 ? " output" : " outputs") +
-                     " (one value per output)");
+  desired = MakeTrajectory(trajectory, needed_derivatives, note);
+  const Eigen::VectorXd start_output = desired->Derivative(start_time, 0);
+  if (start_output != *classification_options.operating_point.y0) {
+    classification_options.operating_point.y0 = start_output;
+    classification_options.operating_point.q_guess = classification.operating_point.q;
+    classification = Classify(multibody, workspace, classification_options);
   }
   if (!note.empty()) result.notes.push_back(note);
 
@@ -269,6 +289,9 @@ Feedforward Solve(const Model& model,
   SolveSummary& summary = result.summary;
   summary = FromSolution(solution, note);
   summary.classification = FromClassification(multibody, classification, classification_options);
+  // Where the operating point is: it holds y_d at this time (the motion's start).
+  summary.operating_point_time = start_time;
+  report["classification"]["operating_point"]["t"] = start_time;
   result.usable = solution.summary.IsUsable();
   if (options.verify && solution.extension) {
     const servokit::Verification verification = VerifyFeedforward(multibody, *desired, solution);

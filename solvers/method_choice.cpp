@@ -126,6 +126,15 @@ MethodVerdict MethodChooser::Judge(SolverMethod method) {
       break;
     case SolverMethod::kStableInversion:
       if (structure.internal_dynamics_order == 0) return refuse(no_internal_dynamics);
+      // Stable inversion splits the internal dynamics into a part that decays forward in time
+      // and one that decays backward (paper Sect. 5.3). With every eigenvalue to the left there
+      // is no backward part: the boundary value problem is the forward one, which the causal
+      // methods solve without pre-actuation (and its window search would widen without end).
+      if (zero_dynamics.stability == Stability::kAsymptoticallyStable) {
+        return refuse("the zero dynamics are asymptotically stable (" + Eigenvalues(zero_dynamics) +
+                      "): the inverse is causal and needs no pre-actuation, which the forward "
+                      "methods give");
+      }
       if (!decoupling_regular) {
         if (const std::string why = DeriveOutputNormalForm(); !why.empty()) return refuse(why);
       }
@@ -249,8 +258,10 @@ std::pair<SolverMethod, std::string> MethodChooser::Choose(SolverMethod asked) {
 
 SolverMethod ExactLinearInverseMethod(const Classification& linear) {
   if (linear.flat) return SolverMethod::kAlgebraic;
-  return linear.zero_dynamics.stability == Stability::kCritical ? SolverMethod::kNormalForm
-                                                                : SolverMethod::kStableInversion;
+  const Stability stability = linear.zero_dynamics.stability;
+  return stability == Stability::kAsymptoticallyStable || stability == Stability::kCritical
+             ? SolverMethod::kNormalForm
+             : SolverMethod::kStableInversion;
 }
 
 }  // namespace servokit

@@ -33,8 +33,9 @@ struct MethodVerdict {
 const std::vector<SolverMethod>& MethodsInOrderOfPreference();
 
 /// The exact inverse of a linear problem (the method `linearized` solves its linearization by
-/// it): algebraic when it is flat; else the bounded one, stable inversion; the normal form when
-/// its zero dynamics are critical, which have no bounded inverse.
+/// it): algebraic when it is flat; the normal form, forward, when its zero dynamics are
+/// asymptotically stable (causal, no pre-actuation) or critical (no bounded inverse); else the
+/// bounded one, stable inversion.
 SolverMethod ExactLinearInverseMethod(const Classification& linear);
 
 class MethodChooser {

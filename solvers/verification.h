@@ -63,6 +63,11 @@ struct Verification {
   // runs cover the span up to there only, and the check does not pass (issue #33). Unset when
   // the solve reached t_end.
   std::optional<double> solve_stopped_at;
+  // The method `linearized` only, when the plant needed restarts (segments > 1): the largest
+  // error of the segmented runs, which restart from q_d and so hide how far the approximate
+  // u_d drifts. max_tracking_error is then that of one open-loop run over the whole span,
+  // which decides the check (issue #33). Unset otherwise.
+  std::optional<double> segmented_tracking_error;
   std::string bound_rule;  // how the bound was derived, with the numbers
   bool passed = false;     // the forward runs reached the end and stayed within the bound
   // The start: at rest at the equilibrium with h(q) = y_d(t_start) when y_d rests there

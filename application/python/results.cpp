@@ -90,6 +90,9 @@ py::dict VerificationDict(const sk::Verification& verification) {
   dict["passed"] = verification.passed;
   dict["max_tracking_error"] = verification.max_tracking_error;
   dict["time_of_max_error"] = verification.time_of_max_error;
+  dict["max_constraint_violation"] = OptionalNumber(verification.max_constraint_violation);
+  dict["solve_stopped_at"] = OptionalNumber(verification.solve_stopped_at);
+  dict["segmented_tracking_error"] = OptionalNumber(verification.segmented_tracking_error);
   dict["bound"] = verification.bound;
   dict["bound_rule"] = verification.bound_rule;
   dict["segments"] = verification.segments;
@@ -142,6 +145,7 @@ py::dict SolveSummaryDict(const sk::SolveSummary& summary) {
   dict["window"] = summary.window ? py::object(WindowDict(*summary.window)) : py::none();
   dict["trajectory_note"] = summary.trajectory_note;
   dict["classification"] = AnalysisDict(summary.classification);
+  dict["operating_point_time"] = summary.operating_point_time;
   dict["verification"] =
       summary.verification ? py::object(VerificationDict(*summary.verification)) : py::none();
   dict["warnings"] = summary.warnings;
@@ -211,6 +215,13 @@ void BindVerification(py::module_& module) {
       .def_readonly("passed", &V::passed)
       .def_readonly("max_tracking_error", &V::max_tracking_error)
       .def_readonly("time_of_max_error", &V::time_of_max_error, "nan when not known")
+      .def_readonly("max_constraint_violation", &V::max_constraint_violation,
+                    "a closed chain's largest |c(q)| along the forward runs, else None")
+      .def_readonly("solve_stopped_at", &V::solve_stopped_at,
+                    "where the solve stopped before t_end (the check then fails), else None")
+      .def_readonly("segmented_tracking_error", &V::segmented_tracking_error,
+                    "linearized on a plant the check restarts on: the restarted runs' error "
+                    "beside the open-loop one that decides, else None")
       .def_readonly("bound", &V::bound)
       .def_readonly("bound_rule", &V::bound_rule,
                     "how the bound follows from the solve's tolerances")
@@ -336,6 +347,8 @@ void BindSolveSummary(py::module_& module) {
                     "how y_d was made smooth enough, when it was (else empty)")
       .def_readonly("classification", &S::classification,
                     "the Analysis at the operating point the solve started from")
+      .def_readonly("operating_point_time", &S::operating_point_time,
+                    "the time whose y_d that operating point holds (the motion's start)")
       .def_readonly("verification", &S::verification, "a Verification (verify=True), else None")
       .def_readonly("warnings", &S::warnings)
       .def_readonly("out_file", &S::out_file, "the feedforward's file, empty when none")

@@ -136,8 +136,9 @@ TEST_CASE("every method on the shipped models gives the same bytes run after run
     arguments.insert(arguments.end(), more.begin(), more.end());
     return arguments;
   };
-  // The paper's cases 2 and 4 by every method that fits them, on the sample grid and checked.
-  for (const std::string method : {"bdf", "normal-form", "radau", "euler", "stable-inversion"}) {
+  // The paper's cases 2 and 4 by every method that fits them, on the sample grid and checked
+  // (stable inversion refuses case 2's stable zero dynamics: it is for unstable ones).
+  for (const std::string method : {"bdf", "normal-form", "radau", "euler"}) {
     RequireSameBytesEveryRun(with(
         {"solve", car, "--set", "alpha=5deg", "--set", "d=1"},
         with(paper, {"--method", method, "--sample-time", "0.01", "--verify", "--out", "u.csv"})));

@@ -544,3 +544,41 @@ TEST_CASE("a directory sweep stopped and resumed writes the bytes of one run, as
       Catch::StartsWith("folder " + (root / "resumed").string() + " holds another sweep"));
   std::filesystem::remove_all(root);
 }
+
+// Issue #33: solve takes its operating point where the motion starts. The ball and beam
+// (tests/data/ball_and_beam.yaml) moved from r = 0.3 m by the linearized inverse must invert
+// its linearization at r0 = 0.3 (theta = 0, tau0 = M G r0), derived by hand:
+//   Ir r'' + M G theta = 0, I0 theta'' + M G r = tau, Ir = Jb/R^2 + M, I0 = M r0^2 + J + Jb,
+// so tau = M G y - I0 Ir / (M G) y''''. At r = 0 (where h(0) is) I0 would lack M r0^2: a
+// force off by M r0^2 Ir / (M G) y'''' (up to 4e-6 N m here), far outside the tolerance below.
+TEST_CASE("solve classifies and linearizes where the motion starts, not at h(0)", "[servokit]") {
+  const sk::Model model =
+      sk::Model::FromFile(servokit::testing::TestDataPath("ball_and_beam.yaml"));
+  constexpr double kMass = 0.05, kRadius = 0.01, kBeam = 0.02, kGravity = 9.81, kStart = 0.3;
+  const double ball_spin = 0.4 * kMass * kRadius * kRadius;
+  const double rolling = ball_spin / (kRadius * kRadius) + kMass;
+  const double beam_inertia = kMass * kStart * kStart + kBeam + ball_spin;
+  sk::OutputTrajectory trajectory;
+  trajectory.y0 = Eigen::VectorXd::Constant(1, kStart);
+  trajectory.yf = Eigen::VectorXd::Constant(1, kStart + 0.01);
+  trajectory.t0 = 0.0;
+  trajectory.tf = 3.0;
+  sk::SolveOptions options;
+  options.method = servokit::SolverMethod::kLinearized;
+  options.t_end = 3.0;
+  options.sample_time = 0.05;
+  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
+  REQUIRE(feedforward.usable);
+  CHECK(feedforward.summary.operating_point_time == 0.0);
+  CHECK(feedforward.summary.classification.q(0) == Approx(kStart).epsilon(1e-14));
+  CHECK(std::abs(feedforward.summary.classification.q(1)) < 1e-14);
+  CHECK(feedforward.summary.json.find("\"t\": 0.0") != std::string::npos);
+  const RestToRest desired{kStart, kStart + 0.01, 3.0};
+  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
+    const double t = feedforward.t[i];
+    const double torque = kMass * kGravity * desired.Derivative(t, 0) -
+                          beam_inertia * rolling / (kMass * kGravity) * desired.Derivative(t, 4);
+    INFO("t = " << t);
+    CHECK(std::abs(feedforward.u(Eigen::Index(i), 0) - torque) < 1e-10);
+  }
+}

@@ -7,10 +7,13 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "base/errors.h"
+#include "solvers/closed_chain.h"
 #include "solvers/inverse_model.h"
 #include "tests/test_paths.h"
 
@@ -200,6 +203,105 @@ TEST_CASE("relative degree undefined at the operating point: auto offers lineari
   CHECK(chooser.Assess(SolverMethod::kRadau).accepts);
   CHECK(chooser.Assess(SolverMethod::kLinearized).accepts);
   CHECK_FALSE(chooser.Assess(SolverMethod::kAlgebraic).accepts);
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #33: stable inversion asked for on minimum-phase zero dynamics (the paper's rotational
+// arm below s/l = 2/3, a chain with a cubic spring) is refused at once, with the reason and the
+// causal methods that solve it, instead of widening a window that never settles.
+TEST_CASE("stable inversion on asymptotically stable zero dynamics is refused at once",
+          "[solvers]") {
+  for (const Case& tested : {Case{ModelPath("rotational_arm.yaml"), {{"s", "0.5"}}},
+                             Case{TestDataPath("three_mass_chain_cubic_spring.yaml"), {}}}) {
+    INFO(tested.path);
+    const Model model = LoadModel(tested.path, tested.set);
+    Workspace workspace(model);
+    const Classification classification = Classify(model, workspace);
+    REQUIRE(classification.zero_dynamics.stability == Stability::kAsymptoticallyStable);
+    MethodChooser chooser(model, classification, false);
+    const MethodVerdict verdict = chooser.Assess(SolverMethod::kStableInversion);
+    CHECK_FALSE(verdict.accepts);
+    CHECK_FALSE(verdict.forceable);
+    CHECK_THAT(verdict.reason, Catch::Contains("asymptotically stable") &&
+                                   Catch::Contains("needs no pre-actuation"));
+    try {
+      chooser.Choose(SolverMethod::kStableInversion);
+      FAIL("stable inversion was accepted");
+    } catch (const MethodRefused& refused) {
+      CHECK_THAT(refused.what(), Catch::Contains("use "));
+      CHECK_FALSE(refused.alternatives().empty());
+    }
+  }
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// The model files of a directory, sorted (the test's order does not depend on the file system).
+std::vector<std::string> ModelFiles(const std::string& directory) {
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(directory)) {
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// Issue #33: the recommendation is what solve does. For every shipped and test model that
+// classifies (the deliberately broken fixtures do not), the method analyze recommends (with its
+// nonlinear structure derived, as `analyze` does) is accepted by solve, and solves a small
+// rest-to-rest move away from the operating point to a usable answer.
+TEST_CASE("every model's recommended method is one solve accepts and runs", "[solvers]") {
+  std::vector<std::string> files = ModelFiles(ModelPath(""));
+  for (const std::string& directory : {TestDataPath(""), TestDataPath("loops")}) {
+    for (std::string& file : ModelFiles(directory)) files.push_back(std::move(file));
+  }
+  int solved = 0;
+  for (const std::string& file : files) {
+    INFO(file);
+    std::optional<Model> model;
+    Classification classification;
+    try {
+      model.emplace(LoadModel(file));
+      Workspace workspace(*model);
+      classification = Classify(*model, workspace);
+    } catch (const Error&) {
+      continue;  // a fixture of a load or classification error
+    }
+    DeriveNonlinearStructure(*model, classification);
+    const SolverMethod recommended = classification.recommended_solver;
+    INFO("recommended " << ToString(recommended));
+    const Eigen::VectorXd y0 = classification.operating_point.y;
+    // As smooth as the inverse reads it (solve raises Eq. (65) so).
+    const RestToRestTrajectory trajectory(
+        y0, (y0.array() + 0.01).matrix(), 0.0, 1.0,
+        RestToRestOrderFor(classification.structure.differentiation_index - 1));
+    if (model->num_constraints() == 0) {
+      MethodChooser chooser(*model, classification, false);
+      CHECK(chooser.Assess(recommended).accepts);
+    } else {  // solve chooses on the chain's open form, its loops held as servo constraints
+      const LoopsAsServoProblem open = MakeLoopsAsServoProblem(*model, trajectory, classification);
+      MethodChooser chooser(*open.model, open.classification, false);
+      CHECK(chooser.Assess(recommended).accepts);
+    }
+    InverseModelOptions options;
+    options.method = recommended;
+    options.t_end = 1.5;
+    const FeedforwardSolution solution =
+        SolveInverseModel(*model, trajectory, classification, options);
+    INFO(solution.summary.message);
+    CHECK(solution.summary.IsUsable());
+    ++solved;
+  }
+  CHECK(solved >= 35);
 }
 
 }  // namespace

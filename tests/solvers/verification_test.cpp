@@ -233,3 +233,61 @@ TEST_CASE("the check of a solve that stopped early does not pass", "[solvers]") 
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #33: the linearized inverse on an unstable plant (the ball and beam, tests/data/
+// ball_and_beam.yaml, 0 -> 0.2 m in 3 s). Restarted from q_d every segment its error looks
+// small; the check reports the open-loop run over the whole span instead, with the segmented
+// error beside it. The open-loop error is reproduced here by a second method: the ball and
+// beam's equations written out by hand,
+//   Ir r'' = M r theta'^2 - M G sin(theta),
+//   (M r^2 + J + Jb) theta'' = tau - 2 M r r' theta' - M G r cos(theta),
+// driven by the same u_d from rest, with classical Runge-Kutta at 1e-4 s.
+TEST_CASE("the linearized inverse is checked open loop over the whole span", "[solvers]") {
+  const Problem ball = Load(TestDataPath("ball_and_beam.yaml"));
+  const RestToRestTrajectory trajectory(Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 0.2),
+                                        0.0, 3.0);
+  const FeedforwardSolution solution = Solve(ball, trajectory, SolverMethod::kLinearized, 4.0);
+  const Verification verification = VerifyFeedforward(ball.model, trajectory, solution);
+  REQUIRE(verification.segmented_tracking_error.has_value());
+  CHECK(verification.segments == 1);
+  CHECK_FALSE(verification.passed);
+  CHECK(*verification.segmented_tracking_error < verification.max_tracking_error / 100);
+
+  constexpr double kMass = 0.05, kRadius = 0.01, kBeam = 0.02, kGravity = 9.81;
+  const double spin = 0.4 * kMass * kRadius * kRadius, rolling = spin / (kRadius * kRadius) + kMass;
+  Eigen::VectorXd q, q_dot, u;
+  std::string why;
+  const auto torque = [&](double t) {
+    REQUIRE(solution.extension->Evaluate(t, q, q_dot, u, why));
+    return u(0);
+  };
+  const auto rates = [&](double t, const Eigen::Vector4d& x) {  // x = (r, theta, r', theta')
+    const double r = x(0), theta = x(1), r_dot = x(2), theta_dot = x(3);
+    Eigen::Vector4d rate;
+    rate << r_dot, theta_dot,
+        (kMass * r * theta_dot * theta_dot - kMass * kGravity * std::sin(theta)) / rolling,
+        (torque(t) - 2 * kMass * r * r_dot * theta_dot - kMass * kGravity * r * std::cos(theta)) /
+            (kMass * r * r + kBeam + spin);
+    return rate;
+  };
+  Eigen::Vector4d x = Eigen::Vector4d::Zero();
+  constexpr double kStep = 1e-4;
+  double largest_error = 0.0;
+  for (int k = 0; k < 40000; ++k) {
+    const double t = k * kStep;
+    const Eigen::Vector4d k1 = rates(t, x), k2 = rates(t + kStep / 2, x + kStep / 2 * k1),
+                          k3 = rates(t + kStep / 2, x + kStep / 2 * k2),
+                          k4 = rates(t + kStep, x + kStep * k3);
+    x += kStep / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    largest_error =
+        std::max(largest_error, std::abs(x(0) - trajectory.Derivative(t + kStep, 0)(0)));
+  }
+  CHECK(verification.max_tracking_error == Approx(largest_error).epsilon(1e-4));
+  CHECK(largest_error > 0.1);  // the ball leaves the path by decimetres
+}
+
+}  // namespace
+}  // namespace servokit
