@@ -6,6 +6,7 @@
 #include <string>
 
 #include "base/errors.h"
+#include "base/number_format.h"
 
 namespace servokit {
 
@@ -88,6 +89,15 @@ Classification Classify(const Model& model,
   result.decoupling = AnalyzeDecouplingMatrix(result.linearization, options);
   result.structure = AnalyzeOutputStructure(result.linearization, options);
   result.zero_dynamics = ComputeZeroDynamics(result.structure, options);
+  if (const std::optional<Eigen::VectorXd>& curve = result.operating_point.curve_direction) {
+    std::string& note = result.zero_dynamics.stability_note;
+    note =
+        "the equilibrium is not isolated: a curve of equilibria passes through the operating "
+        "point along dq = " +
+        FormatList(*curve, 6) +
+        ", classified at the point named (--q0); the motion along it is a zero at 0" +
+        (note.empty() ? "" : "; " + note);
+  }
   if (options.cross_check) {
     result.cross_check =
         CrossCheckZeroDynamics(result.linearization, result.zero_dynamics, options);

@@ -432,10 +432,26 @@ OperatingPoint FindOperatingPoint(const Model& model,
   const Eigen::FullPivLU<Eigen::MatrixXd>& lu =
       workspace.equilibrium_factor.compute(EquilibratedJacobian(jacobian, scaling));
   if (!lu.isInvertible()) {
-    throw NoSolution("the equilibrium at q = " + FormatList(unknowns.head(dof), kVectorDigits) +
-                     " is not isolated: the Jacobian of f(q,0) - B(q) u" +
-                     std::string(loops > 0 ? " - C(q)^T lambda = 0, c(q) = 0" : " = 0") +
-                     ", h(q) = y0 is singular (a free coordinate the output does not fix?)");
+    // The Jacobian's null space, in the unknowns' own units (undoing the column scaling), is
+    // the curve of equilibria through the point: its q part is the curve's direction.
+    Eigen::VectorXd direction = lu.kernel().col(0);
+    for (Eigen::Index j = 0; j < direction.size(); ++j) {
+      const double column_size = (scaling.asDiagonal() * jacobian).col(j).cwiseAbs().maxCoeff();
+      if (column_size > 0.0) direction(j) /= column_size;
+    }
+    Eigen::VectorXd curve = direction.head(dof);
+    const double curve_size = curve.norm();
+    if (!options.q_guess || !(curve_size > 0.0)) {
+      throw NoSolution("the equilibrium at q = " + FormatList(unknowns.head(dof), kVectorDigits) +
+                       " is not isolated: the Jacobian of f(q,0) - B(q) u" +
+                       std::string(loops > 0 ? " - C(q)^T lambda = 0, c(q) = 0" : " = 0") +
+                       ", h(q) = y0 is singular (a free coordinate the output does not fix?)" +
+                       (curve_size > 0.0 ? "; a curve of equilibria passes through it along dq = " +
+                                               FormatList(curve / curve_size, kVectorDigits) +
+                                               ": name a point on it with --q0 to classify there"
+                                         : ""));
+    }
+    point.curve_direction = curve / curve_size;
   }
   point.q = unknowns.head(dof);
   point.u = unknowns.segment(dof, inputs);

@@ -36,6 +36,11 @@ struct OperatingPoint {
   // that hold its loops closed (empty for an open chain).
   Eigen::VectorXd multipliers;
   int newton_iterations = 0;  // 0 when the starting point already was an equilibrium
+  // Set where the equilibrium is not isolated and the caller named the point (q_guess): a
+  // curve of equilibria passes through it (a coordinate the output does not fix, free at
+  // rest: the TORA's rotor angle under y = x), and this is its direction in q, unit length.
+  // The point is classified where it was named; the direction is a zero at 0.
+  std::optional<Eigen::VectorXd> curve_direction;
 };
 
 /// "parameters m1 = 1, m2 = 2, ...": the values in workspace.parameters (6 digits), for

@@ -583,10 +583,8 @@ ThresholdSearch FindThresholds(const Model& model,
             [](const Located& a, const Located& b) { return a.lower < b.lower; });
   std::vector<Located> merged = MergeThroughPoints(probe, events, options.merge_tolerance);
   TakeInEndBands(probe, low, high, merged);
-  if (event != ThresholdEvent::kOscillation) {
-    for (Located& located : merged) {
-      RefineThroughSingularDecoupling(probe, tolerance, options.merge_tolerance, located);
-    }
+  for (Located& located : merged) {
+    RefineThroughSingularDecoupling(probe, tolerance, options.merge_tolerance, located);
   }
   for (const Located& located : merged) search.events.push_back(Report(located, tolerance));
   for (const ThresholdCrossing& crossing : search.events) {

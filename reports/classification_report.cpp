@@ -128,8 +128,11 @@ std::vector<std::pair<std::string, std::string>> ClassificationSummary(const Mod
       {"internal dynamics",
        "order " + std::to_string(structure.internal_dynamics_order) + (c.flat ? " (flat)" : "")},
       {"zero dynamics", EigenvaluesToText(c.zero_dynamics.eigenvalues)},
-      {"stability", std::string(ToString(c.zero_dynamics.stability)) +
-                        MinimumPhaseText(c.zero_dynamics.stability, c.zero_dynamics.minimum_phase)},
+      {"stability",
+       std::string(ToString(c.zero_dynamics.stability)) +
+           MinimumPhaseText(c.zero_dynamics.stability, c.zero_dynamics.minimum_phase) +
+           (c.zero_dynamics.stability_note.empty() ? ""
+                                                   : " (" + c.zero_dynamics.stability_note + ")")},
       {"oscillatory modes", ModesToText(c.zero_dynamics.modes)},
       {"recommended solver", std::string(ToString(c.recommended_solver))},
   };
@@ -204,6 +207,10 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
       {"minimum_phase", MinimumPhaseJson(c.zero_dynamics.stability, c.zero_dynamics.minimum_phase)},
       {"modes", modes},
   };
+  // Only where there is one (a curve of equilibria), so that other objects are unchanged.
+  if (!c.zero_dynamics.stability_note.empty()) {
+    zero_dynamics["stability_note"] = c.zero_dynamics.stability_note;
+  }
   if (c.cross_check) {
     zero_dynamics["cross_check"] = {
         {"method", "invariant zeros of the linearization (QZ of the Rosenbrock pencil)"},
@@ -253,6 +260,9 @@ nlohmann::ordered_json ClassificationToJson(const Model& model,
   if (model.num_constraints() > 0) {
     json["constraints"] = model.num_constraints();
     json["operating_point"]["multipliers"] = VectorToJson(c.operating_point.multipliers);
+  }
+  if (c.operating_point.curve_direction) {  // not isolated: the curve through the point
+    json["operating_point"]["curve_direction"] = VectorToJson(*c.operating_point.curve_direction);
   }
   if (c.nonlinear_structure) {
     json["nonlinear_structure"] = NonlinearStructureToJson(*c.nonlinear_structure);

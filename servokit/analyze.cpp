@@ -17,6 +17,7 @@ ZeroDynamics ToZeroDynamics(const ZeroDynamicsResult& result) {
   zero_dynamics.eigenvalues = result.eigenvalues;
   zero_dynamics.stability = result.stability;
   zero_dynamics.minimum_phase = result.minimum_phase;
+  zero_dynamics.stability_note = result.stability_note;
   for (const Mode& mode : result.modes) {
     zero_dynamics.modes.push_back({mode.frequency_hz, mode.damping_ratio});
   }
@@ -33,6 +34,7 @@ Analysis FromClassification(const servokit::Model& model,
   analysis.u = classification.operating_point.u;
   analysis.y = classification.operating_point.y;
   analysis.multipliers = classification.operating_point.multipliers;
+  analysis.curve_direction = classification.operating_point.curve_direction;
   analysis.P = classification.decoupling.decoupling_matrix;
   analysis.P_rank = int(classification.decoupling.rank);
   analysis.realization = classification.decoupling.realization;

@@ -188,12 +188,18 @@ struct ZeroDynamics {
   Stability stability = Stability::kNone;
   bool minimum_phase = false;
   std::vector<OscillatoryMode> modes;
+  // Why the stability is what it is where the numbers alone do not say (a curve of equilibria
+  // through the operating point, an undetermined side); else empty.
+  std::string stability_note;
 };
 
 /// The classification of a servo-constraint problem at its operating point (docs/analyze.md,
 /// the keys of `analyze --format json`), and the three reports `servokit analyze` prints.
 struct Analysis {
   Eigen::VectorXd q, u, y;  // the operating point
+  // Where that equilibrium is not isolated (named by q_guess on a curve of equilibria): the
+  // curve's direction in q, unit length; it is a zero at 0 (zero_dynamics.stability_note).
+  std::optional<Eigen::VectorXd> curve_direction;
   // A closed chain's Lagrange multipliers there: C(q)^T lambda hold its loops closed
   // (docs/model-files.md, "Closed kinematic chains"); empty for an open chain.
   Eigen::VectorXd multipliers;

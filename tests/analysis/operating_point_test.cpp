@@ -59,3 +59,45 @@ TEST_CASE("a model without an equilibrium is reported as no solution", "[analysi
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #33: outputs whose rest point lies on a curve of equilibria. The TORA observed at its
+// cart (tests/data/tora.yaml, a = 0: y = x) leaves the rotor angle free at rest, and so does the
+// inertia-wheel pendulum observed at its pendulum (c = 0: y = q1) for the wheel angle. Without a
+// named point that is an error that says so and how to name one; at a point named by q_guess
+// the problem is classified there. Held at y = 0 the free angle obeys, linearized, theta'' = 0
+// (TORA: m e (theta'' cos(theta) - theta'^2 sin(theta)) = -(M + m) x'' - k x = 0; wheel:
+// d12 q2'' = mbar sin(q1) - d11 q1'' = 0): a double zero at 0, the motion along the curve.
+TEST_CASE("a curve of equilibria is classified at the point named on it", "[analysis]") {
+  struct Case {
+    std::string file, parameter;
+  };
+  for (const Case& tested : {Case{"tora.yaml", "a"}, Case{"inertia_wheel_pendulum.yaml", "c"}}) {
+    INFO(tested.file);
+    const Model model = LoadModel(TestDataPath(tested.file), {{tested.parameter, "0"}});
+    Workspace workspace(model);
+    CHECK_THROWS_WITH(
+        Classify(model, workspace),
+        Catch::Contains("is not isolated") &&
+            Catch::Contains("a curve of equilibria passes through it along dq = [0, ") &&
+            Catch::Contains("name a point on it with --q0"));
+    ClassificationOptions options;
+    options.operating_point.q_guess = Eigen::Vector2d(0.0, 0.5);
+    const Classification c = Classify(model, workspace, options);
+    CHECK(c.operating_point.q(1) == 0.5);
+    REQUIRE(c.operating_point.curve_direction.has_value());
+    CHECK(std::abs(c.operating_point.curve_direction->x()) < 1e-14);
+    CHECK(std::abs(c.operating_point.curve_direction->y()) == Approx(1.0).epsilon(1e-14));
+    REQUIRE(c.zero_dynamics.eigenvalues.size() == 2);
+    for (const std::complex<double>& zero : c.zero_dynamics.eigenvalues) {
+      CHECK(std::abs(zero) < 1e-12);
+    }
+    CHECK(c.zero_dynamics.stability == Stability::kCritical);
+    CHECK_THAT(c.zero_dynamics.stability_note, Catch::Contains("curve of equilibria"));
+  }
+}
+
+}  // namespace
+}  // namespace servokit

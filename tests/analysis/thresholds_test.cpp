@@ -387,3 +387,48 @@ TEST_CASE("no closed form where the operating point moves with the parameter", "
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #33: oscillation thresholds where the zero pair passes through infinity, against their
+// closed forms (derived in the model files' comments), to the stated bracket:
+//  - TORA (tests/data/tora.yaml), y = x + a sin(theta): (m e - (M + m) a) theta'' = k a theta,
+//    real pair below a* = m e / (M + m), undamped pair above;
+//  - inertia-wheel pendulum (tests/data/inertia_wheel_pendulum.yaml), y = q1 + c q2:
+//    (d11 - d12 / c) q1'' = mbar q1, undamped pair below c* = d12 / d11, real pair above.
+// The classification counts P (which vanishes there with the leading coefficient) as zero in
+// a band of 1e-10 relative around it; the event lies at the band's centre, not at its edge.
+TEST_CASE("oscillation thresholds through infinity are where the leading coefficient vanishes",
+          "[analysis]") {
+  struct Case {
+    std::string file, parameter;
+    double low, high, expected;
+    std::string from, to;
+  };
+  const double tora = 0.096 * 0.0592 / (1.3608 + 0.096);
+  const double d11 = 0.2 * 0.1 * 0.1 + 0.3 * 0.2 * 0.2 + 0.001 + 0.002;
+  const double wheel = 0.002 / d11;
+  for (const Case& tested :
+       {Case{"tora.yaml", "a", 0.001, 0.01, tora, "non-oscillatory", "oscillatory (1 mode)"},
+        Case{"inertia_wheel_pendulum.yaml", "c", 0.1, 5.0, wheel, "oscillatory (1 mode)",
+             "non-oscillatory"}}) {
+    INFO(tested.file);
+    const Model model = LoadModel(TestDataPath(tested.file));
+    for (const ThresholdEvent event : {ThresholdEvent::kOscillation, ThresholdEvent::kStability}) {
+      const ThresholdSearch search = FindThresholds(model, *model.FindParameter(tested.parameter),
+                                                    tested.low, tested.high, event);
+      REQUIRE(search.events.size() == 1);
+      const ThresholdCrossing& crossing = search.events[0];
+      CHECK(std::abs(crossing.value - tested.expected) <= crossing.bracket_width / 2);
+      CHECK(crossing.bracket_width <= 1e-12);
+      if (event == ThresholdEvent::kOscillation) {
+        CHECK(crossing.from == tested.from);
+        CHECK(crossing.to == tested.to);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace servokit

@@ -282,7 +282,7 @@ TEST_CASE("every model's recommended method is one solve accepts and runs", "[so
     const Eigen::VectorXd y0 = classification.operating_point.y;
     // As smooth as the inverse reads it (solve raises Eq. (65) so).
     const RestToRestTrajectory trajectory(
-        y0, (y0.array() + 0.01).matrix(), 0.0, 1.0,
+        y0, (y0.array() + 1e-3).matrix(), 0.0, 1.0,
         RestToRestOrderFor(classification.structure.differentiation_index - 1));
     if (model->num_constraints() == 0) {
       MethodChooser chooser(*model, classification, false);
