@@ -310,7 +310,9 @@ class IntegrationRun {
     ++summary_.function_evaluations;
     if (!dae_.Evaluate(t, x, mass, rhs, why_)) return false;
     if (!rhs.allFinite() || !mass.allFinite()) {
-      why_ = "A(t, x) or phi(t, x) is not finite";
+      why_ =
+          "the equations are not finite (NaN or Inf) at this state: the model's forces, "
+          "inputs or outputs overflow or divide by zero there";
       return false;
     }
     return true;
@@ -320,7 +322,9 @@ class IntegrationRun {
     ++summary_.jacobian_evaluations;
     if (!dae_.RhsJacobian(t, x, rhs, jacobian, why_)) return false;
     if (!jacobian.allFinite()) {
-      why_ = "d phi / dx is not finite";
+      why_ =
+          "the equations' Jacobian is not finite (NaN or Inf) at this state: the model's "
+          "derivatives overflow or divide by zero there (a singular configuration?)";
       return false;
     }
     return true;

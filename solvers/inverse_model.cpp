@@ -5,8 +5,10 @@
 #include <memory>
 #include <string>
 
+#include "analysis/decoupling_matrix.h"
 #include "analysis/operating_point.h"
 #include "base/errors.h"
+#include "base/number_format.h"
 #include "base/option_check.h"
 #include "integrators/dense_output.h"
 #include "integrators/radau.h"
@@ -40,8 +42,10 @@ bool DecouplingRegular(const Classification& classification) {
 std::string Seconds(double t) { return FormatNumber(t) + " s"; }
 
 // The start of the motion: at rest at the equilibrium with h(q) = y_d(t_start) when the
-// trajectory rests there; otherwise (orthogonal realizations only) the internal coordinates at
-// that equilibrium and at rest while the output moves.
+// trajectory rests there; otherwise, for the algebraic inverse, that equilibrium as Newton's
+// first guess of the state y_d and its derivatives determine (a flat problem has no free
+// state: issue #33), and for orthogonal realizations the internal coordinates at that
+// equilibrium and at rest while the output moves.
 struct StartState {
   Eigen::VectorXd q, q_dot, u;
 };
@@ -49,6 +53,7 @@ struct StartState {
 StartState FindStartState(const Model& model,
                           const OutputTrajectory& trajectory,
                           const Classification& classification,
+                          SolverMethod method,
                           ServoConstraintProblem& problem,
                           double t_start) {
   Workspace workspace(model);
@@ -63,7 +68,7 @@ StartState FindStartState(const Model& model,
     at_rest = at_rest && trajectory.Derivative(t_start, order).norm() <= kRestTolerance;
   }
   StartState start{equilibrium.q, Eigen::VectorXd::Zero(problem.dof()), equilibrium.u};
-  if (at_rest) return start;
+  if (at_rest || method == SolverMethod::kAlgebraic) return start;
   if (!DecouplingRegular(classification)) {
     throw NoSolution("the trajectory moves at t_start = " + FormatNumber(t_start) +
                      ": a problem with P singular needs it at rest there (choose t_start <= t0)");
@@ -637,6 +642,37 @@ void ResolveSpan(const OutputTrajectory& trajectory,
 }
 
 // Every method but stable inversion: from the start state at t_start forward to t_end.
+// Below this fraction of |H| |M^-1 B| the smallest singular value of P at the last row of a
+// solve that stopped marks a singularity of the inverse there: u_d ~ P^-1 grows without bound
+// as it is approached, which the integrators see as steps shrinking to nothing.
+constexpr double kNearSingularDecoupling = 1e-6;
+
+// Where a forward solve of a problem with P regular at the operating point stopped early: when P
+// is nearly singular at the last row, a note that names it (the time and the singular value),
+// so that the message says why, not only how the integrator stopped (issue #33). Empty else.
+std::string SingularityNote(const Model& model, const FeedforwardSolution& solution) {
+  if (solution.times.empty()) return "";
+  Workspace workspace(model);
+  const Eigen::VectorXd& q = solution.q.back();
+  Evaluate(model, workspace, q, Eigen::VectorXd::Zero(q.size()),
+           Quantity::kMassMatrix | Quantity::kInputMatrix | Quantity::kOutputJacobian);
+  const Eigen::LLT<Eigen::MatrixXd> mass(workspace.mass_matrix);
+  if (mass.info() != Eigen::Success) return "";
+  const Eigen::MatrixXd input_accelerations = mass.solve(workspace.input_matrix);
+  const Eigen::MatrixXd decoupling =
+      DecouplingMatrix(workspace.output_jacobian, input_accelerations);
+  const Eigen::VectorXd singular = Eigen::JacobiSVD<Eigen::MatrixXd>(decoupling).singularValues();
+  const double scale = workspace.output_jacobian.norm() * input_accelerations.norm();
+  if (singular.size() == 0 || !(scale > 0.0)) return "";
+  const double smallest = singular(singular.size() - 1) / scale;
+  if (!(smallest <= kNearSingularDecoupling)) return "";
+  return "; P = H M^-1 B, regular at the operating point, is nearly singular at t = " +
+         Seconds(solution.times.back()) + " (smallest singular value " +
+         FormatSignificant(smallest, 3) +
+         " of |H| |M^-1 B|): u_d grows without bound there, so no inverse continues through "
+         "that point along this motion";
+}
+
 void SolveForward(const Model& model,
                   const OutputTrajectory& trajectory,
                   const Classification& classification,
@@ -644,8 +680,8 @@ void SolveForward(const Model& model,
                   const MethodChooser& chooser,
                   const std::shared_ptr<ServoConstraintProblem>& problem,
                   FeedforwardSolution& solution) {
-  const StartState start =
-      FindStartState(model, trajectory, classification, *problem, solution.t_start);
+  const StartState start = FindStartState(model, trajectory, classification, solution.method,
+                                          *problem, solution.t_start);
   const bool keep_extension = options.continuous_extension || options.sample_time;
   switch (solution.method) {
     case SolverMethod::kAlgebraic: {
@@ -677,6 +713,9 @@ void SolveForward(const Model& model,
     case SolverMethod::kLinearized:
     case SolverMethod::kAuto:
       break;  // not forward; Choose() never returns kAuto
+  }
+  if (!solution.summary.IsUsable() && DecouplingRegular(classification)) {
+    solution.summary.message += SingularityNote(model, solution);
   }
   // An integrator that stopped on a refused evaluation knows why only as text; the problem
   // knows the kind (P or M singular).

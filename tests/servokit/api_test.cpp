@@ -582,3 +582,81 @@ TEST_CASE("solve classifies and linearizes where the motion starts, not at h(0)"
     CHECK(std::abs(feedforward.u(Eigen::Index(i), 0) - torque) < 1e-10);
   }
 }
+
+// Issue #33: a motion that starts (and ends) in motion. The flat mass on car (case 4) has no
+// free state: y_d and its derivatives determine q, q' and F, so y_d = 0.5 + sin(t), moving at
+// t = 0, is inverted from there, F = (m1 + m2) y'' + m1 m2 / k y'''' = -2.6 sin(t) (Eq. 47),
+// and the forward check starts from the solution's own (moving) state.
+TEST_CASE("a flat problem is inverted from a start in motion", "[servokit][paper]") {
+  const sk::Model model =
+      sk::Model::FromFile(ModelPath("mass_on_car.yaml"), {{"alpha", "0"}, {"d", "0"}});
+  sk::OutputTrajectory trajectory;
+  trajectory.function = [](double t, int highest, Eigen::MatrixXd& derivatives) {
+    for (int order = 0; order <= highest; ++order) {
+      // sin's derivatives cycle: sin, cos, -sin, -cos.
+      const double cycle[4] = {std::sin(t), std::cos(t), -std::sin(t), -std::cos(t)};
+      derivatives(0, order) = (order == 0 ? 0.5 : 0.0) + cycle[order % 4];
+    }
+  };
+  trajectory.function_breakpoints = {0.0, 4.0};
+  sk::SolveOptions options;
+  options.t_end = 4.0;
+  options.sample_time = 0.1;
+  options.verify = true;
+  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
+  REQUIRE(feedforward.usable);
+  CHECK(feedforward.summary.method == sk::SolverMethod::kAlgebraic);
+  REQUIRE(feedforward.summary.verification);
+  CHECK(feedforward.summary.verification->passed);
+  CHECK(feedforward.summary.json.find("\"start\": \"solution\"") != std::string::npos);
+  for (std::size_t i = 0; i < feedforward.t.size(); ++i) {
+    const double t = feedforward.t[i];
+    INFO("t = " << t);
+    CHECK(feedforward.u(Eigen::Index(i), 0) == Approx(-2.6 * std::sin(t)).margin(1e-9));
+    // y' = x' + s' (alpha = 0): the start state carries the output's velocity.
+    CHECK(feedforward.q_dot(Eigen::Index(i), 0) + feedforward.q_dot(Eigen::Index(i), 1) ==
+          Approx(std::cos(t)).margin(1e-9));
+  }
+}
+
+// Issue #33: a solve that stops says why. The TORA observed at its cart (tests/data/tora.yaml,
+// a = 0, rotor at 0.5 rad on its curve of equilibria) moved 0 -> 0.01 m in 2 s: holding x = x_d
+// the rotor obeys m e (sin theta)'' = -(M + m) x_d'' - k x_d, so from rest
+//   sin(theta(t)) = sin(0.5) - ((M + m) x_d(t) + k X(t)) / (m e),  X = the double integral of x_d,
+// and P = H M^-1 B, proportional to cos(theta), vanishes where sin(theta) reaches -1: there u_d
+// grows without bound. The normal form stops there, and its message names the singularity.
+TEST_CASE("a solve that stops at a singularity of P says so, with the time", "[servokit]") {
+  const sk::Model model =
+      sk::Model::FromFile(servokit::testing::TestDataPath("tora.yaml"), {{"a", "0"}});
+  constexpr double kCart = 1.3608, kRotor = 0.096, kEccentricity = 0.0592, kSpring = 186.3;
+  const RestToRest desired{0.0, 0.01, 2.0};
+  // sin(theta) along the motion by the trapezoidal rule twice over, at 1e-6 s.
+  double singular_time = 0.0, integral = 0.0, double_integral = 0.0;
+  constexpr double kStep = 1e-6;
+  for (double t = 0.0; t < 2.0; t += kStep) {
+    const double before = desired.Derivative(t, 0), after = desired.Derivative(t + kStep, 0);
+    const double previous_integral = integral;
+    integral += kStep * (before + after) / 2;
+    double_integral += kStep * (previous_integral + integral) / 2;
+    const double sine = std::sin(0.5) - ((kCart + kRotor) * after + kSpring * double_integral) /
+                                            (kRotor * kEccentricity);
+    if (sine <= -1.0) {
+      singular_time = t + kStep;
+      break;
+    }
+  }
+  REQUIRE(singular_time > 0.0);
+  sk::OutputTrajectory trajectory;
+  trajectory.y0 = Eigen::VectorXd::Zero(1);
+  trajectory.yf = Eigen::VectorXd::Constant(1, 0.01);
+  trajectory.t0 = 0.0;
+  trajectory.tf = 2.0;
+  sk::SolveOptions options;
+  options.t_end = 3.0;
+  options.q_guess = Eigen::Vector2d(0.0, 0.5);
+  const sk::Feedforward feedforward = sk::Solve(model, trajectory, options);
+  CHECK_FALSE(feedforward.usable);
+  CHECK(feedforward.summary.stop_time == Approx(singular_time).margin(1e-3));
+  CHECK_THAT(feedforward.summary.message,
+             Catch::Contains("P = H M^-1 B, regular at the operating point, is nearly singular"));
+}
