@@ -6,6 +6,7 @@
 
 #include <cassert>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -114,6 +115,9 @@ void KeepKinsolMessage(int, const char*, const char*, char* message, void* last_
   *static_cast<std::string*>(last_message) = message;
 }
 
+// A scaled residual (units of q) still above this where Newton gave up is far from any
+// equilibrium: a hint that there may be none.
+constexpr double kStalledResidual = 1e-3;
 // Digits of q and y0 in messages.
 constexpr int kVectorDigits = 6;
 // A loop counts as open at Newton's last iterate when |c_i| exceeds this relative to 1 + |q|:
@@ -275,10 +279,20 @@ void RunKinsol(EquilibriumProblem& problem,
                      " (is y0 within the model's range?); " + std::string(kStartAdvice));
   }
   if (flag < 0) {
+    // How far from an equilibrium Newton got: a residual that stays of order one (in units of
+    // q, see ResidualScaling) says that there may be none to find, not only a poor start.
+    double residual_norm = std::numeric_limits<double>::quiet_NaN();
+    KINGetFuncNorm(kinsol, &residual_norm);
+    const std::string stalled =
+        std::isfinite(residual_norm) && residual_norm > kStalledResidual
+            ? "; the scaled residual stayed at " + FormatSignificant(residual_norm, 3) +
+                  ": there may be no equilibrium holding y0 (an output out of the model's "
+                  "reach at rest), or none near the start"
+            : "";
     throw NoSolution("no equilibrium found for y0 = " + FormatList(problem.y0, kVectorDigits) +
                      ": Newton (KINSOL) stopped with " + SundialsFlagName(namer, flag) +
                      (last_message.empty() ? "" : " (" + last_message + ")") +
-                     OpenLoopNote(problem, AsEigen(solution.get())) + "; " +
+                     OpenLoopNote(problem, AsEigen(solution.get())) + stalled + "; " +
                      std::string(kStartAdvice));
   }
   unknowns = AsEigen(solution.get());

@@ -101,3 +101,23 @@ TEST_CASE("a curve of equilibria is classified at the point named on it", "[anal
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #33: where no equilibrium exists the message says it may not, beside the advice on
+// the start. The TORA at rest has k x = 0, so y = x + a sin(theta) reaches at most a = 0.002:
+// y0 = 0.01 has no equilibrium, and Newton's residual stays away from 0.
+TEST_CASE("an output out of reach at rest: the message says there may be no equilibrium",
+          "[analysis]") {
+  const Model model = LoadModel(TestDataPath("tora.yaml"));
+  Workspace workspace(model);
+  ClassificationOptions options;
+  options.operating_point.y0 = Eigen::VectorXd::Constant(1, 0.01);
+  CHECK_THROWS_WITH(
+      Classify(model, workspace, options),
+      Catch::Contains("there may be no equilibrium holding y0") && Catch::Contains("--q0"));
+}
+
+}  // namespace
+}  // namespace servokit
