@@ -41,8 +41,9 @@ struct SolveArguments {
   std::string summary = "json";  // what stdout gets: json or text
 };
 
-// The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf.
-api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
+// The desired trajectory from --trajectory and, for rest-to-rest, --y0 --yf --t0 --tf; a CSV
+// file's columns are matched to the model's outputs by name.
+api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments, const api::Model& model) {
   api::OutputTrajectory trajectory;
   if (arguments.sample_tolerance &&
       std::filesystem::path(arguments.trajectory).extension() != ".csv") {
@@ -78,7 +79,7 @@ api::OutputTrajectory MakeTrajectory(const SolveArguments& arguments) {
       }
       trajectory.sample_tolerance = tolerance;
     }
-    api::ReadSamplesFile(arguments.trajectory, trajectory);
+    api::ReadSamplesFile(arguments.trajectory, model, trajectory);
     return trajectory;
   }
   trajectory.waypoint_file = arguments.trajectory;
@@ -375,7 +376,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   CheckOutArgument(arguments.out);
   const api::Model model =
       api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
-  const api::OutputTrajectory trajectory = MakeTrajectory(arguments);
+  const api::OutputTrajectory trajectory = MakeTrajectory(arguments, model);
   CheckTrajectoryFitsModel(arguments, model, trajectory);
 
   // The inputs are read: no output may be one of them, a link, a FIFO or a directory.

@@ -709,6 +709,12 @@ void DrawSolveFigures(const std::string& directory,
 /// problem".
 void ReadSamplesFile(const std::string& path, OutputTrajectory& trajectory);
 
+/// The same, its columns matched to `model`'s outputs: by name where the header names any of
+/// them (y1, or y1_d as a solve file writes it; other columns are left out), else by position.
+/// Blanks around fields, a pandas index column and a time column named t anywhere are read as
+/// such. Throws ModelError naming the file and the output without a column.
+void ReadSamplesFile(const std::string& path, const Model& model, OutputTrajectory& trajectory);
+
 /// The format a solve file's name asks for when none is given: MAT for a name ending in .mat
 /// (any case), else CSV.
 SolveFileFormat SolveFileFormatOfName(const std::string& path);

@@ -98,6 +98,14 @@ void ReadSamplesFile(const std::string& path, OutputTrajectory& trajectory) {
   trajectory.sample_values = std::move(samples.values);
 }
 
+void ReadSamplesFile(const std::string& path, const Model& model, OutputTrajectory& trajectory) {
+  TrajectorySamples samples =
+      SelectOutputColumns(LoadTrajectorySamples(path), model.output_names(), path);
+  trajectory.sample_source = path;
+  trajectory.sample_times = std::move(samples.times);
+  trajectory.sample_values = std::move(samples.values);
+}
+
 SolveFileFormat SolveFileFormatOfName(const std::string& path) {
   return servokit::SolveFileFormatOfName(path);
 }

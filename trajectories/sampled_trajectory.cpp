@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -61,6 +62,14 @@ std::string Quoted(std::string_view field) {
   return quoted + (field.size() > kLongest ? "...'" : "'");
 }
 
+// A field without the blanks around it ("t, y1" is t and y1).
+std::string_view TrimBlanks(std::string_view field) {
+  constexpr std::string_view kBlanks = " \t";
+  const std::size_t begin = field.find_first_not_of(kBlanks);
+  if (begin == std::string_view::npos) return {};
+  return field.substr(begin, field.find_last_not_of(kBlanks) - begin + 1);
+}
+
 // The fields of one CSV line (no quoting: the file holds numbers and plain names), views into it.
 void SplitFields(std::string_view line, std::vector<std::string_view>& fields) {
   fields.clear();
@@ -79,6 +88,7 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
       ReadInputFile(path, "the samples file", kTrajectoryFileLimit, ErrorKind::kModel);
   std::vector<double> numbers;  // row after row, `columns` each
   std::vector<std::string_view> fields;
+  std::vector<std::string> header;
   std::size_t columns = 0, rows = 0;
   std::size_t number = 0;  // of the line
   for (std::size_t start = 0; start < text.size();) {
@@ -90,6 +100,7 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
     if (line.empty() || line.front() == '#') continue;
     const auto where = [&] { return path + ":" + std::to_string(number) + ": "; };
     SplitFields(line, fields);
+    for (std::string_view& field : fields) field = TrimBlanks(field);
     if (columns == 0) {  // the header
       if (fields.size() < 2) {
         throw ModelError(where() +
@@ -97,6 +108,7 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
                          "per output");
       }
       columns = fields.size();
+      header.assign(fields.begin(), fields.end());
       numbers.reserve(std::min(text.size() / (8 * columns), kMaxTrajectoryPoints) * columns);
       continue;
     }
@@ -121,16 +133,80 @@ TrajectorySamples LoadTrajectorySamples(const std::string& path) {
     ++rows;
   }
   if (rows == 0) throw ModelError(path + ": no samples (a header line, then one line each)");
+  // An unnamed first column is an index; the time is the column named t, else the first other.
+  const std::size_t first = header.front().empty() ? 1 : 0;
+  const auto named_time = std::find(header.begin() + std::ptrdiff_t(first), header.end(), "t");
+  const std::size_t time =
+      named_time == header.end() ? first : std::size_t(named_time - header.begin());
+  if (columns - first < 2) {
+    throw ModelError(path + ": expected the time and at least one output after the index column");
+  }
   TrajectorySamples samples;
   samples.times.resize(rows);
-  samples.values.resize(Eigen::Index(rows), Eigen::Index(columns - 1));
+  samples.values.resize(Eigen::Index(rows), Eigen::Index(columns - first - 1));
+  for (std::size_t j = first; j < columns; ++j) {
+    if (j != time) samples.names.push_back(header[j]);
+  }
   for (std::size_t i = 0; i < rows; ++i) {
-    samples.times[i] = numbers[i * columns];
-    for (std::size_t j = 1; j < columns; ++j) {
-      samples.values(Eigen::Index(i), Eigen::Index(j - 1)) = numbers[i * columns + j];
+    samples.times[i] = numbers[i * columns + time];
+    Eigen::Index output = 0;
+    for (std::size_t j = first; j < columns; ++j) {
+      if (j != time) samples.values(Eigen::Index(i), output++) = numbers[i * columns + j];
     }
   }
   return samples;
+}
+
+TrajectorySamples SelectOutputColumns(TrajectorySamples samples,
+                                      const std::vector<std::string>& outputs,
+                                      const std::string& source) {
+  const auto column_of = [&](const std::string& output) -> std::optional<std::size_t> {
+    for (const std::string& name : {output, output + "_d"}) {
+      const auto found = std::find(samples.names.begin(), samples.names.end(), name);
+      if (found != samples.names.end()) return std::size_t(found - samples.names.begin());
+    }
+    return std::nullopt;
+  };
+  const bool by_name = std::any_of(outputs.begin(), outputs.end(),
+                                   [&](const std::string& output) { return column_of(output); });
+  std::string columns;
+  for (const std::string& name : samples.names) columns += (columns.empty() ? "" : ", ") + name;
+  if (!by_name) {
+    if (samples.names.size() != outputs.size()) {
+      throw ModelError(source + ": " + std::to_string(samples.names.size()) +
+                       " output columns after t (" + Quoted(columns) + "), but the model has " +
+                       std::to_string(outputs.size()) + " (name them as its outputs: y1, ...)");
+    }
+    return samples;  // by position
+  }
+  // A column named as an output the model lacks (y2 of a one-output model) is a sign of the
+  // wrong model or file, not a column to leave out.
+  for (const std::string& name : samples.names) {
+    const std::string_view output =
+        name.ends_with("_d") ? std::string_view(name).substr(0, name.size() - 2) : name;
+    const bool output_like =
+        output.size() > 1 && output.front() == 'y' &&
+        std::all_of(output.begin() + 1, output.end(), [](char c) { return c >= '0' && c <= '9'; });
+    if (output_like && std::find(outputs.begin(), outputs.end(), output) == outputs.end()) {
+      throw ModelError(source + ": column " + Quoted(name) +
+                       " names an output the model does not have (it has " +
+                       std::to_string(outputs.size()) +
+                       (outputs.size() == 1 ? " output" : " outputs") + ")");
+    }
+  }
+  TrajectorySamples selected;
+  selected.times = std::move(samples.times);
+  selected.values.resize(samples.values.rows(), Eigen::Index(outputs.size()));
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const std::optional<std::size_t> column = column_of(outputs[i]);
+    if (!column) {
+      throw ModelError(source + ": no column " + outputs[i] + " (or " + outputs[i] + "_d) among " +
+                       Quoted(columns));
+    }
+    selected.values.col(Eigen::Index(i)) = samples.values.col(Eigen::Index(*column));
+    selected.names.push_back(samples.names[*column]);
+  }
+  return selected;
 }
 
 SampledTrajectory::SampledTrajectory(std::vector<double> times,

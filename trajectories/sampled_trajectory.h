@@ -117,17 +117,28 @@ class SampledTrajectory final : public OutputTrajectory {
   mutable BasisScratch scratch_;
 };
 
-/// Samples of y_d read from a CSV file: a header line (the first column is the time, each other
-/// column one output, in the model's order), then one line of numbers per sample; blank lines
-/// and lines starting with '#' are skipped. The values are SI.
+/// Samples of y_d read from a CSV file: a header line, then one line of numbers per sample;
+/// blank lines and lines starting with '#' are skipped, blanks around a field are not part of
+/// it. The time is the column named t (else the first); a first column with an empty header
+/// is an index (pandas' to_csv writes one) and is not read; every other column is one output.
+/// The values are SI.
 struct TrajectorySamples {
   std::vector<double> times;
-  Eigen::MatrixXd values;  // one row per time, one column per output
+  Eigen::MatrixXd values;          // one row per time, one column per output column
+  std::vector<std::string> names;  // each output column's header, as written (blanks trimmed)
 };
 
 /// Reads a samples file. Throws ModelError "file:line: problem" naming the line and column, and
 /// at the first sample beyond kMaxTrajectoryPoints, before it is stored.
 TrajectorySamples LoadTrajectorySamples(const std::string& path);
+
+/// The samples' columns for the outputs named `outputs` (the model's y1, y2, ...), in that
+/// order: by name when any column is named as an output (y1, or y1_d as `servokit solve`
+/// writes it), other columns then left out; by position otherwise. Throws ModelError naming
+/// `source` and the output without a column, or the columns when their count does not match.
+TrajectorySamples SelectOutputColumns(TrajectorySamples samples,
+                                      const std::vector<std::string>& outputs,
+                                      const std::string& source);
 
 /// y_d from a function of the caller's: derivatives(t, highest, d) fills d (outputs x
 /// (highest + 1)) with y_d and its derivatives up to `highest` at t. The caller states how many

@@ -334,3 +334,55 @@ TEST_CASE("a function trajectory answers with the caller's function", "[solvers]
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #34: samples as users' tools write them. pandas' to_csv puts an unnamed index column
+// first; people write "t, y1" with blanks; a solve file has its outputs as y1_d among other
+// columns; the time need not come first. Columns are found by name where the header names an
+// output, by position otherwise, and a missing output is named.
+TEST_CASE("samples files from pandas, with blanks and named columns", "[trajectories]") {
+  const testing::TemporaryDirectory directory;
+  const auto write = [&](const std::string& name, const std::string& text) {
+    const std::string path = (directory.path() / name).string();
+    std::ofstream(path) << text;
+    return path;
+  };
+  // pandas: DataFrame({"t": [0, 1], "y2": [5, 6], "y1": [1, 2]}).to_csv(path)
+  const TrajectorySamples pandas = SelectOutputColumns(
+      LoadTrajectorySamples(write("pandas.csv", ",t,y2,y1\n0,0,5,1\n1,1,6,2\n")), {"y1", "y2"},
+      "pandas.csv");
+  CHECK(pandas.times == std::vector<double>{0.0, 1.0});
+  CHECK(pandas.values(0, 0) == 1.0);
+  CHECK(pandas.values(1, 1) == 6.0);
+  const TrajectorySamples blanks = SelectOutputColumns(
+      LoadTrajectorySamples(write("blanks.csv", "t, y1\n 0, 3 \n1 ,4\n")), {"y1"}, "blanks.csv");
+  CHECK(blanks.values(1, 0) == 4.0);
+  const TrajectorySamples solve_file = SelectOutputColumns(
+      LoadTrajectorySamples(write("solve.csv", "x,t,F,y1_d\n9,0,7,0.5\n9,2,7,1.5\n")), {"y1"},
+      "solve.csv");
+  CHECK(solve_file.times == std::vector<double>{0.0, 2.0});
+  CHECK(solve_file.values(1, 0) == 1.5);
+  const TrajectorySamples positional = SelectOutputColumns(
+      LoadTrajectorySamples(write("positional.csv", "time,a,b\n0,1,2\n1,3,4\n")), {"y1", "y2"},
+      "positional.csv");
+  CHECK(positional.times == std::vector<double>{0.0, 1.0});  // the first column
+  CHECK(positional.values(1, 1) == 4.0);
+  CHECK_THROWS_WITH(
+      SelectOutputColumns(LoadTrajectorySamples(write("missing.csv", "t,y1,z\n0,1,2\n1,3,4\n")),
+                          {"y1", "y2"}, "missing.csv"),
+      "missing.csv: no column y2 (or y2_d) among 'y1, z'");
+  CHECK_THROWS_WITH(
+      SelectOutputColumns(LoadTrajectorySamples(write("extra.csv", "t,y1,y2\n0,1,2\n1,3,4\n")),
+                          {"y1"}, "extra.csv"),
+      "extra.csv: column 'y2' names an output the model does not have (it has 1 "
+      "output)");
+  CHECK_THROWS_WITH(
+      SelectOutputColumns(LoadTrajectorySamples(write("count.csv", "t,a,b\n0,1,2\n")), {"y1"},
+                          "count.csv"),
+      Catch::Contains("count.csv: 2 output columns after t ('a, b'), but the model has 1"));
+}
+
+}  // namespace
+}  // namespace servokit
