@@ -60,6 +60,7 @@ Command AddAnalyzeCommand(CLI::App& app) {
   auto arguments = std::make_shared<AnalyzeArguments>();
   CLI::App* analyze =
       app.add_subcommand("analyze", "Classify the servo-constraint problem at an operating point");
+  analyze->alias("analyse");  // British spelling, as servokit's own description has it
   analyze->footer(
       "Example:\n  servokit analyze models/mass_on_car.yaml --set alpha=\"90 deg\" --set d=0 "
       "--format json\n"

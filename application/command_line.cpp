@@ -117,6 +117,64 @@ Eigen::VectorXd ParseValues(const std::string& option, const std::vector<std::st
   return Eigen::Map<const Eigen::VectorXd>(values.data(), Eigen::Index(values.size()));
 }
 
+namespace {
+
+// Edits (insertions, deletions, substitutions) between two names, for "did you mean".
+std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// An option the command does not know is the first thing to say: CLI11 would report a required
+// option as missing first ("--t-end is required" for a misspelt --tend). Finds the (sub)command
+// the words name, then each "--name" it lacks, with the nearest it has.
+void RefuseUnknownOptions(const CLI::App& app, int argc, const char* const* argv) {
+  const CLI::App* command = &app;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view word = argv[i];
+    if (word == "--") return;  // positionals only after it
+    if (!word.starts_with("--")) {
+      // A subcommand's name moves into it; any other word is a value or a positional.
+      for (const CLI::App* sub : command->get_subcommands({})) {
+        if (sub->check_name(std::string(word))) {
+          command = sub;
+          break;
+        }
+      }
+      continue;
+    }
+    const std::string name(word.substr(0, word.find('=')));
+    if (name == "--help" || name == "--version") continue;
+    if (command->get_option_no_throw(name) != nullptr) continue;
+    std::string nearest;
+    std::size_t best = 4;  // suggest within three edits only
+    for (const CLI::Option* option : command->get_options()) {
+      for (const std::string& known : option->get_lnames()) {
+        const std::size_t distance = EditDistance(name.substr(2), known);
+        if (distance < best) {
+          best = distance;
+          nearest = "--" + known;
+        }
+      }
+    }
+    throw UsageError("unknown option " + name +
+                     (command == &app ? std::string() : " for " + command->get_name()) +
+                     (nearest.empty() ? "" : " (did you mean " + nearest + "?)"));
+  }
+}
+
+}  // namespace
+
 int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CLI::App app(
       "servokit: analyse and solve servo-constraint problems of underactuated "
@@ -141,6 +199,7 @@ int RunCommandLine(int argc, const char* const* argv, std::ostream& out, std::os
       }
       throw UsageError(std::string("unknown command '") + argv[1] + "' (expected " + names + ")");
     }
+    RefuseUnknownOptions(app, argc, argv);
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp&) {

@@ -231,3 +231,31 @@ TEST_CASE("analyze reports the dynamic extension and a relative degree undefined
 
 }  // namespace
 }  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #34: a misspelt option is the first thing said, with the nearest the command knows
+// (CLI11 alone said "--t-end is required" for --tend), in (sub)subcommands too; `analyse` is
+// `analyze`.
+TEST_CASE("an unknown option is named first, with the nearest known one", "[application]") {
+  const testing::Run solve =
+      testing::RunServokit({"solve", testing::ModelPath("mass_on_car.yaml"), "--trajectory",
+                            "rest-to-rest", "--tend", "3", "--out", "u.csv"});
+  CHECK(solve.status == 2);
+  CHECK(solve.err == "servokit: error: unknown option --tend for solve (did you mean --t-end?)\n");
+  const testing::Run chain =
+      testing::RunServokit({"generate", "chain", "--masess", "4", "--out", "chain"});
+  CHECK(chain.err ==
+        "servokit: error: unknown option --masess for chain (did you mean --masses?)\n");
+  const testing::Run far =
+      testing::RunServokit({"analyze", testing::ModelPath("mass_on_car.yaml"), "--colour"});
+  CHECK(far.err == "servokit: error: unknown option --colour for analyze\n");
+  const testing::Run british =
+      testing::RunServokit({"analyse", testing::ModelPath("mass_on_car.yaml")});
+  CHECK(british.status == 0);
+  CHECK_THAT(british.out, Catch::Contains("realization"));
+}
+
+}  // namespace
+}  // namespace servokit
