@@ -209,26 +209,57 @@ int Severity(ExitCode code) {
   }
 }
 
-// --plot DIR: made before any work, so that the figures of a long solve have somewhere to go.
-void MakePlotDirectory(const std::string& plot) {
-  std::error_code error;
-  std::filesystem::create_directories(plot, error);
-  if (error || !std::filesystem::is_directory(plot)) {
-    throw UsageError("--plot " + plot + ": cannot make the directory" +
-                     (error ? " (" + error.message() + ")" : std::string()));
+// The directories a solve makes for its outputs (--out's folder, --plot), made before any work
+// so that a long solve's files have somewhere to go, and removed again, while still empty,
+// unless the solve got as far as writing (Keep): an error leaves nothing behind. Never removes
+// a directory that was there or that holds anything.
+class MadeDirectories {
+ public:
+  MadeDirectories() = default;
+  MadeDirectories(const MadeDirectories&) = delete;
+  MadeDirectories& operator=(const MadeDirectories&) = delete;
+  ~MadeDirectories() {
+    if (kept_) return;
+    for (auto directory = made_.rbegin(); directory != made_.rend(); ++directory) {
+      std::error_code ignored;
+      std::filesystem::remove(*directory, ignored);  // fails, harmlessly, on a non-empty one
+    }
   }
-}
 
-// --out names a file in an existing directory.
-void CheckOutArgument(const std::string& out) {
+  // `directory` and its missing parents; UsageError "<flag> <text>: ..." when it cannot be made.
+  void Make(const std::filesystem::path& directory,
+            const std::string& flag,
+            const std::string& text) {
+    std::vector<std::filesystem::path> missing;
+    std::error_code error;
+    for (std::filesystem::path path = directory;
+         !path.empty() && !std::filesystem::exists(path, error); path = path.parent_path()) {
+      missing.push_back(path);
+      if (path == path.parent_path()) break;
+    }
+    std::filesystem::create_directories(directory, error);
+    if (error || !std::filesystem::is_directory(directory)) {
+      throw UsageError(flag + " " + text + ": cannot make the directory " + directory.string() +
+                       (error ? " (" + error.message() + ")" : std::string()));
+    }
+    made_.insert(made_.end(), missing.rbegin(), missing.rend());
+  }
+
+  void Keep() { kept_ = true; }
+
+ private:
+  std::vector<std::filesystem::path> made_;  // outermost first
+  bool kept_ = false;
+};
+
+// --out names a file; its folder is made when missing.
+void PrepareOutArgument(const std::string& out, MadeDirectories& made) {
   if (out == "-") {
     // stdout carries the summary (JSON or text); the table would be mixed into it.
     throw UsageError("--out -: standard output holds the summary; name a file for the table");
   }
   const std::filesystem::path out_directory = std::filesystem::path(out).parent_path();
-  if (!out_directory.empty() && !std::filesystem::is_directory(out_directory)) {
-    throw UsageError("--out " + out + ": no directory " + out_directory.string());
-  }
+  if (!out_directory.empty()) made.Make(out_directory, "--out", out);
 }
 
 // One value per output, said in flags (the rest-to-rest trajectory itself refuses --y0 and
@@ -372,8 +403,9 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   }
   // Before any work: a solve whose answer cannot be written is wasted.
   const SolveFileFormat format = ChooseFormat(arguments);
-  if (!arguments.plot.empty()) MakePlotDirectory(arguments.plot);
-  CheckOutArgument(arguments.out);
+  MadeDirectories made;
+  if (!arguments.plot.empty()) made.Make(arguments.plot, "--plot", arguments.plot);
+  PrepareOutArgument(arguments.out, made);
   const api::Model model =
       api::Model::FromFile(arguments.model_path, ParseParameterValues(arguments.overrides));
   const api::OutputTrajectory trajectory = MakeTrajectory(arguments, model);
@@ -386,6 +418,7 @@ int RunSolve(const SolveArguments& arguments, std::ostream& out, std::ostream& e
   const bool several = methods.size() > 1;
   const MethodSolves method_solves = SolveEachMethod(methods, arguments.out, model, trajectory,
                                                      SharedSolveOptions(arguments, format), err);
+  made.Keep();  // the files are written, of a solve that stopped early too
   WriteSummaries(method_solves.solves, arguments.summary, several, out);
   DrawSolvesWithRows(arguments.plot, model, method_solves.solves);
   return static_cast<int>(ReportOutcomes(method_solves, several, err));

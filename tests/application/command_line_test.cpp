@@ -3,6 +3,7 @@
 #include "application/command_line.h"
 
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -255,6 +256,38 @@ TEST_CASE("an unknown option is named first, with the nearest known one", "[appl
       testing::RunServokit({"analyse", testing::ModelPath("mass_on_car.yaml")});
   CHECK(british.status == 0);
   CHECK_THAT(british.out, Catch::Contains("realization"));
+}
+
+}  // namespace
+}  // namespace servokit
+
+namespace servokit {
+namespace {
+
+// Issue #34: solve's --out makes its missing folder, as sweep, report and generate make theirs,
+// and a solve that ends in an error before writing leaves no folder behind (nor --plot's).
+TEST_CASE("solve makes --out's folder, and an error leaves none behind", "[application]") {
+  const testing::TemporaryDirectory directory;
+  const std::filesystem::path made = directory.path() / "new" / "folder";
+  const std::vector<std::string> motion = {"--trajectory", "rest-to-rest",
+                                           "--y0",         "0",
+                                           "--yf",         "1",
+                                           "--t0",         "0",
+                                           "--tf",         "1",
+                                           "--t-end",      "2"};
+  std::vector<std::string> good = {"solve", testing::ModelPath("mass_on_car.yaml")};
+  good.insert(good.end(), motion.begin(), motion.end());
+  good.insert(good.end(), {"--out", (made / "u.csv").string()});
+  CHECK(testing::RunServokit(good).status == 0);
+  CHECK(std::filesystem::is_regular_file(made / "u.csv"));
+
+  const std::filesystem::path left = directory.path() / "left";
+  std::vector<std::string> bad = {"solve", testing::TestDataPath("no_such_model.yaml")};
+  bad.insert(bad.end(), motion.begin(), motion.end());
+  bad.insert(bad.end(),
+             {"--out", (left / "a" / "u.csv").string(), "--plot", (left / "figures").string()});
+  CHECK(testing::RunServokit(bad).status == 2);
+  CHECK_FALSE(std::filesystem::exists(left));
 }
 
 }  // namespace

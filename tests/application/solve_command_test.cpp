@@ -156,9 +156,13 @@ TEST_CASE("solve: each bad argument gives one error line and exit 2", "[reports]
                                     "rest-to-rest", "--t-end", "1", "--out", csv});
   CHECK(missing.status == 2);
   CHECK_THAT(missing.err, Catch::Contains("--y0, --yf, --t0 and --tf"));
-  const auto no_directory = RunServokit(With(kCase4, {"--out", "/nonexistent/x.csv"}));
+  // A folder that cannot be made: a file (the model) stands where it would go.
+  const std::string under_a_file = ModelPath("mass_on_car.yaml") + "/x.csv";
+  const auto no_directory = RunServokit(With(kCase4, {"--out", under_a_file}));
   CHECK(no_directory.status == 2);
-  CHECK_THAT(no_directory.err, Catch::Contains("--out /nonexistent/x.csv"));
+  CHECK_THAT(no_directory.err, Catch::Contains("--out " + under_a_file +
+                                               ": cannot make the "
+                                               "directory"));
   const auto no_file = RunServokit({"solve", ModelPath("mass_on_car.yaml"), "--trajectory",
                                     "nowhere.yaml", "--t-end", "1", "--out", csv});
   CHECK(no_file.status == 2);
