@@ -27,11 +27,10 @@ struct ThresholdArguments {
 
 struct Range {
   std::string parameter;
-  double low = 0.0, high = 0.0;
-  bool in_degrees = false;  // low or high was written with deg
+  api::ValueWithUnit low, high;  // as written; read in the parameter's unit once it is known
 };
 
-// "p=a:b", each end a number that may end in "deg".
+// "p=a:b", each end a number that may end in "deg" or "rad".
 Range ParseRange(const std::string& text) {
   const auto equals = text.find('=');
   const auto colon = text.find(':', equals == std::string::npos ? 0 : equals);
@@ -42,10 +41,9 @@ Range ParseRange(const std::string& text) {
   const auto low = api::ParseQuantity(text.substr(equals + 1, colon - equals - 1));
   const auto high = api::ParseQuantity(text.substr(colon + 1));
   if (!low || !high) {
-    throw UsageError("--vary " + text + ": low and high must be numbers (may end in deg)");
+    throw UsageError("--vary " + text + ": low and high must be numbers (may end in deg or rad)");
   }
-  if (!(low->value < high->value)) throw UsageError("--vary " + text + ": needs low < high");
-  return {text.substr(0, equals), low->value, high->value, low->degrees || high->degrees};
+  return {text.substr(0, equals), *low, *high};
 }
 
 int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::ostream& err) {
@@ -66,25 +64,32 @@ int RunThreshold(const ThresholdArguments& arguments, std::ostream& out, std::os
     throw UsageError("--vary " + arguments.vary + ": the model has no parameter '" +
                      range.parameter + "'");
   }
+  // Bare ends in the unit the model declares the parameter in (degrees stay degrees).
+  const api::ValueWithUnit low = api::InParameterUnit(model, range.parameter, range.low);
+  const api::ValueWithUnit high = api::InParameterUnit(model, range.parameter, range.high);
+  if (!(low.value < high.value)) {
+    throw UsageError("--vary " + arguments.vary + ": needs low < high");
+  }
+  const bool in_degrees = low.degrees || high.degrees;
+  const bool unit_written = in_degrees || low.unit_written || high.unit_written;
   // Values stay SI; a parameter given in degrees (model file, --set or --vary) also gets its
   // values in degrees.
-  if (const std::string warning =
-          api::AngleSpanWarning(model, range.parameter, range.in_degrees, range.low, range.high,
-                                "--vary " + arguments.vary);
+  if (const std::string warning = api::AngleSpanWarning(
+          model, range.parameter, unit_written, low.value, high.value, "--vary " + arguments.vary);
       !warning.empty()) {
     err << "servokit: warning: " << warning << "\n";
   }
   api::ThresholdQuery query;
   query.parameter = range.parameter;
-  query.low = range.low;
-  query.high = range.high;
+  query.low = low.value;
+  query.high = high.value;
   query.event = *event;
   if (!arguments.y0.empty()) query.analysis.y0 = ParseValues("--y0", arguments.y0);
   if (!arguments.q0.empty()) query.analysis.q_guess = ParseValues("--q0", arguments.q0);
   query.scan_intervals = arguments.scan_intervals;
   query.relative_tolerance = arguments.relative_tolerance;
   query.closed_form = arguments.closed_form;
-  query.show_degrees = range.in_degrees;
+  query.show_degrees = in_degrees;
   const api::ThresholdReport report = api::SearchThresholds(model, query);
   out << (arguments.format == "text" ? report.text : report.json);
   return static_cast<int>(ExitCode::kSuccess);

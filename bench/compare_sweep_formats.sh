@@ -36,7 +36,7 @@ seconds() {
   local format=$1 n=$2 out="$work/$1-$2" times
   rm -rf "$out"
   local TIMEFORMAT='%3R %3U %3S'
-  if ! times=$( { time "$servokit" sweep "$model" --vary "alpha=0.01:1.5:n=$n" --vary "d=0:2:n=$n" \
+  if ! times=$( { time "$servokit" sweep "$model" --vary "alpha=0.5:86:n=$n" --vary "d=0:2:n=$n" \
       --out "$out" --format "$format" --threads 1 >"$work/log" 2>&1; } 2>&1); then
     echo "compare_sweep_formats: servokit sweep --format $format failed; its output:" >&2
     cat "$work/log" >&2

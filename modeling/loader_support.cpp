@@ -555,14 +555,16 @@ void ApplyParameterOverrides(const std::vector<std::string>& parameter_names,
                                        : "known: " + Join(parameter_names)) +
               ")");
     }
-    const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(override_.value);
-    if (!value) {
+    const std::optional<ParsedQuantity> written = ParseQuantityWithUnit(override_.value);
+    if (!written) {
       throw ParameterOverrideError(override_.name, override_.value,
                                    "not a number " + std::string(kQuantityHint));
     }
     const auto index = static_cast<std::size_t>(found - parameter_names.begin());
-    parameters[static_cast<Eigen::Index>(index)] = value->value;
-    if (value->unit == DisplayUnit::kDegree) units[index] = DisplayUnit::kDegree;
+    // In the unit the model declares: alpha=45 of "alpha: 5 deg" is 45 deg (issue #34).
+    const ParsedQuantity value = InDeclaredUnit(*written, units[index]);
+    parameters[static_cast<Eigen::Index>(index)] = value.value;
+    if (value.unit == DisplayUnit::kDegree) units[index] = DisplayUnit::kDegree;
   }
 }
 

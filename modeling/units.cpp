@@ -13,6 +13,7 @@ namespace servokit {
 namespace {
 
 constexpr std::string_view kDegreeSuffix = "deg";
+constexpr std::string_view kRadianSuffix = "rad";
 constexpr std::string_view kBlanks = " \t";
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
@@ -52,11 +53,22 @@ std::optional<ParsedQuantity> ParseQuantityWithUnit(std::string_view text) {
     if (!degrees) {
       return std::nullopt;
     }
-    return ParsedQuantity{DegreesToRadians(*degrees), DisplayUnit::kDegree};
+    return ParsedQuantity{DegreesToRadians(*degrees), DisplayUnit::kDegree, true};
+  }
+  if (text.ends_with(kRadianSuffix)) {
+    const std::optional<double> radians =
+        ParseNumber(Trim(text.substr(0, text.size() - kRadianSuffix.size())));
+    if (!radians) return std::nullopt;
+    return ParsedQuantity{*radians, DisplayUnit::kSI, true};
   }
   const std::optional<double> value = ParseNumber(text);
   if (!value) return std::nullopt;
-  return ParsedQuantity{*value, DisplayUnit::kSI};
+  return ParsedQuantity{*value, DisplayUnit::kSI, false};
+}
+
+ParsedQuantity InDeclaredUnit(ParsedQuantity quantity, DisplayUnit declared) {
+  if (quantity.unit_written || declared != DisplayUnit::kDegree) return quantity;
+  return ParsedQuantity{DegreesToRadians(quantity.value), DisplayUnit::kDegree, false};
 }
 
 std::optional<double> ParseQuantity(std::string_view text) {

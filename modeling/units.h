@@ -19,14 +19,22 @@ std::string_view ToString(DisplayUnit unit);
 struct ParsedQuantity {
   double value = 0.0;                   // SI (radians for degrees)
   DisplayUnit unit = DisplayUnit::kSI;  // kDegree when written "<number> deg"
+  bool unit_written = false;            // "deg" or "rad" written: not a bare number
 };
 
-/// Parses "<number>" or "<number> deg" (blank before "deg" optional) into SI units, degrees
-/// converted to radians. Returns std::nullopt for anything else, including NaN and Inf.
+/// Parses "<number>", "<number> deg" or "<number> rad" (a blank before the unit optional) into
+/// SI units, degrees converted to radians. Returns std::nullopt for anything else, including
+/// NaN and Inf.
 std::optional<double> ParseQuantity(std::string_view text);
 
-/// As ParseQuantity, and says whether the text was in degrees.
+/// As ParseQuantity, and says whether the text was in degrees, and whether it named a unit.
 std::optional<ParsedQuantity> ParseQuantityWithUnit(std::string_view text);
+
+/// `quantity` read in the unit its parameter is declared in: a bare number for a parameter the
+/// model gives in degrees ("alpha: 5 deg") is in degrees, so that --set alpha=45 is 45 deg, never
+/// 45 rad; a number that names its unit keeps it ("0.5 rad", "30 deg"). The result is in SI and
+/// says kDegree where the number is now read as degrees.
+ParsedQuantity InDeclaredUnit(ParsedQuantity quantity, DisplayUnit declared);
 
 /// Degrees to radians: degrees * pi / 180, the one conversion every "deg" goes through.
 double DegreesToRadians(double degrees);

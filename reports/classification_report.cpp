@@ -4,6 +4,7 @@
 
 #include "base/number_format.h"
 #include "modeling/symbolic_model.h"
+#include "modeling/units.h"
 #include "reports/escaping.h"
 
 namespace servokit {
@@ -83,11 +84,16 @@ std::string ModesToText(const std::vector<Mode>& modes) {
   return Join(parts, "; ");
 }
 
+// Each parameter in the unit it is shown in: "alpha = 5 deg" for one given in degrees (degrees
+// stay degrees, issue #34); the JSON keeps SI.
 std::string ParametersToText(const Model& model) {
   std::vector<std::string> parts;
   for (std::size_t i = 0; i < model.num_parameters(); ++i) {
+    const double value = model.parameters()(Eigen::Index(i));
     parts.push_back(model.parameter_names()[i] + " = " +
-                    FormatShort(model.parameters()(Eigen::Index(i))));
+                    (model.parameter_display_units()[i] == DisplayUnit::kDegree
+                         ? FormatShort(DisplayDegrees(value)) + " deg"
+                         : FormatShort(value)));
   }
   return Join(parts, ", ");
 }

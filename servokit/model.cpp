@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/parameter_grid.h"
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "modeling/units.h"
@@ -53,7 +54,19 @@ Model Model::FromFile(const std::string& path, const ParameterValues& overrides)
 std::optional<ValueWithUnit> ParseQuantity(std::string_view text) {
   const std::optional<ParsedQuantity> parsed = ParseQuantityWithUnit(text);
   if (!parsed) return std::nullopt;
-  return ValueWithUnit{parsed->value, parsed->unit == DisplayUnit::kDegree};
+  return ValueWithUnit{parsed->value, parsed->unit == DisplayUnit::kDegree, parsed->unit_written};
+}
+
+ValueWithUnit InParameterUnit(const Model& model,
+                              const std::string& parameter,
+                              ValueWithUnit value) {
+  const std::size_t index = ParameterIndex(model.parameter_names(), parameter);
+  const std::vector<std::string> units = model.parameter_display_units();
+  const ParsedQuantity read = InDeclaredUnit(
+      ParsedQuantity{value.value, value.degrees ? DisplayUnit::kDegree : DisplayUnit::kSI,
+                     value.unit_written},
+      units[index] == "deg" ? DisplayUnit::kDegree : DisplayUnit::kSI);
+  return ValueWithUnit{read.value, read.unit == DisplayUnit::kDegree, read.unit_written};
 }
 
 std::string FormatNumber(double value) { return servokit::FormatNumber(value); }

@@ -78,17 +78,26 @@ using servokit::ToString;
 /// in SI units or "<number> deg" (converted to radians), as in the model file.
 using ParameterValues = std::vector<std::pair<std::string, std::string>>;
 
-/// A value as model files and parameter overrides write it: "<number>" in SI units or
-/// "<number> deg" (a blank before deg optional), converted to radians.
+/// A value as model files and parameter overrides write it: "<number>" in SI units,
+/// "<number> deg" (a blank before deg optional), converted to radians, or "<number> rad".
 struct ValueWithUnit {
-  double value = 0.0;    // SI (radians for degrees)
-  bool degrees = false;  // written in degrees
+  double value = 0.0;         // SI (radians for degrees)
+  bool degrees = false;       // in degrees
+  bool unit_written = false;  // "deg" or "rad" written: not a bare number
 };
 /// The value of `text`, nullopt when it is not such a number.
 std::optional<ValueWithUnit> ParseQuantity(std::string_view text);
 /// A number as servokit writes it in messages: the shortest text that reads back to the same
 /// double ("nan", "inf" for those).
 std::string FormatNumber(double value);
+
+class Model;
+/// `value` for `parameter` of `model` read in the unit the model declares it in: a bare number
+/// for a parameter given in degrees ("alpha: 5 deg") is in degrees (45 is 45 deg, never 45
+/// rad); one that names its unit keeps it. Throws UsageError for an unknown parameter.
+ValueWithUnit InParameterUnit(const Model& model,
+                              const std::string& parameter,
+                              ValueWithUnit value);
 
 /// A loaded model, either kind: immutable, cheap to copy (copies share it) and safe to use from
 /// several threads at once.

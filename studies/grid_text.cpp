@@ -125,7 +125,7 @@ std::string MatlabWarning(std::string_view argument,
                           const ParsedQuantity& b,
                           std::size_t n) {
   const double count = static_cast<double>(n);
-  if (a.unit != DisplayUnit::kSI || b.unit != DisplayUnit::kSI) return {};
+  if (a.unit_written || b.unit_written) return {};  // "0deg:90deg:5" is not MATLAB's
   if (!(b.value > a.value) || !(count > b.value)) return {};
   const double steps = (count - a.value) / b.value;
   if (steps != std::floor(steps)) return {};
@@ -183,7 +183,8 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
   const auto warn = [&](std::string warning) {
     if (warnings && !warning.empty()) warnings->push_back(std::move(warning));
   };
-  bool has_unit = false;
+  bool has_unit = false;    // a value in degrees: the axis is shown in degrees
+  bool unit_named = false;  // a value that names its unit ("deg" or "rad"): meant as written
   double low = 0.0, high = 0.0;
   if (spec.find(':') != std::string_view::npos) {
     const std::vector<std::string_view> parts = Split(spec, ':');
@@ -192,12 +193,18 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
                       "a range is a:b:n, a:b:n=N or a:b:step=h, e.g. alpha=0deg:90deg:n=91 (91 "
                       "values from a to b) or alpha=0deg:90deg:step=1deg");
     }
-    const ParsedQuantity a = ParseValue(argument, parts[0]), b = ParseValue(argument, parts[1]);
+    // Bare numbers in the unit the model declares (degrees stay degrees: issue #34).
+    const ParsedQuantity written_a = ParseValue(argument, parts[0]),
+                         written_b = ParseValue(argument, parts[1]);
+    const ParsedQuantity a = InDeclaredUnit(written_a, declared),
+                         b = InDeclaredUnit(written_b, declared);
     const std::string_view last = Trim(parts[2]);
     has_unit = a.unit == DisplayUnit::kDegree || b.unit == DisplayUnit::kDegree;
+    unit_named = written_a.unit_written || written_b.unit_written;
     if (last.starts_with("step=")) {
-      const ParsedQuantity h = ParseValue(argument, last.substr(5));
+      const ParsedQuantity h = InDeclaredUnit(ParseValue(argument, last.substr(5)), declared);
       has_unit = has_unit || h.unit == DisplayUnit::kDegree;
+      unit_named = unit_named || h.unit_written;
       axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
       axis.values = StepRange(argument, a, b, h, axis.display_unit == DisplayUnit::kDegree);
     } else {
@@ -205,15 +212,16 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
       const std::size_t n = ParseCount(argument, explicit_count ? last.substr(2) : last);
       axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
       axis.values = ValueRange{a.value, b.value, n};
-      if (!explicit_count) warn(MatlabWarning(argument, name, a, b, n));
+      if (!explicit_count) warn(MatlabWarning(argument, name, written_a, written_b, n));
     }
     low = a.value;
     high = b.value;
   } else {
     std::vector<double> list;
     for (const std::string_view item : Split(spec, ',')) {
-      const ParsedQuantity value = ParseValue(argument, item);
+      const ParsedQuantity value = InDeclaredUnit(ParseValue(argument, item), declared);
       has_unit = has_unit || value.unit == DisplayUnit::kDegree;
+      unit_named = unit_named || value.unit_written;
       list.push_back(value.value);
     }
     low = *std::min_element(list.begin(), list.end());
@@ -221,7 +229,7 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
     axis.display_unit = has_unit ? DisplayUnit::kDegree : declared;
     axis.values = std::move(list);
   }
-  warn(AngleSpanWarning(argument, name, declared, has_unit, low, high));
+  warn(AngleSpanWarning(argument, name, declared, has_unit || unit_named, low, high));
   return axis;
 }
 

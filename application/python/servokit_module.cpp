@@ -130,7 +130,12 @@ std::vector<sk::SweepAxis> ToSweepAxes(const sk::Model& model, const py::dict& g
     axis.parameter = parameter;
     const std::optional<Eigen::VectorXd> vector =
         ToOptionalVector(py::reinterpret_borrow<py::object>(values));
-    if (vector) axis.values.assign(vector->data(), vector->data() + vector->size());
+    if (vector) {
+      // Numbers in the unit the model declares the parameter in (degrees stay degrees).
+      for (const double value : *vector) {
+        axis.values.push_back(sk::InParameterUnit(model, parameter, {value, false, false}).value);
+      }
+    }
     axes.push_back(std::move(axis));
   }
   return axes;
@@ -181,17 +186,46 @@ void BindSweep(ModelClass& model_class) {
                   "missing integer is -1 there).");
 }
 
+// An end of a threshold range: a number in the unit the model declares the parameter in, or a
+// text that may name its unit ("0.5 deg", "0.1 rad"), as `servokit threshold --vary` reads it.
+sk::ValueWithUnit RangeEnd(const sk::Model& model,
+                           const std::string& parameter,
+                           const py::object& end,
+                           const char* name) {
+  sk::ValueWithUnit written;
+  if (py::isinstance<py::str>(end)) {
+    const std::string text = end.cast<std::string>();
+    const std::optional<sk::ValueWithUnit> parsed = sk::ParseQuantity(text);
+    if (!parsed) {
+      throw servokit::UsageError(std::string("threshold ") + name + " = '" + text +
+                                 "': not a number (use e.g. 0.5, \"30 deg\" or \"0.5 rad\")");
+    }
+    written = *parsed;
+  } else {
+    written.value = end.cast<double>();
+  }
+  return sk::InParameterUnit(model, parameter, written);
+}
+
 py::list ThresholdsOfModel(const sk::Model& model,
                            const std::string& parameter,
-                           double low,
-                           double high,
+                           const py::object& low_end,
+                           const py::object& high_end,
                            const std::string& event,
                            double rank_tolerance,
                            double imaginary_axis_tolerance) {
+  const sk::ValueWithUnit low = RangeEnd(model, parameter, low_end, "low");
+  const sk::ValueWithUnit high = RangeEnd(model, parameter, high_end, "high");
+  // The command line's warning of an angle whose bare values span more than a turn.
+  const std::string warning = sk::AngleSpanWarning(
+      model, parameter, low.degrees || high.degrees || low.unit_written || high.unit_written,
+      low.value, high.value, "threshold " + parameter);
+  if (!warning.empty()) py::module_::import("warnings").attr("warn")(warning);
   sk::ThresholdQuery query;
   query.parameter = parameter;
-  query.low = low;
-  query.high = high;
+  query.low = low.value;
+  query.high = high.value;
+  query.show_degrees = low.degrees || high.degrees;
   query.event = FromWord(sk::ThresholdEventFromString, event, "ThresholdQuery::event",
                          "expected stability, oscillation, realization or structure");
   query.analysis =
@@ -223,8 +257,9 @@ void BindThreshold(ModelClass& model_class) {
       py::arg("rank_tolerance") = defaults.rank_tolerance,
       py::arg("imaginary_axis_tolerance") = defaults.imaginary_axis_tolerance,
       "Every threshold of `event` (stability, oscillation, realization or structure) in [low, "
-      "high] "
-      "(SI), ascending: a list of {value, from, to, via}.");
+      "high], ascending: a list of {value (SI), from, to, via, and value_deg for an angle in "
+      "degrees}. low and high are numbers in the unit the model declares the parameter in "
+      "(degrees for 'alpha: 5 deg'), or texts naming their unit ('0.5 deg', '0.1 rad').");
 }
 
 // ---- solves -----------------------------------------------------------------------------------

@@ -296,12 +296,15 @@ TEST_CASE("grid warnings go to stderr on one line each, never to stdout", "[repo
         "d=0:2:step=1 for the second\n");
   CHECK_THAT(matlab.out, !Catch::Contains("warning"));
   REQUIRE(Lines(ReadFile(work / "matlab" / "points.csv")).size() == 3);  // two values
+  // The model declares alpha in degrees: bare values are degrees (issue #34), nothing to warn.
   const Run angle =
       RunServokit(Sweep(ModelPath("mass_on_car.yaml"), {"alpha=0:90:n=3"}, work / "angle"));
   REQUIRE(angle.status == 0);
-  CHECK_THAT(angle.err, Catch::StartsWith("servokit: warning: --vary alpha=0:90:n=3: the values "
-                                          "of the angle 'alpha' carry no unit"));
-  CHECK(std::count(angle.err.begin(), angle.err.end(), '\n') == 1);
+  CHECK(angle.err.empty());
+  const std::vector<std::string> angle_rows = Lines(ReadFile(work / "angle" / "points.csv"));
+  REQUIRE(angle_rows.size() == 4);
+  CHECK_THAT(angle_rows[0], Catch::StartsWith("alpha_deg,"));
+  CHECK_THAT(angle_rows[2], Catch::StartsWith("45,"));
   for (const std::vector<std::string>& vary : {std::vector<std::string>{"d=0:1:n=2"},
                                                {"d=0:2:step=1"},
                                                {"alpha=0deg:90deg:step=45deg"},

@@ -87,14 +87,18 @@ TEST_CASE("threshold names the unit and gives a degree parameter's values in deg
   CHECK(si["unit"] == "SI");
   CHECK_FALSE(si.contains("display_unit"));
   CHECK_FALSE(si["events"][0].contains("value_deg"));
-  // An angle range without a unit beyond a full turn warns on stderr, JSON on stdout unchanged.
-  const auto radians =
+  // Bare ends of an angle the model declares in degrees are degrees (issue #34): 0.1:10 holds
+  // the over-damping threshold asin(1/sqrt(40)) = 9.0974 deg, and nothing is warned.
+  const auto bare =
       RunServokit({"threshold", ModelPath("mass_on_car.yaml"), "--vary", "alpha=0.1:10", "--event",
                    "oscillation", "--set", "d=1", "--no-closed-form"});
-  REQUIRE(radians.status == 0);
-  CHECK_THAT(radians.err, Catch::StartsWith("servokit: warning: --vary alpha=0.1:10: the values "
-                                            "of the angle 'alpha' carry no unit"));
-  CHECK(nlohmann::json::parse(radians.out)["display_unit"] == "deg");
+  REQUIRE(bare.status == 0);
+  CHECK(bare.err.empty());
+  const nlohmann::json bare_json = nlohmann::json::parse(bare.out);
+  CHECK(bare_json["display_unit"] == "deg");
+  REQUIRE(bare_json["events"].size() == 1);
+  CHECK(bare_json["events"][0]["value_deg"].get<double>() ==
+        Approx(std::asin(1.0 / std::sqrt(40.0)) * 180.0 / 3.14159265358979323846).epsilon(1e-9));
 }
 
 TEST_CASE("report MODEL shows a parameter given in degrees in degrees", "[reports]") {

@@ -358,11 +358,15 @@ TEST_CASE("the symbolic view holds the expressions the programs were compiled fr
 
 TEST_CASE("an override in degrees marks its parameter as given in degrees", "[models]") {
   const Model model = LoadModel(ModelPath("mass_on_car.yaml"), {{"d", "2 deg"}, {"alpha", "0.1"}});
-  // d is now shown in degrees; alpha stays in degrees (the file gave it so), its value SI.
+  // d is now shown in degrees; alpha stays in degrees (the file gave it so), and its bare
+  // override is read in degrees too (issue #34: degrees stay degrees), held in SI.
   CHECK(model.parameter_display_units()[3] == DisplayUnit::kDegree);
   CHECK(model.parameter_display_units()[4] == DisplayUnit::kDegree);
-  CHECK(model.parameters()[4] == 0.1);
+  CHECK(model.parameters()[4] == DegreesToRadians(0.1));
   CHECK(model.parameter_display_units()[2] == DisplayUnit::kSI);
+  // A unit named is kept: radians for an angle declared in degrees.
+  const Model radians = LoadModel(ModelPath("mass_on_car.yaml"), {{"alpha", "0.1 rad"}});
+  CHECK(radians.parameters()[4] == 0.1);
 }
 
 // A force of thousands of terms (issue #31): compiled from the canonical form servokit reads it

@@ -139,7 +139,7 @@ TEST_CASE("the description is optional but must be a string", "[models]") {
 
 TEST_CASE("a parameter value must be a number or a number of degrees", "[models]") {
   RequireError(Edit("k: 5.0", "k: abc"), "parameters.k: not a number (use e.g. 5 or \"5 deg\")");
-  RequireError(Edit("alpha: 5 deg", "alpha: 5 rad"),
+  RequireError(Edit("alpha: 5 deg", "alpha: 5 grad"),
                "parameters.alpha: not a number (use e.g. 5 or \"5 deg\")");
   RequireError(Edit("k: 5.0", "k: [5]"), "parameters.k: not a number (use e.g. 5 or \"5 deg\")");
 }

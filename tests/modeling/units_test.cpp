@@ -28,8 +28,8 @@ TEST_CASE("degrees are converted to radians with or without a blank", "[models]"
 
 TEST_CASE("garbage, empty text, NaN and infinity are rejected", "[models]") {
   for (const char* text :
-       {"", "   ", "abc", "5 rad", "deg", "5 deg deg", "5x", "1,5", "nan", "NaN", "inf", "-inf",
-        "infinity", "1e400", "nan deg", "inf deg", "0x10", "5 5"}) {
+       {"", "   ", "abc", "rad", "5 rad rad", "deg", "5 deg deg", "5x", "1,5", "nan", "NaN", "inf",
+        "-inf", "infinity", "1e400", "nan deg", "inf deg", "0x10", "5 5"}) {
     INFO("text: '" << text << "'");
     CHECK_FALSE(ParseQuantity(text).has_value());
   }
@@ -45,7 +45,9 @@ TEST_CASE("the unit a quantity was written in is kept beside its SI value", "[mo
   CHECK(ParseQuantityWithUnit("5 deg")->value == DegreesToRadians(5.0));
   CHECK(ParseQuantityWithUnit("0.1")->unit == DisplayUnit::kSI);
   CHECK(ParseQuantityWithUnit("0.1")->value == 0.1);
-  CHECK_FALSE(ParseQuantityWithUnit("5 rad").has_value());
+  CHECK(ParseQuantityWithUnit("5 rad")->value == 5.0);  // named: read as radians
+  CHECK(ParseQuantityWithUnit("5 rad")->unit_written);
+  CHECK_FALSE(ParseQuantityWithUnit("5")->unit_written);
   CHECK(ToString(DisplayUnit::kDegree) == "deg");
   CHECK(ToString(DisplayUnit::kSI) == "SI");
 }

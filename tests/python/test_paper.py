@@ -36,7 +36,10 @@ def test_over_damping_threshold_at_d_1(mass_on_car):
     # m2 sin^2(alpha) s^2 + d s + k = 0 has a double root where d^2 = 4 m2 k sin^2(alpha):
     # alpha = asin(sqrt(1/40)) = 9.0974 deg at d = 1.
     model = servokit.load(mass_on_car, d=1)
-    thresholds = model.threshold("alpha", math.radians(1), math.radians(80), event="oscillation")
+    # alpha is declared in degrees: bare numbers are degrees, texts may name their unit.
+    thresholds = model.threshold("alpha", 1, 80, event="oscillation")
+    assert model.threshold("alpha", "1 deg", f"{math.radians(80)} rad",
+                           event="oscillation") == thresholds
     assert len(thresholds) == 1
     assert thresholds[0]["value"] == pytest.approx(math.asin(math.sqrt(1 / 40)), rel=1e-9)
     # alpha is given in degrees by the model: the value in degrees too.
@@ -80,11 +83,10 @@ def test_flat_case_follows_its_closed_form(mass_on_car):
 
 def test_sweep_follows_the_closed_form(mass_on_car):
     model = servokit.load(mass_on_car, d=0)
-    alphas = np.radians([5.0, 30.0, 60.0])
-    points, eigenvalues = model.sweep({"alpha": alphas}, threads=2)
-    # The model gives alpha in degrees: the tables show it in degrees, as alpha_deg (values are
-    # SI inside; numpy's radians may round differently from servokit's "deg" by an ulp).
-    assert list(points["alpha_deg"]) == pytest.approx([5.0, 30.0, 60.0], rel=1e-15)
+    # The model gives alpha in degrees: numbers are degrees, and the tables show them so, as
+    # alpha_deg (values are SI inside).
+    points, eigenvalues = model.sweep({"alpha": [5.0, 30.0, 60.0]}, threads=2)
+    assert list(points["alpha_deg"]) == [5.0, 30.0, 60.0]
     assert list(points["stability"]) == ["critical"] * 3
     omega = np.sqrt(K / (M2 * np.sin(np.radians(np.asarray(eigenvalues["alpha_deg"]))) ** 2))
     assert np.abs(np.asarray(eigenvalues["im"])) == pytest.approx(omega, rel=1e-10)

@@ -214,8 +214,12 @@ TEST_CASE("a --vary in degrees, or of a parameter the model gives in degrees, is
   // The given degrees come back exactly, although 5 pi/180 * 180/pi need not be 5.
   CHECK(listed.DisplayValue(listed.Value(0)) == 5.0);
   CHECK(listed.DisplayValue(listed.Value(1)) == 30.0);
-  // Declared in degrees by the model: shown in degrees even when given in radians.
-  const GridAxis radians = ParseGridAxis(MassOnCarParameters(), "--vary", "alpha=0.5,1");
+  // Declared in degrees by the model: bare numbers are degrees (issue #34), radians are named.
+  const GridAxis bare = ParseGridAxis(MassOnCarParameters(), "--vary", "alpha=0.5,1");
+  CHECK(bare.display_unit == DisplayUnit::kDegree);
+  CHECK(bare.Value(0) == *ParseQuantity("0.5 deg"));
+  CHECK(bare.DisplayValue(bare.Value(1)) == 1.0);
+  const GridAxis radians = ParseGridAxis(MassOnCarParameters(), "--vary", "alpha=0.5rad,1rad");
   CHECK(radians.display_unit == DisplayUnit::kDegree);
   CHECK(radians.Value(0) == 0.5);
   CHECK(radians.DisplayValue(0.5) == Approx(0.5 * 180.0 / std::numbers::pi).epsilon(1e-15));
@@ -249,16 +253,26 @@ TEST_CASE("a bare a:b:n that MATLAB would read as start:step:end warns, saying b
 }
 
 TEST_CASE("an angle without a unit spanning more than a turn warns", "[reports]") {
-  // alpha: given in degrees by the model; 0..90 without a unit is 90 rad.
-  CHECK(WarningsOf("alpha=0:90:n=91") ==
+  // An angle the model gives in SI (here the mass on car's names without their units): 0..90
+  // without a unit is 90 rad.
+  static const std::vector<DisplayUnit> kAllSi;
+  const auto si_warnings = [](const std::string& text) {
+    std::vector<std::string> warnings;
+    ParseGridAxis(GridParameters{MassOnCar(), kAllSi}, "--vary", text, &warnings);
+    return warnings;
+  };
+  CHECK(si_warnings("alpha=0:90:n=91") ==
         std::vector<std::string>{
             "--vary alpha=0:90:n=91: the values of the angle 'alpha' carry no unit and span 90 "
             "rad, more than a full turn (2 pi); they are read as radians (SI): if you meant "
             "degrees, write them with deg (e.g. 0deg:90deg:n=91)"});
-  CHECK(WarningsOf("alpha=0,10").size() == 1);
-  CHECK(WarningsOf("alpha=0:6:n=7").empty());        // within a turn
-  CHECK(WarningsOf("alpha=0deg:90deg:91").empty());  // a unit
-  CHECK(WarningsOf("d=0:90:n=91").empty());          // not an angle
+  CHECK(si_warnings("alpha=0,10").size() == 1);
+  CHECK(si_warnings("alpha=0:6:n=7").empty());        // within a turn
+  CHECK(si_warnings("alpha=0deg:90deg:91").empty());  // a unit
+  CHECK(si_warnings("alpha=0rad:90rad:91").empty());  // named: radians meant
+  // Given in degrees by the model: bare numbers are degrees, nothing to warn (issue #34).
+  CHECK(WarningsOf("alpha=0:90:n=91").empty());
+  CHECK(WarningsOf("d=0:90:n=91").empty());  // not an angle
   CHECK(IsAngleLike("theta", DisplayUnit::kSI));
   CHECK(IsAngleLike("joint_angle", DisplayUnit::kSI));
   CHECK(IsAngleLike("q", DisplayUnit::kDegree));
