@@ -35,30 +35,48 @@ using ModelClass = py::class_<sk::Model>;
 
 // ---- errors -----------------------------------------------------------------------------------
 
-// servokit.Error and one subclass per kind, with the command line's one-line message.
+// A new exception class servokit.<name> with `bases` (a tuple), added to the module. The
+// reference is kept for the life of the process: the translator raises it at any time.
+PyObject* NewException(py::module_& module, const char* name, const py::tuple& bases) {
+  const std::string qualified = "servokit." + std::string(name);
+  PyObject* type = PyErr_NewException(qualified.c_str(), bases.ptr(), nullptr);
+  if (type == nullptr) throw py::error_already_set();
+  module.add_object(name, py::reinterpret_borrow<py::object>(type));
+  return type;
+}
+
+// servokit.Error and one subclass per kind, with the command line's one-line message. Each is
+// also the Python exception it means (issue #34), so that `except ValueError` catches a bad
+// argument or model file and `except RuntimeError` a problem without a solution.
 void BindErrors(py::module_& module) {
-  static py::exception<servokit::Error> error(module, "Error");
-  static py::exception<servokit::UsageError> usage_error(module, "UsageError", error.ptr());
-  static py::exception<servokit::ModelError> model_error(module, "ModelError", error.ptr());
-  static py::exception<servokit::NoSolution> no_solution(module, "NoSolution", error.ptr());
+  const py::handle exception(PyExc_Exception), value_error(PyExc_ValueError),
+      runtime_error(PyExc_RuntimeError);
+  static PyObject* const error = NewException(module, "Error", py::make_tuple(exception));
+  static PyObject* const usage_error =
+      NewException(module, "UsageError", py::make_tuple(py::handle(error), value_error));
+  static PyObject* const model_error =
+      NewException(module, "ModelError", py::make_tuple(py::handle(error), value_error));
+  static PyObject* const no_solution =
+      NewException(module, "NoSolution", py::make_tuple(py::handle(error), runtime_error));
   py::register_exception_translator([](std::exception_ptr pointer) {
     try {
       if (pointer) std::rethrow_exception(pointer);
     } catch (const servokit::Error& caught) {
+      PyObject* type = error;
       switch (caught.kind()) {
         case servokit::ErrorKind::kUsage:
-          usage_error(caught.what());
-          return;
+          type = usage_error;
+          break;
         case servokit::ErrorKind::kModel:
-          model_error(caught.what());
-          return;
+          type = model_error;
+          break;
         case servokit::ErrorKind::kNoSolution:
-          no_solution(caught.what());
-          return;
+          type = no_solution;
+          break;
         case servokit::ErrorKind::kOther:
-          error(caught.what());
-          return;
+          break;
       }
+      PyErr_SetString(type, caught.what());
     }
   });
 }

@@ -10,6 +10,7 @@ import pytest
 import servokit
 
 DATA = pathlib.Path(__file__).parents[1] / "data"
+MODELS = pathlib.Path(__file__).parents[2] / "models"
 
 
 def command_line_message(binary, *arguments):
@@ -24,6 +25,18 @@ def test_the_classes_form_a_hierarchy():
     for kind in (servokit.UsageError, servokit.ModelError, servokit.NoSolution):
         assert issubclass(kind, servokit.Error)
     assert issubclass(servokit.Error, Exception)
+    # Each is also the Python exception it means (issue #34): a bad argument or model file is a
+    # ValueError, a problem without a solution a RuntimeError.
+    assert issubclass(servokit.UsageError, ValueError)
+    assert issubclass(servokit.ModelError, ValueError)
+    assert issubclass(servokit.NoSolution, RuntimeError)
+
+
+def test_python_code_catches_them_by_their_python_meaning():
+    with pytest.raises(ValueError, match="unknown parameter 'nosuch'"):
+        servokit.load(MODELS / "mass_on_car.yaml", nosuch=1)
+    with pytest.raises(RuntimeError, match="no equilibrium found"):
+        servokit.load(DATA / "tora.yaml").analyze(y0=[0.01])
 
 
 def test_a_bad_model_file_is_a_model_error_with_the_command_line_message(servokit_binary):
