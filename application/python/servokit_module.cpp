@@ -391,6 +391,28 @@ void BindSolve(ModelClass& model_class) {
 
 // ---- models -----------------------------------------------------------------------------------
 
+// The model's parameter values as overrides that give them back exactly: the shortest text of
+// each SI value, named "rad" for a parameter declared in degrees (a bare number would be read
+// in degrees there).
+sk::ParameterValues ExactParameters(const sk::Model& model) {
+  sk::ParameterValues values;
+  const std::vector<std::string> units = model.parameter_display_units();
+  for (std::size_t i = 0; i < model.parameter_names().size(); ++i) {
+    const std::string number = sk::FormatNumber(model.parameters()(Eigen::Index(i)));
+    values.emplace_back(model.parameter_names()[i], units[i] == "deg" ? number + " rad" : number);
+  }
+  return values;
+}
+
+// The file a model can be loaded from again (with_parameters, pickling); a model made from
+// YAML text has none.
+const std::string& ReloadableSource(const sk::Model& model, const std::string& what) {
+  if (model.source() == "<string>") {
+    throw servokit::UsageError(what + " needs a model loaded from a file (this one is from text)");
+  }
+  return model.source();
+}
+
 void BindModel(py::module_& module) {
   ModelClass model_class(module, "Model", "A loaded model file (servokit.load).");
   model_class.def_property_readonly("name", &sk::Model::name)
@@ -403,9 +425,22 @@ void BindModel(py::module_& module) {
             for (std::size_t i = 0; i < model.parameter_names().size(); ++i) {
               parameters[py::str(model.parameter_names()[i])] = model.parameters()(Eigen::Index(i));
             }
-            return parameters;
+            // Read-only: an assignment would change nothing (with_parameters makes a new model).
+            return py::module_::import("types").attr("MappingProxyType")(parameters);
           },
-          "Parameter values in SI units, after overrides.")
+          "Parameter values in SI units, after overrides (read-only; see with_parameters).")
+      .def(
+          "with_parameters",
+          [](const sk::Model& model, const py::kwargs& parameters) {
+            sk::ParameterValues overrides = ExactParameters(model);
+            for (auto& value : ToParameterValues(parameters)) overrides.push_back(std::move(value));
+            const std::string& source = ReloadableSource(model, "with_parameters");
+            py::gil_scoped_release release;
+            return sk::Model::FromFile(source, overrides);
+          },
+          "A new model: this one's file and parameter values with the keyword arguments "
+          "replacing some (numbers in the unit each parameter is declared in, or texts such as "
+          "'5 deg').")
       .def_property_readonly("coordinates", &sk::Model::coordinate_names)
       .def_property_readonly("inputs", &sk::Model::input_names)
       .def_property_readonly("outputs", &sk::Model::output_names)
@@ -419,6 +454,22 @@ void BindModel(py::module_& module) {
   model_class.def("__repr__", [](const sk::Model& model) {
     return "<servokit.Model " + model.name() + " from " + model.source() + ">";
   });
+  // Pickled as its file and exact parameter values, so that multiprocessing, joblib and Dask can
+  // send a model to their workers, which load it again.
+  model_class.def(py::pickle(
+      [](const sk::Model& model) {
+        py::dict parameters;
+        for (const auto& [name, text] : ExactParameters(model)) parameters[py::str(name)] = text;
+        return py::make_tuple(ReloadableSource(model, "pickling"), parameters);
+      },
+      [](const py::tuple& state) {
+        if (state.size() != 2) throw servokit::UsageError("a pickled servokit.Model is (file, {})");
+        sk::ParameterValues overrides;
+        for (const auto& [name, text] : state[1].cast<py::dict>()) {
+          overrides.emplace_back(name.cast<std::string>(), text.cast<std::string>());
+        }
+        return sk::Model::FromFile(state[0].cast<std::string>(), overrides);
+      }));
 }
 
 void BindLoad(py::module_& module) {
@@ -436,8 +487,9 @@ void BindLoad(py::module_& module) {
       },
       py::arg("source"),
       "Loads a model: a file path, or YAML text (a string with a newline or starting with "
-      "'name:'). Keyword arguments replace parameter values: numbers in SI units or strings "
-      "such as '5 deg'.");
+      "'name:'). Keyword arguments replace parameter values: numbers in the unit each parameter "
+      "is declared in (degrees for one the file gives in degrees) or strings such as '5 deg' "
+      "and '0.5 rad'.");
 }
 
 // ---- large linear models ----------------------------------------------------------------------

@@ -1,0 +1,51 @@
+"""The Model object as Python code uses it (issue #34): read-only parameters, new models by
+with_parameters, and pickling, so that multiprocessing, joblib and Dask can fan work out to
+processes that load the model again."""
+import concurrent.futures
+import multiprocessing
+import pickle
+
+import pytest
+
+import servokit
+
+
+def undamped_frequency(model):
+    """|Im| of the mass on car's zero pair: m2 sin^2(alpha) s^2 + d s + k = 0 (Eq. 36)."""
+    return max(abs(value.imag) for value in model.analyze().zero_dynamics.eigenvalues)
+
+
+def test_parameters_are_read_only(mass_on_car):
+    model = servokit.load(mass_on_car)
+    with pytest.raises(TypeError):
+        model.parameters["d"] = 1  # an assignment would have changed nothing
+    assert model.parameters["k"] == 5.0
+
+
+def test_with_parameters_makes_a_new_model_with_the_others_kept(mass_on_car):
+    model = servokit.load(mass_on_car, alpha=30, d=0)
+    stiffer = model.with_parameters(k=7)
+    assert stiffer.parameters["k"] == 7.0
+    assert stiffer.parameters["alpha"] == model.parameters["alpha"]  # 30 deg, exactly
+    assert model.parameters["k"] == 5.0  # the first model is unchanged
+    # d = 0: s = +-i sqrt(k / (m2 sin^2 alpha)), m2 = 2, sin 30 deg = 1/2.
+    assert undamped_frequency(stiffer) == pytest.approx((7 / 0.5) ** 0.5, rel=1e-12)
+
+
+def test_a_model_pickles_as_its_file_and_parameters(mass_on_car):
+    model = servokit.load(mass_on_car, alpha="45 deg", k=3)
+    copy = pickle.loads(pickle.dumps(model))
+    assert dict(copy.parameters) == dict(model.parameters)
+    assert copy.source == model.source
+    text = servokit.load("name: x\nparameters: {}\ncoordinates: [x]\ninputs: [F]\n"
+                         "mass_matrix: [[1]]\nforces: [x]\ninput_matrix: [[1]]\noutputs: [x]\n")
+    with pytest.raises(servokit.UsageError, match="needs a model loaded from a file"):
+        pickle.dumps(text)
+
+
+def test_processes_analyze_pickled_models(mass_on_car):
+    models = [servokit.load(mass_on_car, alpha=alpha, d=0) for alpha in (10, 30, 60)]
+    context = multiprocessing.get_context("spawn")  # a fresh interpreter loads each model
+    with concurrent.futures.ProcessPoolExecutor(max_workers=2, mp_context=context) as pool:
+        frequencies = list(pool.map(undamped_frequency, models))
+    assert frequencies == [undamped_frequency(model) for model in models]
