@@ -388,7 +388,9 @@ void BindSolution(py::module_& module) {
           [](const Solution& solution) { return solution.feedforward.summary.warnings; })
       .def_property_readonly("notes",
                              [](const Solution& solution) { return solution.feedforward.notes; })
-      .def_property_readonly("t", [](const Solution& solution) { return solution.feedforward.t; })
+      .def_property_readonly(
+          "t", [](const Solution& solution) { return DoubleArray(solution.feedforward.t); },
+          "the times, a numpy array")
       .def_property_readonly("q", [](const Solution& solution) { return solution.feedforward.q; })
       .def_property_readonly("q_dot",
                              [](const Solution& solution) { return solution.feedforward.q_dot; })

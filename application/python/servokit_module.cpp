@@ -159,16 +159,18 @@ std::vector<sk::SweepAxis> ToSweepAxes(const sk::Model& model, const py::dict& g
   return axes;
 }
 
-py::tuple SweepModel(const sk::Model& model,
-                     const py::dict& grid,
-                     int threads,
-                     double rank_tolerance,
-                     double imaginary_axis_tolerance,
-                     const std::string& table) {
+py::object SweepModel(const sk::Model& model,
+                      const py::dict& grid,
+                      int threads,
+                      double rank_tolerance,
+                      double imaginary_axis_tolerance,
+                      const std::string& table,
+                      const py::object& y0,
+                      const py::object& q0,
+                      const py::object& out) {
   const std::vector<sk::SweepAxis> axes = ToSweepAxes(model, grid);
   sk::SweepOptions options;
-  options.analysis =
-      ToAnalyzeOptions(py::none(), py::none(), rank_tolerance, imaginary_axis_tolerance);
+  options.analysis = ToAnalyzeOptions(y0, q0, rank_tolerance, imaginary_axis_tolerance);
   options.threads = threads;
   // Ctrl-C: Python only notes the signal while the GIL is released; after each block the sweep
   // asks, and stops there, and the KeyboardInterrupt is raised here.
@@ -178,6 +180,17 @@ py::tuple SweepModel(const sk::Model& model,
     interrupted = PyErr_CheckSignals() != 0;
     return interrupted;
   };
+  if (!out.is_none()) {
+    // The files of `servokit sweep --out` (points.csv, eigenvalues.csv, sweep.json).
+    const std::string directory = ToPath(out);
+    std::size_t written = 0;
+    {
+      py::gil_scoped_release release;
+      written = sk::SweepToFiles(model, axes, directory, options);
+    }
+    if (interrupted) throw py::error_already_set();
+    return py::int_(written);
+  }
   UsePandas(table);  // a bad `table` before the work
   std::vector<sk::SweepPoint> points;
   {
@@ -193,7 +206,8 @@ void BindSweep(ModelClass& model_class) {
   model_class.def("sweep", &SweepModel, py::arg("grid"), py::kw_only(), py::arg("threads") = 0,
                   py::arg("rank_tolerance") = defaults.rank_tolerance,
                   py::arg("imaginary_axis_tolerance") = defaults.imaginary_axis_tolerance,
-                  py::arg("table") = "auto",
+                  py::arg("table") = "auto", py::arg("y0") = py::none(), py::arg("q0") = py::none(),
+                  py::arg("out") = py::none(),
                   "Classifies every point of the full grid {parameter: values (SI) or a text of "
                   "`servokit sweep --vary` such as '0deg:90deg:91'}, the first parameter varying "
                   "slowest, on `threads` threads (0: all cores, or OMP_NUM_THREADS; "
@@ -201,7 +215,10 @@ void BindSweep(ModelClass& model_class) {
                   "`servokit sweep` writes as points.csv and eigenvalues.csv, as pandas DataFrames "
                   "(table='auto' when "
                   "pandas is importable, or 'pandas') or numpy structured arrays (table='numpy'; a "
-                  "missing integer is -1 there).");
+                  "missing integer is -1 there). y0 and q0 set every point's operating point (as "
+                  "analyze's); with out=DIR the tables are written there as points.csv and "
+                  "eigenvalues.csv, as `servokit sweep --out DIR` writes them, and the number of "
+                  "points is returned.");
 }
 
 // An end of a threshold range: a number in the unit the model declares the parameter in, or a

@@ -49,3 +49,20 @@ def test_processes_analyze_pickled_models(mass_on_car):
     with concurrent.futures.ProcessPoolExecutor(max_workers=2, mp_context=context) as pool:
         frequencies = list(pool.map(undamped_frequency, models))
     assert frequencies == [undamped_frequency(model) for model in models]
+
+
+def test_sweep_takes_the_operating_point_and_writes_the_command_line_files(tmp_path,
+                                                                         servokit_binary):
+    import pathlib
+    import subprocess
+    model = servokit.load(pathlib.Path(__file__).parents[1] / "data" / "ball_and_beam.yaml")
+    points, _ = model.sweep({"M": [0.05, 0.1]}, y0=[0.3])
+    # Each point as analyze classifies it at the same operating point.
+    for mass, relative_degree in zip(points["M"], points["relative_degree"]):
+        analysis = model.with_parameters(M=float(mass)).analyze(y0=[0.3])
+        assert list(analysis.relative_degree) == [relative_degree]
+    assert model.sweep({"M": [0.05, 0.1]}, y0=[0.3], out=tmp_path / "python") == 2
+    subprocess.run([servokit_binary, "sweep", model.source, "--vary", "M=0.05,0.1", "--y0", "0.3",
+                    "--out", str(tmp_path / "cli")], check=True, capture_output=True)
+    for table in ("points.csv", "eigenvalues.csv"):
+        assert (tmp_path / "python" / table).read_bytes() == (tmp_path / "cli" / table).read_bytes()
