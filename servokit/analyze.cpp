@@ -137,6 +137,28 @@ AnalysisOptions ToAnalysisOptions(const Model& model, const AnalyzeOptions& opti
   return analysis;
 }
 
+StateSpaceModel LinearizeAt(const Model& model, const AnalyzeOptions& options) {
+  const servokit::Model& multibody = MultibodyModel(model, "LinearizeAt");
+  Workspace workspace(multibody);
+  const Classification classification =
+      Classify(multibody, workspace, ToClassificationOptions(options));
+  const Linearization& linear = classification.linearization;
+  const Eigen::Index dof = linear.dof(), inputs = linear.num_inputs();
+  const Eigen::Index outputs = linear.output_jacobian.rows();
+  StateSpaceModel state_space;
+  state_space.A = Eigen::MatrixXd::Zero(2 * dof, 2 * dof);
+  state_space.A.topRightCorner(dof, dof).setIdentity();
+  state_space.A.bottomLeftCorner(dof, dof) = -linear.stiffness_rate;
+  state_space.A.bottomRightCorner(dof, dof) = -linear.damping_rate;
+  state_space.B = Eigen::MatrixXd::Zero(2 * dof, inputs);
+  state_space.B.bottomRows(dof) = linear.input_acceleration;
+  state_space.C = Eigen::MatrixXd::Zero(outputs, 2 * dof);
+  state_space.C.leftCols(dof) = linear.output_jacobian;
+  state_space.D = Eigen::MatrixXd::Zero(outputs, inputs);
+  state_space.tangent_basis = linear.tangent_basis;
+  return state_space;
+}
+
 Analysis Analyze(const Model& model, const AnalyzeOptions& options) {
   const LoadedModel& loaded = ToolkitModel(model);
   const AnalysisOptions analysis_options = ToAnalysisOptions(model, options);

@@ -148,6 +148,15 @@ class Model {
 
 // ---- analysis -------------------------------------------------------------------------------
 
+/// The linearization at the operating point as a state-space model x' = A x + B u, y = C x + D u
+/// with x = (dq, dq'), in SI units and unscaled: A = [0 I; -M^-1 K -M^-1 D], B = [0; M^-1 B],
+/// C = [H 0], D = 0 (what python-control's ss() and MATLAB's ss() take). For a closed chain dq is
+/// in the coordinates of the loops' tangent space, dq = tangent_basis dz.
+struct StateSpaceModel {
+  Eigen::MatrixXd A, B, C, D;
+  Eigen::MatrixXd tangent_basis;  // a closed chain's T (dof x dof - constraints); else empty
+};
+
 struct AnalyzeOptions;
 struct ChainModel;
 struct BeamModel;
@@ -201,6 +210,11 @@ struct ZeroDynamics {
   // through the operating point, an undetermined side); else empty.
   std::string stability_note;
 };
+
+/// The linearization of a multibody model at its operating point (AnalyzeOptions: y0, q_guess
+/// and the tolerances), as StateSpaceModel. Throws as Analyze; UsageError for a linear model
+/// (whose matrices are its file's).
+StateSpaceModel LinearizeAt(const Model& model, const AnalyzeOptions& options);
 
 /// The classification of a servo-constraint problem at its operating point (docs/analyze.md,
 /// the keys of `analyze --format json`), and the three reports `servokit analyze` prints.

@@ -98,6 +98,24 @@ sk::AnalyzeOptions ToAnalyzeOptions(const py::object& y0,
 void BindAnalyze(ModelClass& model_class) {
   const sk::AnalyzeOptions defaults;
   model_class.def(
+      "linearization",
+      [](const sk::Model& model, const py::object& y0, const py::object& q0) {
+        const sk::AnalyzeOptions options =
+            ToAnalyzeOptions(y0, q0, sk::AnalyzeOptions{}.rank_tolerance,
+                             sk::AnalyzeOptions{}.imaginary_axis_tolerance);
+        sk::StateSpaceModel state_space;
+        {
+          py::gil_scoped_release release;
+          state_space = sk::LinearizeAt(model, options);
+        }
+        return py::make_tuple(state_space.A, state_space.B, state_space.C, state_space.D);
+      },
+      py::kw_only(), py::arg("y0") = py::none(), py::arg("q0") = py::none(),
+      "The linearization at the operating point (y0, q0 as analyze's) as (A, B, C, D), numpy "
+      "arrays of x' = A x + B u, y = C x + D u with x = (dq, dq'), SI and unscaled: what "
+      "python-control's ss(A, B, C, D) and MATLAB's ss take. A closed chain's dq is in its "
+      "loops' tangent coordinates.");
+  model_class.def(
       "analyze",
       [](const sk::Model& model, const py::object& y0, const py::object& q0, double rank_tolerance,
          double imaginary_axis_tolerance, bool nonlinear_structure, const std::string& eigen_solver,

@@ -66,3 +66,30 @@ def test_sweep_takes_the_operating_point_and_writes_the_command_line_files(tmp_p
                     "--out", str(tmp_path / "cli")], check=True, capture_output=True)
     for table in ("points.csv", "eigenvalues.csv"):
         assert (tmp_path / "python" / table).read_bytes() == (tmp_path / "cli" / table).read_bytes()
+
+
+def test_linearization_is_the_state_space_of_eqs_26_27(mass_on_car):
+    """(A, B, C, D) of the mass on car at rest, against its matrices written out (Eqs. 26-27):
+    M = [[m1 + m2, m2 c], [m2 c, m2]], K = diag(0, k), D = diag(0, d), B = [1, 0], H = [1, c]."""
+    import numpy as np
+    model = servokit.load(mass_on_car, alpha=30)
+    m1, m2, k, d, c = 1.0, 2.0, 5.0, 1.0, np.cos(np.radians(30))
+    mass = np.array([[m1 + m2, m2 * c], [m2 * c, m2]])
+    inverse = np.linalg.inv(mass)
+    A, B, C, D = model.linearization()
+    expected_a = np.block([[np.zeros((2, 2)), np.eye(2)],
+                           [-inverse @ np.diag([0.0, k]), -inverse @ np.diag([0.0, d])]])
+    assert A == pytest.approx(expected_a, abs=1e-14)
+    assert B.ravel() == pytest.approx(np.concatenate([[0, 0], inverse @ [1.0, 0.0]]), abs=1e-14)
+    assert C.ravel() == pytest.approx([1.0, c, 0.0, 0.0], abs=1e-15)
+    assert D.shape == (1, 1) and D[0, 0] == 0.0
+    # Its invariant zeros are the zero dynamics analyze reports: the finite eigenvalues of the
+    # Rosenbrock pencil [[A, B], [C, D]] - s [[I, 0], [0, 0]].
+    pencil = np.block([[A, B], [C, D]])
+    identity = np.zeros_like(pencil)
+    identity[:4, :4] = np.eye(4)
+    import scipy.linalg
+    zeros = scipy.linalg.eigvals(pencil, identity)
+    zeros = np.sort_complex(zeros[np.isfinite(zeros)])
+    assert zeros == pytest.approx(np.sort_complex(model.analyze().zero_dynamics.eigenvalues),
+                                  rel=1e-10)
