@@ -434,7 +434,7 @@ Command AddSolveCommand(CLI::App& app) {
       "The CSV has the columns t, each coordinate, each <coordinate>_dot, each input, y1_d, ...;\n"
       "--format mat (the default for an --out ending in .mat) writes them as MAT v5 column\n"
       "vectors of those names plus a struct `solve` of the summary (MATLAB: load u.mat;\n"
-      "plot(t, F)); --format modelica writes t and the inputs as the CombiTimeTable u_d.\n"
+      "plot(t, F)); --format modelica writes the CombiTimeTable tables u_d, q_d and y_d.\n"
       "The endings belong to their formats: mat needs .mat, csv and modelica refuse .mat,\n"
       "modelica refuses .csv (use .txt); a contradiction is an error (status 2).\n"
       "stdout gets one JSON object (method, classification, steps, max_servo_residual, and\n"
@@ -507,8 +507,8 @@ Command AddSolveCommand(CLI::App& app) {
       ->required();
   solve->add_option("--format", arguments->format,
                     "csv (default), mat (MAT v5 for MATLAB and scipy; the default for an --out "
-                    "ending in .mat) or modelica (CombiTimeTable text of t and the inputs, "
-                    "table u_d)");
+                    "ending in .mat) or modelica (CombiTimeTable text: tables u_d, q_d with "
+                    "q_dot, and y_d)");
   solve->add_option("--plot", arguments->plot,
                     "Directory (made if missing) for figures of u_d, q_d, dq_d/dt and y against "
                     "y_d (y: the forward simulation's with --verify, else h(q_d)), with the "

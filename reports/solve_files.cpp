@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <set>
 #include <utility>
 
@@ -30,6 +32,8 @@ nlohmann::ordered_json NumberOrNull(double value) {
 // CSV, MAT or a Modelica table").
 constexpr const char* kMatSummaryName = "solve";
 constexpr const char* kModelicaTableName = "u_d";
+// Significant digits of a Modelica table's time on a sample grid (TableTime).
+constexpr int kGridTimeDigits = 15;
 
 // The JSON summary's members left out of the MAT file: the analyze object, whose keys include
 // the model's parameter names (not always MATLAB names; `servokit analyze` gives it), and the
@@ -129,7 +133,7 @@ void WriteFeedforwardFile(const std::string& path,
       WriteFeedforwardMat(path, model, trajectory, solution, summary);
       return;
     case SolveFileFormat::kModelica:
-      WriteFeedforwardModelica(path, model, solution, summary);
+      WriteFeedforwardModelica(path, model, trajectory, solution, summary);
       return;
   }
 }
@@ -183,8 +187,37 @@ void WriteFeedforwardMat(const std::string& path,
   file->Commit();
 }
 
+namespace {
+
+// A time of a Modelica table: on a sample grid, to 15 significant digits, which drops the
+// round-off of t_start + k dt (-2.0200000000000005 is -2.02); else exact, as the CSV's.
+std::string TableTime(double t, const std::optional<double>& sample_time) {
+  if (sample_time) return FormatSignificant(t, kGridTimeDigits);
+  std::string text;
+  AppendExact(text, t);
+  return text;
+}
+
+// One CombiTimeTable matrix: "double NAME(rows, 1 + columns)" and a row "t v1 ..." per time.
+void WriteModelicaTable(std::ostream& file,
+                        const std::string& name,
+                        const FeedforwardSolution& solution,
+                        Eigen::Index columns,
+                        const std::function<void(std::size_t, std::string&)>& append_row) {
+  file << "double " << name << "(" << solution.times.size() << ", " << columns + 1 << ")\n";
+  std::string line;
+  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+    line = TableTime(solution.times[i], solution.sample_time);
+    append_row(i, line);
+    file << line << '\n';
+  }
+}
+
+}  // namespace
+
 void WriteFeedforwardModelica(const std::string& path,
                               const Model& model,
+                              const OutputTrajectory& trajectory,
                               const FeedforwardSolution& solution,
                               const nlohmann::ordered_json& summary) {
   const std::size_t rows = solution.times.size();
@@ -204,29 +237,53 @@ void WriteFeedforwardModelica(const std::string& path,
     }
   }
   const std::vector<std::string>& inputs = model.inputs();
+  const std::vector<std::string>& coordinates = model.coordinates();
+  const std::vector<std::string> outputs = model.output_names();
+  const auto dof = Eigen::Index(model.dof());
+  const auto append = [](std::string& line, const auto& values) {
+    for (Eigen::Index k = 0; k < values.size(); ++k) {
+      line += ' ';
+      AppendExact(line, values(k));
+    }
+  };
   WriteAndRename(path, [&](std::ostream& file) {
     file << "#1\n"
          << "# servokit solve: the feedforward u_d(t) of the model " << PlainText(model.name())
          << " (" << summary.at("method").get<std::string>() << ", "
-         << summary.at("status").get<std::string>() << ")\n"
+         << summary.at("status").get<std::string>() << "), with the motion q_d and the output "
+         << "y_d\n"
          << "# for Modelica.Blocks.Sources.CombiTimeTable(tableOnFile = true, tableName = \""
          << kModelicaTableName << "\", columns = 2:" << inputs.size() + 1 << ")\n"
-         << "# column 1: t [s]\n";
+         << "# the tables start at t = " << TableTime(solution.times.front(), solution.sample_time)
+         << " s"
+         << (solution.times.front() < 0.0 ? " (before 0: stable inversion's pre-actuation; "
+                                            "start the simulation there or shift the table)"
+                                          : "")
+         << "; every value in the model's SI units\n"
+         << "# table u_d: column 1 t [s]";
     for (std::size_t k = 0; k < inputs.size(); ++k) {
-      file << "# column " << k + 2 << ": " << inputs[k] << " (input " << k + 1
-           << ", in the model's SI unit)\n";
+      file << ", " << k + 2 << " " << PlainText(inputs[k]);
     }
-    file << "double " << kModelicaTableName << "(" << rows << ", " << inputs.size() + 1 << ")\n";
-    std::string line;
-    for (std::size_t i = 0; i < rows; ++i) {
-      line.clear();
-      AppendExact(line, solution.times[i]);
-      for (Eigen::Index k = 0; k < solution.u[i].size(); ++k) {
-        line += ' ';
-        AppendExact(line, solution.u[i](k));
-      }
-      file << line << '\n';
+    file << "\n# table q_d: column 1 t [s]";
+    for (Eigen::Index k = 0; k < dof; ++k) {
+      file << ", " << k + 2 << " " << PlainText(coordinates[std::size_t(k)]);
     }
+    for (Eigen::Index k = 0; k < dof; ++k) {
+      file << ", " << dof + k + 2 << " " << PlainText(coordinates[std::size_t(k)]) << "_dot";
+    }
+    file << " (the initial state: its first row)\n# table y_d: column 1 t [s]";
+    for (std::size_t k = 0; k < outputs.size(); ++k) file << ", " << k + 2 << " " << outputs[k];
+    file << "\n";
+    WriteModelicaTable(file, kModelicaTableName, solution, Eigen::Index(inputs.size()),
+                       [&](std::size_t i, std::string& line) { append(line, solution.u[i]); });
+    WriteModelicaTable(file, "q_d", solution, 2 * dof, [&](std::size_t i, std::string& line) {
+      append(line, solution.q[i]);
+      append(line, solution.q_dot[i]);
+    });
+    WriteModelicaTable(file, "y_d", solution, Eigen::Index(outputs.size()),
+                       [&](std::size_t i, std::string& line) {
+                         append(line, trajectory.Derivative(solution.times[i], 0));
+                       });
   });
 }
 

@@ -63,14 +63,17 @@ void WriteFeedforwardMat(const std::string& path,
                          const FeedforwardSolution& solution,
                          const nlohmann::ordered_json& summary);
 
-/// Writes the table `u_d` for Modelica.Blocks.Sources.CombiTimeTable (text format "#1"): a
-/// comment header naming the model, the method and status of `summary` (the JSON object
-/// `servokit solve` prints) and the columns with their units, then
-/// `double u_d(N, 1 + inputs)` and one row `t u1 ... um` per sample, numbers exact (shortest
-/// round-trip form). The times are the CSV's, which increase strictly. Written to FILE.partial
-/// and renamed. Throws Error when the file cannot be written or a number is not finite.
+/// Writes the tables for Modelica.Blocks.Sources.CombiTimeTable (text format "#1"): a comment
+/// header naming the model, the method and status of `summary` (the JSON object `servokit
+/// solve` prints), where the tables start (before 0 for stable inversion) and the columns, then
+/// `double u_d(N, 1 + inputs)` (t u1 ... um), `double q_d(N, 1 + 2 dof)` (t q q_dot: its first
+/// row the initial state) and `double y_d(N, 1 + outputs)`, one row per sample, values exact
+/// (shortest round-trip form). The times are the CSV's, which increase strictly, written on a
+/// sample grid to 15 significant digits (-2.02, not -2.0200000000000005). Written to
+/// FILE.partial and renamed. Throws Error when the file cannot be written or u_d is not finite.
 void WriteFeedforwardModelica(const std::string& path,
                               const Model& model,
+                              const OutputTrajectory& trajectory,
                               const FeedforwardSolution& solution,
                               const nlohmann::ordered_json& summary);
 

@@ -110,20 +110,28 @@ def test_mat_file_of_a_stable_inversion_gives_the_actuation_times(servokit_binar
     assert facts["pre_actuation_start"][0, 0] < 0  # non-causal: u_d starts before the motion
 
 
-def read_modelica_table(path):
-    """CombiTimeTable's text format: "#1", comment lines (#), `double NAME(ROWS, COLUMNS)`,
-    then the rows, numbers separated by blanks."""
+def read_modelica_tables(path):
+    """CombiTimeTable's text format (Modelica.Blocks.Sources.CombiTimeTable, "#1"): the first
+    line "#1", comment lines starting with #, then matrices, each `double NAME(ROWS, COLUMNS)`
+    followed by ROWS lines of COLUMNS numbers separated by blanks. Returns the comments and
+    {name: rows}, checking each matrix's declared size."""
     lines = pathlib.Path(path).read_text().splitlines()
     assert lines[0] == "#1"
-    k = 1
-    while lines[k].startswith("#"):
-        k += 1
-    declaration = lines[k]
-    assert declaration.startswith("double ") and declaration.endswith(")")
-    name, dimensions = declaration[len("double "):-1].split("(")
-    rows, columns = (int(text) for text in dimensions.split(","))
-    table = [[float(text) for text in line.split()] for line in lines[k + 1:]]
-    return name, (rows, columns), table, lines[1:k]
+    comments, tables, k = [], {}, 1
+    while k < len(lines):
+        line = lines[k]
+        if line.startswith("#"):
+            comments.append(line)
+            k += 1
+            continue
+        assert line.startswith("double ") and line.endswith(")"), line
+        name, dimensions = line[len("double "):-1].split("(")
+        rows, columns = (int(text) for text in dimensions.split(","))
+        table = [[float(text) for text in row.split()] for row in lines[k + 1:k + 1 + rows]]
+        assert len(table) == rows and all(len(row) == columns for row in table)
+        tables[name] = table
+        k += 1 + rows
+    return comments, tables
 
 
 def test_modelica_table_holds_t_and_the_inputs_of_the_csv(servokit_binary, mass_on_car,
@@ -131,18 +139,22 @@ def test_modelica_table_holds_t_and_the_inputs_of_the_csv(servokit_binary, mass_
     solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.csv")
     solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.txt", "--format", "modelica")
     header, rows = read_csv(tmp_path / "u.csv")
-    name, dimensions, table, comments = read_modelica_table(tmp_path / "u.txt")
-    assert name == "u_d"
-    inputs = ["F"]  # models/mass_on_car.yaml
-    assert dimensions == (len(rows), 1 + len(inputs)) == (1001, 2)
-    assert len(table) == dimensions[0]
-    assert all(len(row) == dimensions[1] for row in table)
-    for j, column in enumerate(["t"] + inputs):
-        assert [float(row[header.index(column)]) for row in rows] == [row[j] for row in table]
-    times = [row[0] for row in table]
-    assert all(later > earlier for earlier, later in zip(times, times[1:]))
-    assert times[0] == 0 and times[-1] == 10
-    assert any("column 2: F" in comment for comment in comments)
+    comments, tables = read_modelica_tables(tmp_path / "u.txt")
+    assert list(tables) == ["u_d", "q_d", "y_d"]
+    # models/mass_on_car.yaml: input F, coordinates x and s, output y1; the CSV's columns.
+    for name, columns in [("u_d", ["F"]), ("q_d", ["x", "s", "x_dot", "s_dot"]),
+                          ("y_d", ["y1_d"])]:
+        table = tables[name]
+        assert len(table) == len(rows) == 1001
+        for j, column in enumerate(columns, start=1):
+            assert [float(row[header.index(column)]) for row in rows] == [row[j] for row in table]
+        # Times on the 0.01 s grid, written as the grid's decimals (0.07, not 0.07000000000000001),
+        # within round-off of the CSV's exact ones.
+        times = [row[0] for row in table]
+        assert times == [k / 100 for k in range(1001)]
+        assert times == pytest.approx([float(row[0]) for row in rows], rel=1e-15, abs=1e-15)
+    assert any("table u_d: column 1 t [s], 2 F" in comment for comment in comments)
+    assert any("3 s, 4 x_dot" in comment for comment in comments)
     first = (tmp_path / "u.txt").read_bytes()
     solve(servokit_binary, mass_on_car, CASE_2, tmp_path / "u.txt", "--format", "modelica")
     assert (tmp_path / "u.txt").read_bytes() == first
