@@ -305,6 +305,9 @@ struct SweepOptions {
   // stops the sweep there, so that a caller can honour an interrupt (Ctrl-C) within a block.
   // Sweep then returns the points done so far and SweepToFiles writes them. Empty: never stops.
   std::function<bool()> stop_requested;
+  // Called on the calling thread after each block with the points done and the grid's total,
+  // for a progress bar (Sweep and SweepToFiles). Empty: not called.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 /// One point of a sweep: the class columns of `servokit sweep`'s points.csv.

@@ -77,6 +77,7 @@ void RunModelSweep(
   RunSweep(ToolkitModel(model), grid, ToSweepOptions(model, options), 0,
            [&](std::size_t first, std::span<const servokit::SweepPoint> block) {
              consume(first, block);
+             if (options.progress) options.progress(first + block.size(), grid.num_points());
              return !(options.stop_requested && options.stop_requested());
            });
 }

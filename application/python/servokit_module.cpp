@@ -185,7 +185,8 @@ py::object SweepModel(const sk::Model& model,
                       const std::string& table,
                       const py::object& y0,
                       const py::object& q0,
-                      const py::object& out) {
+                      const py::object& out,
+                      const py::object& progress) {
   const std::vector<sk::SweepAxis> axes = ToSweepAxes(model, grid);
   sk::SweepOptions options;
   options.analysis = ToAnalyzeOptions(y0, q0, rank_tolerance, imaginary_axis_tolerance);
@@ -195,9 +196,23 @@ py::object SweepModel(const sk::Model& model,
   bool interrupted = false;
   options.stop_requested = [&interrupted] {
     py::gil_scoped_acquire acquire;
-    interrupted = PyErr_CheckSignals() != 0;
+    interrupted = interrupted || PyErr_CheckSignals() != 0;
     return interrupted;
   };
+  // progress(done, total) after each block; an exception it raises stops the sweep and is
+  // raised here, as Ctrl-C is.
+  if (!progress.is_none()) {
+    options.progress = [&progress, &interrupted](std::size_t done, std::size_t total) {
+      py::gil_scoped_acquire acquire;
+      PyObject* result =
+          PyObject_CallFunction(progress.ptr(), "nn", Py_ssize_t(done), Py_ssize_t(total));
+      if (result == nullptr) {
+        interrupted = true;  // the Python error stays set, raised by error_already_set below
+        return;
+      }
+      Py_DECREF(result);
+    };
+  }
   if (!out.is_none()) {
     // The files of `servokit sweep --out` (points.csv, eigenvalues.csv, sweep.json).
     const std::string directory = ToPath(out);
@@ -225,7 +240,7 @@ void BindSweep(ModelClass& model_class) {
                   py::arg("rank_tolerance") = defaults.rank_tolerance,
                   py::arg("imaginary_axis_tolerance") = defaults.imaginary_axis_tolerance,
                   py::arg("table") = "auto", py::arg("y0") = py::none(), py::arg("q0") = py::none(),
-                  py::arg("out") = py::none(),
+                  py::arg("out") = py::none(), py::arg("progress") = py::none(),
                   "Classifies every point of the full grid {parameter: values (SI) or a text of "
                   "`servokit sweep --vary` such as '0deg:90deg:91'}, the first parameter varying "
                   "slowest, on `threads` threads (0: all cores, or OMP_NUM_THREADS; "
@@ -236,7 +251,8 @@ void BindSweep(ModelClass& model_class) {
                   "missing integer is -1 there). y0 and q0 set every point's operating point (as "
                   "analyze's); with out=DIR the tables are written there as points.csv and "
                   "eigenvalues.csv, as `servokit sweep --out DIR` writes them, and the number of "
-                  "points is returned.");
+                  "points is returned. progress(done, total), when given, is called after each "
+                  "block of points; an exception it raises stops the sweep and is raised.");
 }
 
 // An end of a threshold range: a number in the unit the model declares the parameter in, or a

@@ -93,3 +93,19 @@ def test_linearization_is_the_state_space_of_eqs_26_27(mass_on_car):
     zeros = np.sort_complex(zeros[np.isfinite(zeros)])
     assert zeros == pytest.approx(np.sort_complex(model.analyze().zero_dynamics.eigenvalues),
                                   rel=1e-10)
+
+
+def test_sweep_reports_progress_and_stops_on_its_exception(mass_on_car):
+    model = servokit.load(mass_on_car)
+    calls = []
+    # 5000 points: two blocks of at most 4096, so two calls, the last with every point done.
+    points, _ = model.sweep({"d": "0:1:n=5000"}, threads=1,
+                            progress=lambda done, total: calls.append((done, total)))
+    assert len(points) == 5000
+    assert calls == [(4096, 5000), (5000, 5000)]
+
+    def stop(done, total):
+        raise RuntimeError(f"stopped at {done} of {total}")
+
+    with pytest.raises(RuntimeError, match="stopped at 4096 of 5000"):
+        model.sweep({"d": "0:1:n=5000"}, threads=1, progress=stop)
