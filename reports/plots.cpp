@@ -64,8 +64,7 @@ void WriteData(const std::string& path, const PlotSpec& spec, const PlotColourin
 // Marker labels: markers at (nearly) the same x share one label ("stability, oscillation");
 // a label closer than kLabelSpacing of the x span to another one, or whose text would run into
 // another's, is put one line lower, so that events at one place stay readable.
-constexpr int kLabelTopPercent = 96;    // of the graph's height; whole percent, so the script
-constexpr int kLabelStepPercent = 6;    // prints 0.9, not 0.8999999999999999
+constexpr int kTitleLines = 3;          // the top margin (character heights) the title takes
 constexpr double kLabelSpacing = 0.15;  // fraction of the x span one label may take
 constexpr double kSameMarker = 1e-6;    // fraction of the x span: one place
 constexpr int kLabelLevels = 6;         // lines used before starting again at the top
@@ -174,23 +173,32 @@ void WriteScript(const std::string& path,
   for (std::size_t i = 0; i < spec.series.size(); ++i) {
     coloured = coloured || !ColoursOf(colouring, i).empty();
   }
+  // Marker labels stand above the graph, one line per level, in a margin made for them between
+  // the graph and the title, so that they never hide a curve (issue #34: an opaque "motion
+  // end" did).
+  const auto [x_low, x_high] = XExtent(spec);
+  const double span = x_high - x_low;
+  const std::vector<MarkerLabel> labels = PlaceLabels(spec, x_low, span);
+  int levels = 0;
+  for (const MarkerLabel& label : labels) levels = std::max(levels, label.level + 1);
   OutputFile file(path);
   std::ostream& script = file.stream();
-  script << "set encoding utf8\nset title " << GnuplotString(spec.title) << "\nset xlabel "
-         << GnuplotString(spec.x_label) << "\nset ylabel " << GnuplotString(spec.y_label)
-         << "\nset grid\n";
+  script << "set encoding utf8\nset title " << GnuplotString(spec.title);
+  if (levels > 0) script << " offset 0," << levels << "\nset tmargin " << kTitleLines + levels;
+  script << "\nset xlabel " << GnuplotString(spec.x_label) << "\nset ylabel "
+         << GnuplotString(spec.y_label) << "\nset grid\n";
   if (coloured) {
     script << kPalette << "set cblabel " << GnuplotString(colouring.label)
            << "\nset colorbox\nset key below\n";
   } else {
-    // A key of long titles (the classes and curves of a map) goes below the graph, where it
-    // takes the figure's width instead of squeezing the graph from the side.
+    // The key goes below the graph, where it takes the figure's width instead of squeezing the
+    // graph from the side, and is never over data (issue #34); long titles (the classes and
+    // curves of a map) one per line, short ones side by side.
     std::size_t longest = 0;
     for (const PlotSeries& series : spec.series) longest = std::max(longest, series.title.size());
     script << (longest > kLongKeyTitle ? "set key below left Left reverse\n"
-                                       : "set key outside right\n");
+                                       : "set key below horizontal\n");
   }
-  if (!spec.markers.empty()) script << "set style textbox opaque noborder\n";
   if (!spec.x_range.empty()) script << "set xrange " << spec.x_range << "\n";
   if (!spec.y_range.empty()) script << "set yrange " << spec.y_range << "\n";
   for (std::size_t i = 0; i < spec.markers.size(); ++i) {
@@ -199,14 +207,10 @@ void WriteScript(const std::string& path,
            << ", graph 0 to first " << FormatExact(marker.x)
            << ", graph 1 nohead dashtype 2 linecolor 'gray40'\n";
   }
-  const auto [x_low, x_high] = XExtent(spec);
-  const double span = x_high - x_low;
-  for (const MarkerLabel& label : PlaceLabels(spec, x_low, span)) {
+  for (const MarkerLabel& label : labels) {
     script << "set label " << GnuplotString(label.Text()) << " at first " << FormatExact(label.x)
-           << ", graph "
-           << FormatExact(double(kLabelTopPercent - kLabelStepPercent * label.level) / 100.0)
-           << (label.right_aligned ? " right offset -0.5,0" : " left offset 0.5,0")
-           << " front boxed\n";
+           << ", graph 1 " << (label.right_aligned ? "right" : "left") << " offset "
+           << (label.right_aligned ? "-0.5," : "0.5,") << label.level + 0.6 << "\n";
   }
   std::string plot = "plot ";
   for (std::size_t i = 0; i < spec.series.size(); ++i) {

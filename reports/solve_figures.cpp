@@ -76,6 +76,15 @@ std::string CurveTitle(const std::string& quantity,
   return runs.size() > 1 ? quantity + " (" + run.method + ")" : quantity;
 }
 
+// The line of run `index` of `count` overlaid: one run a solid line; several each their own
+// dash pattern, the first the widest, so that curves that coincide stay told apart (issue #34).
+std::string RunLine(std::size_t index, std::size_t count) {
+  if (count == 1) return kLine;
+  constexpr int kWidest = 4;
+  const int width = std::max(1, kWidest - int(index));
+  return "lines linewidth " + std::to_string(width) + " dashtype " + std::to_string(index + 1);
+}
+
 std::string Methods(const std::vector<SolveFigureRun>& runs) {
   std::string methods;
   for (const SolveFigureRun& run : runs) methods += (methods.empty() ? "" : ", ") + run.method;
@@ -110,9 +119,10 @@ void DrawSolveFigures(const std::string& directory,
     spec.x_label = kTimeLabel;
     spec.y_label = quantity + " [SI]";
     spec.markers = markers;
-    for (const SolveFigureRun& run : runs) {
-      spec.series.push_back(
-          {CurveTitle(quantity, run, runs), Column(run.t, run.*values, column), kLine});
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      const SolveFigureRun& run = runs[k];
+      spec.series.push_back({CurveTitle(quantity, run, runs), Column(run.t, run.*values, column),
+                             RunLine(k, runs.size())});
     }
     DrawPlot(directory, spec);
   };

@@ -82,9 +82,14 @@ TEST_CASE("DrawPlot writes a palette column, a PDF and names as written", "[repo
   // The three events at 0.5 (within 1e-6 of the span) share one label. "realization" at -1.5
   // is more than 15 % of the span away, but the shared label (34 characters, right-aligned at
   // 0.5: 34 x 0.024 x 4 = 3.3 wide, from -2.8) would run into it: one line lower.
-  CHECK_THAT(script, Catch::Contains("set label 'realization' at first -1.5, graph 0.96"));
+  // Labels stand above the graph (line 1 at 0.6 character heights, each further line one
+  // higher), never over a curve, in a top margin of the title's 3 lines and one per line.
+  CHECK_THAT(script, Catch::Contains("set label 'realization' at first -1.5, graph 1 left offset "
+                                     "0.5,0.6\n"));
   CHECK_THAT(script, Catch::Contains("set label 'stability, oscillation, structure' at first 0.5, "
-                                     "graph 0.9 right"));
+                                     "graph 1 right offset -0.5,1.6\n"));
+  CHECK_THAT(script, Catch::Contains("set tmargin 5\n"));
+  CHECK_THAT(script, !Catch::Contains("opaque"));
   const std::string pdf = ReadFile(scratch / "locus.pdf");
   CHECK(pdf.rfind("%PDF", 0) == 0);
   CHECK_THAT(pdf, Catch::Contains("/CreationDate (D:20000101000000"));
@@ -103,11 +108,11 @@ TEST_CASE("DrawPlot puts close marker labels on different lines", "[reports]") {
   DrawPlot(scratch.path().string(), spec);
   const std::string script = ReadFile(scratch / "close.gp");
   // Spacing 0.15 of the span 1: b is 0.05 from a (line 2), c 0.1 from a and 0.05 from b (line
-  // 3); d is far from all (line 1). Lines step down by 0.06 from 0.96.
-  CHECK_THAT(script, Catch::Contains("'a' at first 0.3, graph 0.96"));
-  CHECK_THAT(script, Catch::Contains("'b' at first 0.35, graph 0.9"));
-  CHECK_THAT(script, Catch::Contains("'c' at first 0.4, graph 0.84"));
-  CHECK_THAT(script, Catch::Contains("'d' at first 0.9, graph 0.96"));
+  // 3); d is far from all (line 1). Lines step up by one character height above the graph.
+  CHECK_THAT(script, Catch::Contains("'a' at first 0.3, graph 1 left offset 0.5,0.6\n"));
+  CHECK_THAT(script, Catch::Contains("'b' at first 0.35, graph 1 left offset 0.5,1.6\n"));
+  CHECK_THAT(script, Catch::Contains("'c' at first 0.4, graph 1 left offset 0.5,2.6\n"));
+  CHECK_THAT(script, Catch::Contains("'d' at first 0.9, graph 1 right offset -0.5,0.6\n"));
 }
 
 TEST_CASE("DrawPlot puts labels whose texts would meet on different lines", "[reports]") {
@@ -128,9 +133,10 @@ TEST_CASE("DrawPlot puts labels whose texts would meet on different lines", "[re
                 {{-1.24, "pre-actuation start"}, {0.0, "motion start"}, {1.0, "motion end"}}};
   DrawPlot(scratch.path().string(), spec);
   const std::string script = ReadFile(scratch / "window.gp");
-  CHECK_THAT(script, Catch::Contains("'pre-actuation start' at first -1.24, graph 0.96 left"));
-  CHECK_THAT(script, Catch::Contains("'motion start' at first 0, graph 0.9 right"));
-  CHECK_THAT(script, Catch::Contains("'motion end' at first 1, graph 0.84 right"));
+  CHECK_THAT(script, Catch::Contains("'pre-actuation start' at first -1.24, graph 1 left offset "
+                                     "0.5,0.6"));
+  CHECK_THAT(script, Catch::Contains("'motion start' at first 0, graph 1 right offset -0.5,1.6"));
+  CHECK_THAT(script, Catch::Contains("'motion end' at first 1, graph 1 right offset -0.5,2.6"));
 }
 
 // The values of every `attribute="..."` in `html`, in order.
