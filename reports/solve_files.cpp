@@ -14,6 +14,7 @@
 #include "base/errors.h"
 #include "base/number_format.h"
 #include "files/output_file.h"
+#include "modeling/units.h"
 #include "reports/classification_report.h"
 #include "reports/escaping.h"
 #include "reports/mat_file.h"
@@ -183,6 +184,18 @@ void WriteFeedforwardMat(const std::string& path,
   nlohmann::ordered_json facts = summary;
   for (const char* key : kKeysNotInMat) facts.erase(key);
   facts["columns"] = columns;
+  // What the numbers are of (issue #34): the model, its parameter values (SI) with the unit each
+  // is shown in, and where y_d's motion starts and ends.
+  facts["model"] = model.name();
+  nlohmann::ordered_json parameters = nlohmann::ordered_json::object();
+  nlohmann::ordered_json units = nlohmann::ordered_json::object();
+  for (std::size_t i = 0; i < model.num_parameters(); ++i) {
+    parameters[model.parameter_names()[i]] = model.parameters()(Eigen::Index(i));
+    units[model.parameter_names()[i]] = ToString(model.parameter_display_units()[i]);
+  }
+  facts["parameters"] = parameters;
+  facts["parameter_units"] = units;
+  facts["trajectory_breakpoints"] = trajectory.breakpoints();
   file->WriteStruct(kMatSummaryName, facts);
   file->Commit();
 }

@@ -61,7 +61,9 @@ def assert_equals_json(value, expected, where):
             assert_equals_json(value[0, k], item, f"{where}[{k}]")
 
 
-def assert_mat_equals_csv_and_json(mat_path, csv_path, summary):
+def assert_mat_equals_csv_and_json(mat_path, csv_path, summary, degrees=("alpha",),
+                                   breakpoints=(0.0, 6.0)):
+    """`degrees`: the parameters the model gives in degrees; `breakpoints`: t0 and tf."""
     header, rows = read_csv(csv_path)
     mat = scipy_io.loadmat(mat_path)
     variables = [name for name in mat if not name.startswith("__")]
@@ -74,6 +76,13 @@ def assert_mat_equals_csv_and_json(mat_path, csv_path, summary):
     expected = {key: value for key, value in summary.items()
                 if key not in ("classification", "out")}
     expected["columns"] = header
+    # What the numbers are of: the model, its parameters (SI) and their units, y_d's motion.
+    classification = summary["classification"]
+    expected["model"] = classification["model"]
+    expected["parameters"] = classification["parameters"]
+    expected["parameter_units"] = {
+        name: "deg" if name in degrees else "SI" for name in classification["parameters"]}
+    expected["trajectory_breakpoints"] = list(breakpoints)
     assert_equals_json(facts, expected, "solve")
 
 
@@ -103,7 +112,9 @@ def test_mat_file_of_a_stable_inversion_gives_the_actuation_times(servokit_binar
     solve(servokit_binary, arm, ARM, tmp_path / "u.csv")
     summary = solve(servokit_binary, arm, ARM, tmp_path / "u.mat")
     assert summary["method"] == "stable-inversion"
-    assert_mat_equals_csv_and_json(tmp_path / "u.mat", tmp_path / "u.csv", summary)
+    # models/rotational_arm.yaml: no parameter in degrees; ARM moves from t0 = 0 to tf = 2.
+    assert_mat_equals_csv_and_json(tmp_path / "u.mat", tmp_path / "u.csv", summary, degrees=(),
+                                   breakpoints=(0.0, 2.0))
     facts = scipy_io.loadmat(tmp_path / "u.mat")["solve"][0, 0]
     assert facts["pre_actuation_start"][0, 0] == summary["pre_actuation_start"]
     assert facts["post_actuation_end"][0, 0] == summary["post_actuation_end"]
