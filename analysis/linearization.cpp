@@ -145,7 +145,6 @@ Linearization Linearize(const Model& model,
 }
 
 void ToStateSpace(const Linearization& linearization, StateSpace& state_space) {
-  const Eigen::Index dof = linearization.dof();
   const Eigen::MatrixXd& stiffness_rate = linearization.stiffness_rate;  // 1/s^2
   const Eigen::MatrixXd& damping_rate = linearization.damping_rate;      // 1/s
   // The model's own time scale: sqrt of the stiffness rate, or the damping rate if there is no
@@ -155,7 +154,13 @@ void ToStateSpace(const Linearization& linearization, StateSpace& state_space) {
   double time_scale = std::sqrt(SafeNorm(stiffness_rate));
   if (!(time_scale > 0.0)) time_scale = SafeNorm(damping_rate);
   if (!(time_scale > 0.0)) time_scale = 1.0;
+  ToStateSpace(linearization, time_scale, state_space);
+}
 
+void ToStateSpace(const Linearization& linearization, double time_scale, StateSpace& state_space) {
+  const Eigen::Index dof = linearization.dof();
+  const Eigen::MatrixXd& stiffness_rate = linearization.stiffness_rate;  // 1/s^2
+  const Eigen::MatrixXd& damping_rate = linearization.damping_rate;      // 1/s
   state_space.time_scale = time_scale;
   state_space.state_matrix.setZero(2 * dof, 2 * dof);
   state_space.state_matrix.topRightCorner(dof, dof).setIdentity() *= time_scale;

@@ -79,5 +79,8 @@ struct StateSpace {
 StateSpace ToStateSpace(const Linearization& linearization);
 /// The same into `state_space`, whose matrices keep their memory when their sizes do not change.
 void ToStateSpace(const Linearization& linearization, StateSpace& state_space);
+/// The same with the given time scale: 1 gives the unscaled form x = (dq, dq'), A = [0 I; -M^-1 K
+/// -M^-1 D], B = [0; M^-1 B], C = [H 0] (the API's state-space model, api::LinearizeAt).
+void ToStateSpace(const Linearization& linearization, double time_scale, StateSpace& state_space);
 
 }  // namespace servokit

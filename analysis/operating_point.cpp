@@ -449,8 +449,10 @@ OperatingPoint FindOperatingPoint(const Model& model,
     // The Jacobian's null space, in the unknowns' own units (undoing the column scaling), is
     // the curve of equilibria through the point: its q part is the curve's direction.
     Eigen::VectorXd direction = lu.kernel().col(0);
+    const Eigen::MatrixXd row_scaled = scaling.asDiagonal() * jacobian;
     for (Eigen::Index j = 0; j < direction.size(); ++j) {
-      const double column_size = (scaling.asDiagonal() * jacobian).col(j).cwiseAbs().maxCoeff();
+      const double column_size =
+          row_scaled.col(j).cwiseAbs().maxCoeff();  // as EquilibratedJacobian
       if (column_size > 0.0) direction(j) /= column_size;
     }
     Eigen::VectorXd curve = direction.head(dof);

@@ -17,6 +17,7 @@
 
 #include "base/errors.h"
 #include "base/number_format.h"
+#include "base/text.h"
 #include "files/output_file.h"
 
 namespace servokit {
@@ -26,7 +27,6 @@ using SparseMatrix = Eigen::SparseMatrix<double>;
 using Triplet = Eigen::Triplet<double>;
 
 constexpr std::string_view kBanner = "%%MatrixMarket";
-constexpr std::string_view kBlanks = " \t";
 // Eigen's default StorageIndex is int: rows, columns and stored entries must fit.
 constexpr long long kMaxIndex = std::numeric_limits<int>::max();
 // The shortest line an entry can have: "1 1 1\n".
@@ -40,12 +40,6 @@ std::string Lower(std::string_view text) {
   std::string lower(text);
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return lower;
-}
-
-std::string_view Trim(std::string_view text) {
-  const std::size_t first = text.find_first_not_of(kBlanks);
-  if (first == std::string_view::npos) return {};
-  return text.substr(first, text.find_last_not_of(kBlanks) - first + 1);
 }
 
 // Splits `text` into blank-separated words.
@@ -169,7 +163,7 @@ class Parser {
   void ReadSize() {
     std::string_view line;
     while (reader_.Next(line)) {
-      const std::string_view trimmed = Trim(line);
+      const std::string_view trimmed = TrimBlanks(line);
       if (trimmed.empty() || trimmed.front() == '%') continue;
       const std::vector<std::string_view> words = Words(trimmed);
       if (words.size() != 3) {
@@ -234,7 +228,7 @@ class Parser {
       ++count;
     }
     while (reader_.Next(line)) {
-      if (!Trim(line).empty()) {
+      if (!TrimBlanks(line).empty()) {
         FailAt(reader_.number(),
                "more entries than the " + std::to_string(entries_) + " of the size line");
       }
@@ -253,7 +247,8 @@ class Parser {
       }
     };
     const auto malformed = [&](const std::string& what) {
-      FailAt(number, what + " in '" + std::string(Trim(line)) + "' (expected 'row column value')");
+      FailAt(number,
+             what + " in '" + std::string(TrimBlanks(line)) + "' (expected 'row column value')");
     };
     long long indices[2] = {0, 0};
     for (long long& index : indices) {
@@ -267,7 +262,8 @@ class Parser {
     skip_blanks();
     const auto [stop, error] = std::from_chars(position, end, value);
     if (error == std::errc::result_out_of_range) {
-      FailAt(number, "value out of the range of a double in '" + std::string(Trim(line)) + "'");
+      FailAt(number,
+             "value out of the range of a double in '" + std::string(TrimBlanks(line)) + "'");
     }
     if (error != std::errc() || (stop < end && *stop != ' ' && *stop != '\t')) {
       malformed(position == end ? "missing value" : "bad value");
@@ -276,7 +272,7 @@ class Parser {
     skip_blanks();
     if (position != end) malformed("extra text '" + std::string(position, end) + "'");
     if (!std::isfinite(value)) {
-      FailAt(number, "non-finite value in '" + std::string(Trim(line)) + "'");
+      FailAt(number, "non-finite value in '" + std::string(TrimBlanks(line)) + "'");
     }
     if (indices[0] < 1 || indices[0] > rows_ || indices[1] < 1 || indices[1] > cols_) {
       FailAt(number, "entry (" + std::to_string(indices[0]) + ", " + std::to_string(indices[1]) +

@@ -9,22 +9,14 @@
 #include <numbers>
 #include <system_error>
 
+#include "base/text.h"
+
 namespace servokit {
 namespace {
 
 constexpr std::string_view kDegreeSuffix = "deg";
 constexpr std::string_view kRadianSuffix = "rad";
-constexpr std::string_view kBlanks = " \t";
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
-std::string_view Trim(std::string_view text) {
-  const std::size_t first = text.find_first_not_of(kBlanks);
-  if (first == std::string_view::npos) {
-    return {};
-  }
-  const std::size_t last = text.find_last_not_of(kBlanks);
-  return text.substr(first, last - first + 1);
-}
 
 // The whole of `text` must be one finite decimal number; from_chars rejects hex and leading '+'
 // in this mode, and reports overflow (1e400) as out of range.
@@ -46,10 +38,10 @@ std::optional<double> ParseNumber(std::string_view text) {
 std::string_view ToString(DisplayUnit unit) { return unit == DisplayUnit::kDegree ? "deg" : "SI"; }
 
 std::optional<ParsedQuantity> ParseQuantityWithUnit(std::string_view text) {
-  text = Trim(text);
+  text = TrimBlanks(text);
   if (text.ends_with(kDegreeSuffix)) {
     const std::optional<double> degrees =
-        ParseNumber(Trim(text.substr(0, text.size() - kDegreeSuffix.size())));
+        ParseNumber(TrimBlanks(text.substr(0, text.size() - kDegreeSuffix.size())));
     if (!degrees) {
       return std::nullopt;
     }
@@ -57,7 +49,7 @@ std::optional<ParsedQuantity> ParseQuantityWithUnit(std::string_view text) {
   }
   if (text.ends_with(kRadianSuffix)) {
     const std::optional<double> radians =
-        ParseNumber(Trim(text.substr(0, text.size() - kRadianSuffix.size())));
+        ParseNumber(TrimBlanks(text.substr(0, text.size() - kRadianSuffix.size())));
     if (!radians) return std::nullopt;
     return ParsedQuantity{*radians, DisplayUnit::kSI, true};
   }

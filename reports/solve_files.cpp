@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <functional>
 #include <optional>
 #include <set>
 #include <utility>
@@ -211,17 +210,22 @@ std::string TableTime(double t, const std::optional<double>& sample_time) {
   return text;
 }
 
-// One CombiTimeTable matrix: "double NAME(rows, 1 + columns)" and a row "t v1 ..." per time.
+// One CombiTimeTable matrix: "double NAME(rows, 1 + count)" and a row "t v1 ..." per time, the
+// values the columns first .. first + count - 1 of the file's rows (FeedforwardRow's layout).
 void WriteModelicaTable(std::ostream& file,
                         const std::string& name,
                         const FeedforwardSolution& solution,
-                        Eigen::Index columns,
-                        const std::function<void(std::size_t, std::string&)>& append_row) {
-  file << "double " << name << "(" << solution.times.size() << ", " << columns + 1 << ")\n";
+                        const std::vector<Eigen::VectorXd>& rows,
+                        Eigen::Index first,
+                        Eigen::Index count) {
+  file << "double " << name << "(" << rows.size() << ", " << count + 1 << ")\n";
   std::string line;
-  for (std::size_t i = 0; i < solution.times.size(); ++i) {
+  for (std::size_t i = 0; i < rows.size(); ++i) {
     line = TableTime(solution.times[i], solution.sample_time);
-    append_row(i, line);
+    for (Eigen::Index k = first; k < first + count; ++k) {
+      line += ' ';
+      AppendExact(line, rows[i](k));
+    }
     file << line << '\n';
   }
 }
@@ -253,12 +257,11 @@ void WriteFeedforwardModelica(const std::string& path,
   const std::vector<std::string>& coordinates = model.coordinates();
   const std::vector<std::string> outputs = model.output_names();
   const auto dof = Eigen::Index(model.dof());
-  const auto append = [](std::string& line, const auto& values) {
-    for (Eigen::Index k = 0; k < values.size(); ++k) {
-      line += ' ';
-      AppendExact(line, values(k));
-    }
-  };
+  const auto num_inputs = Eigen::Index(inputs.size());
+  // The CSV's rows (t, q, q_dot, u, y_d, ...), cut into the three tables below.
+  std::vector<Eigen::VectorXd> values;
+  values.reserve(rows);
+  for (std::size_t i = 0; i < rows; ++i) values.push_back(FeedforwardRow(trajectory, solution, i));
   WriteAndRename(path, [&](std::ostream& file) {
     file << "#1\n"
          << "# servokit solve: the feedforward u_d(t) of the model " << PlainText(model.name())
@@ -267,11 +270,13 @@ void WriteFeedforwardModelica(const std::string& path,
          << "y_d\n"
          << "# for Modelica.Blocks.Sources.CombiTimeTable(tableOnFile = true, tableName = \""
          << kModelicaTableName << "\", columns = 2:" << inputs.size() + 1 << ")\n"
-         << "# the tables start at t = " << TableTime(solution.times.front(), solution.sample_time)
-         << " s"
-         << (solution.times.front() < 0.0 ? " (before 0: stable inversion's pre-actuation; "
-                                            "start the simulation there or shift the table)"
-                                          : "")
+         << (rows == 0 ? "# no rows"
+                       : "# the tables start at t = " +
+                             TableTime(solution.times.front(), solution.sample_time) + " s")
+         << (rows > 0 && solution.times.front() < 0.0
+                 ? " (before 0: stable inversion's pre-actuation; start the simulation there or "
+                   "shift the table)"
+                 : "")
          << "; every value in the model's SI units\n"
          << "# table u_d: column 1 t [s]";
     for (std::size_t k = 0; k < inputs.size(); ++k) {
@@ -287,16 +292,10 @@ void WriteFeedforwardModelica(const std::string& path,
     file << " (the initial state: its first row)\n# table y_d: column 1 t [s]";
     for (std::size_t k = 0; k < outputs.size(); ++k) file << ", " << k + 2 << " " << outputs[k];
     file << "\n";
-    WriteModelicaTable(file, kModelicaTableName, solution, Eigen::Index(inputs.size()),
-                       [&](std::size_t i, std::string& line) { append(line, solution.u[i]); });
-    WriteModelicaTable(file, "q_d", solution, 2 * dof, [&](std::size_t i, std::string& line) {
-      append(line, solution.q[i]);
-      append(line, solution.q_dot[i]);
-    });
-    WriteModelicaTable(file, "y_d", solution, Eigen::Index(outputs.size()),
-                       [&](std::size_t i, std::string& line) {
-                         append(line, trajectory.Derivative(solution.times[i], 0));
-                       });
+    WriteModelicaTable(file, kModelicaTableName, solution, values, 1 + 2 * dof, num_inputs);
+    WriteModelicaTable(file, "q_d", solution, values, 1, 2 * dof);
+    WriteModelicaTable(file, "y_d", solution, values, 1 + 2 * dof + num_inputs,
+                       Eigen::Index(outputs.size()));
   });
 }
 

@@ -143,18 +143,13 @@ StateSpaceModel LinearizeAt(const Model& model, const AnalyzeOptions& options) {
   const Classification classification =
       Classify(multibody, workspace, ToClassificationOptions(options));
   const Linearization& linear = classification.linearization;
-  const Eigen::Index dof = linear.dof(), inputs = linear.num_inputs();
-  const Eigen::Index outputs = linear.output_jacobian.rows();
+  StateSpace unscaled;
+  ToStateSpace(linear, 1.0, unscaled);  // time scale 1: x = (dq, dq') in SI
   StateSpaceModel state_space;
-  state_space.A = Eigen::MatrixXd::Zero(2 * dof, 2 * dof);
-  state_space.A.topRightCorner(dof, dof).setIdentity();
-  state_space.A.bottomLeftCorner(dof, dof) = -linear.stiffness_rate;
-  state_space.A.bottomRightCorner(dof, dof) = -linear.damping_rate;
-  state_space.B = Eigen::MatrixXd::Zero(2 * dof, inputs);
-  state_space.B.bottomRows(dof) = linear.input_acceleration;
-  state_space.C = Eigen::MatrixXd::Zero(outputs, 2 * dof);
-  state_space.C.leftCols(dof) = linear.output_jacobian;
-  state_space.D = Eigen::MatrixXd::Zero(outputs, inputs);
+  state_space.A = std::move(unscaled.state_matrix);
+  state_space.B = std::move(unscaled.input_matrix);
+  state_space.C = std::move(unscaled.output_matrix);
+  state_space.D = Eigen::MatrixXd::Zero(state_space.C.rows(), state_space.B.cols());
   state_space.tangent_basis = linear.tangent_basis;
   return state_space;
 }

@@ -142,6 +142,15 @@ void RequireOutputCount(const servokit::Model& model,
                    " (one value per output)");
 }
 
+// Whether MakeTrajectory makes the same y_d (and note) for `needed` derivatives as for
+// `made_for`: rest to rest and samples depend on them only through the order of their
+// smoothness, so that a y_d made to locate the operating point is not fitted again.
+bool MadeAlike(const OutputTrajectory& trajectory, int made_for, int needed) {
+  const TrajectoryKind kind = KindOf(trajectory);
+  return (kind == TrajectoryKind::kRestToRest || kind == TrajectoryKind::kSamples) &&
+         RestToRestOrderFor(needed) == RestToRestOrderFor(made_for);
+}
+
 // Where the solve's motion starts: t_start when given, else the first breakpoint of y_d (a
 // stable inversion's pre-actuation starts earlier, with y_d at rest at that value).
 double MotionStartTime(const servokit::OutputTrajectory& desired, std::optional<double> t_start) {
@@ -262,7 +271,9 @@ Feedforward Solve(const Model& model,
   // a first y_d locates the point, and the point is classified again should the final y_d
   // start elsewhere (by round-off of the fit).
   std::string note;
-  std::unique_ptr<servokit::OutputTrajectory> desired = MakeTrajectory(trajectory, 0, note);
+  constexpr int kLocatingDerivatives = 0;
+  std::unique_ptr<servokit::OutputTrajectory> desired =
+      MakeTrajectory(trajectory, kLocatingDerivatives, note);
   RequireOutputCount(multibody, trajectory, *desired);
   const double start_time = MotionStartTime(*desired, options.t_start);
   ClassificationOptions classification_options;
@@ -271,14 +282,16 @@ Feedforward Solve(const Model& model,
   Classification classification = Classify(multibody, workspace, classification_options);
 
   Feedforward result;
-  note.clear();
   const int needed_derivatives = classification.structure.differentiation_index - 1;
-  desired = MakeTrajectory(trajectory, needed_derivatives, note);
-  const Eigen::VectorXd start_output = desired->Derivative(start_time, 0);
-  if (start_output != *classification_options.operating_point.y0) {
-    classification_options.operating_point.y0 = start_output;
-    classification_options.operating_point.q_guess = classification.operating_point.q;
-    classification = Classify(multibody, workspace, classification_options);
+  if (!MadeAlike(trajectory, kLocatingDerivatives, needed_derivatives)) {
+    note.clear();
+    desired = MakeTrajectory(trajectory, needed_derivatives, note);
+    const Eigen::VectorXd start_output = desired->Derivative(start_time, 0);
+    if (start_output != *classification_options.operating_point.y0) {
+      classification_options.operating_point.y0 = start_output;
+      classification_options.operating_point.q_guess = classification.operating_point.q;
+      classification = Classify(multibody, workspace, classification_options);
+    }
   }
   if (!note.empty()) result.notes.push_back(note);
 

@@ -10,20 +10,12 @@
 #include <utility>
 
 #include "base/errors.h"
+#include "base/text.h"
 #include "modeling/units.h"
 #include "reports/sweep_tables.h"
 
 namespace servokit {
 namespace {
-
-constexpr std::string_view kBlanks = " \t";
-
-std::string_view Trim(std::string_view text) {
-  const std::size_t first = text.find_first_not_of(kBlanks);
-  if (first == std::string_view::npos) return {};
-  const std::size_t last = text.find_last_not_of(kBlanks);
-  return text.substr(first, last - first + 1);
-}
 
 std::vector<std::string_view> Split(std::string_view text, char separator) {
   std::vector<std::string_view> parts;
@@ -45,14 +37,14 @@ UsageError VaryError(std::string_view argument, const std::string& problem) {
 ParsedQuantity ParseValue(std::string_view argument, std::string_view item) {
   const std::optional<ParsedQuantity> value = ParseQuantityWithUnit(item);
   if (!value) {
-    throw VaryError(
-        argument, "'" + std::string(Trim(item)) + "' is not a number (use e.g. 0.5 or \"5 deg\")");
+    throw VaryError(argument, "'" + std::string(TrimBlanks(item)) +
+                                  "' is not a number (use e.g. 0.5 or \"5 deg\")");
   }
   return *value;
 }
 
 std::size_t ParseCount(std::string_view argument, std::string_view item) {
-  const std::string_view digits = Trim(item);
+  const std::string_view digits = TrimBlanks(item);
   long long count = 0;
   const char* end = digits.data() + digits.size();
   const auto [stop, error] = std::from_chars(digits.data(), end, count);
@@ -170,7 +162,7 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
                        std::vector<std::string>* warnings) {
   const std::string argument = std::string(label) + " " + std::string(text);
   const std::size_t equals = text.find('=');
-  const std::string_view name = Trim(text.substr(0, equals));
+  const std::string_view name = TrimBlanks(text.substr(0, equals));
   if (equals == std::string_view::npos || name.empty()) {
     throw VaryError(argument, "expected name=a:b:n or name=v1,v2,... (e.g. " + std::string(label) +
                                   " alpha=0deg:90deg:91)");
@@ -198,7 +190,7 @@ GridAxis ParseGridAxis(const GridParameters& parameters,
                          written_b = ParseValue(argument, parts[1]);
     const ParsedQuantity a = InDeclaredUnit(written_a, declared),
                          b = InDeclaredUnit(written_b, declared);
-    const std::string_view last = Trim(parts[2]);
+    const std::string_view last = TrimBlanks(parts[2]);
     has_unit = a.unit == DisplayUnit::kDegree || b.unit == DisplayUnit::kDegree;
     unit_named = written_a.unit_written || written_b.unit_written;
     if (last.starts_with("step=")) {

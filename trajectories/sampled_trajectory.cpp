@@ -11,6 +11,7 @@
 
 #include "base/errors.h"
 #include "base/option_check.h"
+#include "base/text.h"
 #include "files/input_file.h"
 #include "trajectories/banded_least_squares.h"
 
@@ -60,14 +61,6 @@ std::string Quoted(std::string_view field) {
     }
   }
   return quoted + (field.size() > kLongest ? "...'" : "'");
-}
-
-// A field without the blanks around it ("t, y1" is t and y1).
-std::string_view TrimBlanks(std::string_view field) {
-  constexpr std::string_view kBlanks = " \t";
-  const std::size_t begin = field.find_first_not_of(kBlanks);
-  if (begin == std::string_view::npos) return {};
-  return field.substr(begin, field.find_last_not_of(kBlanks) - begin + 1);
 }
 
 // The fields of one CSV line (no quoting: the file holds numbers and plain names), views into it.

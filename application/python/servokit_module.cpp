@@ -214,7 +214,7 @@ py::object SweepModel(const sk::Model& model,
     };
   }
   if (!out.is_none()) {
-    // The files of `servokit sweep --out` (points.csv, eigenvalues.csv, sweep.json).
+    // The tables of `servokit sweep --out` (points.csv and eigenvalues.csv).
     const std::string directory = ToPath(out);
     std::size_t written = 0;
     {
